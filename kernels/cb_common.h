@@ -1,0 +1,101 @@
+/* cambium — portable scalar and vector helpers shared by the C++ reference
+ * evaluator and the OpenCL kernels.
+ *
+ * Plain C99 that OpenCL C 1.2 also accepts (the same idea as NanoVDB's
+ * PNanoVDB.h): on the host `cb_real` is double, so the reference evaluator is
+ * the precise oracle; in a kernel it is float.  Define CB_REAL_IS_FLOAT on the
+ * host to compile the float flavour (the tests do, to compare like with like).
+ */
+#ifndef CAMBIUM_CB_COMMON_H
+#define CAMBIUM_CB_COMMON_H
+
+#if defined(__OPENCL_VERSION__)
+typedef float cb_real;
+#define CB_R(x) (x##f)
+#define CB_SQRT sqrt
+#define CB_ATAN atan
+#define CB_ATAN2 atan2
+#define CB_POW pow
+#define CB_FABS fabs
+#define CB_SIN sin
+#define CB_COS cos
+#define CB_FMIN fmin
+#define CB_FMAX fmax
+#else
+#include <math.h>
+#if defined(CB_REAL_IS_FLOAT)
+typedef float cb_real;
+#define CB_R(x) (x##f)
+#define CB_SQRT sqrtf
+#define CB_ATAN atanf
+#define CB_ATAN2 atan2f
+#define CB_POW powf
+#define CB_FABS fabsf
+#define CB_SIN sinf
+#define CB_COS cosf
+#define CB_FMIN fminf
+#define CB_FMAX fmaxf
+#else
+typedef double cb_real;
+#define CB_R(x) (x)
+#define CB_SQRT sqrt
+#define CB_ATAN atan
+#define CB_ATAN2 atan2
+#define CB_POW pow
+#define CB_FABS fabs
+#define CB_SIN sin
+#define CB_COS cos
+#define CB_FMIN fmin
+#define CB_FMAX fmax
+#endif
+#endif
+
+/* Every helper is a static inline function: no symbols leak, and OpenCL C 1.2
+ * accepts `static` on non-kernel functions. */
+#define CB_FN static inline
+
+#define CB_PI CB_R(3.14159265358979323846)
+
+typedef struct cb_vec3 {
+    cb_real x, y, z;
+} cb_vec3;
+
+CB_FN cb_vec3 cb_v3(cb_real x, cb_real y, cb_real z)
+{
+    cb_vec3 r;
+    r.x = x;
+    r.y = y;
+    r.z = z;
+    return r;
+}
+CB_FN cb_vec3 cb_add(cb_vec3 a, cb_vec3 b) { return cb_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+CB_FN cb_vec3 cb_sub(cb_vec3 a, cb_vec3 b) { return cb_v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+CB_FN cb_vec3 cb_scale(cb_vec3 a, cb_real s) { return cb_v3(a.x * s, a.y * s, a.z * s); }
+/* a + b * s */
+CB_FN cb_vec3 cb_madd(cb_vec3 a, cb_vec3 b, cb_real s)
+{
+    return cb_v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
+}
+CB_FN cb_real cb_dot(cb_vec3 a, cb_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+CB_FN cb_vec3 cb_cross(cb_vec3 a, cb_vec3 b)
+{
+    return cb_v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+CB_FN cb_real cb_length(cb_vec3 a) { return CB_SQRT(cb_dot(a, a)); }
+CB_FN cb_real cb_clamp01(cb_real x) { return CB_FMIN(CB_FMAX(x, CB_R(0.0)), CB_R(1.0)); }
+
+/* 3x3 matrices are row-major arrays of 9 reals: m[3*row + col]. */
+CB_FN cb_vec3 cb_mat3_mul(const cb_real* m, cb_vec3 v)
+{
+    return cb_v3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+                 m[6] * v.x + m[7] * v.y + m[8] * v.z);
+}
+/* transpose(m) * v: how a gradient travels back through a warp whose
+ * Jacobian is m (grad_p F(q(p)) = J^T grad_q F). */
+CB_FN cb_vec3 cb_mat3_tmul(const cb_real* m, cb_vec3 v)
+{
+    return cb_v3(m[0] * v.x + m[3] * v.y + m[6] * v.z, m[1] * v.x + m[4] * v.y + m[7] * v.z,
+                 m[2] * v.x + m[5] * v.y + m[8] * v.z);
+}
+
+#endif /* CAMBIUM_CB_COMMON_H */

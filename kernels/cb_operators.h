@@ -1,0 +1,113 @@
+/* cambium — per-operation math of the BlobTree operators.
+ *
+ * Each function gives the value of one step of an operator and the partial
+ * derivatives with respect to its inputs, so that an evaluator can carry
+ * gradients by the chain rule (grad F = sum dF/df_i grad f_i) or drop them.
+ * See docs/field-conventions.md for the definitions and their sources.
+ */
+#ifndef CAMBIUM_CB_OPERATORS_H
+#define CAMBIUM_CB_OPERATORS_H
+
+#include "cb_common.h"
+
+/* ---------------------------------------------------------------------------
+ * Super-elliptic (Ricci) blend, paper 003 eq. 2:  F = (sum f_i^n)^(1/n).
+ * Negative child values (scars) are clamped to 0 first: the power of a
+ * negative field is not defined for real n.  Accumulate cb_ricci_term over
+ * the children, then finish; dF/df_i = (f_i / F)^(n-1) for f_i > 0. */
+CB_FN cb_real cb_ricci_term(cb_real f, cb_real n)
+{
+    return f > CB_R(0.0) ? CB_POW(f, n) : CB_R(0.0);
+}
+CB_FN cb_real cb_ricci_finish(cb_real sum, cb_real n)
+{
+    return sum > CB_R(0.0) ? CB_POW(sum, CB_R(1.0) / n) : CB_R(0.0);
+}
+CB_FN cb_real cb_ricci_partial(cb_real f, cb_real F, cb_real n)
+{
+    return (f > CB_R(0.0) && F > CB_R(0.0)) ? CB_POW(f / F, n - CB_R(1.0)) : CB_R(0.0);
+}
+
+/* ---------------------------------------------------------------------------
+ * CSG on fields where inside is F > T: union = max, intersection = min,
+ * difference A - B = min(F_A, 2T - F_B).  2T - F reflects a field about the
+ * threshold, so it is the complement solid with the same surface. */
+CB_FN cb_real cb_csg_complement(cb_real f, cb_real T) { return CB_R(2.0) * T - f; }
+
+/* ---------------------------------------------------------------------------
+ * Precise Contact Modeling (Gascuel 1993; papers 001 sec. 2.3, 002 sec. 3.3,
+ * 003 sec. 2.3).  The deformation that a field f_j (the "other" object) adds
+ * to the field it presses on, as a function of s = T - f_j:
+ *   s <= 0        (inside the other object, interpenetration): D = s = T - f_j,
+ *                 so the deformed field f_i + T - f_j equals T exactly where
+ *                 f_i = f_j: the contact surface.
+ *   0 < s < w     (propagation region, width w in field units):
+ *                 D = s (1 - s/w)^k  > 0, a bulge,
+ *   s >= w        D = 0 (undeformed).
+ * D and dD/ds are continuous at s = 0 (value 0, slope 1) and at s = w (value 0,
+ * slope 0 for k > 1), so the deformed field is C1 wherever f_j is.  k is the
+ * attenuation: the bulge peaks at s = w/(k+1) with height w k^k/(k+1)^(k+1)
+ * (4w/27 for k = 2) and larger k pulls it closer to the contact and lower.
+ * Requires 0 < w <= T so that D vanishes where f_j = 0.  *dD receives dD/df_j. */
+CB_FN cb_real cb_pcm_deformation(cb_real f_other, cb_real T, cb_real w, cb_real k, cb_real* dD)
+{
+    cb_real s = T - f_other;
+    if (s <= CB_R(0.0)) {
+        *dD = CB_R(-1.0);
+        return s;
+    }
+    if (s >= w) {
+        *dD = CB_R(0.0);
+        return CB_R(0.0);
+    }
+    cb_real x = s / w;
+    cb_real om = CB_R(1.0) - x;
+    cb_real pk1 = CB_POW(om, k - CB_R(1.0));
+    /* d/ds [s (1-x)^k] = (1-x)^(k-1) (1 - (k+1) x) */
+    *dD = -pk1 * (CB_R(1.0) - (k + CB_R(1.0)) * x);
+    return s * pk1 * om;
+}
+
+/* ---------------------------------------------------------------------------
+ * "Better blending" remapping, paper 002 eq. 6 (after Wyvill & Wyvill 2000):
+ *   g_k(t) = 0                   t < k
+ *          = h_k(t)              k <= t <= c,      h_k(t) = c ((t - k)/(c - k))^2
+ *          = 2c - h_k(2c - t)    c < t <= 2c - k
+ *          = 2c                  t > 2c - k
+ * with c = T.  g_k(c) = c keeps each isolated surface where it was; values
+ * below k (the far field that makes blends bulge) vanish.  C1.  Negative
+ * values (scars) use the odd extension g(-t) = -g(t).  *dg receives g'(t). */
+CB_FN cb_real cb_better_blend_g(cb_real t, cb_real c, cb_real k, cb_real* dg)
+{
+    cb_real sign = t < CB_R(0.0) ? CB_R(-1.0) : CB_R(1.0);
+    cb_real a = CB_FABS(t);
+    cb_real g, d;
+    if (a <= k) {
+        g = CB_R(0.0);
+        d = CB_R(0.0);
+    } else if (a >= CB_R(2.0) * c - k) {
+        g = CB_R(2.0) * c;
+        d = CB_R(0.0);
+    } else {
+        cb_real b = a <= c ? a : CB_R(2.0) * c - a;
+        cb_real u = (b - k) / (c - k);
+        cb_real h = c * u * u;
+        d = CB_R(2.0) * c * u / (c - k);
+        g = a <= c ? h : CB_R(2.0) * c - h;
+    }
+    *dg = d;
+    return sign * g;
+}
+
+/* ---------------------------------------------------------------------------
+ * Generalized bounded blending, paper 000 eq. 2-4:
+ *   Fg = b B1 + (1 - b) B2,  b = clamp(Fb, 0, 1).
+ * Writes dFg/dFb (zero where the bound is clamped). */
+CB_FN cb_real cb_gbb(cb_real fb, cb_real b1, cb_real b2, cb_real* dFb)
+{
+    cb_real b = cb_clamp01(fb);
+    *dFb = (fb > CB_R(0.0) && fb < CB_R(1.0)) ? b1 - b2 : CB_R(0.0);
+    return b * b1 + (CB_R(1.0) - b) * b2;
+}
+
+#endif /* CAMBIUM_CB_OPERATORS_H */

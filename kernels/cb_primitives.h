@@ -1,0 +1,202 @@
+/* cambium — field functions of the skeletal primitives.
+ *
+ * One definition of each formula, read by the C++ reference evaluator and by
+ * the OpenCL kernels.  Every function returns the field value and writes its
+ * gradient (or the partial derivatives the caller needs for the chain rule).
+ * Primitive weights (negative for scars) are applied by the caller.
+ *
+ * Conventions (docs/field-conventions.md): fields in [0, 1] for the R-type
+ * primitives, surface at F = T (default 0.5), inside where F > T.
+ */
+#ifndef CAMBIUM_CB_PRIMITIVES_H
+#define CAMBIUM_CB_PRIMITIVES_H
+
+#include "cb_common.h"
+
+/* ---------------------------------------------------------------------------
+ * Wyvill soft-object function (papers 002 eq. 2, 003):
+ *   w(x) = 1 - 22/9 x^2 + 17/9 x^4 - 4/9 x^6  for x in [0, 1],
+ *   w(x) = 1 for x <= 0 and 0 for x >= 1.
+ * w(0) = 1, w(1/2) = 1/2 exactly, w(1) = 0, w'(0) = w'(1) = 0: C1 everywhere.
+ * *dw receives dw/dx. */
+CB_FN cb_real cb_wyvill(cb_real x, cb_real* dw)
+{
+    if (x >= CB_R(1.0) || x <= CB_R(0.0)) {
+        *dw = CB_R(0.0);
+        return x >= CB_R(1.0) ? CB_R(0.0) : CB_R(1.0);
+    }
+    cb_real y = x * x;
+    *dw = x * (CB_R(-44.0) / CB_R(9.0) + y * (CB_R(68.0) / CB_R(9.0) - y * CB_R(24.0) / CB_R(9.0)));
+    /* Non-negative on [0, 1]; the clamp removes rounding below zero next to x = 1. */
+    return CB_FMAX(CB_R(1.0) + y * (CB_R(-22.0) / CB_R(9.0) +
+                                    y * (CB_R(17.0) / CB_R(9.0) - y * CB_R(4.0) / CB_R(9.0))),
+                   CB_R(0.0));
+}
+
+/* x in [0, 1] with w(x) = T, for T in (0, 1): w is strictly decreasing there,
+ * so bisection is exact to the last bit. x(0.5) = 0.5. */
+CB_FN cb_real cb_wyvill_inverse(cb_real T)
+{
+    cb_real lo = CB_R(0.0), hi = CB_R(1.0), dw;
+    int i;
+    for (i = 0; i < 64; ++i) {
+        cb_real mid = CB_R(0.5) * (lo + hi);
+        if (cb_wyvill(mid, &dw) > T)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return CB_R(0.5) * (lo + hi);
+}
+
+/* ---------------------------------------------------------------------------
+ * Skeletal falloff.  A primitive whose isolated surface lies at distance r
+ * from its skeleton has field F(d) = w((d - o) / R) with
+ *   R = sigma * r / xT   (support width; sigma = 1 gives R = r / xT = 2r at T = 0.5)
+ *   o = r (1 - sigma)    (skeleton offset, so that F(r) = w(xT) = T for any sigma)
+ * where xT = w^-1(T).  The field is zero beyond the reach o + R.
+ * Writes dF/dd and dF/dr. */
+CB_FN cb_real cb_skeletal_field(cb_real d, cb_real r, cb_real sigma, cb_real xT, cb_real* dFdd,
+                                cb_real* dFdr)
+{
+    cb_real k = xT / sigma;
+    cb_real u = k * (d / r - CB_R(1.0) + sigma);
+    cb_real dw;
+    cb_real f = cb_wyvill(u, &dw);
+    *dFdd = dw * k / r;
+    *dFdr = -dw * k * d / (r * r);
+    return f;
+}
+
+/* Distance from the skeleton beyond which cb_skeletal_field is exactly zero. */
+CB_FN cb_real cb_skeletal_reach(cb_real r, cb_real sigma, cb_real xT)
+{
+    return r * (CB_R(1.0) - sigma + sigma / xT);
+}
+
+/* `sphere`: point skeleton at c, surface radius r. */
+CB_FN cb_real cb_sphere_field(cb_vec3 p, cb_vec3 c, cb_real r, cb_real sigma, cb_real xT,
+                              cb_vec3* grad)
+{
+    cb_vec3 e = cb_sub(p, c);
+    cb_real d = cb_length(e), fd, fr;
+    cb_real f = cb_skeletal_field(d, r, sigma, xT, &fd, &fr);
+    *grad = d > CB_R(0.0) ? cb_scale(e, fd / d) : cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+    return f;
+}
+
+/* `cone` (and `segment`, with r0 == r1): line skeleton from a along the unit
+ * axis for len, surface radius r(t) = r0 + (r1 - r0) t at the closest skeleton
+ * point t in [0, 1].  For a point whose closest skeleton point is interior,
+ * F = w(xT d / r(t)) (sigma = 1), so the surface radius is exactly linear from
+ * r0 at the base to r1 at the tip; beyond the ends the closest point is an end
+ * point and the caps are spheres of radius r0 and r1 (papers 001/003: branches
+ * tipped by hemispherical caps).  len == 0 degenerates to a sphere of radius r0. */
+CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real r0,
+                            cb_real r1, cb_real sigma, cb_real xT, cb_vec3* grad)
+{
+    cb_vec3 d = cb_sub(p, a);
+    cb_real tt = len > CB_R(0.0) ? cb_dot(d, axis) / len : CB_R(0.0);
+    cb_real t = cb_clamp01(tt);
+    cb_vec3 e = cb_madd(d, axis, -t * len);
+    cb_real dist = cb_length(e), fd, fr;
+    cb_real r = r0 + (r1 - r0) * t;
+    cb_real f = cb_skeletal_field(dist, r, sigma, xT, &fd, &fr);
+    cb_vec3 g = dist > CB_R(0.0) ? cb_scale(e, fd / dist) : cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+    if (tt > CB_R(0.0) && tt < CB_R(1.0))
+        g = cb_madd(g, axis, fr * (r1 - r0) / len);
+    *grad = g;
+    return f;
+}
+
+/* ---------------------------------------------------------------------------
+ * Convolution line segment with linearly varying density (paper 002 eq. 3-5,
+ * after Jin et al.), Cauchy kernel k(r) = 1 / (1 + s^2 r^2)^2, in closed form.
+ *
+ * With the segment a + t*axis, t in [0, len], density q(t) = q0 + (q1 - q0) t/len,
+ * x = (p - a).axis, h the distance from p to the line, P^2 = 1 + s^2 h^2 and
+ * tau = x - t (so D = P^2 + s^2 tau^2 = 1 + s^2 |p - c(t)|^2):
+ *   F = int q(t) / D^2 dt = (q0 + m x) [I2] - m [M2]        (m = (q1 - q0)/len)
+ * where [G] = G(x) - G(x - len) and, as antiderivatives in tau,
+ *   I1 = atan(s tau / P) / (P s)
+ *   I2 = int D^-2   = tau / (2 P^2 D) + I1 / (2 P^2)
+ *   I3 = int D^-3   = tau / (4 P^2 D^2) + 3 I2 / (4 P^2)
+ *   M2 = int tau D^-2 = -1 / (2 s^2 D),   M3 = int tau D^-3 = -1 / (4 s^2 D^2)
+ *   J3 = int tau^2 D^-3 = (I2 - P^2 I3) / s^2.
+ * The gradient is grad F = int q grad k = -4 s^2 int q (tau axis + hvec) / D^3 dt:
+ *   grad F = -4 s^2 ( hvec [(q0 + m x) I3 - m M3] + axis [(q0 + m x) M3 - m J3] ).
+ */
+typedef struct cb_conv_terms {
+    cb_real i2, i3, m2, m3, j3;
+} cb_conv_terms;
+
+CB_FN cb_conv_terms cb_conv_antiderivatives(cb_real tau, cb_real P2, cb_real P, cb_real s)
+{
+    cb_conv_terms t;
+    cb_real s2 = s * s;
+    cb_real D = P2 + s2 * tau * tau;
+    cb_real i1 = CB_ATAN(s * tau / P) / (P * s);
+    t.i2 = tau / (CB_R(2.0) * P2 * D) + i1 / (CB_R(2.0) * P2);
+    t.i3 = tau / (CB_R(4.0) * P2 * D * D) + CB_R(3.0) * t.i2 / (CB_R(4.0) * P2);
+    t.m2 = CB_R(-1.0) / (CB_R(2.0) * s2 * D);
+    t.m3 = CB_R(-1.0) / (CB_R(4.0) * s2 * D * D);
+    t.j3 = (t.i2 - P2 * t.i3) / s2;
+    return t;
+}
+
+/* The raw (unbounded) convolution integral and its gradient. len > 0. */
+CB_FN cb_real cb_convolution_raw(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real q0,
+                                 cb_real q1, cb_real s, cb_vec3* grad)
+{
+    cb_vec3 d = cb_sub(p, a);
+    cb_real x = cb_dot(d, axis);
+    cb_vec3 hv = cb_madd(d, axis, -x);
+    cb_real P2 = CB_R(1.0) + s * s * cb_dot(hv, hv);
+    cb_real P = CB_SQRT(P2);
+    cb_conv_terms hi = cb_conv_antiderivatives(x, P2, P, s);
+    cb_conv_terms lo = cb_conv_antiderivatives(x - len, P2, P, s);
+    cb_real m = (q1 - q0) / len;
+    cb_real qx = q0 + m * x;
+    cb_real A = qx * (hi.i3 - lo.i3) - m * (hi.m3 - lo.m3);
+    cb_real B = qx * (hi.m3 - lo.m3) - m * (hi.j3 - lo.j3);
+    *grad = cb_scale(cb_madd(cb_scale(hv, A), axis, B), CB_R(-4.0) * s * s);
+    return qx * (hi.i2 - lo.i2) - m * (hi.m2 - lo.m2);
+}
+
+/* Density that gives an infinite line (or a straight polyline of segments
+ * with continuous density) the surface radius r at threshold T:
+ *   int_R dtau / (P^2 + s^2 tau^2)^2 = pi / (2 s P^3)  =>  q = 2 s T P^3 / pi. */
+CB_FN cb_real cb_convolution_density(cb_real r, cb_real s, cb_real T)
+{
+    cb_real P2 = CB_R(1.0) + s * s * r * r;
+    return CB_R(2.0) * s * T * P2 * CB_SQRT(P2) / CB_PI;
+}
+
+/* `convolution_segment`: the Cauchy kernel never reaches zero, so the primitive
+ * multiplies the closed form by a C1 window of the distance d to the segment,
+ *   W(d) = w(clamp(2 d / R - 1, 0, 1)),
+ * equal to 1 up to R/2 and 0 from R on.  R (the support) is at least twice the
+ * largest surface radius, so the window never moves the isolated surface. */
+CB_FN cb_real cb_convolution_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real q0,
+                                   cb_real q1, cb_real s, cb_real support, cb_vec3* grad)
+{
+    cb_vec3 d = cb_sub(p, a);
+    cb_real t = cb_clamp01(cb_dot(d, axis) / len);
+    cb_vec3 e = cb_madd(d, axis, -t * len);
+    cb_real dist = cb_length(e);
+    if (dist >= support) {
+        *grad = cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+        return CB_R(0.0);
+    }
+    cb_vec3 graw;
+    cb_real raw = cb_convolution_raw(p, a, axis, len, q0, q1, s, &graw);
+    cb_real dW;
+    cb_real W = cb_wyvill(CB_R(2.0) * dist / support - CB_R(1.0), &dW);
+    cb_vec3 g = cb_scale(graw, W);
+    if (dist > CB_R(0.0))
+        g = cb_madd(g, e, raw * dW * CB_R(2.0) / (support * dist));
+    *grad = g;
+    return raw * W;
+}
+
+#endif /* CAMBIUM_CB_PRIMITIVES_H */

@@ -1,0 +1,432 @@
+// cambium — BlobTree builders and validation.
+#include "blobtree/blobtree.h"
+
+#include "core/error.h"
+
+#include "cb_primitives.h"
+
+#include <fmt/format.h>
+#include <glm/gtc/matrix_inverse.hpp>
+
+#include <cmath>
+
+namespace cambium {
+
+namespace {
+
+struct TypeInfo {
+    NodeType type;
+    const char* name;
+    NodeKind kind;
+};
+
+const std::vector<TypeInfo>& typeTable()
+{
+    static const std::vector<TypeInfo> table = {
+#define CB_X(ident, number, name, kind) {NodeType::ident, name, NodeKind::k##kind},
+#define kPRIMITIVE Primitive
+#define kOPERATOR Operator
+#define kWARP Warp
+        CB_NODE_TYPES(CB_X)
+#undef CB_X
+#undef kPRIMITIVE
+#undef kOPERATOR
+#undef kWARP
+    };
+    return table;
+}
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+void requireFinite(const glm::dvec3& v, const char* field)
+{
+    if (!finite(v))
+        throw ParameterError(field, "must be a finite point");
+}
+
+void requireFinite(double v, const char* field)
+{
+    if (!std::isfinite(v))
+        throw ParameterError(field, "must be a finite number");
+}
+
+void requirePositive(double v, const char* field)
+{
+    requireFinite(v, field);
+    if (!(v > 0.0))
+        throw ParameterError(field, fmt::format("must be greater than 0 (got {})", v));
+}
+
+void requireWeight(double w)
+{
+    requireFinite(w, "weight");
+    if (w == 0.0)
+        throw ParameterError("weight", "must not be 0 (a primitive of weight 0 has no field)");
+}
+
+}  // namespace
+
+const char* typeName(NodeType t)
+{
+    for (const auto& e : typeTable())
+        if (e.type == t)
+            return e.name;
+    return "?";
+}
+
+NodeKind kindOf(NodeType t)
+{
+    for (const auto& e : typeTable())
+        if (e.type == t)
+            return e.kind;
+    return NodeKind::Operator;
+}
+
+std::optional<NodeType> typeFromName(std::string_view name)
+{
+    for (const auto& e : typeTable())
+        if (name == e.name)
+            return e.type;
+    return std::nullopt;
+}
+
+const std::vector<NodeType>& allNodeTypes()
+{
+    static const std::vector<NodeType> all = [] {
+        std::vector<NodeType> v;
+        for (const auto& e : typeTable())
+            v.push_back(e.type);
+        return v;
+    }();
+    return all;
+}
+
+BlobTree::BlobTree(double threshold)
+{
+    if (!std::isfinite(threshold) || !(threshold > 0.0 && threshold < 1.0))
+        throw ParameterError("threshold",
+                             fmt::format("must be between 0 and 1, exclusive (got {})", threshold));
+    T_ = threshold;
+    xT_ = cb_wyvill_inverse(threshold);
+}
+
+int BlobTree::add(Node n)
+{
+    nodes_.push_back(std::move(n));
+    return int(nodes_.size()) - 1;
+}
+
+void BlobTree::checkChild(int child, const char* field) const
+{
+    if (child < 0 || size_t(child) >= nodes_.size())
+        throw ParameterError(field, fmt::format("refers to node {}, which does not exist", child));
+}
+
+int BlobTree::sphere(const glm::dvec3& center, double radius, const PrimitiveOptions& o)
+{
+    requireFinite(center, "center");
+    requirePositive(radius, "radius");
+    requireWeight(o.weight);
+    Primitive p;
+    p.p0 = p.p1 = center;
+    p.r0 = p.r1 = radius;
+    p.weight = o.weight;
+    if (o.support) {
+        requirePositive(*o.support, "support");
+        p.sigma = *o.support * xT_ / radius;
+    }
+    Node n;
+    n.type = NodeType::SPHERE;
+    n.params = p;
+    return add(std::move(n));
+}
+
+int BlobTree::segment(const glm::dvec3& p0, const glm::dvec3& p1, double radius,
+                      const PrimitiveOptions& o)
+{
+    requirePositive(radius, "radius");
+    int i = cone(p0, p1, radius, radius, o);
+    nodes_[size_t(i)].type = NodeType::SEGMENT;
+    return i;
+}
+
+int BlobTree::cone(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                   const PrimitiveOptions& o)
+{
+    requireFinite(p0, "p0");
+    requireFinite(p1, "p1");
+    requirePositive(r0, "r0");
+    requirePositive(r1, "r1");
+    requireWeight(o.weight);
+    Primitive p;
+    p.p0 = p0;
+    p.p1 = p1;
+    p.r0 = r0;
+    p.r1 = r1;
+    p.weight = o.weight;
+    if (o.support) {
+        requirePositive(*o.support, "support");
+        p.sigma = *o.support * xT_ / r0;
+    }
+    Node n;
+    n.type = NodeType::CONE;
+    n.params = p;
+    return add(std::move(n));
+}
+
+int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                                 const ConvolutionOptions& o)
+{
+    requireFinite(p0, "p0");
+    requireFinite(p1, "p1");
+    requirePositive(r0, "r0");
+    requirePositive(r1, "r1");
+    requireWeight(o.weight);
+    double len = glm::length(p1 - p0);
+    if (!(len > 0.0))
+        throw ParameterError("p1", "is equal to p0: a convolution segment needs a length");
+    const double rmax = std::max(r0, r1);
+    Primitive p;
+    p.p0 = p0;
+    p.p1 = p1;
+    p.r0 = r0;
+    p.r1 = r1;
+    p.weight = o.weight;
+    p.kernelWidth = o.kernelWidth.value_or(1.0 / rmax);
+    requirePositive(p.kernelWidth, "kernel_width");
+    p.support = o.support.value_or(3.0 * rmax);
+    requirePositive(p.support, "support");
+    if (p.support < 2.0 * rmax)
+        throw ParameterError(
+            "support", fmt::format("must be at least twice the largest radius, {} (got {})",
+                                   2.0 * rmax, p.support));
+    p.q0 = cb_convolution_density(r0, p.kernelWidth, T_);
+    p.q1 = cb_convolution_density(r1, p.kernelWidth, T_);
+    Node n;
+    n.type = NodeType::CONVOLUTION_SEGMENT;
+    n.params = p;
+    return add(std::move(n));
+}
+
+void BlobTree::validate(const Combiner& c) const
+{
+    switch (c.type) {
+    case NodeType::BLEND:
+    case NodeType::UNION:
+    case NodeType::INTERSECTION:
+    case NodeType::DIFFERENCE:
+        return;
+    case NodeType::RICCI:
+        requireFinite(c.n, "n");
+        if (!(c.n >= 1.0))
+            throw ParameterError("n", fmt::format("must be at least 1 (got {})", c.n));
+        if (c.n > 256.0)
+            throw ParameterError("n", fmt::format("must be at most 256 (got {}); a large n is a union", c.n));
+        return;
+    case NodeType::PCM:
+        requirePositive(c.width, "width");
+        if (c.width > T_)
+            throw ParameterError("width",
+                                 fmt::format("must not exceed the threshold {} (got {}): the "
+                                             "propagation region must end where fields do",
+                                             T_, c.width));
+        requireFinite(c.attenuation, "attenuation");
+        if (!(c.attenuation > 1.0))
+            throw ParameterError("attenuation",
+                                 fmt::format("must be greater than 1 for a C1 bulge (got {})",
+                                             c.attenuation));
+        return;
+    case NodeType::BETTER_BLEND:
+        requireFinite(c.k, "k");
+        if (!(c.k >= 0.0 && c.k < T_))
+            throw ParameterError("k", fmt::format("must be in [0, {}) (got {})", T_, c.k));
+        return;
+    default:
+        throw ParameterError("type", fmt::format("'{}' is not a blending operator", typeName(c.type)));
+    }
+}
+
+int BlobTree::op(const Combiner& c, std::vector<int> children)
+{
+    validate(c);
+    if (children.empty())
+        throw ParameterError("children", fmt::format("a '{}' needs at least one child", typeName(c.type)));
+    for (int ch : children)
+        checkChild(ch, "children");
+    Node n;
+    n.type = c.type;
+    n.children = std::move(children);
+    n.params = c;
+    return add(std::move(n));
+}
+
+int BlobTree::gbb(int bound, std::vector<int> children, const Combiner& b1, const Combiner& b2)
+{
+    checkChild(bound, "bound");
+    try {
+        validate(b1);
+    } catch (const ParameterError& e) {
+        throw ParameterError("b1." + e.field(), e.what());
+    }
+    try {
+        validate(b2);
+    } catch (const ParameterError& e) {
+        throw ParameterError("b2." + e.field(), e.what());
+    }
+    if (children.empty())
+        throw ParameterError("children", "a 'gbb' needs at least one child");
+    for (int ch : children)
+        checkChild(ch, "children");
+    Node n;
+    n.type = NodeType::GBB;
+    n.children = std::move(children);
+    n.params = GbbParams{b1, b2, bound};
+    return add(std::move(n));
+}
+
+int BlobTree::transform(const glm::dmat4& m, int child)
+{
+    checkChild(child, "children");
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            if (!std::isfinite(m[c][r]))
+                throw ParameterError("matrix", "must have finite entries");
+    if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
+        throw ParameterError("matrix", "must be affine (last row 0 0 0 1)");
+    const glm::dmat3 a(m);
+    const double det = glm::determinant(a);
+    const double scale = glm::length(a[0]) * glm::length(a[1]) * glm::length(a[2]);
+    if (!(std::abs(det) > 1e-12 * scale) || scale == 0.0)
+        throw ParameterError("matrix", "is singular: a transform must be invertible");
+    const glm::dmat4 inv = glm::inverse(m);
+    TransformParams t;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) {
+            t.forward[4 * r + c] = m[c][r];  // glm is column-major: m[col][row]
+            t.inverse.m[4 * r + c] = inv[c][r];
+        }
+    Node n;
+    n.type = NodeType::TRANSFORM;
+    n.children = {child};
+    n.params = t;
+    return add(std::move(n));
+}
+
+int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& dir,
+                   double angle, int child)
+{
+    checkChild(child, "children");
+    requireFinite(p0, "p0");
+    requireFinite(p1, "p1");
+    requireFinite(dir, "direction");
+    requireFinite(angle, "angle");
+    const glm::dvec3 axis = p1 - p0;
+    const double len = glm::length(axis);
+    if (!(len > 0.0))
+        throw ParameterError("p1", "is equal to p0: a bend needs an internode to bend");
+    const glm::dvec3 u = axis / len;
+    const double dl = glm::length(dir);
+    if (!(glm::length(dir - glm::dot(dir, u) * u) > 1e-9 * dl))
+        throw ParameterError("direction",
+                             "must not be zero or parallel to p1 - p0: it picks the bend plane");
+    if (!(std::abs(angle) < M_PI))
+        throw ParameterError("angle", fmt::format("must be less than 180 degrees in magnitude (got "
+                                                  "{} degrees)",
+                                                  angle * 180.0 / M_PI));
+    Node n;
+    n.type = NodeType::BEND;
+    n.children = {child};
+    n.params = cb_bend_setup(cb_v3(p0.x, p0.y, p0.z), cb_v3(p1.x, p1.y, p1.z),
+                             cb_v3(dir.x, dir.y, dir.z), angle);
+    return add(std::move(n));
+}
+
+int BlobTree::twist(const glm::dvec3& origin, const glm::dvec3& axis, double rate, int child)
+{
+    checkChild(child, "children");
+    requireFinite(origin, "origin");
+    requireFinite(axis, "axis");
+    requireFinite(rate, "rate");
+    const double l = glm::length(axis);
+    if (!(l > 0.0))
+        throw ParameterError("axis", "must not be zero");
+    cb_twist t;
+    t.o = cb_v3(origin.x, origin.y, origin.z);
+    t.a = cb_v3(axis.x / l, axis.y / l, axis.z / l);
+    t.rate = rate;
+    Node n;
+    n.type = NodeType::TWIST;
+    n.children = {child};
+    n.params = t;
+    return add(std::move(n));
+}
+
+int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double length, double scale0,
+                    double scale1, int child)
+{
+    checkChild(child, "children");
+    requireFinite(origin, "origin");
+    requireFinite(axis, "axis");
+    requirePositive(length, "length");
+    requirePositive(scale0, "scale0");
+    requirePositive(scale1, "scale1");
+    const double l = glm::length(axis);
+    if (!(l > 0.0))
+        throw ParameterError("axis", "must not be zero");
+    cb_taper t;
+    t.o = cb_v3(origin.x, origin.y, origin.z);
+    t.a = cb_v3(axis.x / l, axis.y / l, axis.z / l);
+    t.len = length;
+    t.scale0 = scale0;
+    t.scale1 = scale1;
+    Node n;
+    n.type = NodeType::TAPER;
+    n.children = {child};
+    n.params = t;
+    return add(std::move(n));
+}
+
+void BlobTree::setColor(int node, const glm::dvec3& rgb)
+{
+    checkChild(node, "node");
+    if (!finite(rgb) || glm::any(glm::lessThan(rgb, glm::dvec3(0.0))) ||
+        glm::any(glm::greaterThan(rgb, glm::dvec3(1.0))))
+        throw ParameterError("color", "must be three numbers in [0, 1]");
+    nodes_[size_t(node)].color = rgb;
+}
+
+void BlobTree::setRoot(int node)
+{
+    checkChild(node, "root");
+    root_ = node;
+}
+
+void BlobTree::finalize()
+{
+    if (root_ < 0)
+        throw InputError("the BlobTree has no root");
+    // Children always precede their parents, so a reverse sweep visits every
+    // parent before its children: inheritance in one pass, no recursion.
+    std::vector<char> reached(nodes_.size(), 0);
+    const glm::dvec3 fallback(0.8);
+    reached[size_t(root_)] = 1;
+    nodes_[size_t(root_)].shade = nodes_[size_t(root_)].color.value_or(fallback);
+    for (size_t i = nodes_.size(); i-- > 0;) {
+        if (!reached[i])
+            continue;
+        Node& n = nodes_[i];
+        auto visit = [&](int c) {
+            Node& ch = nodes_[size_t(c)];
+            if (!reached[size_t(c)]) {
+                reached[size_t(c)] = 1;
+                ch.shade = ch.color.value_or(n.shade);
+            }
+        };
+        for (int c : n.children)
+            visit(c);
+        if (n.type == NodeType::GBB)
+            visit(n.gbb().bound);
+    }
+}
+
+}  // namespace cambium

@@ -1,0 +1,447 @@
+// cambium — JSON scene reader.
+#include "blobtree/scene_io.h"
+
+#include "core/error.h"
+
+#include <fmt/format.h>
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace cambium {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr double kDegree = M_PI / 180.0;
+
+size_t editDistance(const std::string& a, const std::string& b)
+{
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j)
+        row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        size_t diag = row[0];
+        row[0] = i;
+        for (size_t j = 1; j <= b.size(); ++j) {
+            const size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+/// " (did you mean 'x'?)" when a known word is close to `word`.
+std::string suggestion(const std::string& word, const std::vector<std::string>& known)
+{
+    std::string best;
+    size_t bestDistance = 3;
+    for (const auto& k : known) {
+        const size_t d = editDistance(word, k);
+        if (d < bestDistance) {
+            bestDistance = d;
+            best = k;
+        }
+    }
+    return best.empty() ? std::string() : fmt::format(" (did you mean '{}'?)", best);
+}
+
+std::string joined(const std::vector<std::string>& words)
+{
+    std::string s;
+    for (const auto& w : words)
+        s += (s.empty() ? "" : ", ") + w;
+    return s;
+}
+
+std::vector<std::string> fieldsOf(NodeType t)
+{
+    switch (t) {
+    case NodeType::SPHERE: return {"center", "radius", "support", "weight"};
+    case NodeType::SEGMENT: return {"p0", "p1", "radius", "support", "weight"};
+    case NodeType::CONE: return {"p0", "p1", "r0", "r1", "support", "weight"};
+    case NodeType::CONVOLUTION_SEGMENT:
+        return {"p0", "p1", "r0", "r1", "kernel_width", "support", "weight"};
+    case NodeType::BLEND:
+    case NodeType::UNION:
+    case NodeType::INTERSECTION:
+    case NodeType::DIFFERENCE: return {"children"};
+    case NodeType::RICCI: return {"children", "n"};
+    case NodeType::PCM: return {"children", "width", "attenuation"};
+    case NodeType::BETTER_BLEND: return {"children", "k"};
+    case NodeType::GBB: return {"children", "bound", "b1", "b2"};
+    case NodeType::TRANSFORM: return {"children", "translate", "rotate", "scale", "matrix"};
+    case NodeType::BEND: return {"children", "p0", "p1", "direction", "angle"};
+    case NodeType::TWIST: return {"children", "origin", "axis", "rate"};
+    case NodeType::TAPER: return {"children", "origin", "axis", "length", "scale0", "scale1"};
+    }
+    return {};
+}
+
+const char* jsonKind(const json& j)
+{
+    switch (j.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::string: return "a string";
+    case json::value_t::array: return "an array";
+    case json::value_t::object: return "an object";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    default: return "something else";
+    }
+}
+
+class SceneReader {
+public:
+    explicit SceneReader(std::string source) : source_(std::move(source)) {}
+
+    BlobTree read(const json& doc)
+    {
+        if (!doc.is_object())
+            fail("(top level)", fmt::format("must be an object with a \"root\" (got {})", jsonKind(doc)));
+        checkKeys(doc, "", {"threshold", "root", "name", "description", "comment"});
+        double threshold = 0.5;
+        if (doc.contains("threshold"))
+            threshold = number(doc["threshold"], "threshold");
+        if (!doc.contains("root"))
+            fail("root", "missing: a scene needs a root node");
+        try {
+            tree_ = BlobTree(threshold);
+        } catch (const ParameterError& e) {
+            fail("threshold", e.what());
+        }
+        tree_.setRoot(node(doc["root"], "root"));
+        tree_.finalize();
+        return std::move(tree_);
+    }
+
+private:
+    [[noreturn]] void fail(const std::string& path, const std::string& what) const
+    {
+        throw InputError(fmt::format("{}: {}: {}", source_, path, what));
+    }
+
+    static std::string join(const std::string& path, const std::string& key)
+    {
+        return path.empty() ? key : path + "." + key;
+    }
+
+    void checkKeys(const json& obj, const std::string& path, const std::vector<std::string>& allowed)
+    {
+        for (auto it = obj.begin(); it != obj.end(); ++it) {
+            const std::string& key = it.key();
+            if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+                fail(join(path, key), fmt::format("unknown field{}; allowed here: {}",
+                                                  suggestion(key, allowed), joined(allowed)));
+        }
+    }
+
+    double number(const json& j, const std::string& path)
+    {
+        if (!j.is_number())
+            fail(path, fmt::format("must be a number (got {})", jsonKind(j)));
+        const double v = j.get<double>();
+        if (!std::isfinite(v))
+            fail(path, "must be a finite number");
+        return v;
+    }
+
+    std::optional<double> optNumber(const json& obj, const char* key, const std::string& path)
+    {
+        if (!obj.contains(key))
+            return std::nullopt;
+        return number(obj[key], join(path, key));
+    }
+
+    double reqNumber(const json& obj, const char* key, const std::string& path)
+    {
+        if (!obj.contains(key))
+            fail(join(path, key), "missing");
+        return number(obj[key], join(path, key));
+    }
+
+    glm::dvec3 vec3(const json& j, const std::string& path)
+    {
+        if (!j.is_array() || j.size() != 3)
+            fail(path, fmt::format("must be an array of 3 numbers (got {}{})", jsonKind(j),
+                                   j.is_array() ? fmt::format(" of {}", j.size()) : ""));
+        return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
+    }
+
+    glm::dvec3 reqVec3(const json& obj, const char* key, const std::string& path)
+    {
+        if (!obj.contains(key))
+            fail(join(path, key), "missing");
+        return vec3(obj[key], join(path, key));
+    }
+
+    std::optional<glm::dvec3> optVec3(const json& obj, const char* key, const std::string& path)
+    {
+        if (!obj.contains(key))
+            return std::nullopt;
+        return vec3(obj[key], join(path, key));
+    }
+
+    /// Reads the parameters of a blending operator from `obj` into `c`.
+    void combinerParams(const json& obj, const std::string& path, Combiner& c)
+    {
+        if (c.type == NodeType::RICCI)
+            c.n = optNumber(obj, "n", path).value_or(c.n);
+        if (c.type == NodeType::PCM) {
+            c.width = optNumber(obj, "width", path).value_or(c.width);
+            c.attenuation = optNumber(obj, "attenuation", path).value_or(c.attenuation);
+        }
+        if (c.type == NodeType::BETTER_BLEND)
+            c.k = optNumber(obj, "k", path).value_or(c.k);
+    }
+
+    /// A GBB side: {"type": "pcm", "width": ...}, a blending operator without children.
+    Combiner combinerSpec(const json& j, const std::string& path)
+    {
+        const NodeType t = nodeType(j, path);
+        static const std::set<NodeType> blending = {
+            NodeType::BLEND,      NodeType::RICCI, NodeType::UNION,       NodeType::INTERSECTION,
+            NodeType::DIFFERENCE, NodeType::PCM,   NodeType::BETTER_BLEND};
+        if (!blending.count(t))
+            fail(join(path, "type"),
+                 fmt::format("'{}' cannot blend a GBB's children; use blend, ricci, union, "
+                             "intersection, difference, pcm or better_blend",
+                             typeName(t)));
+        std::vector<std::string> allowed = fieldsOf(t);
+        allowed.erase(std::remove(allowed.begin(), allowed.end(), "children"), allowed.end());
+        allowed.insert(allowed.begin(), "type");
+        checkKeys(j, path, allowed);
+        Combiner c;
+        c.type = t;
+        combinerParams(j, path, c);
+        return c;
+    }
+
+    NodeType nodeType(const json& j, const std::string& path)
+    {
+        if (!j.is_object())
+            fail(path, fmt::format("must be an object with a \"type\" (got {})", jsonKind(j)));
+        if (!j.contains("type"))
+            fail(join(path, "type"), "missing: every node needs a type");
+        const json& t = j["type"];
+        if (!t.is_string())
+            fail(join(path, "type"), fmt::format("must be a string (got {})", jsonKind(t)));
+        const std::string name = t.get<std::string>();
+        if (auto type = typeFromName(name))
+            return *type;
+        std::vector<std::string> names;
+        for (NodeType k : allNodeTypes())
+            names.push_back(typeName(k));
+        fail(join(path, "type"), fmt::format("unknown node type '{}'{}; known types: {}", name,
+                                             suggestion(name, names), joined(names)));
+    }
+
+    std::vector<int> children(const json& j, const std::string& path, NodeType t)
+    {
+        const std::string cpath = join(path, "children");
+        if (!j.contains("children"))
+            fail(cpath, fmt::format("missing: a '{}' needs children", typeName(t)));
+        const json& c = j["children"];
+        if (!c.is_array())
+            fail(cpath, fmt::format("must be an array of nodes (got {})", jsonKind(c)));
+        if (c.empty())
+            fail(cpath, fmt::format("is empty: a '{}' needs at least one child", typeName(t)));
+        if (kindOf(t) == NodeKind::Warp && c.size() != 1)
+            fail(cpath, fmt::format("a '{}' warps exactly one child (got {}); put several in a "
+                                    "blend",
+                                    typeName(t), c.size()));
+        std::vector<int> out;
+        for (size_t i = 0; i < c.size(); ++i)
+            out.push_back(node(c[i], fmt::format("{}[{}]", cpath, i)));
+        return out;
+    }
+
+    glm::dmat4 transformMatrix(const json& j, const std::string& path)
+    {
+        const bool parts = j.contains("translate") || j.contains("rotate") || j.contains("scale");
+        if (j.contains("matrix")) {
+            if (parts)
+                fail(join(path, "matrix"), "give either a matrix or translate/rotate/scale, not both");
+            const json& m = j["matrix"];
+            const std::string mpath = join(path, "matrix");
+            if (!m.is_array() || m.size() != 4)
+                fail(mpath, "must be 4 rows of 4 numbers (row-major)");
+            glm::dmat4 out(1.0);
+            for (int r = 0; r < 4; ++r) {
+                const std::string rpath = fmt::format("{}[{}]", mpath, r);
+                if (!m[size_t(r)].is_array() || m[size_t(r)].size() != 4)
+                    fail(rpath, "must be a row of 4 numbers");
+                for (int c = 0; c < 4; ++c)
+                    out[c][r] = number(m[size_t(r)][size_t(c)], fmt::format("{}[{}]", rpath, c));
+            }
+            return out;
+        }
+        glm::dmat4 m(1.0);
+        if (auto t = optVec3(j, "translate", path))
+            m = glm::translate(m, *t);
+        if (j.contains("rotate")) {
+            const json& r = j["rotate"];
+            const std::string rpath = join(path, "rotate");
+            if (!r.is_object())
+                fail(rpath, "must be an object {\"axis\": [x, y, z], \"angle\": degrees}");
+            checkKeys(r, rpath, {"axis", "angle"});
+            const glm::dvec3 axis = reqVec3(r, "axis", rpath);
+            if (!(glm::length(axis) > 0.0))
+                fail(join(rpath, "axis"), "must not be zero");
+            m = glm::rotate(m, reqNumber(r, "angle", rpath) * kDegree, glm::normalize(axis));
+        }
+        if (j.contains("scale")) {
+            const json& s = j["scale"];
+            const std::string spath = join(path, "scale");
+            const glm::dvec3 v = s.is_number() ? glm::dvec3(number(s, spath)) : vec3(s, spath);
+            if (v.x == 0.0 || v.y == 0.0 || v.z == 0.0)
+                fail(spath, "must not be 0: a transform must be invertible");
+            m = glm::scale(m, v);
+        }
+        return m;
+    }
+
+    int node(const json& j, const std::string& path)
+    {
+        const NodeType t = nodeType(j, path);
+        std::vector<std::string> allowed = fieldsOf(t);
+        for (const char* common : {"type", "color", "name", "comment"})
+            allowed.push_back(common);
+        checkKeys(j, path, allowed);
+
+        // Children first: the builders need them to exist.
+        std::vector<int> kids;
+        if (kindOf(t) != NodeKind::Primitive)
+            kids = children(j, path, t);
+
+        int index = -1;
+        try {
+            switch (t) {
+            case NodeType::SPHERE: {
+                PrimitiveOptions o;
+                o.weight = optNumber(j, "weight", path).value_or(1.0);
+                o.support = optNumber(j, "support", path);
+                index = tree_.sphere(reqVec3(j, "center", path), reqNumber(j, "radius", path), o);
+                break;
+            }
+            case NodeType::SEGMENT:
+            case NodeType::CONE: {
+                PrimitiveOptions o;
+                o.weight = optNumber(j, "weight", path).value_or(1.0);
+                o.support = optNumber(j, "support", path);
+                const glm::dvec3 p0 = reqVec3(j, "p0", path), p1 = reqVec3(j, "p1", path);
+                index = t == NodeType::SEGMENT
+                            ? tree_.segment(p0, p1, reqNumber(j, "radius", path), o)
+                            : tree_.cone(p0, p1, reqNumber(j, "r0", path), reqNumber(j, "r1", path), o);
+                break;
+            }
+            case NodeType::CONVOLUTION_SEGMENT: {
+                ConvolutionOptions o;
+                o.weight = optNumber(j, "weight", path).value_or(1.0);
+                o.kernelWidth = optNumber(j, "kernel_width", path);
+                o.support = optNumber(j, "support", path);
+                index = tree_.convolutionSegment(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
+                                                 reqNumber(j, "r0", path), reqNumber(j, "r1", path), o);
+                break;
+            }
+            case NodeType::GBB: {
+                if (!j.contains("bound"))
+                    fail(join(path, "bound"), "missing: a gbb needs a bounding field");
+                const int bound = node(j["bound"], join(path, "bound"));
+                Combiner b1{NodeType::PCM}, b2{NodeType::BLEND};
+                if (j.contains("b1"))
+                    b1 = combinerSpec(j["b1"], join(path, "b1"));
+                if (j.contains("b2"))
+                    b2 = combinerSpec(j["b2"], join(path, "b2"));
+                index = tree_.gbb(bound, kids, b1, b2);
+                break;
+            }
+            case NodeType::TRANSFORM:
+                index = tree_.transform(transformMatrix(j, path), kids[0]);
+                break;
+            case NodeType::BEND:
+                index = tree_.bend(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
+                                   reqVec3(j, "direction", path),
+                                   reqNumber(j, "angle", path) * kDegree, kids[0]);
+                break;
+            case NodeType::TWIST:
+                index = tree_.twist(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
+                                    reqNumber(j, "rate", path) * kDegree, kids[0]);
+                break;
+            case NodeType::TAPER:
+                index = tree_.taper(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
+                                    reqNumber(j, "length", path), reqNumber(j, "scale0", path),
+                                    reqNumber(j, "scale1", path), kids[0]);
+                break;
+            default: {
+                Combiner c;
+                c.type = t;
+                combinerParams(j, path, c);
+                index = tree_.op(c, kids);
+                break;
+            }
+            }
+            if (j.contains("color"))
+                tree_.setColor(index, vec3(j["color"], join(path, "color")));
+        } catch (const ParameterError& e) {
+            fail(join(path, e.field()), e.what());
+        }
+        return index;
+    }
+
+    std::string source_;
+    BlobTree tree_;
+};
+
+}  // namespace
+
+BlobTree parseScene(const std::string& text, const std::string& source)
+{
+    json doc;
+    try {
+        doc = json::parse(text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+    } catch (const json::exception& e) {
+        // e.what() reads "[json.exception.parse_error.101] parse error at line L, column C: ..."
+        std::string what = e.what();
+        const auto bracket = what.find("] ");
+        if (bracket != std::string::npos)
+            what = what.substr(bracket + 2);
+        // A number too large for a double ("number overflow parsing '1e999'")
+        // comes without a position: find the literal in the text.
+        const auto q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
+        if (what.find(" at line ") == std::string::npos && q1 != std::string::npos) {
+            const auto at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
+            if (at != std::string::npos) {
+                const size_t line = size_t(std::count(text.begin(), text.begin() + long(at), '\n')) + 1;
+                const auto lineStart = text.rfind('\n', at);
+                const size_t column = at - (lineStart == std::string::npos ? 0 : lineStart + 1) + 1;
+                what += fmt::format(" at line {}, column {}", line, column);
+            }
+        }
+        throw InputError(fmt::format("{}: JSON syntax error: {}", source, what));
+    }
+    return SceneReader(source).read(doc);
+}
+
+BlobTree loadScene(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        throw InputError(fmt::format("{}: cannot read the scene file: {}", path, std::strerror(errno)));
+    std::ostringstream text;
+    text << in.rdbuf();
+    return parseScene(text.str(), path);
+}
+
+}  // namespace cambium

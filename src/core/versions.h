@@ -1,0 +1,16 @@
+// cambium — versions of cambium and the libraries it was built with.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace cambium {
+
+const char* version();
+
+/// (library, version) pairs: compile-time versions of OpenVDB, NanoVDB,
+/// OpenImageIO, Embree, TBB and the OpenCL devices found at run time.
+std::vector<std::pair<std::string, std::string>> dependencyVersions();
+
+}  // namespace cambium

@@ -1,0 +1,98 @@
+// The cambium binary end to end: `info` on the bundled examples, clear errors
+// and a non-zero exit for malformed scenes.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct Result {
+    int status = -1;
+    std::string out, err;
+};
+
+Result run(const std::string& args)
+{
+    const auto errFile = std::filesystem::temp_directory_path() /
+                         ("cambium_test_err_" + std::to_string(::getpid()));
+    const std::string cmd = std::string(CAMBIUM_EXE) + " " + args + " 2>" + errFile.string();
+    Result r;
+    FILE* p = ::popen(cmd.c_str(), "r");
+    std::array<char, 4096> buf{};
+    size_t n;
+    while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0)
+        r.out.append(buf.data(), n);
+    const int raw = ::pclose(p);
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    std::ifstream e(errFile);
+    r.err.assign(std::istreambuf_iterator<char>(e), {});
+    std::filesystem::remove(errFile);
+    return r;
+}
+
+const std::string kExamples = CAMBIUM_SOURCE_DIR "/examples/";
+
+TEST(Cli, InfoPrintsCountsDepthAndBounds)
+{
+    const Result r = run("info " + kExamples + "branch_junction.json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("nodes      11: 7 primitives, 3 operators, 1 warp"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("cone                   5"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("pcm                    1"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("depth      4"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("bounds     min"), std::string::npos) << r.out;
+    EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+TEST(Cli, MalformedSceneFailsWithAClearMessage)
+{
+    const auto path = std::filesystem::temp_directory_path() / "cambium_cli_bad.json";
+    {
+        std::ofstream f(path);
+        f << R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
+             {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})";
+    }
+    const Result r = run("info " + path.string());
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(r.out.empty()) << r.out;
+    EXPECT_NE(r.err.find(path.string() + ": root.children[1].r0: must be greater than 0"), std::string::npos)
+        << r.err;
+    std::filesystem::remove(path);
+}
+
+TEST(Cli, MissingSceneFails)
+{
+    const Result r = run("info /nonexistent/scene.json");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("/nonexistent/scene.json: cannot read the scene file"), std::string::npos) << r.err;
+}
+
+TEST(Cli, EvalPrintsTheFieldAtAPoint)
+{
+    // On the sphere of radius 1 of the issue's example, far from the cone.
+    const Result r = run("eval " + kExamples + "sphere_and_cone.json -- 0 -1 0");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("field     0.5 "), std::string::npos) << r.out;
+}
+
+TEST(Cli, VersionListsTheLibrariesAndAnOpenCLDevice)
+{
+    const Result r = run("version");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("OpenVDB      10."), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("Embree       3."), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("OpenCL"), std::string::npos) << r.out;
+}
+
+TEST(Cli, UnknownCommandIsAUsageError)
+{
+    const Result r = run("frobnicate");
+    EXPECT_NE(r.status, 0);
+}
+
+}  // namespace

@@ -1,0 +1,89 @@
+// cambium tests — shared helpers.
+#pragma once
+
+#include "blobtree/blobtree.h"
+#include "blobtree/evaluator.h"
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <functional>
+#include <random>
+
+namespace cambium::test {
+
+inline glm::dvec3 randomUnit(std::mt19937& rng)
+{
+    std::normal_distribution<double> n(0.0, 1.0);
+    glm::dvec3 v;
+    do {
+        v = {n(rng), n(rng), n(rng)};
+    } while (glm::length(v) < 1e-6);
+    return glm::normalize(v);
+}
+
+inline glm::dvec3 randomIn(std::mt19937& rng, const glm::dvec3& lo, const glm::dvec3& hi)
+{
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    return lo + (hi - lo) * glm::dvec3(u(rng), u(rng), u(rng));
+}
+
+/// Central-difference gradient of f at p with step h.
+inline glm::dvec3 finiteDifference(const std::function<double(const glm::dvec3&)>& f,
+                                   const glm::dvec3& p, double h)
+{
+    glm::dvec3 g;
+    for (int k = 0; k < 3; ++k) {
+        glm::dvec3 e(0.0);
+        e[k] = h;
+        g[k] = (f(p + e) - f(p - e)) / (2.0 * h);
+    }
+    return g;
+}
+
+/// Outcome of comparing an analytic gradient with finite differences.
+enum class GradientCheck { Agrees, Disagrees, NotSmooth };
+
+/// Compares `analytic` with central differences of f at p.  Where the field
+/// has a crease within a step (a CSG switch, a PCM ridge, a cone's end plane)
+/// the two difference quotients with steps h and h/2 disagree: that point is
+/// reported NotSmooth instead of failing.
+inline GradientCheck checkGradient(const std::function<double(const glm::dvec3&)>& f,
+                                   const glm::dvec3& p, const glm::dvec3& analytic, double h,
+                                   double tol)
+{
+    const glm::dvec3 g1 = finiteDifference(f, p, h);
+    const glm::dvec3 g2 = finiteDifference(f, p, 0.5 * h);
+    const double scale = std::max({1.0, glm::length(g1), glm::length(analytic)});
+    if (glm::length(g1 - g2) > tol * scale)
+        return GradientCheck::NotSmooth;
+    return glm::length(g2 - analytic) <= tol * scale ? GradientCheck::Agrees
+                                                     : GradientCheck::Disagrees;
+}
+
+/// The root of f on [a, b] by bisection (f(a) and f(b) of opposite signs).
+inline double bisect(const std::function<double(double)>& f, double a, double b, int iters = 200)
+{
+    double fa = f(a);
+    for (int i = 0; i < iters; ++i) {
+        const double m = 0.5 * (a + b);
+        const double fm = f(m);
+        if ((fm > 0) == (fa > 0)) {
+            a = m;
+            fa = fm;
+        } else {
+            b = m;
+        }
+    }
+    return 0.5 * (a + b);
+}
+
+/// Distance from p along dir at which the tree's field crosses its threshold
+/// (searching outwards from p, which must be inside, up to maxDist).
+inline double surfaceDistance(const ReferenceEvaluator& eval, double T, const glm::dvec3& p,
+                              const glm::dvec3& dir, double maxDist)
+{
+    return bisect([&](double t) { return eval.value(p + t * dir) - T; }, 0.0, maxDist);
+}
+
+}  // namespace cambium::test

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# cambium setup on Debian 12: installs what is missing (apt-get, as root or
+# through sudo), configures and builds, then
+#   bash tools/setup.sh run    runs the main job on the bundled default example
+#   bash tools/setup.sh test   runs every test through CTest
+# Idempotent: with everything present it only checks and rebuilds what changed.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${CAMBIUM_BUILD_DIR:-$root/build}
+mode=${1:-run}
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libopenvdb-dev libnanovdb-dev libopenvdb-tools libblosc-dev libboost-iostreams-dev
+  libopenimageio-dev openimageio-tools libglm-dev libembree-dev libtbb-dev
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
+  libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "cambium setup: installing ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}"
+fi
+
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build "$build" -j"$(nproc)"
+
+case "$mode" in
+  run)
+    "$build/cambium" info "$root/examples/branch_junction.json"
+    ;;
+  test)
+    ctest --test-dir "$build" --output-on-failure -j"$(nproc)"
+    ;;
+  build)
+    ;;
+  *)
+    echo "usage: bash tools/setup.sh [run|test|build]" >&2
+    exit 64
+    ;;
+esac
