@@ -12,43 +12,28 @@
 #if defined(__OPENCL_VERSION__)
 typedef float cb_real;
 #define CB_R(x) (x##f)
-#define CB_SQRT sqrt
-#define CB_ATAN atan
-#define CB_ATAN2 atan2
-#define CB_POW pow
-#define CB_FABS fabs
-#define CB_SIN sin
-#define CB_COS cos
-#define CB_FMIN fmin
-#define CB_FMAX fmax
-#else
+#define CB_MATH(f) f /* OpenCL's built-ins are overloaded */
+#elif defined(CB_REAL_IS_FLOAT)
 #include <math.h>
-#if defined(CB_REAL_IS_FLOAT)
 typedef float cb_real;
 #define CB_R(x) (x##f)
-#define CB_SQRT sqrtf
-#define CB_ATAN atanf
-#define CB_ATAN2 atan2f
-#define CB_POW powf
-#define CB_FABS fabsf
-#define CB_SIN sinf
-#define CB_COS cosf
-#define CB_FMIN fminf
-#define CB_FMAX fmaxf
+#define CB_MATH(f) f##f /* sqrtf, atanf, ... */
 #else
+#include <math.h>
 typedef double cb_real;
 #define CB_R(x) (x)
-#define CB_SQRT sqrt
-#define CB_ATAN atan
-#define CB_ATAN2 atan2
-#define CB_POW pow
-#define CB_FABS fabs
-#define CB_SIN sin
-#define CB_COS cos
-#define CB_FMIN fmin
-#define CB_FMAX fmax
+#define CB_MATH(f) f
 #endif
-#endif
+
+#define CB_SQRT CB_MATH(sqrt)
+#define CB_ATAN CB_MATH(atan)
+#define CB_ATAN2 CB_MATH(atan2)
+#define CB_POW CB_MATH(pow)
+#define CB_FABS CB_MATH(fabs)
+#define CB_SIN CB_MATH(sin)
+#define CB_COS CB_MATH(cos)
+#define CB_FMIN CB_MATH(fmin)
+#define CB_FMAX CB_MATH(fmax)
 
 /* Every helper is a static inline function: no symbols leak, and OpenCL C 1.2
  * accepts `static` on non-kernel functions. */

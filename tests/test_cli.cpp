@@ -49,19 +49,31 @@ TEST(Cli, InfoPrintsCountsDepthAndBounds)
     EXPECT_TRUE(r.err.empty()) << r.err;
 }
 
-TEST(Cli, MalformedSceneFailsWithAClearMessage)
+TEST(Cli, MalformedScenesFailWithAClearMessage)
 {
     const auto path = std::filesystem::temp_directory_path() / "cambium_cli_bad.json";
-    {
-        std::ofstream f(path);
-        f << R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
-             {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})";
+    const std::pair<const char*, const char*> cases[] = {
+        {R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
+             {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})",
+         ": root.children[1].r0: must be greater than 0 (got -0.3)"},
+        {R"({"root": {"type": "cone", "p0": [0,0,0], "r0": 0.3, "r1": 0.1}})", ": root.p1: missing"},
+        {R"({"root": {"type": "spher", "center": [0,0,0], "radius": 1}})",
+         ": root.type: unknown node type 'spher' (did you mean 'sphere'?)"},
+        {"{\"root\": {\"type\": \"sphere\",\n \"center\": [0, NaN, 0], \"radius\": 1}}",
+         ": JSON syntax error: parse error at line 2, column"},
+        {R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e999}})",
+         ": JSON syntax error: number overflow parsing '1e999'"},
+    };
+    for (const auto& [text, expected] : cases) {
+        {
+            std::ofstream f(path);
+            f << text;
+        }
+        const Result r = run("info " + path.string());
+        EXPECT_EQ(r.status, 2) << expected;
+        EXPECT_TRUE(r.out.empty()) << r.out;
+        EXPECT_NE(r.err.find("cambium: error: " + path.string() + expected), std::string::npos) << r.err;
     }
-    const Result r = run("info " + path.string());
-    EXPECT_EQ(r.status, 2);
-    EXPECT_TRUE(r.out.empty()) << r.out;
-    EXPECT_NE(r.err.find(path.string() + ": root.children[1].r0: must be greater than 0"), std::string::npos)
-        << r.err;
     std::filesystem::remove(path);
 }
 

@@ -29,6 +29,13 @@ struct TwoSpheres {
     }
 };
 
+Combiner pcmOfWidth(double width)
+{
+    Combiner pcm{NodeType::PCM};
+    pcm.width = width;
+    return pcm;
+}
+
 TEST(Blend, IsCommutative)
 {
     std::mt19937 rng(4);
@@ -146,8 +153,7 @@ TEST(Pcm, DeformedFieldsMeetOnTheContactSurfaceAndDoNotInterpenetrate)
     std::mt19937 rng(6);
     // Unequal spheres, so the contact surface f_a = f_b is curved.
     TwoSpheres s(1.0, 0.7, 1.2);
-    Combiner pcm{NodeType::PCM};
-    pcm.width = 0.2;
+    const Combiner pcm = pcmOfWidth(0.2);
     const ReferenceEvaluator eval = s.rooted(pcm);
     auto fa = [&](const glm::dvec3& p) { return eval.sample(s.a, p).value; };
     auto fb = [&](const glm::dvec3& p) { return eval.sample(s.b, p).value; };
@@ -186,8 +192,7 @@ TEST(Pcm, BulgeIsPositiveInThePropagationRegionAndVanishesBeyond)
 {
     std::mt19937 rng(7);
     TwoSpheres s(1.0, 1.0, 1.5);
-    Combiner pcm{NodeType::PCM};
-    pcm.width = 0.2;
+    const Combiner pcm = pcmOfWidth(0.2);
     const ReferenceEvaluator eval = s.rooted(pcm);
     int inRegion = 0, beyond = 0;
     for (int i = 0; i < 4000; ++i) {
@@ -212,8 +217,7 @@ TEST(Pcm, FieldAndGradientAreContinuousAcrossTheRegionBorders)
     // Walk from deep inside B (interpenetration) to far from it, staying where
     // A is clearly the stronger field, and look at each border crossing.
     TwoSpheres s(1.4, 0.6, 1.6);
-    Combiner pcm{NodeType::PCM};
-    pcm.width = 0.2;
+    const Combiner pcm = pcmOfWidth(0.2);
     const ReferenceEvaluator eval = s.rooted(pcm);
     int crossings = 0;
     // Rays from B's centre (x = 0.8) towards A's centre: B's surface and its

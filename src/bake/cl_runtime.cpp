@@ -9,24 +9,15 @@ namespace cambium {
 
 namespace {
 
-std::string platformString(cl_platform_id p, cl_platform_info what)
+/// A string property through one of OpenCL's two-call query functions.
+template <class Handle, class Param, class Query>
+std::string infoString(Query query, Handle h, Param what)
 {
     size_t n = 0;
-    if (clGetPlatformInfo(p, what, 0, nullptr, &n) != CL_SUCCESS || n == 0)
+    if (query(h, what, 0, nullptr, &n) != CL_SUCCESS || n == 0)
         return {};
     std::string s(n, '\0');
-    clGetPlatformInfo(p, what, n, s.data(), nullptr);
-    s.resize(n - 1);
-    return s;
-}
-
-std::string deviceString(cl_device_id d, cl_device_info what)
-{
-    size_t n = 0;
-    if (clGetDeviceInfo(d, what, 0, nullptr, &n) != CL_SUCCESS || n == 0)
-        return {};
-    std::string s(n, '\0');
-    clGetDeviceInfo(d, what, n, s.data(), nullptr);
+    query(h, what, n, s.data(), nullptr);
     s.resize(n - 1);
     return s;
 }
@@ -54,8 +45,9 @@ std::vector<OpenCLDeviceInfo> listOpenCLDevices()
         std::vector<cl_device_id> devices(nd);
         clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, nd, devices.data(), nullptr);
         for (cl_device_id d : devices)
-            out.push_back({platformString(p, CL_PLATFORM_NAME), deviceString(d, CL_DEVICE_NAME),
-                           deviceString(d, CL_DEVICE_VERSION), p, d});
+            out.push_back({infoString(clGetPlatformInfo, p, CL_PLATFORM_NAME),
+                           infoString(clGetDeviceInfo, d, CL_DEVICE_NAME),
+                           infoString(clGetDeviceInfo, d, CL_DEVICE_VERSION), p, d});
     }
     return out;
 }

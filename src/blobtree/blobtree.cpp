@@ -57,6 +57,18 @@ void requirePositive(double v, const char* field)
         throw ParameterError(field, fmt::format("must be greater than 0 (got {})", v));
 }
 
+cb_vec3 toCb(const glm::dvec3& v) { return cb_v3(v.x, v.y, v.z); }
+
+/// A warp's axis: finite, nonzero, returned normalized.
+cb_vec3 unitAxis(const glm::dvec3& axis)
+{
+    requireFinite(axis, "axis");
+    const double l = glm::length(axis);
+    if (!(l > 0.0))
+        throw ParameterError("axis", "must not be zero");
+    return toCb(axis / l);
+}
+
 void requireWeight(double w)
 {
     requireFinite(w, "weight");
@@ -110,8 +122,12 @@ BlobTree::BlobTree(double threshold)
     xT_ = cb_wyvill_inverse(threshold);
 }
 
-int BlobTree::add(Node n)
+int BlobTree::add(NodeType type, NodeParams params, std::vector<int> children)
 {
+    Node n;
+    n.type = type;
+    n.children = std::move(children);
+    n.params = std::move(params);
     nodes_.push_back(std::move(n));
     return int(nodes_.size()) - 1;
 }
@@ -126,72 +142,57 @@ int BlobTree::sphere(const glm::dvec3& center, double radius, const PrimitiveOpt
 {
     requireFinite(center, "center");
     requirePositive(radius, "radius");
-    requireWeight(o.weight);
-    Primitive p;
-    p.p0 = p.p1 = center;
-    p.r0 = p.r1 = radius;
-    p.weight = o.weight;
-    if (o.support) {
-        requirePositive(*o.support, "support");
-        p.sigma = *o.support * xT_ / radius;
-    }
-    Node n;
-    n.type = NodeType::SPHERE;
-    n.params = p;
-    return add(std::move(n));
+    return addSkeletal(NodeType::SPHERE, center, center, radius, radius, o);
 }
 
 int BlobTree::segment(const glm::dvec3& p0, const glm::dvec3& p1, double radius,
                       const PrimitiveOptions& o)
 {
     requirePositive(radius, "radius");
-    int i = cone(p0, p1, radius, radius, o);
-    nodes_[size_t(i)].type = NodeType::SEGMENT;
-    return i;
+    return addSkeletal(NodeType::SEGMENT, p0, p1, radius, radius, o);
 }
 
 int BlobTree::cone(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
                    const PrimitiveOptions& o)
 {
-    requireFinite(p0, "p0");
-    requireFinite(p1, "p1");
-    requirePositive(r0, "r0");
-    requirePositive(r1, "r1");
-    requireWeight(o.weight);
-    Primitive p;
-    p.p0 = p0;
-    p.p1 = p1;
-    p.r0 = r0;
-    p.r1 = r1;
-    p.weight = o.weight;
-    if (o.support) {
-        requirePositive(*o.support, "support");
-        p.sigma = *o.support * xT_ / r0;
-    }
-    Node n;
-    n.type = NodeType::CONE;
-    n.params = p;
-    return add(std::move(n));
+    return addSkeletal(NodeType::CONE, p0, p1, r0, r1, o);
 }
 
-int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
-                                 const ConvolutionOptions& o)
+Primitive BlobTree::primitive(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                              double weight)
 {
     requireFinite(p0, "p0");
     requireFinite(p1, "p1");
     requirePositive(r0, "r0");
     requirePositive(r1, "r1");
-    requireWeight(o.weight);
-    double len = glm::length(p1 - p0);
-    if (!(len > 0.0))
-        throw ParameterError("p1", "is equal to p0: a convolution segment needs a length");
-    const double rmax = std::max(r0, r1);
+    requireWeight(weight);
     Primitive p;
     p.p0 = p0;
     p.p1 = p1;
     p.r0 = r0;
     p.r1 = r1;
-    p.weight = o.weight;
+    p.weight = weight;
+    return p;
+}
+
+int BlobTree::addSkeletal(NodeType type, const glm::dvec3& p0, const glm::dvec3& p1, double r0,
+                          double r1, const PrimitiveOptions& o)
+{
+    Primitive p = primitive(p0, p1, r0, r1, o.weight);
+    if (o.support) {
+        requirePositive(*o.support, "support");
+        p.sigma = *o.support * xT_ / r0;
+    }
+    return add(type, p);
+}
+
+int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                                 const ConvolutionOptions& o)
+{
+    Primitive p = primitive(p0, p1, r0, r1, o.weight);
+    if (!(glm::length(p1 - p0) > 0.0))
+        throw ParameterError("p1", "is equal to p0: a convolution segment needs a length");
+    const double rmax = std::max(r0, r1);
     p.kernelWidth = o.kernelWidth.value_or(1.0 / rmax);
     requirePositive(p.kernelWidth, "kernel_width");
     p.support = o.support.value_or(3.0 * rmax);
@@ -202,10 +203,7 @@ int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, dou
                                    2.0 * rmax, p.support));
     p.q0 = cb_convolution_density(r0, p.kernelWidth, T_);
     p.q1 = cb_convolution_density(r1, p.kernelWidth, T_);
-    Node n;
-    n.type = NodeType::CONVOLUTION_SEGMENT;
-    n.params = p;
-    return add(std::move(n));
+    return add(NodeType::CONVOLUTION_SEGMENT, p);
 }
 
 void BlobTree::validate(const Combiner& c) const
@@ -253,11 +251,7 @@ int BlobTree::op(const Combiner& c, std::vector<int> children)
         throw ParameterError("children", fmt::format("a '{}' needs at least one child", typeName(c.type)));
     for (int ch : children)
         checkChild(ch, "children");
-    Node n;
-    n.type = c.type;
-    n.children = std::move(children);
-    n.params = c;
-    return add(std::move(n));
+    return add(c.type, c, std::move(children));
 }
 
 int BlobTree::gbb(int bound, std::vector<int> children, const Combiner& b1, const Combiner& b2)
@@ -277,11 +271,7 @@ int BlobTree::gbb(int bound, std::vector<int> children, const Combiner& b1, cons
         throw ParameterError("children", "a 'gbb' needs at least one child");
     for (int ch : children)
         checkChild(ch, "children");
-    Node n;
-    n.type = NodeType::GBB;
-    n.children = std::move(children);
-    n.params = GbbParams{b1, b2, bound};
-    return add(std::move(n));
+    return add(NodeType::GBB, GbbParams{b1, b2, bound}, std::move(children));
 }
 
 int BlobTree::transform(const glm::dmat4& m, int child)
@@ -305,11 +295,7 @@ int BlobTree::transform(const glm::dmat4& m, int child)
             t.forward[4 * r + c] = m[c][r];  // glm is column-major: m[col][row]
             t.inverse.m[4 * r + c] = inv[c][r];
         }
-    Node n;
-    n.type = NodeType::TRANSFORM;
-    n.children = {child};
-    n.params = t;
-    return add(std::move(n));
+    return add(NodeType::TRANSFORM, t, {child});
 }
 
 int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& dir,
@@ -333,32 +319,15 @@ int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3&
         throw ParameterError("angle", fmt::format("must be less than 180 degrees in magnitude (got "
                                                   "{} degrees)",
                                                   angle * 180.0 / M_PI));
-    Node n;
-    n.type = NodeType::BEND;
-    n.children = {child};
-    n.params = cb_bend_setup(cb_v3(p0.x, p0.y, p0.z), cb_v3(p1.x, p1.y, p1.z),
-                             cb_v3(dir.x, dir.y, dir.z), angle);
-    return add(std::move(n));
+    return add(NodeType::BEND, cb_bend_setup(toCb(p0), toCb(p1), toCb(dir), angle), {child});
 }
 
 int BlobTree::twist(const glm::dvec3& origin, const glm::dvec3& axis, double rate, int child)
 {
     checkChild(child, "children");
     requireFinite(origin, "origin");
-    requireFinite(axis, "axis");
     requireFinite(rate, "rate");
-    const double l = glm::length(axis);
-    if (!(l > 0.0))
-        throw ParameterError("axis", "must not be zero");
-    cb_twist t;
-    t.o = cb_v3(origin.x, origin.y, origin.z);
-    t.a = cb_v3(axis.x / l, axis.y / l, axis.z / l);
-    t.rate = rate;
-    Node n;
-    n.type = NodeType::TWIST;
-    n.children = {child};
-    n.params = t;
-    return add(std::move(n));
+    return add(NodeType::TWIST, cb_twist{toCb(origin), unitAxis(axis), rate}, {child});
 }
 
 int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double length, double scale0,
@@ -366,24 +335,11 @@ int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double len
 {
     checkChild(child, "children");
     requireFinite(origin, "origin");
-    requireFinite(axis, "axis");
     requirePositive(length, "length");
     requirePositive(scale0, "scale0");
     requirePositive(scale1, "scale1");
-    const double l = glm::length(axis);
-    if (!(l > 0.0))
-        throw ParameterError("axis", "must not be zero");
-    cb_taper t;
-    t.o = cb_v3(origin.x, origin.y, origin.z);
-    t.a = cb_v3(axis.x / l, axis.y / l, axis.z / l);
-    t.len = length;
-    t.scale0 = scale0;
-    t.scale1 = scale1;
-    Node n;
-    n.type = NodeType::TAPER;
-    n.children = {child};
-    n.params = t;
-    return add(std::move(n));
+    return add(NodeType::TAPER, cb_taper{toCb(origin), unitAxis(axis), length, scale0, scale1},
+               {child});
 }
 
 void BlobTree::setColor(int node, const glm::dvec3& rgb)

@@ -140,7 +140,11 @@ public:
     void validate(const Combiner& c) const;
 
 private:
-    int add(Node n);
+    int add(NodeType type, NodeParams params, std::vector<int> children = {});
+    int addSkeletal(NodeType type, const glm::dvec3& p0, const glm::dvec3& p1, double r0,
+                    double r1, const PrimitiveOptions& o);
+    static Primitive primitive(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                               double weight);
     void checkChild(int child, const char* field) const;
 
     std::vector<Node> nodes_;
