@@ -138,6 +138,16 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{R"({"threshold": 0.5})", "root: missing"},
         BadCase{R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1})", "JSON syntax error"}));
 
+TEST(SceneIo, OperatorDefaultsFitALowThreshold)
+{
+    // Width 0.25 and k 0.3 would be out of range at T = 0.2: the defaults follow T.
+    const BlobTree tree = parseScene(R"({"threshold": 0.2, "root": {"type": "blend", "children": [
+        {"type": "pcm", "children": [)" CONE("") "]}, " R"({"type": "better_blend", "children": [)" CONE("") "]}]}}",
+                                     "low.json");
+    EXPECT_LE(tree.node(1).combiner().width, 0.2);
+    EXPECT_LT(tree.node(3).combiner().k, 0.2);
+}
+
 TEST(SceneIo, MissingFileIsNamed)
 {
     try {

@@ -194,16 +194,19 @@ private:
     }
 
     /// Reads the parameters of a blending operator from `obj` into `c`.
+    /// Defaults that depend on the threshold stay valid for any threshold:
+    /// a PCM width of at most T, a better-blend cut-off below T.
     void combinerParams(const json& obj, const std::string& path, Combiner& c)
     {
+        const double T = tree_.threshold();
         if (c.type == NodeType::RICCI)
             c.n = optNumber(obj, "n", path).value_or(c.n);
         if (c.type == NodeType::PCM) {
-            c.width = optNumber(obj, "width", path).value_or(c.width);
+            c.width = optNumber(obj, "width", path).value_or(std::min(c.width, T));
             c.attenuation = optNumber(obj, "attenuation", path).value_or(c.attenuation);
         }
         if (c.type == NodeType::BETTER_BLEND)
-            c.k = optNumber(obj, "k", path).value_or(c.k);
+            c.k = optNumber(obj, "k", path).value_or(std::min(c.k, 0.6 * T));
     }
 
     /// A GBB side: {"type": "pcm", "width": ...}, a blending operator without children.
