@@ -15,17 +15,15 @@
  * Negative child values (scars) are clamped to 0 first: the power of a
  * negative field is not defined for real n.  Accumulate cb_ricci_term over
  * the children, then finish; dF/df_i = (f_i / F)^(n-1) for f_i > 0. */
-CB_FN cb_real cb_ricci_term(cb_real f, cb_real n)
-{
-    return f > CB_R(0.0) ? CB_POW(f, n) : CB_R(0.0);
-}
+CB_FN cb_real cb_ricci_term(cb_real f, cb_real n) { return CB_POW(CB_FMAX(f, CB_R(0.0)), n); }
 CB_FN cb_real cb_ricci_finish(cb_real sum, cb_real n)
 {
-    return sum > CB_R(0.0) ? CB_POW(sum, CB_R(1.0) / n) : CB_R(0.0);
+    return CB_POW(CB_FMAX(sum, CB_R(0.0)), CB_R(1.0) / n);
 }
 CB_FN cb_real cb_ricci_partial(cb_real f, cb_real F, cb_real n)
 {
-    return (f > CB_R(0.0) && F > CB_R(0.0)) ? CB_POW(f / F, n - CB_R(1.0)) : CB_R(0.0);
+    return CB_SELECT(CB_R(0.0), CB_POW(cb_div0(CB_FMAX(f, CB_R(0.0)), F), n - CB_R(1.0)),
+                     f > CB_R(0.0) && F > CB_R(0.0));
 }
 
 /* ---------------------------------------------------------------------------
@@ -52,20 +50,13 @@ CB_FN cb_real cb_csg_complement(cb_real f, cb_real T) { return CB_R(2.0) * T - f
 CB_FN cb_real cb_pcm_deformation(cb_real f_other, cb_real T, cb_real w, cb_real k, cb_real* dD)
 {
     cb_real s = T - f_other;
-    if (s <= CB_R(0.0)) {
-        *dD = CB_R(-1.0);
-        return s;
-    }
-    if (s >= w) {
-        *dD = CB_R(0.0);
-        return CB_R(0.0);
-    }
-    cb_real x = s / w;
+    cb_real x = cb_clamp01(s / w);
     cb_real om = CB_R(1.0) - x;
     cb_real pk1 = CB_POW(om, k - CB_R(1.0));
-    /* d/ds [s (1-x)^k] = (1-x)^(k-1) (1 - (k+1) x) */
-    *dD = -pk1 * (CB_R(1.0) - (k + CB_R(1.0)) * x);
-    return s * pk1 * om;
+    cb_mask inside = s <= CB_R(0.0);
+    /* d/ds [s (1-x)^k] = (1-x)^(k-1) (1 - (k+1) x), zero from s = w on */
+    *dD = CB_SELECT(pk1 * ((k + CB_R(1.0)) * x - CB_R(1.0)), CB_R(-1.0), inside);
+    return CB_SELECT(s * pk1 * om, s, inside);
 }
 
 /* ---------------------------------------------------------------------------
@@ -79,24 +70,14 @@ CB_FN cb_real cb_pcm_deformation(cb_real f_other, cb_real T, cb_real w, cb_real 
  * values (scars) use the odd extension g(-t) = -g(t).  *dg receives g'(t). */
 CB_FN cb_real cb_better_blend_g(cb_real t, cb_real c, cb_real k, cb_real* dg)
 {
-    cb_real sign = t < CB_R(0.0) ? CB_R(-1.0) : CB_R(1.0);
     cb_real a = CB_FABS(t);
-    cb_real g, d;
-    if (a <= k) {
-        g = CB_R(0.0);
-        d = CB_R(0.0);
-    } else if (a >= CB_R(2.0) * c - k) {
-        g = CB_R(2.0) * c;
-        d = CB_R(0.0);
-    } else {
-        cb_real b = a <= c ? a : CB_R(2.0) * c - a;
-        cb_real u = (b - k) / (c - k);
-        cb_real h = c * u * u;
-        d = CB_R(2.0) * c * u / (c - k);
-        g = a <= c ? h : CB_R(2.0) * c - h;
-    }
-    *dg = d;
-    return sign * g;
+    cb_mask low = a <= c;
+    /* b folds the upper half onto the lower: h_k is evaluated at a or 2c - a. */
+    cb_real b = CB_SELECT(CB_R(2.0) * c - a, a, low);
+    cb_real u = cb_clamp01((b - k) / (c - k));
+    cb_real h = c * u * u;
+    *dg = CB_R(2.0) * c * u / (c - k);
+    return CB_SELECT(CB_R(1.0), CB_R(-1.0), t < CB_R(0.0)) * CB_SELECT(CB_R(2.0) * c - h, h, low);
 }
 
 /* ---------------------------------------------------------------------------
@@ -106,7 +87,7 @@ CB_FN cb_real cb_better_blend_g(cb_real t, cb_real c, cb_real k, cb_real* dg)
 CB_FN cb_real cb_gbb(cb_real fb, cb_real b1, cb_real b2, cb_real* dFb)
 {
     cb_real b = cb_clamp01(fb);
-    *dFb = (fb > CB_R(0.0) && fb < CB_R(1.0)) ? b1 - b2 : CB_R(0.0);
+    *dFb = CB_SELECT(CB_R(0.0), b1 - b2, fb > CB_R(0.0) && fb < CB_R(1.0));
     return b * b1 + (CB_R(1.0) - b) * b2;
 }
 

@@ -21,20 +21,23 @@
  * *dw receives dw/dx. */
 CB_FN cb_real cb_wyvill(cb_real x, cb_real* dw)
 {
-    if (x >= CB_R(1.0) || x <= CB_R(0.0)) {
-        *dw = CB_R(0.0);
-        return x >= CB_R(1.0) ? CB_R(0.0) : CB_R(1.0);
-    }
-    cb_real y = x * x;
-    *dw = x * (CB_R(-44.0) / CB_R(9.0) + y * (CB_R(68.0) / CB_R(9.0) - y * CB_R(24.0) / CB_R(9.0)));
-    /* Non-negative on [0, 1]; the clamp removes rounding below zero next to x = 1. */
-    return CB_FMAX(CB_R(1.0) + y * (CB_R(-22.0) / CB_R(9.0) +
-                                    y * (CB_R(17.0) / CB_R(9.0) - y * CB_R(4.0) / CB_R(9.0))),
-                   CB_R(0.0));
+    cb_real xc = cb_clamp01(x);
+    cb_real y = xc * xc;
+    cb_mask beyond = x >= CB_R(1.0);
+    /* The polynomial vanishes at 1 and its slope vanishes at 0 and 1; the
+     * selects make "zero beyond the support" exact rather than rounded. */
+    *dw = CB_SELECT(xc * (CB_R(-44.0) / CB_R(9.0) + y * (CB_R(68.0) / CB_R(9.0) - y * CB_R(24.0) / CB_R(9.0))),
+                    CB_R(0.0), beyond);
+    return CB_SELECT(CB_FMAX(CB_R(1.0) + y * (CB_R(-22.0) / CB_R(9.0) +
+                                              y * (CB_R(17.0) / CB_R(9.0) - y * CB_R(4.0) / CB_R(9.0))),
+                             CB_R(0.0)),
+                     CB_R(0.0), beyond);
 }
 
+#if CB_LANES == 1
 /* x in [0, 1] with w(x) = T, for T in (0, 1): w is strictly decreasing there,
- * so bisection is exact to the last bit. x(0.5) = 0.5. */
+ * so bisection is exact to the last bit. x(0.5) = 0.5.  (Computed once on the
+ * host; a parameter for the kernels.) */
 CB_FN cb_real cb_wyvill_inverse(cb_real T)
 {
     cb_real lo = CB_R(0.0), hi = CB_R(1.0), dw;
@@ -48,6 +51,7 @@ CB_FN cb_real cb_wyvill_inverse(cb_real T)
     }
     return CB_R(0.5) * (lo + hi);
 }
+#endif
 
 /* ---------------------------------------------------------------------------
  * Skeletal falloff.  A primitive whose isolated surface lies at distance r
@@ -81,7 +85,7 @@ CB_FN cb_real cb_sphere_field(cb_vec3 p, cb_vec3 c, cb_real r, cb_real sigma, cb
     cb_vec3 e = cb_sub(p, c);
     cb_real d = cb_length(e), fd, fr;
     cb_real f = cb_skeletal_field(d, r, sigma, xT, &fd, &fr);
-    *grad = d > CB_R(0.0) ? cb_scale(e, fd / d) : cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+    *grad = cb_scale(e, cb_div0(fd, d));
     return f;
 }
 
@@ -96,16 +100,14 @@ CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_
                             cb_real r1, cb_real sigma, cb_real xT, cb_vec3* grad)
 {
     cb_vec3 d = cb_sub(p, a);
-    cb_real tt = len > CB_R(0.0) ? cb_dot(d, axis) / len : CB_R(0.0);
+    cb_real tt = cb_div0(cb_dot(d, axis), len);
     cb_real t = cb_clamp01(tt);
     cb_vec3 e = cb_madd(d, axis, -t * len);
     cb_real dist = cb_length(e), fd, fr;
     cb_real r = r0 + (r1 - r0) * t;
     cb_real f = cb_skeletal_field(dist, r, sigma, xT, &fd, &fr);
-    cb_vec3 g = dist > CB_R(0.0) ? cb_scale(e, fd / dist) : cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
-    if (tt > CB_R(0.0) && tt < CB_R(1.0))
-        g = cb_madd(g, axis, fr * (r1 - r0) / len);
-    *grad = g;
+    cb_real slope = CB_SELECT(CB_R(0.0), fr * cb_div0(r1 - r0, len), tt > CB_R(0.0) && tt < CB_R(1.0));
+    *grad = cb_madd(cb_scale(e, cb_div0(fd, dist)), axis, slope);
     return f;
 }
 
@@ -184,7 +186,7 @@ CB_FN cb_real cb_convolution_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real l
     cb_real t = cb_clamp01(cb_dot(d, axis) / len);
     cb_vec3 e = cb_madd(d, axis, -t * len);
     cb_real dist = cb_length(e);
-    if (dist >= support) {
+    if (CB_ALL(dist >= support)) { /* the whole batch of points is beyond the window */
         *grad = cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
         return CB_R(0.0);
     }
@@ -192,10 +194,7 @@ CB_FN cb_real cb_convolution_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real l
     cb_real raw = cb_convolution_raw(p, a, axis, len, q0, q1, s, &graw);
     cb_real dW;
     cb_real W = cb_wyvill(CB_R(2.0) * dist / support - CB_R(1.0), &dW);
-    cb_vec3 g = cb_scale(graw, W);
-    if (dist > CB_R(0.0))
-        g = cb_madd(g, e, raw * dW * CB_R(2.0) / (support * dist));
-    *grad = g;
+    *grad = cb_madd(cb_scale(graw, W), e, raw * dW * CB_R(2.0) * cb_div0(CB_R(1.0), support * dist));
     return raw * W;
 }
 

@@ -68,8 +68,9 @@ typedef struct cb_bend {
     cb_real lscale;      /* L / s: child length per arc length */
 } cb_bend;
 
+#if CB_LANES == 1
 /* theta in radians; a negative theta bends towards -dir.  dir must not be
- * parallel to p1 - p0 (the host validates). */
+ * parallel to p1 - p0 (the host validates).  Computed once, on the host. */
 CB_FN cb_bend cb_bend_setup(cb_vec3 p0, cb_vec3 p1, cb_vec3 dir, cb_real theta)
 {
     cb_bend b;
@@ -94,43 +95,47 @@ CB_FN cb_bend cb_bend_setup(cb_vec3 p0, cb_vec3 p1, cb_vec3 dir, cb_real theta)
     return b;
 }
 
+#endif
+
 CB_FN cb_vec3 cb_bend_apply(cb_bend b, cb_vec3 p, cb_real* J)
 {
     cb_vec3 d = cb_sub(p, b.p0);
     cb_real x = cb_dot(d, b.u), y = cb_dot(d, b.v), z = cb_dot(d, b.w);
-    cb_real a = x, yp = y;
-    cb_real j00 = CB_R(1.0), j01 = CB_R(0.0), j10 = CB_R(0.0), j11 = CB_R(1.0);
-    if (b.theta > CB_R(0.0)) {
-        cb_real h = CB_R(0.5) * b.theta;
-        cb_real dx = x - CB_R(0.5) * b.len, dy = y + b.rho * b.ch;
-        cb_real r2 = dx * dx + dy * dy;
-        cb_real phi = r2 > CB_R(0.0) ? CB_ATAN2(dx, dy) : CB_R(0.0);
-        if (phi < -h) { /* before p0: along the start tangent */
-            a = b.lscale * (x * b.ch + y * b.sh);
-            yp = -x * b.sh + y * b.ch;
-            j00 = b.lscale * b.ch;
-            j01 = b.lscale * b.sh;
-            j10 = -b.sh;
-            j11 = b.ch;
-        } else if (phi > h) { /* beyond p1: along the end tangent */
-            cb_real xe = x - b.len;
-            a = b.len + b.lscale * (xe * b.ch - y * b.sh);
-            yp = xe * b.sh + y * b.ch;
-            j00 = b.lscale * b.ch;
-            j01 = -b.lscale * b.sh;
-            j10 = b.sh;
-            j11 = b.ch;
-        } else { /* on the arc: polar coordinates about its centre */
-            cb_real r = CB_SQRT(r2);
-            cb_real k = b.len / b.theta;
-            a = (phi + h) * k;
-            yp = r - b.rho;
-            j00 = k * dy / r2;
-            j01 = -k * dx / r2;
-            j10 = dx / r;
-            j11 = dy / r;
-        }
-    }
+    /* theta == 0 (no bend) uses the identity; the arc quantities are then
+     * unused, and the guards below keep them finite. */
+    cb_mask straight = b.theta <= CB_R(0.0);
+    cb_real h = CB_R(0.5) * b.theta;
+    cb_real dx = x - CB_R(0.5) * b.len, dy = y + b.rho * b.ch;
+    cb_real r2 = dx * dx + dy * dy;
+    cb_real r = CB_SQRT(r2);
+    cb_real phi = CB_ATAN2(dx, dy);
+    cb_mask before = phi < -h, after = phi > h;
+    /* on the arc: polar coordinates about its centre */
+    cb_real k = cb_div0(b.len, b.theta);
+    cb_real a = (phi + h) * k, yp = r - b.rho;
+    cb_real j00 = k * cb_div0(dy, r2), j01 = -k * cb_div0(dx, r2);
+    cb_real j10 = cb_div0(dx, r), j11 = cb_div0(dy, r);
+    /* before p0: along the start tangent */
+    a = CB_SELECT(a, b.lscale * (x * b.ch + y * b.sh), before);
+    yp = CB_SELECT(yp, -x * b.sh + y * b.ch, before);
+    j00 = CB_SELECT(j00, b.lscale * b.ch, before);
+    j01 = CB_SELECT(j01, b.lscale * b.sh, before);
+    j10 = CB_SELECT(j10, -b.sh, before);
+    j11 = CB_SELECT(j11, b.ch, before);
+    /* beyond p1: along the end tangent */
+    a = CB_SELECT(a, b.len + b.lscale * ((x - b.len) * b.ch - y * b.sh), after);
+    yp = CB_SELECT(yp, (x - b.len) * b.sh + y * b.ch, after);
+    j00 = CB_SELECT(j00, b.lscale * b.ch, after);
+    j01 = CB_SELECT(j01, -b.lscale * b.sh, after);
+    j10 = CB_SELECT(j10, b.sh, after);
+    j11 = CB_SELECT(j11, b.ch, after);
+    /* no bend at all */
+    a = CB_SELECT(a, x, straight);
+    yp = CB_SELECT(yp, y, straight);
+    j00 = CB_SELECT(j00, CB_R(1.0), straight);
+    j01 = CB_SELECT(j01, CB_R(0.0), straight);
+    j10 = CB_SELECT(j10, CB_R(0.0), straight);
+    j11 = CB_SELECT(j11, CB_R(1.0), straight);
     cb_frame_jacobian(b.u, b.v, b.w, cb_add(cb_scale(b.u, j00), cb_scale(b.v, j01)),
                       cb_add(cb_scale(b.u, j10), cb_scale(b.v, j11)), b.w, J);
     return cb_madd(cb_madd(cb_madd(b.p0, b.u, a), b.v, yp), b.w, z);
@@ -192,7 +197,7 @@ CB_FN cb_vec3 cb_taper_apply(cb_taper t, cb_vec3 p, cb_real* J)
     cb_real h = cb_dot(d, t.a);
     cb_real u = h / t.len;
     cb_real s = t.scale0 + (t.scale1 - t.scale0) * cb_clamp01(u);
-    cb_real ds = (u > CB_R(0.0) && u < CB_R(1.0)) ? (t.scale1 - t.scale0) / t.len : CB_R(0.0);
+    cb_real ds = CB_SELECT(CB_R(0.0), (t.scale1 - t.scale0) / t.len, u > CB_R(0.0) && u < CB_R(1.0));
     cb_vec3 dp = cb_madd(d, t.a, -h);
     cb_vec3 a = t.a;
     cb_real is = CB_R(1.0) / s, k = -ds * is * is;

@@ -44,22 +44,22 @@ FieldSample primitiveSample(const Node& n, const glm::dvec3& p, double xT)
     FieldSample s;
     s.value = pr.weight * f;
     s.gradient = pr.weight * toGlm(g);
-    s.color = n.shade;
+    s.color = s.value != 0.0 ? n.shade : glm::dvec3(0.0);  // colour exists where the field does
     return s;
 }
 
-/// Colour as a weighted mean; where every weight vanishes (outside all
-/// supports) the plain mean of the children's colours.
+/// Colour as a weighted mean; black where every weight vanishes (outside
+/// all supports): a colour that does not depend on children whose field is
+/// zero, so a program specialised to a region keeps the same colours.
 glm::dvec3 weightedColor(const std::vector<FieldSample>& kids, const std::vector<double>& w)
 {
-    glm::dvec3 c(0.0), mean(0.0);
+    glm::dvec3 c(0.0);
     double sum = 0.0;
     for (size_t i = 0; i < kids.size(); ++i) {
         c += w[i] * kids[i].color;
         sum += w[i];
-        mean += kids[i].color;
     }
-    return sum > 0.0 ? c / sum : mean / double(kids.size());
+    return sum > 0.0 ? c / sum : glm::dvec3(0.0);
 }
 
 }  // namespace
@@ -144,7 +144,8 @@ FieldSample combine(const Combiner& c, const std::vector<FieldSample>& kids, dou
     default:
         break;
     }
-    out.color = weightedColor(kids, w);
+    // A node's colour exists where its field does (black where it is zero).
+    out.color = out.value != 0.0 ? weightedColor(kids, w) : glm::dvec3(0.0);
     return out;
 }
 
@@ -171,7 +172,7 @@ FieldSample ReferenceEvaluator::sample(int index, const glm::dvec3& p) const
         out.value = cb_gbb(fb.value, b1.value, b2.value, &dFb);
         const double b = cb_clamp01(fb.value);
         out.gradient = b * b1.gradient + (1.0 - b) * b2.gradient + dFb * fb.gradient;
-        out.color = b * b1.color + (1.0 - b) * b2.color;
+        out.color = out.value != 0.0 ? b * b1.color + (1.0 - b) * b2.color : glm::dvec3(0.0);
         return out;
     }
     case NodeKind::Warp: {

@@ -1,0 +1,370 @@
+/* cambium — the field program: a BlobTree compiled to a flat instruction
+ * stream, and its interpreter (no recursion, no pointers between nodes).
+ *
+ * Instructions are 4 ints { op, a, b, c }: `a` is an offset into the
+ * parameter table (cb_scalar), `b` and `c` depend on the op.  The stream is
+ * post-order: a primitive pushes its sample; an n-ary operator is
+ *   OPEN  child ACC  child ACC ...  CLOSE
+ * where OPEN pushes an accumulator, each ACC folds the child just evaluated
+ * into it, and CLOSE finishes it, so the stack grows with the tree's depth and
+ * not with its fan-out (a blend of 100,000 cones needs two entries).  A
+ * generalized bounded blend is OPEN(gbb) child ACC ... bound-subtree CLOSE.
+ * A warp is WARP subtree UNWARP: the subtree is evaluated at the warped point
+ * and its gradient carried back through the warp's Jacobian.
+ *
+ * The parameter table starts with T, w^-1(T) and the constant 0; node blocks
+ * follow (layouts below, mirrored by src/field/program.cpp).
+ *
+ * The same interpreter runs on the host (cb_real = double, one point: the CPU
+ * path) and in kernels/sample.cl (cb_real = float8: eight voxels of a row).
+ */
+#ifndef CAMBIUM_CB_PROGRAM_H
+#define CAMBIUM_CB_PROGRAM_H
+
+#include "cb_common.h"
+#include "cb_node_types.h"
+#include "cb_operators.h"
+#include "cb_primitives.h"
+#include "cb_warps.h"
+
+/* Opcodes.  Primitives use their node-type numbers (CB_SPHERE ... ). */
+#define CB_I_CONST 8   /* push the constant prm[a] */
+#define CB_I_OPEN 9    /* push the accumulator of the operator whose block is at a; b = node type;
+                          c = index of the subtree's support box (host only) */
+#define CB_I_ACC 10    /* fold the top entry into the accumulator below; c = 1 for the first child */
+#define CB_I_CLOSE 11  /* finish the accumulator; b = node type */
+#define CB_I_WARP 12   /* b = warp node type, params at a: warp the point; c as for OPEN */
+#define CB_I_UNWARP 13 /* restore the point, carry the gradient back */
+
+/* Parameter table header */
+#define CB_P_T 0
+#define CB_P_XT 1
+#define CB_P_ZERO 2
+#define CB_P_HEADER 3
+
+/* Node parameter blocks */
+#define CB_SPHERE_SIZE 9  /* centre(3) r sigma weight rgb(3) */
+#define CB_CONE_SIZE 14   /* p0(3) axis(3) len r0 r1 sigma weight rgb(3) */
+#define CB_CONV_SIZE 15   /* p0(3) axis(3) len q0 q1 s support weight rgb(3) */
+#define CB_OP_SIZE 5      /* type n width attenuation k */
+#define CB_GBB_SIZE 10    /* B1 block, B2 block */
+#define CB_AFFINE_SIZE 12 /* M^-1 as 3x4 row-major */
+#define CB_BEND_SIZE 18   /* p0 u v w (12) len theta rho ch sh lscale */
+#define CB_TWIST_SIZE 7   /* origin axis rate */
+#define CB_TAPER_SIZE 9   /* origin axis len scale0 scale1 */
+
+#ifndef CB_STACK_DEPTH
+#define CB_STACK_DEPTH 32
+#endif
+#ifndef CB_WARP_DEPTH
+#define CB_WARP_DEPTH 8
+#endif
+
+/* Colour accumulators use this big value as "no max/min yet". */
+#define CB_HUGE CB_R(1e30)
+
+typedef struct cb_sample {
+    cb_real v;
+    cb_vec3 g, c;
+} cb_sample;
+
+/* The value stack.  An entry is a sample (v, g, colour c) or an accumulator:
+ * running value v and gradient g, a second sum v2 with gradient h (PCM's sum
+ * of deformations), colour weighted sum c with weight sum cw. */
+typedef struct cb_stack {
+    cb_real v[CB_STACK_DEPTH], gx[CB_STACK_DEPTH], gy[CB_STACK_DEPTH], gz[CB_STACK_DEPTH];
+    cb_real v2[CB_STACK_DEPTH], hx[CB_STACK_DEPTH], hy[CB_STACK_DEPTH], hz[CB_STACK_DEPTH];
+    cb_real cr[CB_STACK_DEPTH], cg[CB_STACK_DEPTH], cb[CB_STACK_DEPTH], cw[CB_STACK_DEPTH];
+} cb_stack;
+
+CB_FN cb_vec3 cb_load3(CB_GLOBAL const cb_scalar* prm, int i)
+{
+    return cb_v3(prm[i], prm[i + 1], prm[i + 2]);
+}
+
+/* A primitive's colour exists where its field does: black where the field
+ * is zero, so that folding zero fields away never changes a colour. */
+CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g, CB_GLOBAL const cb_scalar* rgb)
+{
+    cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
+    s->v[i] = v;
+    s->gx[i] = g.x;
+    s->gy[i] = g.y;
+    s->gz[i] = g.z;
+    s->cr[i] = on * rgb[0];
+    s->cg[i] = on * rgb[1];
+    s->cb[i] = on * rgb[2];
+}
+
+CB_FN void cb_push(cb_stack* s, int i, cb_real v, cb_vec3 g, cb_vec3 c)
+{
+    s->v[i] = v;
+    s->gx[i] = g.x;
+    s->gy[i] = g.y;
+    s->gz[i] = g.z;
+    s->cr[i] = c.x;
+    s->cg[i] = c.y;
+    s->cb[i] = c.z;
+}
+
+/* Starts an accumulator for an operator of type `type` in entry i. */
+CB_FN void cb_acc_open(cb_stack* s, int i, int type)
+{
+    cb_real start = CB_R(0.0);
+    if (type == CB_UNION || type == CB_PCM)
+        start = -CB_HUGE;
+    if (type == CB_INTERSECTION || type == CB_DIFFERENCE)
+        start = CB_HUGE;
+    s->v[i] = start;
+    s->gx[i] = s->gy[i] = s->gz[i] = CB_R(0.0);
+    s->v2[i] = s->hx[i] = s->hy[i] = s->hz[i] = CB_R(0.0);
+    s->cr[i] = s->cg[i] = s->cb[i] = s->cw[i] = CB_R(0.0);
+}
+
+/* Adds weight w of the colour of entry j to the colour sums of accumulator i. */
+CB_FN void cb_acc_color(cb_stack* s, int i, int j, cb_real w)
+{
+    s->cr[i] += w * s->cr[j];
+    s->cg[i] += w * s->cg[j];
+    s->cb[i] += w * s->cb[j];
+    s->cw[i] += w;
+}
+
+/* Where mask m holds, entry i takes value v, gradient (gx, gy, gz) and the colour of entry j. */
+CB_FN void cb_acc_pick(cb_stack* s, int i, int j, cb_mask m, cb_real v, cb_real gx, cb_real gy,
+                       cb_real gz, int takeColor)
+{
+    s->v[i] = CB_SELECT(s->v[i], v, m);
+    s->gx[i] = CB_SELECT(s->gx[i], gx, m);
+    s->gy[i] = CB_SELECT(s->gy[i], gy, m);
+    s->gz[i] = CB_SELECT(s->gz[i], gz, m);
+    if (takeColor) {
+        s->cr[i] = CB_SELECT(s->cr[i], s->cr[j], m);
+        s->cg[i] = CB_SELECT(s->cg[i], s->cg[j], m);
+        s->cb[i] = CB_SELECT(s->cb[i], s->cb[j], m);
+    }
+}
+
+/* Folds the sample in entry j into accumulator i of the operator block at op. */
+CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op, cb_real T,
+                       int first)
+{
+    int type = (int)op[0];
+    cb_real f = s->v[j], d;
+    if (type == CB_BLEND) {
+        s->v[i] += f;
+        s->gx[i] += s->gx[j];
+        s->gy[i] += s->gy[j];
+        s->gz[i] += s->gz[j];
+        cb_acc_color(s, i, j, CB_FABS(f));
+    } else if (type == CB_RICCI) {
+        cb_real t = cb_ricci_term(f, op[1]);
+        cb_real gw = CB_POW(CB_FMAX(f, CB_R(0.0)), op[1] - CB_R(1.0));
+        gw = CB_SELECT(CB_R(0.0), gw, f > CB_R(0.0));
+        s->v[i] += t;
+        s->gx[i] += gw * s->gx[j];
+        s->gy[i] += gw * s->gy[j];
+        s->gz[i] += gw * s->gz[j];
+        cb_acc_color(s, i, j, t);
+    } else if (type == CB_UNION) {
+        cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 1);
+    } else if (type == CB_INTERSECTION) {
+        cb_acc_pick(s, i, j, f < s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 1);
+    } else if (type == CB_DIFFERENCE) {
+        if (first) {
+            cb_acc_pick(s, i, j, f <= s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 1);
+        } else {
+            cb_real c = cb_csg_complement(f, T);
+            cb_acc_pick(s, i, j, c < s->v[i], c, -s->gx[j], -s->gy[j], -s->gz[j], 0);
+        }
+    } else if (type == CB_PCM) {
+        /* F = f_max + sum_{j != max} D(f_j) = M - D(M) + sum_all D(f_j) */
+        cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 0);
+        cb_real D = cb_pcm_deformation(f, T, op[2], op[3], &d);
+        s->v2[i] += D;
+        s->hx[i] += d * s->gx[j];
+        s->hy[i] += d * s->gy[j];
+        s->hz[i] += d * s->gz[j];
+        cb_acc_color(s, i, j, CB_FABS(f));
+    } else if (type == CB_BETTER_BLEND) {
+        cb_real g = cb_better_blend_g(f, T, op[4], &d);
+        s->v[i] += g;
+        s->gx[i] += d * s->gx[j];
+        s->gy[i] += d * s->gy[j];
+        s->gz[i] += d * s->gz[j];
+        cb_acc_color(s, i, j, CB_FABS(g));
+    }
+}
+
+/* Turns accumulator i into a sample. */
+CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_real T)
+{
+    int type = (int)op[0];
+    if (type == CB_RICCI) {
+        cb_real F = cb_ricci_finish(s->v[i], op[1]);
+        cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(F, CB_TINY), CB_R(1.0) - op[1]),
+                              F > CB_R(0.0));
+        s->v[i] = F;
+        s->gx[i] *= k;
+        s->gy[i] *= k;
+        s->gz[i] *= k;
+    } else if (type == CB_PCM) {
+        cb_real d;
+        cb_real D = cb_pcm_deformation(s->v[i], T, op[2], op[3], &d);
+        s->v[i] += s->v2[i] - D;
+        s->gx[i] += s->hx[i] - d * s->gx[i];
+        s->gy[i] += s->hy[i] - d * s->gy[i];
+        s->gz[i] += s->hz[i] - d * s->gz[i];
+    }
+    {
+        /* Field-weighted colour (CSG picked one child's already).  Like a
+         * primitive's, a node's colour exists where its field does: black
+         * where the value is zero, so folding a zero subtree to the constant 0
+         * never changes a colour. */
+        cb_real inv = CB_R(1.0);
+        if (type != CB_UNION && type != CB_INTERSECTION && type != CB_DIFFERENCE)
+            inv = cb_div0(CB_R(1.0), s->cw[i]);
+        inv = CB_SELECT(inv, CB_R(0.0), s->v[i] == CB_R(0.0));
+        s->cr[i] *= inv;
+        s->cg[i] *= inv;
+        s->cb[i] *= inv;
+    }
+}
+
+/* Computes the warp of type `type` (params at prm) at p: returns q, writes J. */
+CB_FN cb_vec3 cb_warp_apply(int type, CB_GLOBAL const cb_scalar* w, cb_vec3 p, cb_real* J)
+{
+    int k;
+    if (type == CB_TRANSFORM) {
+        cb_affine a;
+        for (k = 0; k < 12; ++k)
+            a.m[k] = w[k];
+        return cb_affine_apply(a, p, J);
+    }
+    if (type == CB_BEND) {
+        cb_bend b;
+        b.p0 = cb_load3(w, 0);
+        b.u = cb_load3(w, 3);
+        b.v = cb_load3(w, 6);
+        b.w = cb_load3(w, 9);
+        b.len = w[12];
+        b.theta = w[13];
+        b.rho = w[14];
+        b.ch = w[15];
+        b.sh = w[16];
+        b.lscale = w[17];
+        return cb_bend_apply(b, p, J);
+    }
+    if (type == CB_TWIST) {
+        cb_twist t;
+        t.o = cb_load3(w, 0);
+        t.a = cb_load3(w, 3);
+        t.rate = w[6];
+        return cb_twist_apply(t, p, J);
+    }
+    {
+        cb_taper t;
+        t.o = cb_load3(w, 0);
+        t.a = cb_load3(w, 3);
+        t.len = w[6];
+        t.scale0 = w[7];
+        t.scale1 = w[8];
+        return cb_taper_apply(t, p, J);
+    }
+}
+
+/* Evaluates the program code[0 .. 4n) at p: field value, gradient and colour.
+ * The host checks stack and warp depths when it compiles a program. */
+CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const cb_scalar* prm,
+                               cb_vec3 p)
+{
+    cb_stack s;
+    cb_vec3 wp[CB_WARP_DEPTH];
+    cb_real wj[9 * CB_WARP_DEPTH];
+    cb_real T = prm[CB_P_T], xT = prm[CB_P_XT];
+    int top = -1, wtop = -1, pc;
+    for (pc = 0; pc < n; ++pc) {
+        int op = code[4 * pc], a = code[4 * pc + 1], b = code[4 * pc + 2];
+        CB_GLOBAL const cb_scalar* q = prm + a;
+        if (op == CB_SPHERE) {
+            cb_vec3 g;
+            cb_real f = cb_sphere_field(p, cb_load3(q, 0), q[3], q[4], xT, &g);
+            ++top;
+            cb_push_primitive(&s, top, q[5] * f, cb_scale(g, q[5]), q + 6);
+        } else if (op == CB_SEGMENT || op == CB_CONE) {
+            cb_vec3 g;
+            cb_real f = cb_cone_field(p, cb_load3(q, 0), cb_load3(q, 3), q[6], q[7], q[8], q[9], xT, &g);
+            ++top;
+            cb_push_primitive(&s, top, q[10] * f, cb_scale(g, q[10]), q + 11);
+        } else if (op == CB_CONVOLUTION_SEGMENT) {
+            cb_vec3 g;
+            cb_real f = cb_convolution_field(p, cb_load3(q, 0), cb_load3(q, 3), q[6], q[7], q[8], q[9],
+                                             q[10], &g);
+            ++top;
+            cb_push_primitive(&s, top, q[11] * f, cb_scale(g, q[11]), q + 12);
+        } else if (op == CB_I_CONST) {
+            ++top;
+            cb_push(&s, top, q[0], cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)),
+                    cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)));
+        } else if (op == CB_I_OPEN) {
+            if (b == CB_GBB) {
+                cb_acc_open(&s, top + 1, (int)q[0]);
+                cb_acc_open(&s, top + 2, (int)q[CB_OP_SIZE]);
+                top += 2;
+            } else {
+                ++top;
+                cb_acc_open(&s, top, b);
+            }
+        } else if (op == CB_I_ACC) {
+            if (b == CB_GBB) {
+                cb_acc_fold(&s, top - 2, top, q, T, code[4 * pc + 3]);
+                cb_acc_fold(&s, top - 1, top, q + CB_OP_SIZE, T, code[4 * pc + 3]);
+            } else {
+                cb_acc_fold(&s, top - 1, top, q, T, code[4 * pc + 3]);
+            }
+            --top;
+        } else if (op == CB_I_CLOSE) {
+            if (b == CB_GBB) {
+                /* stack: B1 accumulator, B2 accumulator, bounding field */
+                int i1 = top - 2, i2 = top - 1;
+                cb_real fb = s.v[top], dFb, bb;
+                cb_acc_close(&s, i1, q, T);
+                cb_acc_close(&s, i2, q + CB_OP_SIZE, T);
+                bb = cb_clamp01(fb);
+                s.v[i1] = cb_gbb(fb, s.v[i1], s.v[i2], &dFb);
+                s.gx[i1] = bb * s.gx[i1] + (CB_R(1.0) - bb) * s.gx[i2] + dFb * s.gx[top];
+                s.gy[i1] = bb * s.gy[i1] + (CB_R(1.0) - bb) * s.gy[i2] + dFb * s.gy[top];
+                s.gz[i1] = bb * s.gz[i1] + (CB_R(1.0) - bb) * s.gz[i2] + dFb * s.gz[top];
+                {
+                    cb_real on = CB_SELECT(CB_R(1.0), CB_R(0.0), s.v[i1] == CB_R(0.0));
+                    s.cr[i1] = on * (bb * s.cr[i1] + (CB_R(1.0) - bb) * s.cr[i2]);
+                    s.cg[i1] = on * (bb * s.cg[i1] + (CB_R(1.0) - bb) * s.cg[i2]);
+                    s.cb[i1] = on * (bb * s.cb[i1] + (CB_R(1.0) - bb) * s.cb[i2]);
+                }
+                top -= 2;
+            } else {
+                cb_acc_close(&s, top, q, T);
+            }
+        } else if (op == CB_I_WARP) {
+            ++wtop;
+            wp[wtop] = p;
+            p = cb_warp_apply(b, q, p, wj + 9 * wtop);
+        } else if (op == CB_I_UNWARP) {
+            cb_vec3 g = cb_mat3_tmul(wj + 9 * wtop, cb_v3(s.gx[top], s.gy[top], s.gz[top]));
+            s.gx[top] = g.x;
+            s.gy[top] = g.y;
+            s.gz[top] = g.z;
+            p = wp[wtop];
+            --wtop;
+        }
+    }
+    {
+        cb_sample out;
+        out.v = s.v[0];
+        out.g = cb_v3(s.gx[0], s.gy[0], s.gz[0]);
+        out.c = cb_v3(s.cr[0], s.cg[0], s.cb[0]);
+        return out;
+    }
+}
+
+#endif /* CAMBIUM_CB_PROGRAM_H */

@@ -1,0 +1,695 @@
+// cambium — FieldProgram compiler, interval bounds and region specialisation.
+#include "field/program.h"
+
+#include "blobtree/bounds.h"
+#include "core/error.h"
+
+#include "cb_program.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace cambium {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+class Compiler {
+public:
+    Compiler(const BlobTree& tree, std::vector<double>& params, std::vector<Instr>& code,
+             std::vector<Box>& boxes)
+        : tree_(tree), P_(params), code_(code), boxes_(boxes), bounds_(computeBounds(tree))
+    {
+    }
+
+    size_t primitives = 0;
+
+    void emit(int index)
+    {
+        const Node& n = tree_.node(index);
+        switch (kindOf(n.type)) {
+        case NodeKind::Primitive: emitPrimitive(n); break;
+        case NodeKind::Operator: emitOperator(index, n); break;
+        case NodeKind::Warp: emitWarp(index, n); break;
+        }
+    }
+
+private:
+    int block() const { return int(P_.size()); }
+    void push(const glm::dvec3& v) { P_.insert(P_.end(), {v.x, v.y, v.z}); }
+    void push(const cb_vec3& v) { P_.insert(P_.end(), {v.x, v.y, v.z}); }
+
+    void emitPrimitive(const Node& n)
+    {
+        const Primitive& p = n.prim();
+        const int at = block();
+        const glm::dvec3 axis = p.p1 - p.p0;
+        const double len = glm::length(axis);
+        const glm::dvec3 u = len > 0.0 ? axis / len : glm::dvec3(0.0);
+        switch (n.type) {
+        case NodeType::SPHERE:
+            push(p.p0);
+            P_.insert(P_.end(), {p.r0, p.sigma, p.weight});
+            break;
+        case NodeType::SEGMENT:
+        case NodeType::CONE:
+            push(p.p0);
+            push(u);
+            P_.insert(P_.end(), {len, p.r0, p.r1, p.sigma, p.weight});
+            break;
+        default:  // CONVOLUTION_SEGMENT
+            push(p.p0);
+            push(u);
+            P_.insert(P_.end(), {len, p.q0, p.q1, p.kernelWidth, p.support, p.weight});
+            break;
+        }
+        push(n.shade);
+        code_.push_back({int(n.type), at, 0, 0});
+        ++primitives;
+    }
+
+    void pushCombiner(const Combiner& c)
+    {
+        P_.insert(P_.end(), {double(c.type), c.n, c.width, c.attenuation, c.k});
+    }
+
+    int box(int index)
+    {
+        boxes_.push_back(bounds_[size_t(index)].support);
+        return int(boxes_.size()) - 1;
+    }
+
+    void emitOperator(int index, const Node& n)
+    {
+        const int at = block();
+        const bool gbb = n.type == NodeType::GBB;
+        if (gbb) {
+            pushCombiner(n.gbb().b1);
+            pushCombiner(n.gbb().b2);
+        } else {
+            pushCombiner(n.combiner());
+        }
+        const int type = int(n.type);
+        code_.push_back({CB_I_OPEN, at, type, box(index)});
+        for (size_t i = 0; i < n.children.size(); ++i) {
+            emit(n.children[i]);
+            code_.push_back({CB_I_ACC, at, type, i == 0 ? 1 : 0});
+        }
+        if (gbb)
+            emit(n.gbb().bound);
+        code_.push_back({CB_I_CLOSE, at, type, 0});
+    }
+
+    void emitWarp(int index, const Node& n)
+    {
+        const int at = block();
+        switch (n.type) {
+        case NodeType::TRANSFORM: {
+            const auto& inv = std::get<TransformParams>(n.params).inverse;
+            P_.insert(P_.end(), inv.m, inv.m + 12);
+            break;
+        }
+        case NodeType::BEND: {
+            const cb_bend& b = std::get<cb_bend>(n.params);
+            push(b.p0);
+            push(b.u);
+            push(b.v);
+            push(b.w);
+            P_.insert(P_.end(), {b.len, b.theta, b.rho, b.ch, b.sh, b.lscale});
+            break;
+        }
+        case NodeType::TWIST: {
+            const cb_twist& t = std::get<cb_twist>(n.params);
+            push(t.o);
+            push(t.a);
+            P_.push_back(t.rate);
+            break;
+        }
+        default: {
+            const cb_taper& t = std::get<cb_taper>(n.params);
+            push(t.o);
+            push(t.a);
+            P_.insert(P_.end(), {t.len, t.scale0, t.scale1});
+            break;
+        }
+        }
+        code_.push_back({CB_I_WARP, at, int(n.type), box(index)});
+        emit(n.children[0]);
+        code_.push_back({CB_I_UNWARP, at, int(n.type), 0});
+    }
+
+    const BlobTree& tree_;
+    std::vector<double>& P_;
+    std::vector<Instr>& code_;
+    std::vector<Box>& boxes_;
+    std::vector<NodeBounds> bounds_;
+};
+
+double wyvill(double x)
+{
+    double dw;
+    return cb_wyvill(x, &dw);
+}
+
+glm::dvec3 load3(const double* p) { return {p[0], p[1], p[2]}; }
+
+double pointBoxDistance(const glm::dvec3& p, const Box& b)
+{
+    const glm::dvec3 d = glm::max(glm::max(b.lo - p, p - b.hi), glm::dvec3(0.0));
+    return glm::length(d);
+}
+
+double pointSegmentDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b)
+{
+    const glm::dvec3 ab = b - a;
+    const double l2 = glm::dot(ab, ab);
+    const double t = l2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
+    return glm::length(p - (a + t * ab));
+}
+
+/// [min, max] distance from the segment [a, b] to the points of a box.
+void segmentBoxRange(const glm::dvec3& a, const glm::dvec3& b, const Box& box, double& dmin,
+                     double& dmax)
+{
+    dmin = std::sqrt(segmentBoxDistance2(a, b, box));
+    dmax = 0.0;
+    for (const auto& c : box.corners())  // distance to a segment is convex: corners bound it
+        dmax = std::max(dmax, pointSegmentDistance(c, a, b));
+}
+
+/// Interval of the Wyvill falloff w(k (d/r - 1 + sigma)) for d in [dmin, dmax], r in [rmin, rmax].
+Interval skeletalInterval(double dmin, double dmax, double rmin, double rmax, double sigma,
+                          double xT, double weight)
+{
+    const double k = xT / sigma;
+    const double f0 = wyvill(k * (dmin / rmax - 1.0 + sigma));  // largest value
+    const double f1 = wyvill(k * (dmax / rmin - 1.0 + sigma));  // smallest value
+    return weight > 0.0 ? Interval{weight * f1, weight * f0} : Interval{weight * f0, weight * f1};
+}
+
+/// PCM deformation bounds over f in [a, b] (cb_pcm_deformation: T - f inside,
+/// a bump of height at most w k^k/(k+1)^(k+1) just outside, 0 beyond).
+double pcmMinD(double b, double T) { return b > T ? T - b : 0.0; }
+double pcmMaxD(double a, double b, double T, double w, double k)
+{
+    if (a >= T)
+        return T - a;
+    if (b <= T - w)
+        return 0.0;
+    return w * std::pow(k, k) / std::pow(k + 1.0, k + 1.0);
+}
+
+double betterBlendG(double t, double T, double k)
+{
+    double d;
+    return cb_better_blend_g(t, T, k, &d);
+}
+
+/// The interval of a combiner over children intervals.
+Interval combine(const double* op, const std::vector<Interval>& iv, double T)
+{
+    const int type = int(op[0]);
+    Interval r;
+    switch (type) {
+    case CB_BLEND:
+        for (const auto& i : iv) {
+            r.lo += i.lo;
+            r.hi += i.hi;
+        }
+        return r;
+    case CB_RICCI: {
+        double slo = 0.0, shi = 0.0;
+        for (const auto& i : iv) {
+            slo += std::pow(std::max(i.lo, 0.0), op[1]);
+            shi += std::pow(std::max(i.hi, 0.0), op[1]);
+        }
+        return {std::pow(slo, 1.0 / op[1]), std::pow(shi, 1.0 / op[1])};
+    }
+    case CB_UNION:
+        r = {-kInf, -kInf};
+        for (const auto& i : iv) {
+            r.lo = std::max(r.lo, i.lo);
+            r.hi = std::max(r.hi, i.hi);
+        }
+        return r;
+    case CB_INTERSECTION:
+    case CB_DIFFERENCE:
+        r = {kInf, kInf};
+        for (size_t j = 0; j < iv.size(); ++j) {
+            Interval i = iv[j];
+            if (type == CB_DIFFERENCE && j > 0)
+                i = {2.0 * T - i.hi, 2.0 * T - i.lo};
+            r.lo = std::min(r.lo, i.lo);
+            r.hi = std::min(r.hi, i.hi);
+        }
+        return r;
+    case CB_PCM: {
+        r = {-kInf, -kInf};
+        double dlo = 0.0, dhi = 0.0;
+        for (const auto& i : iv) {
+            r.lo = std::max(r.lo, i.lo);
+            r.hi = std::max(r.hi, i.hi);
+            dlo += std::min(0.0, pcmMinD(i.hi, T));
+            dhi += std::max(0.0, pcmMaxD(i.lo, i.hi, T, op[2], op[3]));
+        }
+        return {r.lo + dlo, r.hi + dhi};
+    }
+    case CB_BETTER_BLEND:
+        for (const auto& i : iv) {  // g is non-decreasing
+            r.lo += betterBlendG(i.lo, T, op[4]);
+            r.hi += betterBlendG(i.hi, T, op[4]);
+        }
+        return r;
+    default:
+        return {-kInf, kInf};
+    }
+}
+
+/// Which children a combiner can do without on a region where the children's
+/// fields lie in `iv`: removing them changes neither value nor gradient nor
+/// colour anywhere in the region (up to ties between equal values).
+std::vector<char> droppable(const double* op, const std::vector<Interval>& iv, double T)
+{
+    const int type = int(op[0]);
+    const size_t n = iv.size();
+    std::vector<char> drop(n, 0);
+    switch (type) {
+    case CB_BLEND:
+        for (size_t i = 0; i < n; ++i)
+            drop[i] = iv[i].isZero();
+        break;
+    case CB_RICCI:
+        for (size_t i = 0; i < n; ++i)
+            drop[i] = iv[i].hi <= 0.0;
+        break;
+    case CB_BETTER_BLEND:
+        for (size_t i = 0; i < n; ++i)
+            drop[i] = iv[i].lo >= -op[4] && iv[i].hi <= op[4];
+        break;
+    case CB_UNION:
+    case CB_PCM: {
+        // Keep the child with the largest lower bound; a child that stays
+        // below it is never the maximum, not even in a tie (ties would pick the
+        // colour by child order).  PCM weighs colours by |f| over all children,
+        // so it drops only children that are zero as well (D(0) = 0 since
+        // width <= T).
+        size_t best = 0;
+        for (size_t i = 1; i < n; ++i)
+            if (iv[i].lo > iv[best].lo)
+                best = i;
+        for (size_t i = 0; i < n; ++i)
+            drop[i] = i != best && iv[i].hi < iv[best].lo && (type == CB_UNION || iv[i].isZero());
+        break;
+    }
+    case CB_INTERSECTION:
+    case CB_DIFFERENCE: {
+        std::vector<Interval> t = iv;
+        if (type == CB_DIFFERENCE)
+            for (size_t i = 1; i < n; ++i)
+                t[i] = {2.0 * T - iv[i].hi, 2.0 * T - iv[i].lo};
+        size_t best = 0;
+        for (size_t i = 1; i < n; ++i)
+            if (t[i].hi < t[best].hi)
+                best = i;
+        // The solid being cut (child 0 of a difference) is always kept: it gives
+        // the colour, so a cutter may tie with the minimum and still go; an
+        // intersection's child must stay strictly above it (ties pick colours).
+        for (size_t i = type == CB_DIFFERENCE ? 1 : 0; i < n; ++i)
+            drop[i] = i != best && (type == CB_DIFFERENCE ? t[i].lo >= t[best].hi : t[i].lo > t[best].hi);
+        break;
+    }
+    default:
+        break;
+    }
+    return drop;
+}
+
+/// Whether an operator left with its one child `iv` computes exactly that child.
+bool collapsesToChild(const double* op, const Interval& iv)
+{
+    switch (int(op[0])) {
+    case CB_BLEND:
+    case CB_UNION:
+    case CB_INTERSECTION:
+    case CB_DIFFERENCE:
+    case CB_PCM: return true;
+    case CB_RICCI: return iv.lo >= 0.0;
+    default: return false;
+    }
+}
+
+/// Index of the instruction after the subtree starting at pos (no evaluation).
+size_t skipSubtree(Code in, size_t pos)
+{
+    int depth = 0;
+    do {
+        const int op = in.data[pos].op;
+        if (op == CB_I_OPEN || op == CB_I_WARP)
+            ++depth;
+        else if (op == CB_I_CLOSE || op == CB_I_UNWARP)
+            --depth;
+        ++pos;
+    } while (depth > 0);
+    return pos;
+}
+
+}  // namespace
+
+double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& box)
+{
+    // The squared distance from a + t (b - a) to the box is a convex piecewise
+    // quadratic in t; its pieces change where a coordinate crosses a face.
+    const glm::dvec3 d = b - a;
+    double breaks[8];
+    int nb = 0;
+    breaks[nb++] = 0.0;
+    breaks[nb++] = 1.0;
+    for (int k = 0; k < 3; ++k) {
+        if (d[k] == 0.0)
+            continue;
+        for (double face : {box.lo[k], box.hi[k]}) {
+            const double t = (face - a[k]) / d[k];
+            if (t > 0.0 && t < 1.0)
+                breaks[nb++] = t;
+        }
+    }
+    std::sort(breaks, breaks + nb);
+    double best = kInf;
+    for (int i = 0; i + 1 < nb; ++i) {
+        const double t0 = breaks[i], t1 = breaks[i + 1], tm = 0.5 * (t0 + t1);
+        double A = 0.0, B = 0.0, C = 0.0;  // A t^2 + B t + C on [t0, t1]
+        for (int k = 0; k < 3; ++k) {
+            const double x = a[k] + tm * d[k];
+            double c0;
+            if (x < box.lo[k])
+                c0 = a[k] - box.lo[k];
+            else if (x > box.hi[k])
+                c0 = a[k] - box.hi[k];
+            else
+                continue;
+            A += d[k] * d[k];
+            B += 2.0 * c0 * d[k];
+            C += c0 * c0;
+        }
+        double t = A > 0.0 ? std::clamp(-B / (2.0 * A), t0, t1) : t0;
+        best = std::min({best, A * t * t + B * t + C, A * t0 * t0 + B * t0 + C,
+                         A * t1 * t1 + B * t1 + C});
+    }
+    return std::max(best, 0.0);
+}
+
+int FieldProgram::maxStackDepth() { return CB_STACK_DEPTH; }
+int FieldProgram::maxWarpDepth() { return CB_WARP_DEPTH; }
+
+FieldProgram FieldProgram::compile(const BlobTree& tree)
+{
+    FieldProgram prog;
+    prog.params_ = {tree.threshold(), tree.xT(), 0.0};
+    Compiler c(tree, prog.params_, prog.code_, prog.subtreeSupport_);
+    c.emit(tree.root());
+    prog.primitives_ = c.primitives;
+    const auto bounds = computeBounds(tree);
+    prog.positive_ = bounds[size_t(tree.root())].positive;
+    prog.support_ = bounds[size_t(tree.root())].support;
+    int stack = 0, warps = 0;
+    depths(prog.code_, stack, warps);
+    if (stack > CB_STACK_DEPTH || warps > CB_WARP_DEPTH)
+        throw InputError(fmt::format(
+            "the BlobTree nests too deeply for the field kernels: it needs {} stack entries and {} "
+            "nested warps, the kernels hold {} and {}; flatten nested operators",
+            stack, warps, CB_STACK_DEPTH, CB_WARP_DEPTH));
+    return prog;
+}
+
+std::vector<float> FieldProgram::paramsFloat() const
+{
+    return std::vector<float>(params_.begin(), params_.end());
+}
+
+void FieldProgram::depths(Code code, int& stack, int& warps)
+{
+    int top = 0, w = 0;
+    stack = warps = 0;
+    for (size_t i = 0; i < code.size; ++i) {
+        const Instr& in = code.data[i];
+        switch (in.op) {
+        case CB_I_OPEN: top += in.b == CB_GBB ? 2 : 1; break;
+        case CB_I_ACC: --top; break;
+        case CB_I_CLOSE: top -= in.b == CB_GBB ? 2 : 0; break;
+        case CB_I_WARP: ++w; break;
+        case CB_I_UNWARP: --w; break;
+        default: ++top; break;  // primitives and constants push
+        }
+        stack = std::max(stack, top);
+        warps = std::max(warps, w);
+    }
+}
+
+FieldSample FieldProgram::evaluate(Code code, const glm::dvec3& p) const
+{
+    const cb_sample s = cb_run_program(reinterpret_cast<const int*>(code.data), int(code.size),
+                                       params_.data(), cb_v3(p.x, p.y, p.z));
+    return {s.v, {s.g.x, s.g.y, s.g.z}, {s.c.x, s.c.y, s.c.z}};
+}
+
+Interval FieldProgram::specialize(Code code, const Box& box, std::vector<Instr>* out) const
+{
+    size_t pos = 0;
+    return node(code, pos, box, out);
+}
+
+Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
+{
+    const double* q = params_.data() + in.a;
+    const double xT = params_[CB_P_XT];
+    double dmin, dmax;
+    switch (in.op) {
+    case CB_SPHERE: {
+        const glm::dvec3 c = load3(q);
+        dmin = pointBoxDistance(c, box);
+        dmax = 0.0;
+        for (const auto& k : box.corners())
+            dmax = std::max(dmax, glm::length(k - c));
+        return skeletalInterval(dmin, dmax, q[3], q[3], q[4], xT, q[5]);
+    }
+    case CB_SEGMENT:
+    case CB_CONE: {
+        const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
+        segmentBoxRange(a, b, box, dmin, dmax);
+        return skeletalInterval(dmin, dmax, std::min(q[7], q[8]), std::max(q[7], q[8]), q[9], xT,
+                                q[10]);
+    }
+    default: {  // convolution segment
+        const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
+        const double s = q[9], support = q[10], weight = q[11];
+        dmin = std::sqrt(segmentBoxDistance2(a, b, box));
+        if (dmin >= support)
+            return {0.0, 0.0};
+        // Every kernel value is at most 1/(1 + s^2 (dmin^2 + tau^2))^2 for the
+        // distance tau along the axis from the closest point, so the integral
+        // is at most that of an infinite line at distance dmin; the window is
+        // at most W(dmin).
+        const double P2 = 1.0 + s * s * dmin * dmin;
+        double dW;
+        const double W = cb_wyvill(2.0 * dmin / support - 1.0, &dW);
+        const double top = std::max(q[7], q[8]) * M_PI / (2.0 * s * P2 * std::sqrt(P2)) * W;
+        return weight > 0.0 ? Interval{0.0, weight * top} : Interval{weight * top, 0.0};
+    }
+    }
+}
+
+Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
+{
+    const double* w = params_.data() + in.a;
+    if (in.b == CB_TRANSFORM) {
+        Box out;
+        for (const auto& c : box.corners())
+            out.expand(glm::dvec3(w[0] * c.x + w[1] * c.y + w[2] * c.z + w[3],
+                                  w[4] * c.x + w[5] * c.y + w[6] * c.z + w[7],
+                                  w[8] * c.x + w[9] * c.y + w[10] * c.z + w[11]));
+        return out;
+    }
+    // The other warps: every point of the box is within delta of its centre,
+    // so its image is within lip * delta of the centre's image, where lip
+    // bounds the Jacobian's norm over the box.
+    const glm::dvec3 c = box.center();
+    const double delta = 0.5 * glm::length(box.size());
+    double lip;
+    if (in.b == CB_BEND) {
+        if (w[13] <= 0.0) {
+            lip = 1.0;
+        } else {
+            // Along the arc the axial coordinate stretches by (L/theta)/r, r the
+            // distance from the arc's axis (through its centre, along w).
+            const glm::dvec3 p0 = load3(w), u = load3(w + 3), v = load3(w + 6), ax = load3(w + 9);
+            const glm::dvec3 centre = p0 + 0.5 * w[12] * u - w[14] * w[15] * v;
+            const double reach = 1e9 * (1.0 + glm::length(box.size()) + glm::length(centre));
+            const double rmin =
+                std::sqrt(segmentBoxDistance2(centre - reach * ax, centre + reach * ax, box));
+            if (rmin <= 1e-12)  // the box touches the arc's axis: no useful bound
+                return Box(glm::dvec3(-1e15), glm::dvec3(1e15));
+            lip = std::max(1.0, (w[12] / w[13]) / rmin);
+        }
+    } else {
+        const glm::dvec3 o = load3(w), a = load3(w + 3);
+        double rmax = 0.0;
+        for (const auto& k : box.corners()) {
+            const glm::dvec3 d = k - o;
+            rmax = std::max(rmax, glm::length(d - glm::dot(d, a) * a));
+        }
+        if (in.b == CB_TWIST) {
+            lip = 1.0 + std::abs(w[6]) * rmax;
+        } else {
+            const double smin = std::min(w[7], w[8]);
+            lip = std::max(1.0, 1.0 / smin) + std::abs(w[8] - w[7]) / w[6] * rmax / (smin * smin);
+        }
+    }
+    double J[9];
+    const cb_vec3 qc = cb_warp_apply(in.b, w, cb_v3(c.x, c.y, c.z), J);
+    return Box::around(glm::dvec3(qc.x, qc.y, qc.z), lip * delta);
+}
+
+Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const
+{
+    const Instr head = in.data[pos];
+    const double T = params_[CB_P_T];
+    auto emitZero = [&] {
+        if (out)
+            out->push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
+    };
+
+    if (head.op == CB_I_CONST) {
+        ++pos;
+        if (out)
+            out->push_back(head);
+        const double v = params_[size_t(head.a)];
+        return {v, v};
+    }
+    if (head.op != CB_I_OPEN && head.op != CB_I_WARP) {
+        ++pos;
+        const Interval iv = primitiveInterval(head, box);
+        if (iv.isZero())
+            emitZero();
+        else if (out)
+            out->push_back(head);
+        return iv;
+    }
+    // A subtree whose support misses the box is zero there: skip it unread.
+    const Box& support = subtreeSupport_[size_t(head.c)];
+    if (support.intersected(box).empty()) {
+        pos = skipSubtree(in, pos);
+        emitZero();
+        return {0.0, 0.0};
+    }
+
+    if (head.op == CB_I_WARP) {
+        ++pos;
+        const size_t start = out ? out->size() : 0;
+        if (out)
+            out->push_back(head);
+        const Interval iv = node(in, pos, warpChildBox(head, box), out);
+        ++pos;  // UNWARP
+        if (out) {
+            if (iv.isZero()) {
+                out->resize(start);
+                emitZero();
+            } else {
+                out->push_back(in.data[pos - 1]);
+            }
+        }
+        return iv;
+    }
+
+    // OPEN child ACC child ACC ... [bound] CLOSE
+    ++pos;
+    const bool gbb = head.b == CB_GBB;
+    const double* op1 = params_.data() + head.a;
+    const double* op2 = gbb ? op1 + CB_OP_SIZE : nullptr;
+    struct Child {
+        size_t begin, end;
+    };
+    std::vector<Child> kids;
+    std::vector<Interval> iv;
+    const size_t start = out ? out->size() : 0;
+    Interval bound{0.0, 0.0};
+    size_t boundBegin = 0, boundEnd = 0;
+    while (in.data[pos].op != CB_I_CLOSE) {
+        const size_t b = out ? out->size() : 0;
+        const Interval i = node(in, pos, box, out);
+        const size_t e = out ? out->size() : 0;
+        if (in.data[pos].op == CB_I_ACC) {
+            ++pos;
+            kids.push_back({b, e});
+            iv.push_back(i);
+        } else {  // the bounding field of a GBB
+            bound = i;
+            boundBegin = b;
+            boundEnd = e;
+        }
+    }
+    ++pos;  // CLOSE
+
+    Interval result;
+    const double* op = op1;  // the combiner that will remain
+    std::vector<char> drop;
+    bool keepGbb = false;
+    if (!gbb) {
+        result = combine(op1, iv, T);
+        drop = droppable(op1, iv, T);
+    } else {
+        const Interval i1 = combine(op1, iv, T), i2 = combine(op2, iv, T);
+        const double b0 = std::clamp(bound.lo, 0.0, 1.0), b1 = std::clamp(bound.hi, 0.0, 1.0);
+        if (b1 <= 0.0) {  // bound 0 everywhere: B2 alone
+            op = op2;
+            result = i2;
+            drop = droppable(op2, iv, T);
+        } else if (b0 >= 1.0) {  // bound 1 everywhere: B1 alone
+            result = i1;
+            drop = droppable(op1, iv, T);
+        } else {
+            keepGbb = true;
+            result = {std::min(i1.lo, i2.lo), std::max(i1.hi, i2.hi)};
+            const auto d1 = droppable(op1, iv, T), d2 = droppable(op2, iv, T);
+            drop.resize(iv.size());
+            for (size_t i = 0; i < iv.size(); ++i)
+                drop[i] = d1[i] && d2[i];
+        }
+    }
+    if (!out)
+        return result;
+
+    // Rebuild this node's code from the kept children.
+    std::vector<Instr> segment;
+    std::vector<size_t> kept;
+    for (size_t i = 0; i < kids.size(); ++i)
+        if (!drop[i])
+            kept.push_back(i);
+    auto copy = [&](size_t b, size_t e) {
+        segment.insert(segment.end(), out->begin() + long(b), out->begin() + long(e));
+    };
+    const int opType = int(op[0]);
+    if (kept.empty()) {
+        segment.push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
+    } else if (!keepGbb && kept.size() == 1 && collapsesToChild(op, iv[kept[0]])) {
+        copy(kids[kept[0]].begin, kids[kept[0]].end);
+    } else {
+        const int a = int(op - params_.data());
+        const int type = keepGbb ? CB_GBB : opType;
+        segment.push_back({CB_I_OPEN, a, type, head.c});
+        for (size_t k = 0; k < kept.size(); ++k) {
+            copy(kids[kept[k]].begin, kids[kept[k]].end);
+            segment.push_back({CB_I_ACC, a, type, kept[k] == 0 ? 1 : 0});
+        }
+        if (keepGbb)
+            copy(boundBegin, boundEnd);
+        segment.push_back({CB_I_CLOSE, a, type, 0});
+    }
+    out->resize(start);
+    out->insert(out->end(), segment.begin(), segment.end());
+    return result;
+}
+
+}  // namespace cambium

@@ -1,0 +1,87 @@
+// cambium — the FieldProgram: a BlobTree compiled to the flat instruction
+// stream of kernels/cb_program.h, with interval bounds over boxes and
+// specialisation to a region (compare libfive's tape simplification).
+#pragma once
+
+#include "blobtree/blobtree.h"
+#include "blobtree/evaluator.h"
+#include "core/box.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace cambium {
+
+/// One instruction: { op, a, b, c } as documented in kernels/cb_program.h.
+struct Instr {
+    int32_t op, a, b, c;
+};
+
+/// A closed interval of field values.
+struct Interval {
+    double lo = 0.0, hi = 0.0;
+    bool contains(double v) const { return lo <= v && v <= hi; }
+    bool isZero() const { return lo == 0.0 && hi == 0.0; }
+};
+
+/// A view of an instruction stream.
+struct Code {
+    const Instr* data = nullptr;
+    size_t size = 0;
+    Code() = default;
+    Code(const Instr* d, size_t n) : data(d), size(n) {}
+    Code(const std::vector<Instr>& v) : data(v.data()), size(v.size()) {}  // NOLINT: a view
+};
+
+class FieldProgram {
+public:
+    /// Compiles a finalized BlobTree.  Throws InputError when the tree nests
+    /// deeper than the kernels' fixed stacks allow.
+    static FieldProgram compile(const BlobTree& tree);
+
+    double threshold() const { return params_[0]; }
+    /// The parameter table (double; the kernels get a float copy).
+    const std::vector<double>& params() const { return params_; }
+    std::vector<float> paramsFloat() const;
+    /// The whole program.
+    const std::vector<Instr>& code() const { return code_; }
+    /// Where the root's field can be positive (the surface lies inside).
+    const Box& positiveBounds() const { return positive_; }
+    /// Where the root's field can be nonzero.
+    const Box& supportBounds() const { return support_; }
+    /// Number of primitives in the whole program.
+    size_t primitiveCount() const { return primitives_; }
+
+    /// Bounds of the field of `code` over `box`, and (when `out` is given)
+    /// `code` specialised to the box appended to *out: children whose field is
+    /// zero or provably irrelevant on the box are removed, operators left with
+    /// one child collapse to it, so that the result computes exactly the same
+    /// field as `code` at every point of the box.
+    Interval specialize(Code code, const Box& box, std::vector<Instr>* out) const;
+
+    /// Evaluates `code` at p on the host with the same interpreter as the
+    /// kernels (kernels/cb_program.h, in double precision).
+    FieldSample evaluate(Code code, const glm::dvec3& p) const;
+
+    /// Stack depths a program needs: values and warp frames.
+    static void depths(Code code, int& stack, int& warps);
+
+    static int maxStackDepth();
+    static int maxWarpDepth();
+
+private:
+    Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const;
+    Interval primitiveInterval(const Instr& in, const Box& box) const;
+    Box warpChildBox(const Instr& in, const Box& box) const;
+
+    std::vector<double> params_;
+    std::vector<Instr> code_;
+    std::vector<Box> subtreeSupport_;  ///< indexed by OPEN.c / WARP.c
+    Box positive_, support_;
+    size_t primitives_ = 0;
+};
+
+/// Squared distance between the segment [a, b] and a box (exact).
+double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& box);
+
+}  // namespace cambium
