@@ -1,0 +1,181 @@
+// Parity of the OpenCL sampling kernels (kernels/sample.cl, float8 lanes on
+// PoCL) with the CPU reference evaluator, for every opcode and for random
+// BlobTrees mixing all node types, including points on support borders and
+// inside PCM propagation regions.
+#include "bake/sampler.h"
+
+#include "blobtree/bounds.h"
+#include "random_tree.h"
+#include "scenes.h"
+#include "test_util.h"
+
+#include "cb_primitives.h"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+using namespace cambium;
+using namespace cambium::test;
+
+class SamplerParity : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() { cl_ = makeOpenCLSampler().release(); }
+    static void TearDownTestSuite() { delete cl_; }
+    static FieldSampler* cl_;
+};
+FieldSampler* SamplerParity::cl_ = nullptr;
+
+/// Points where a tree is interesting: random ones in its support, and for
+/// every primitive points just inside and outside the end of its support and
+/// on its surface.
+std::vector<glm::dvec3> probePoints(const BlobTree& tree, std::mt19937& rng, int random)
+{
+    std::vector<glm::dvec3> pts;
+    const Box box = computeBounds(tree)[size_t(tree.root())].support.padded(0.05);
+    for (int i = 0; i < random; ++i)
+        pts.push_back(randomIn(rng, box.lo, box.hi));
+    for (const Node& n : tree.nodes()) {
+        if (kindOf(n.type) != NodeKind::Primitive)
+            continue;
+        const Primitive& p = n.prim();
+        const double reach = n.type == NodeType::CONVOLUTION_SEGMENT
+                                 ? p.support
+                                 : cb_skeletal_reach(p.r0, p.sigma, tree.xT());
+        for (int k = 0; k < 8; ++k) {
+            const glm::dvec3 d = randomUnit(rng);
+            for (double r : {reach * (1 - 1e-4), reach * (1 + 1e-4), p.r0, 0.5 * p.r0})
+                pts.push_back(p.p0 + r * d);
+        }
+    }
+    return pts;
+}
+
+struct Mismatch {
+    int value = 0, gradient = 0, colour = 0;
+    size_t n = 0;
+};
+
+/// Compares the kernel with the reference evaluator at `points` (rounded to
+/// float first, as the kernel sees them).
+Mismatch compare(FieldSampler& s, const BlobTree& tree, std::vector<glm::dvec3> points)
+{
+    for (auto& p : points)
+        p = glm::dvec3(glm::vec3(p));
+    const FieldProgram prog = FieldProgram::compile(tree);
+    s.setProgram(prog);
+    const std::vector<float> out = s.samplePoints(prog.code(), points);
+    ReferenceEvaluator ref(tree);
+    const size_t n = points.size();
+    std::vector<FieldSample> want(n);
+    double range = 1.0;
+    for (size_t i = 0; i < n; ++i) {
+        want[i] = ref.sample(points[i]);
+        range = std::max(range, std::abs(want[i].value));
+    }
+    Mismatch m;
+    m.n = n;
+    for (size_t i = 0; i < n; ++i) {
+        const glm::dvec3 g(out[n + i], out[2 * n + i], out[3 * n + i]);
+        const glm::dvec3 c(out[4 * n + i], out[5 * n + i], out[6 * n + i]);
+        if (std::abs(out[i] - want[i].value) > 1e-5 * range) {
+            ++m.value;
+            ADD_FAILURE() << "value " << out[i] << " vs " << want[i].value << " at " << points[i].x
+                          << " " << points[i].y << " " << points[i].z;
+        }
+        if (glm::length(g - want[i].gradient) > 1e-3 * std::max(1.0, glm::length(want[i].gradient)))
+            ++m.gradient;
+        if (glm::length(c - want[i].color) > 1e-3)
+            ++m.colour;
+    }
+    return m;
+}
+
+TEST_F(SamplerParity, EveryOpcode)
+{
+    for (NodeType type : allNodeTypes()) {
+        SCOPED_TRACE(typeName(type));
+        const BlobTree tree = sceneFor(type);
+        std::mt19937 rng(30 + int(type));
+        const Mismatch m = compare(*cl_, tree, probePoints(tree, rng, 3000));
+        // Gradients and colours jump across creases (CSG switches, PCM ridges,
+        // cone end planes): a float and a double evaluation may land on
+        // different sides of one.  Such points are rare.
+        EXPECT_LE(m.gradient, int(m.n / 200)) << m.gradient << " of " << m.n;
+        EXPECT_LE(m.colour, int(m.n / 200)) << m.colour << " of " << m.n;
+    }
+}
+
+TEST_F(SamplerParity, PcmPropagationRegion)
+{
+    // Points where the weaker field is inside the propagation band (T - w, T):
+    // the bulge the kernel computes must be the reference's.
+    BlobTree tree;
+    const int a = tree.sphere({-0.4, 0, 0}, 0.8), b = tree.sphere({0.5, 0, 0}, 0.6);
+    Combiner pcm{NodeType::PCM};
+    pcm.width = 0.25;
+    tree.setRoot(tree.op(pcm, {a, b}));
+    tree.finalize();
+    ReferenceEvaluator ref(tree);
+    std::mt19937 rng(31);
+    std::vector<glm::dvec3> pts;
+    while (pts.size() < 4000) {
+        const glm::dvec3 p = randomIn(rng, glm::dvec3(-1.5), glm::dvec3(1.5));
+        const double w = std::min(ref.sample(a, p).value, ref.sample(b, p).value);
+        if (w > 0.5 - pcm.width && w < 0.5)
+            pts.push_back(p);
+    }
+    const Mismatch m = compare(*cl_, tree, pts);
+    EXPECT_EQ(m.value, 0);
+    EXPECT_LE(m.gradient, 20);
+}
+
+TEST_F(SamplerParity, RandomTreesMixingAllNodeTypes)
+{
+    for (unsigned seed = 0; seed < 40; ++seed) {
+        SCOPED_TRACE(seed);
+        const BlobTree tree = RandomTreeBuilder(300 + seed).build(1 + int(seed % 4));
+        std::mt19937 rng(seed);
+        const Mismatch m = compare(*cl_, tree, probePoints(tree, rng, 1500));
+        EXPECT_LE(m.gradient, int(m.n / 100)) << m.gradient << " of " << m.n;
+        EXPECT_LE(m.colour, int(m.n / 100)) << m.colour << " of " << m.n;
+    }
+}
+
+TEST_F(SamplerParity, LeavesMatchTheCpuPath)
+{
+    // The leaf kernel places voxels where the CPU path does and computes the
+    // same samples, with specialised programs.
+    const BlobTree tree = RandomTreeBuilder(77).build(3);
+    const FieldProgram prog = FieldProgram::compile(tree);
+    const double h = 0.05;
+    std::vector<Instr> pool;
+    std::vector<LeafJob> jobs;
+    for (int i = 0; i < 27; ++i) {
+        const int o[3] = {-12 + 8 * (i % 3), -12 + 8 * ((i / 3) % 3), -12 + 8 * (i / 9)};
+        const Box box(glm::dvec3(o[0], o[1], o[2]) * h, glm::dvec3(o[0] + 7, o[1] + 7, o[2] + 7) * h);
+        LeafJob job{{o[0], o[1], o[2]}, int32_t(pool.size()), 0};
+        prog.specialize(prog.code(), box.padded(1e-6), &pool);
+        job.codeLength = int32_t(pool.size()) - job.codeOffset;
+        jobs.push_back(job);
+    }
+    auto cpu = makeCpuSampler();
+    cpu->setProgram(prog);
+    cl_->setProgram(prog);
+    std::vector<float> a(jobs.size() * kSampleChannels * kLeafVoxels), b(a.size());
+    cpu->sampleLeaves(pool, jobs, h, a.data());
+    cl_->sampleLeaves(pool, jobs, h, b.data());
+    ReferenceEvaluator ref(tree);
+    for (size_t l = 0; l < jobs.size(); ++l)
+        for (int i = 0; i < kLeafVoxels; ++i) {
+            const size_t k = l * kSampleChannels * kLeafVoxels + size_t(i);
+            ASSERT_NEAR(a[k], b[k], 1e-5) << "leaf " << l << " voxel " << i;
+            // The specialised CPU program equals the reference at the voxel centre.
+            const glm::dvec3 p(float(jobs[l].origin[0] + (i & 7)) * float(h),
+                               float(jobs[l].origin[1] + ((i >> 3) & 7)) * float(h),
+                               float(jobs[l].origin[2] + (i >> 6)) * float(h));
+            ASSERT_NEAR(a[k], ref.value(p), 1e-6);
+        }
+}
+
+}  // namespace
