@@ -53,6 +53,15 @@
 #define CB_TWIST_SIZE 7   /* origin axis rate */
 #define CB_TAPER_SIZE 9   /* origin axis len scale0 scale1 */
 
+/* A kernel that needs values only compiles with -D CB_GRADIENT=0 -D CB_COLOR=0:
+ * the gradient and colour work below is then dead code the compiler removes. */
+#ifndef CB_GRADIENT
+#define CB_GRADIENT 1
+#endif
+#ifndef CB_COLOR
+#define CB_COLOR 1
+#endif
+
 #ifndef CB_STACK_DEPTH
 #define CB_STACK_DEPTH 32
 #endif
@@ -86,25 +95,33 @@ CB_FN cb_vec3 cb_load3(CB_GLOBAL const cb_scalar* prm, int i)
  * is zero, so that folding zero fields away never changes a colour. */
 CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g, CB_GLOBAL const cb_scalar* rgb)
 {
-    cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
     s->v[i] = v;
-    s->gx[i] = g.x;
-    s->gy[i] = g.y;
-    s->gz[i] = g.z;
-    s->cr[i] = on * rgb[0];
-    s->cg[i] = on * rgb[1];
-    s->cb[i] = on * rgb[2];
+    if (CB_GRADIENT) {
+        s->gx[i] = g.x;
+        s->gy[i] = g.y;
+        s->gz[i] = g.z;
+    }
+    if (CB_COLOR) {
+        cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
+        s->cr[i] = on * rgb[0];
+        s->cg[i] = on * rgb[1];
+        s->cb[i] = on * rgb[2];
+    }
 }
 
 CB_FN void cb_push(cb_stack* s, int i, cb_real v, cb_vec3 g, cb_vec3 c)
 {
     s->v[i] = v;
-    s->gx[i] = g.x;
-    s->gy[i] = g.y;
-    s->gz[i] = g.z;
-    s->cr[i] = c.x;
-    s->cg[i] = c.y;
-    s->cb[i] = c.z;
+    if (CB_GRADIENT) {
+        s->gx[i] = g.x;
+        s->gy[i] = g.y;
+        s->gz[i] = g.z;
+    }
+    if (CB_COLOR) {
+        s->cr[i] = c.x;
+        s->cg[i] = c.y;
+        s->cb[i] = c.z;
+    }
 }
 
 /* Starts an accumulator for an operator of type `type` in entry i. */
@@ -116,14 +133,18 @@ CB_FN void cb_acc_open(cb_stack* s, int i, int type)
     if (type == CB_INTERSECTION || type == CB_DIFFERENCE)
         start = CB_HUGE;
     s->v[i] = start;
-    s->gx[i] = s->gy[i] = s->gz[i] = CB_R(0.0);
-    s->v2[i] = s->hx[i] = s->hy[i] = s->hz[i] = CB_R(0.0);
-    s->cr[i] = s->cg[i] = s->cb[i] = s->cw[i] = CB_R(0.0);
+    s->v2[i] = CB_R(0.0);
+    if (CB_GRADIENT)
+        s->gx[i] = s->gy[i] = s->gz[i] = s->hx[i] = s->hy[i] = s->hz[i] = CB_R(0.0);
+    if (CB_COLOR)
+        s->cr[i] = s->cg[i] = s->cb[i] = s->cw[i] = CB_R(0.0);
 }
 
 /* Adds weight w of the colour of entry j to the colour sums of accumulator i. */
 CB_FN void cb_acc_color(cb_stack* s, int i, int j, cb_real w)
 {
+    if (!CB_COLOR)
+        return;
     s->cr[i] += w * s->cr[j];
     s->cg[i] += w * s->cg[j];
     s->cb[i] += w * s->cb[j];
@@ -135,10 +156,12 @@ CB_FN void cb_acc_pick(cb_stack* s, int i, int j, cb_mask m, cb_real v, cb_real 
                        cb_real gz, int takeColor)
 {
     s->v[i] = CB_SELECT(s->v[i], v, m);
-    s->gx[i] = CB_SELECT(s->gx[i], gx, m);
-    s->gy[i] = CB_SELECT(s->gy[i], gy, m);
-    s->gz[i] = CB_SELECT(s->gz[i], gz, m);
-    if (takeColor) {
+    if (CB_GRADIENT) {
+        s->gx[i] = CB_SELECT(s->gx[i], gx, m);
+        s->gy[i] = CB_SELECT(s->gy[i], gy, m);
+        s->gz[i] = CB_SELECT(s->gz[i], gz, m);
+    }
+    if (CB_COLOR && takeColor) {
         s->cr[i] = CB_SELECT(s->cr[i], s->cr[j], m);
         s->cg[i] = CB_SELECT(s->cg[i], s->cg[j], m);
         s->cb[i] = CB_SELECT(s->cb[i], s->cb[j], m);
@@ -153,18 +176,22 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
     cb_real f = s->v[j], d;
     if (type == CB_BLEND) {
         s->v[i] += f;
-        s->gx[i] += s->gx[j];
-        s->gy[i] += s->gy[j];
-        s->gz[i] += s->gz[j];
+        if (CB_GRADIENT) {
+            s->gx[i] += s->gx[j];
+            s->gy[i] += s->gy[j];
+            s->gz[i] += s->gz[j];
+        }
         cb_acc_color(s, i, j, CB_FABS(f));
     } else if (type == CB_RICCI) {
         cb_real t = cb_ricci_term(f, op[1]);
         cb_real gw = CB_POW(CB_FMAX(f, CB_R(0.0)), op[1] - CB_R(1.0));
         gw = CB_SELECT(CB_R(0.0), gw, f > CB_R(0.0));
         s->v[i] += t;
-        s->gx[i] += gw * s->gx[j];
-        s->gy[i] += gw * s->gy[j];
-        s->gz[i] += gw * s->gz[j];
+        if (CB_GRADIENT) {
+            s->gx[i] += gw * s->gx[j];
+            s->gy[i] += gw * s->gy[j];
+            s->gz[i] += gw * s->gz[j];
+        }
         cb_acc_color(s, i, j, t);
     } else if (type == CB_UNION) {
         cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 1);
@@ -182,16 +209,20 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
         cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 0);
         cb_real D = cb_pcm_deformation(f, T, op[2], op[3], &d);
         s->v2[i] += D;
-        s->hx[i] += d * s->gx[j];
-        s->hy[i] += d * s->gy[j];
-        s->hz[i] += d * s->gz[j];
+        if (CB_GRADIENT) {
+            s->hx[i] += d * s->gx[j];
+            s->hy[i] += d * s->gy[j];
+            s->hz[i] += d * s->gz[j];
+        }
         cb_acc_color(s, i, j, CB_FABS(f));
     } else if (type == CB_BETTER_BLEND) {
         cb_real g = cb_better_blend_g(f, T, op[4], &d);
         s->v[i] += g;
-        s->gx[i] += d * s->gx[j];
-        s->gy[i] += d * s->gy[j];
-        s->gz[i] += d * s->gz[j];
+        if (CB_GRADIENT) {
+            s->gx[i] += d * s->gx[j];
+            s->gy[i] += d * s->gy[j];
+            s->gz[i] += d * s->gz[j];
+        }
         cb_acc_color(s, i, j, CB_FABS(g));
     }
 }
@@ -205,18 +236,22 @@ CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_re
         cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(F, CB_TINY), CB_R(1.0) - op[1]),
                               F > CB_R(0.0));
         s->v[i] = F;
-        s->gx[i] *= k;
-        s->gy[i] *= k;
-        s->gz[i] *= k;
+        if (CB_GRADIENT) {
+            s->gx[i] *= k;
+            s->gy[i] *= k;
+            s->gz[i] *= k;
+        }
     } else if (type == CB_PCM) {
         cb_real d;
         cb_real D = cb_pcm_deformation(s->v[i], T, op[2], op[3], &d);
+        if (CB_GRADIENT) {
+            s->gx[i] += s->hx[i] - d * s->gx[i];
+            s->gy[i] += s->hy[i] - d * s->gy[i];
+            s->gz[i] += s->hz[i] - d * s->gz[i];
+        }
         s->v[i] += s->v2[i] - D;
-        s->gx[i] += s->hx[i] - d * s->gx[i];
-        s->gy[i] += s->hy[i] - d * s->gy[i];
-        s->gz[i] += s->hz[i] - d * s->gz[i];
     }
-    {
+    if (CB_COLOR) {
         /* Field-weighted colour (CSG picked one child's already).  Like a
          * primitive's, a node's colour exists where its field does: black
          * where the value is zero, so folding a zero subtree to the constant 0
@@ -332,10 +367,12 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
                 cb_acc_close(&s, i2, q + CB_OP_SIZE, T);
                 bb = cb_clamp01(fb);
                 s.v[i1] = cb_gbb(fb, s.v[i1], s.v[i2], &dFb);
-                s.gx[i1] = bb * s.gx[i1] + (CB_R(1.0) - bb) * s.gx[i2] + dFb * s.gx[top];
-                s.gy[i1] = bb * s.gy[i1] + (CB_R(1.0) - bb) * s.gy[i2] + dFb * s.gy[top];
-                s.gz[i1] = bb * s.gz[i1] + (CB_R(1.0) - bb) * s.gz[i2] + dFb * s.gz[top];
-                {
+                if (CB_GRADIENT) {
+                    s.gx[i1] = bb * s.gx[i1] + (CB_R(1.0) - bb) * s.gx[i2] + dFb * s.gx[top];
+                    s.gy[i1] = bb * s.gy[i1] + (CB_R(1.0) - bb) * s.gy[i2] + dFb * s.gy[top];
+                    s.gz[i1] = bb * s.gz[i1] + (CB_R(1.0) - bb) * s.gz[i2] + dFb * s.gz[top];
+                }
+                if (CB_COLOR) {
                     cb_real on = CB_SELECT(CB_R(1.0), CB_R(0.0), s.v[i1] == CB_R(0.0));
                     s.cr[i1] = on * (bb * s.cr[i1] + (CB_R(1.0) - bb) * s.cr[i2]);
                     s.cg[i1] = on * (bb * s.cg[i1] + (CB_R(1.0) - bb) * s.cg[i2]);
@@ -350,10 +387,12 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
             wp[wtop] = p;
             p = cb_warp_apply(b, q, p, wj + 9 * wtop);
         } else if (op == CB_I_UNWARP) {
-            cb_vec3 g = cb_mat3_tmul(wj + 9 * wtop, cb_v3(s.gx[top], s.gy[top], s.gz[top]));
-            s.gx[top] = g.x;
-            s.gy[top] = g.y;
-            s.gz[top] = g.z;
+            if (CB_GRADIENT) {
+                cb_vec3 g = cb_mat3_tmul(wj + 9 * wtop, cb_v3(s.gx[top], s.gy[top], s.gz[top]));
+                s.gx[top] = g.x;
+                s.gy[top] = g.y;
+                s.gz[top] = g.z;
+            }
             p = wp[wtop];
             --wtop;
         }
@@ -361,8 +400,11 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
     {
         cb_sample out;
         out.v = s.v[0];
-        out.g = cb_v3(s.gx[0], s.gy[0], s.gz[0]);
-        out.c = cb_v3(s.cr[0], s.cg[0], s.cb[0]);
+        out.g = out.c = cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+        if (CB_GRADIENT)
+            out.g = cb_v3(s.gx[0], s.gy[0], s.gz[0]);
+        if (CB_COLOR)
+            out.c = cb_v3(s.cr[0], s.cg[0], s.cb[0]);
         return out;
     }
 }

@@ -11,15 +11,14 @@
 #include "cb_program.h"
 
 #define CB_LEAF_VOXELS 512
-#define CB_SAMPLE_CHANNELS 7 /* value, gradient xyz, colour rgb */
 
-/* One work-group of 64 work-items per 8^3 leaf; work-item r evaluates row r,
- * the voxels (x0 + 0..7, y0 + (r & 7), z0 + (r >> 3)).  Voxel (i, j, k) sits
- * at (i, j, k) * voxelSize in world space (OpenVDB's linear transform).
+/* Values of every voxel of 8^3 leaves (built with -D CB_GRADIENT=0 -D CB_COLOR=0).
+ * One work-group of 64 work-items per leaf; work-item r evaluates row r, the
+ * voxels (x0 + 0..7, y0 + (r & 7), z0 + (r >> 3)).  Voxel (i, j, k) sits at
+ * (i, j, k) * voxelSize in world space (OpenVDB's linear transform).
  * leaves: 5 ints per leaf: x0 y0 z0, offset and length of its program in code.
- * out: per leaf 7 planes of 512 floats: value, gx, gy, gz, r, g, b, each in
- * x-fastest order. */
-__kernel void sample_leaves(__global const int* code, __global const float* prm,
+ * out: 512 floats per leaf, x fastest. */
+__kernel void sample_values(__global const int* code, __global const float* prm,
                             __global const int* leaves, const float voxelSize,
                             __global float* out)
 {
@@ -30,14 +29,32 @@ __kernel void sample_leaves(__global const int* code, __global const float* prm,
     float y = (float)(L[1] + (row & 7)) * voxelSize;
     float z = (float)(L[2] + (row >> 3)) * voxelSize;
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
-    __global float* o = out + (size_t)leaf * (CB_SAMPLE_CHANNELS * CB_LEAF_VOXELS) + 8 * row;
-    vstore8(s.v, 0, o);
-    vstore8(s.g.x, 0, o + 1 * CB_LEAF_VOXELS);
-    vstore8(s.g.y, 0, o + 2 * CB_LEAF_VOXELS);
-    vstore8(s.g.z, 0, o + 3 * CB_LEAF_VOXELS);
-    vstore8(s.c.x, 0, o + 4 * CB_LEAF_VOXELS);
-    vstore8(s.c.y, 0, o + 5 * CB_LEAF_VOXELS);
-    vstore8(s.c.z, 0, o + 6 * CB_LEAF_VOXELS);
+    vstore8(s.v, 0, out + (size_t)leaf * CB_LEAF_VOXELS + 8 * row);
+}
+
+/* Gradient and colour at chosen voxels of chosen leaves (the voxels next to
+ * the surface), eight voxels of one leaf per work-item: chunkLeaf[i] is the
+ * leaf of chunk i, chunkVoxels[8 i .. 8 i + 7] its voxel indices (x + 8 y + 64 z).
+ * out: gradient as 3 planes of `stride` halves, colour as 3 planes of
+ * `stride` bytes, entry 8 i + lane. */
+__kernel void sample_surface(__global const int* code, __global const float* prm,
+                             __global const int* leaves, const float voxelSize,
+                             __global const int* chunkLeaf, __global const ushort* chunkVoxels,
+                             const int stride, __global half* gradient, __global uchar* color)
+{
+    int chunk = (int)get_global_id(0);
+    __global const int* L = leaves + 5 * chunkLeaf[chunk];
+    int8 v = convert_int8(vload8(chunk, chunkVoxels));
+    cb_vec3 p = cb_v3(convert_float8((int8)(L[0]) + (v & 7)) * voxelSize,
+                      convert_float8((int8)(L[1]) + ((v >> 3) & 7)) * voxelSize,
+                      convert_float8((int8)(L[2]) + (v >> 6)) * voxelSize);
+    cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, p);
+    vstore_half8(s.g.x, chunk, gradient);
+    vstore_half8(s.g.y, chunk, gradient + stride);
+    vstore_half8(s.g.z, chunk, gradient + 2 * stride);
+    vstore8(convert_uchar8_sat_rte(s.c.x * 255.0f), chunk, color);
+    vstore8(convert_uchar8_sat_rte(s.c.y * 255.0f), chunk, color + stride);
+    vstore8(convert_uchar8_sat_rte(s.c.z * 255.0f), chunk, color + 2 * stride);
 }
 
 /* Evaluates one program at arbitrary points, eight per work-item: points and

@@ -160,22 +160,43 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
         jobs.push_back(job);
     }
     auto cpu = makeCpuSampler();
-    cpu->setProgram(prog);
-    cl_->setProgram(prog);
-    std::vector<float> a(jobs.size() * kSampleChannels * kLeafVoxels), b(a.size());
-    cpu->sampleLeaves(pool, jobs, h, a.data());
-    cl_->sampleLeaves(pool, jobs, h, b.data());
+    for (FieldSampler* s : {cpu.get(), cl_}) {
+        s->setProgram(prog);
+        s->setLeafCode(pool);
+    }
+    std::vector<float> a(jobs.size() * kLeafVoxels), b(a.size());
+    cpu->sampleValues(jobs, 0, jobs.size(), h, a.data());
+    cl_->sampleValues(jobs, 0, jobs.size(), h, b.data());
+    // Gradient and colour at a scattering of voxels, grouped by leaf.
+    std::vector<SurfaceQuery> queries;
+    for (size_t l = 0; l < jobs.size(); ++l)
+        for (int i = int(l) % 7; i < kLeafVoxels; i += 5 + int(l % 3))
+            queries.push_back({int32_t(l), uint16_t(i)});
+    std::vector<SurfaceSample> sa(queries.size()), sb(queries.size());
+    cpu->sampleSurface(jobs, queries, h, sa.data());
+    cl_->sampleSurface(jobs, queries, h, sb.data());
     ReferenceEvaluator ref(tree);
+    auto position = [&](size_t l, int i) {
+        return glm::dvec3(float(jobs[l].origin[0] + (i & 7)) * float(h),
+                          float(jobs[l].origin[1] + ((i >> 3) & 7)) * float(h),
+                          float(jobs[l].origin[2] + (i >> 6)) * float(h));
+    };
     for (size_t l = 0; l < jobs.size(); ++l)
         for (int i = 0; i < kLeafVoxels; ++i) {
-            const size_t k = l * kSampleChannels * kLeafVoxels + size_t(i);
+            const size_t k = l * kLeafVoxels + size_t(i);
             ASSERT_NEAR(a[k], b[k], 1e-5) << "leaf " << l << " voxel " << i;
             // The specialised CPU program equals the reference at the voxel centre.
-            const glm::dvec3 p(float(jobs[l].origin[0] + (i & 7)) * float(h),
-                               float(jobs[l].origin[1] + ((i >> 3) & 7)) * float(h),
-                               float(jobs[l].origin[2] + (i >> 6)) * float(h));
-            ASSERT_NEAR(a[k], ref.value(p), 1e-6);
+            ASSERT_NEAR(a[k], ref.value(position(l, i)), 1e-6);
         }
+    for (size_t q = 0; q < queries.size(); ++q) {
+        const FieldSample r = ref.sample(position(size_t(queries[q].leaf), queries[q].voxel));
+        for (int k = 0; k < 3; ++k) {
+            const float ga = halfToFloat(sa[q].gradient[k]), gb = halfToFloat(sb[q].gradient[k]);
+            ASSERT_NEAR(ga, gb, 2e-3 * std::max(1.0f, std::abs(ga))) << "query " << q;
+            ASSERT_NEAR(ga, r.gradient[k], 1e-3 * std::max(1.0, std::abs(r.gradient[k]))) << "query " << q;
+            ASSERT_LE(std::abs(int(sa[q].color[k]) - int(sb[q].color[k])), 1) << "query " << q;
+        }
+    }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // cambium — the command-line tool.  A thin table of sub-commands: each parses
 // its arguments and calls the library.
+#include "bake/bake.h"
 #include "blobtree/evaluator.h"
 #include "blobtree/scene_io.h"
 #include "blobtree/stats.h"
@@ -9,9 +10,13 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <openvdb/openvdb.h>
+
 #include <cstdio>
 #include <functional>
+#include <mutex>
 #include <string>
+#include <unistd.h>
 
 namespace {
 
@@ -56,6 +61,68 @@ int runEval(const std::string& scenePath, const std::vector<double>& xyz)
     return 0;
 }
 
+/// A progress bar on stderr when it is a terminal; silent otherwise.
+class ProgressBar {
+public:
+    ProgressBar() : tty_(::isatty(2) != 0) {}
+    ~ProgressBar() { clear(); }
+    void operator()(const char* stage, double fraction)
+    {
+        if (!tty_)
+            return;
+        std::lock_guard<std::mutex> lock(mutex_);
+        const int percent = int(100.0 * fraction);
+        if (stage == stage_ && percent == percent_)
+            return;
+        stage_ = stage;
+        percent_ = percent;
+        const int filled = percent * 30 / 100;
+        fmt::print(stderr, "\r{:<9} [{}{}] {:3d}%", stage_, std::string(size_t(filled), '#'),
+                   std::string(size_t(30 - filled), ' '), percent);
+        std::fflush(stderr);
+        shown_ = true;
+    }
+    void clear()
+    {
+        if (shown_)
+            fmt::print(stderr, "\r\033[K");
+        shown_ = false;
+    }
+
+private:
+    bool tty_;
+    bool shown_ = false;
+    std::mutex mutex_;
+    std::string stage_;
+    int percent_ = -1;
+};
+
+std::string count(size_t n)
+{
+    std::string s = std::to_string(n);
+    for (int i = int(s.size()) - 3; i > 0; i -= 3)
+        s.insert(size_t(i), ",");
+    return s;
+}
+
+int runBakeCommand(BakeRequest req)
+{
+    ProgressBar bar;
+    req.progress = [&](const char* stage, double f) { bar(stage, f); };
+    const BakeReport r = cambium::runBake(req);
+    bar.clear();
+    const BakeStats& s = r.stats;
+    fmt::print("baked {}: {} leaves ({} sampled), {} active voxels, {:.2f} s ({:.3g} M voxels/s; topology {:.2f} s, "
+               "sampling {:.2f} s, assembly {:.2f} s), peak memory {:.0f} MB, voxel size {:g}{}, "
+               "device {}, {:.1f} instructions per leaf\n",
+               req.output, count(s.activeLeaves), count(s.candidateLeaves), count(s.activeVoxels), s.seconds,
+               double(s.activeVoxels) / s.seconds * 1e-6, s.topologySeconds, s.samplingSeconds,
+               s.assemblySeconds, r.peakMemoryBytes / 1e6, s.voxelSize,
+               r.autoVoxelSize ? fmt::format(" (auto: 512 voxels across {:.4g})", r.extent) : "",
+               r.device, s.meanProgramLength);
+    return 0;
+}
+
 int runVersion()
 {
     fmt::print("cambium {}\n", version());
@@ -86,6 +153,27 @@ int main(int argc, char** argv)
     eval->add_option("point", point, "x y z")->required()->expected(3);
     eval->callback([&] { action = [&] { return runEval(scene, point); }; });
 
+    BakeRequest bake;
+    double voxelSize = 0.0;
+    auto* bakeCmd = app.add_subcommand(
+        "bake", "Bake a scene or skeleton into a narrow-band OpenVDB level set (.vdb)");
+    bakeCmd->add_option("input", bake.input, "Scene (.json) or skeleton file")->required();
+    bakeCmd->add_option("-o,--output", bake.output, "Output .vdb file")->required();
+    auto* voxelOpt = bakeCmd->add_option("--voxel-size", voxelSize,
+                                         "Voxel size in world units (default: 512 voxels across the "
+                                         "surface bounds)");
+    bakeCmd->add_option("--half-width", bake.halfWidth, "Narrow-band half-width in voxels")
+        ->capture_default_str();
+    bakeCmd->add_option("--device", bake.device, "opencl or cpu")->capture_default_str();
+    bakeCmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
+    bakeCmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
+    bakeCmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)");
+    bakeCmd->callback([&] {
+        if (voxelOpt->count())
+            bake.voxelSize = voxelSize;
+        action = [&] { return runBakeCommand(bake); };
+    });
+
     auto* ver = app.add_subcommand("version", "Print the versions of cambium, its libraries and the "
                                               "OpenCL devices found");
     ver->callback([&] { action = [&] { return runVersion(); }; });
@@ -95,6 +183,7 @@ int main(int argc, char** argv)
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
     }
+    openvdb::initialize();
     try {
         return action ? action() : 0;
     } catch (const cambium::InputError& e) {

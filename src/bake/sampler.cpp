@@ -5,37 +5,59 @@
 #include "bake/kernel_sources.h"
 
 #include <fmt/format.h>
+#include <openvdb/math/Half.h>
 #include <tbb/parallel_for.h>
 
 #include <mutex>
 
 namespace cambium {
 
+float halfToFloat(uint16_t h)
+{
+    openvdb::math::internal::half v;
+    v.setBits(h);
+    return float(v);
+}
+
+uint16_t floatToHalf(float f) { return openvdb::math::internal::half(f).bits(); }
+
 namespace {
 
 class CpuSampler final : public FieldSampler {
 public:
     void setProgram(const FieldProgram& program) override { program_ = &program; }
+    void setLeafCode(const std::vector<Instr>& pool) override { pool_ = &pool; }
 
-    void sampleLeaves(const std::vector<Instr>& pool, const std::vector<LeafJob>& leaves,
-                      double h, float* out) override
+    /// The world position of voxel i of a leaf, computed as the kernels do (in float).
+    static glm::dvec3 voxelPosition(const LeafJob& job, int i, double h)
     {
-        tbb::parallel_for(size_t(0), leaves.size(), [&](size_t l) {
+        return glm::dvec3(float(job.origin[0] + (i & 7)) * float(h),
+                          float(job.origin[1] + ((i >> 3) & 7)) * float(h),
+                          float(job.origin[2] + (i >> 6)) * float(h));
+    }
+
+    void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end, double h,
+                      float* out) override
+    {
+        tbb::parallel_for(begin, end, [&](size_t l) {
             const LeafJob& job = leaves[l];
-            const Code code(pool.data() + job.codeOffset, size_t(job.codeLength));
-            float* o = out + l * kSampleChannels * kLeafVoxels;
-            for (int i = 0; i < kLeafVoxels; ++i) {
-                const glm::dvec3 p(job.origin[0] + (i & 7), job.origin[1] + ((i >> 3) & 7),
-                                   job.origin[2] + (i >> 6));
-                // The same float positions as the kernel computes them.
-                const glm::dvec3 w(float(p.x) * float(h), float(p.y) * float(h), float(p.z) * float(h));
-                const FieldSample s = program_->evaluate(code, w);
-                const float v[kSampleChannels] = {float(s.value),      float(s.gradient.x),
-                                                  float(s.gradient.y), float(s.gradient.z),
-                                                  float(s.color.x),    float(s.color.y),
-                                                  float(s.color.z)};
-                for (int c = 0; c < kSampleChannels; ++c)
-                    o[c * kLeafVoxels + i] = v[c];
+            const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
+            for (int i = 0; i < kLeafVoxels; ++i)
+                out[(l - begin) * kLeafVoxels + size_t(i)] =
+                    float(program_->evaluate(code, voxelPosition(job, i, h)).value);
+        });
+    }
+
+    void sampleSurface(const std::vector<LeafJob>& leaves, const std::vector<SurfaceQuery>& queries,
+                       double h, SurfaceSample* out) override
+    {
+        tbb::parallel_for(size_t(0), queries.size(), [&](size_t q) {
+            const LeafJob& job = leaves[size_t(queries[q].leaf)];
+            const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
+            const FieldSample s = program_->evaluate(code, voxelPosition(job, queries[q].voxel, h));
+            for (int k = 0; k < 3; ++k) {
+                out[q].gradient[k] = floatToHalf(float(s.gradient[k]));
+                out[q].color[k] = uint8_t(std::lround(255.0 * std::clamp(s.color[k], 0.0, 1.0)));
             }
         });
     }
@@ -58,6 +80,7 @@ public:
 
 private:
     const FieldProgram* program_ = nullptr;
+    const std::vector<Instr>* pool_ = nullptr;
 };
 
 /// A device buffer that grows as needed.
@@ -100,19 +123,25 @@ class OpenCLSampler final : public FieldSampler {
 public:
     OpenCLSampler()
     {
-        program_ = ctx_.build(assembleKernelSource(kernelFile("sample.cl")),
-                              "-cl-std=CL1.2 -cl-mad-enable -D CB_LANES=8");
+        const std::string source = assembleKernelSource(kernelFile("sample.cl"));
+        const std::string options = "-cl-std=CL1.2 -cl-mad-enable -D CB_LANES=8";
+        program_ = ctx_.build(source, options);
+        valuesProgram_ = ctx_.build(source, options + " -D CB_GRADIENT=0 -D CB_COLOR=0");
         cl_int err;
-        leavesKernel_ = clCreateKernel(program_, "sample_leaves", &err);
-        checkCL(err, "clCreateKernel(sample_leaves)");
+        valuesKernel_ = clCreateKernel(valuesProgram_, "sample_values", &err);
+        checkCL(err, "clCreateKernel(sample_values)");
+        surfaceKernel_ = clCreateKernel(program_, "sample_surface", &err);
+        checkCL(err, "clCreateKernel(sample_surface)");
         pointsKernel_ = clCreateKernel(program_, "sample_points", &err);
         checkCL(err, "clCreateKernel(sample_points)");
     }
     ~OpenCLSampler() override
     {
-        clReleaseKernel(leavesKernel_);
+        clReleaseKernel(valuesKernel_);
+        clReleaseKernel(surfaceKernel_);
         clReleaseKernel(pointsKernel_);
         clReleaseProgram(program_);
+        clReleaseProgram(valuesProgram_);
     }
 
     void setProgram(const FieldProgram& program) override
@@ -121,29 +150,96 @@ public:
         params_.upload(ctx_, p.data(), p.size() * sizeof(float), CL_MEM_READ_ONLY);
     }
 
-    void sampleLeaves(const std::vector<Instr>& pool, const std::vector<LeafJob>& leaves,
-                      double h, float* out) override
+    void setLeafCode(const std::vector<Instr>& pool) override
     {
-        if (leaves.empty())
+        pool_.upload(ctx_, pool.data(), pool.size() * sizeof(Instr), CL_MEM_READ_ONLY);
+    }
+
+    void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end, double h,
+                      float* out) override
+    {
+        if (begin >= end)
             return;
-        cl_mem code = code_.upload(ctx_, pool.data(), pool.size() * sizeof(Instr), CL_MEM_READ_ONLY);
-        cl_mem table = table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
-        const size_t bytes = leaves.size() * kSampleChannels * kLeafVoxels * sizeof(float);
+        const size_t n = end - begin;
+        cl_mem code = pool_.get(), params = params_.get();
+        cl_mem table = table_.upload(ctx_, leaves.data() + begin, n * sizeof(LeafJob), CL_MEM_READ_ONLY);
+        const size_t bytes = n * kLeafVoxels * sizeof(float);
         cl_mem result = out_.reserve(ctx_, bytes, CL_MEM_WRITE_ONLY);
         const float hf = float(h);
-        cl_mem params = params_.get();
-        clSetKernelArg(leavesKernel_, 0, sizeof(cl_mem), &code);
-        clSetKernelArg(leavesKernel_, 1, sizeof(cl_mem), &params);
-        clSetKernelArg(leavesKernel_, 2, sizeof(cl_mem), &table);
-        clSetKernelArg(leavesKernel_, 3, sizeof(float), &hf);
-        clSetKernelArg(leavesKernel_, 4, sizeof(cl_mem), &result);
+        clSetKernelArg(valuesKernel_, 0, sizeof(cl_mem), &code);
+        clSetKernelArg(valuesKernel_, 1, sizeof(cl_mem), &params);
+        clSetKernelArg(valuesKernel_, 2, sizeof(cl_mem), &table);
+        clSetKernelArg(valuesKernel_, 3, sizeof(float), &hf);
+        clSetKernelArg(valuesKernel_, 4, sizeof(cl_mem), &result);
         // An explicit local size: PoCL recompiles for every new global size otherwise.
-        const size_t local = 64, global = 64 * leaves.size();
-        checkCL(clEnqueueNDRangeKernel(ctx_.queue(), leavesKernel_, 1, nullptr, &global, &local, 0,
+        const size_t local = 64, global = 64 * n;
+        checkCL(clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global, &local, 0,
                                        nullptr, nullptr),
-                "clEnqueueNDRangeKernel(sample_leaves)");
+                "clEnqueueNDRangeKernel(sample_values)");
         checkCL(clEnqueueReadBuffer(ctx_.queue(), result, CL_TRUE, 0, bytes, out, 0, nullptr, nullptr),
                 "clEnqueueReadBuffer");
+    }
+
+    void sampleSurface(const std::vector<LeafJob>& leaves, const std::vector<SurfaceQuery>& queries,
+                       double h, SurfaceSample* out) override
+    {
+        if (queries.empty())
+            return;
+        // Chunks of eight voxels of one leaf; a short chunk repeats its last voxel.
+        std::vector<int32_t> chunkLeaf;
+        std::vector<uint16_t> chunkVoxels;
+        std::vector<size_t> slot(queries.size());  // where each query's result lands
+        for (size_t q = 0; q < queries.size();) {
+            size_t e = q;
+            while (e < queries.size() && e - q < 8 && queries[e].leaf == queries[q].leaf)
+                ++e;
+            const size_t chunk = chunkLeaf.size();
+            chunkLeaf.push_back(queries[q].leaf);
+            for (size_t k = 0; k < 8; ++k)
+                chunkVoxels.push_back(queries[q + std::min(k, e - q - 1)].voxel);
+            for (size_t k = q; k < e; ++k)
+                slot[k] = 8 * chunk + (k - q);
+            q = e;
+        }
+        const size_t local = 8;
+        while (chunkLeaf.size() % local) {  // pad to the work-group size
+            chunkLeaf.push_back(chunkLeaf.back());
+            for (int k = 0; k < 8; ++k)
+                chunkVoxels.push_back(chunkVoxels[chunkVoxels.size() - 8]);
+        }
+        const size_t chunks = chunkLeaf.size(), stride = 8 * chunks;
+        cl_mem code = pool_.get(), params = params_.get();
+        cl_mem table = table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
+        cl_mem cl = chunkLeaf_.upload(ctx_, chunkLeaf.data(), chunks * sizeof(int32_t), CL_MEM_READ_ONLY);
+        cl_mem cv = chunkVoxels_.upload(ctx_, chunkVoxels.data(), stride * sizeof(uint16_t), CL_MEM_READ_ONLY);
+        cl_mem grad = out_.reserve(ctx_, 3 * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
+        cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
+        const float hf = float(h);
+        const int st = int(stride);
+        clSetKernelArg(surfaceKernel_, 0, sizeof(cl_mem), &code);
+        clSetKernelArg(surfaceKernel_, 1, sizeof(cl_mem), &params);
+        clSetKernelArg(surfaceKernel_, 2, sizeof(cl_mem), &table);
+        clSetKernelArg(surfaceKernel_, 3, sizeof(float), &hf);
+        clSetKernelArg(surfaceKernel_, 4, sizeof(cl_mem), &cl);
+        clSetKernelArg(surfaceKernel_, 5, sizeof(cl_mem), &cv);
+        clSetKernelArg(surfaceKernel_, 6, sizeof(int), &st);
+        clSetKernelArg(surfaceKernel_, 7, sizeof(cl_mem), &grad);
+        clSetKernelArg(surfaceKernel_, 8, sizeof(cl_mem), &col);
+        checkCL(clEnqueueNDRangeKernel(ctx_.queue(), surfaceKernel_, 1, nullptr, &chunks, &local, 0,
+                                       nullptr, nullptr),
+                "clEnqueueNDRangeKernel(sample_surface)");
+        std::vector<uint16_t> g(3 * stride);
+        std::vector<uint8_t> c(3 * stride);
+        checkCL(clEnqueueReadBuffer(ctx_.queue(), grad, CL_TRUE, 0, g.size() * 2, g.data(), 0, nullptr, nullptr),
+                "clEnqueueReadBuffer");
+        checkCL(clEnqueueReadBuffer(ctx_.queue(), col, CL_TRUE, 0, c.size(), c.data(), 0, nullptr, nullptr),
+                "clEnqueueReadBuffer");
+        tbb::parallel_for(size_t(0), queries.size(), [&](size_t q) {
+            for (int k = 0; k < 3; ++k) {
+                out[q].gradient[k] = g[size_t(k) * stride + slot[q]];
+                out[q].color[k] = c[size_t(k) * stride + slot[q]];
+            }
+        });
     }
 
     std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) override
@@ -183,9 +279,9 @@ public:
 
 private:
     OpenCLContext ctx_;
-    cl_program program_ = nullptr;
-    cl_kernel leavesKernel_ = nullptr, pointsKernel_ = nullptr;
-    DeviceBuffer params_, code_, table_, out_;
+    cl_program program_ = nullptr, valuesProgram_ = nullptr;
+    cl_kernel valuesKernel_ = nullptr, surfaceKernel_ = nullptr, pointsKernel_ = nullptr;
+    DeviceBuffer params_, pool_, code_, table_, out_, out2_, chunkLeaf_, chunkVoxels_;
 };
 
 }  // namespace

@@ -16,6 +16,23 @@ class OpenCLContext;
 constexpr int kSampleChannels = 7;
 constexpr int kLeafVoxels = 512;
 
+/// A voxel of a leaf where gradient and colour are wanted.
+struct SurfaceQuery {
+    int32_t leaf;    ///< index into the leaf table
+    uint16_t voxel;  ///< x + 8 y + 64 z
+};
+
+/// Gradient (IEEE half precision: enough for distances within a voxel and for
+/// normals) and colour (8 bits) at a queried voxel.
+struct SurfaceSample {
+    uint16_t gradient[3];
+    uint8_t color[3];
+};
+
+/// IEEE half <-> float.
+float halfToFloat(uint16_t h);
+uint16_t floatToHalf(float f);
+
 /// A leaf to sample: its origin in voxel index space and its program, a
 /// range of a shared code pool.
 struct LeafJob {
@@ -29,10 +46,16 @@ public:
     virtual ~FieldSampler() = default;
     /// Fixes the program whose parameter table the leaf programs use.
     virtual void setProgram(const FieldProgram& program) = 0;
-    /// Samples every voxel of every leaf: out receives, per leaf, 7 planes of
-    /// 512 floats (value, gx, gy, gz, r, g, b), x fastest then y then z.
-    virtual void sampleLeaves(const std::vector<Instr>& codePool, const std::vector<LeafJob>& leaves,
+    /// Fixes the pool of leaf programs that LeafJobs refer to.
+    virtual void setLeafCode(const std::vector<Instr>& codePool) = 0;
+    /// Values of every voxel of leaves[begin, end): 512 floats per leaf into
+    /// out, voxel x + 8 y + 64 z.
+    virtual void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end,
                               double voxelSize, float* out) = 0;
+    /// Gradient and colour at the queried voxels (queries grouped by leaf).
+    virtual void sampleSurface(const std::vector<LeafJob>& leaves,
+                               const std::vector<SurfaceQuery>& queries, double voxelSize,
+                               SurfaceSample* out) = 0;
     /// Evaluates `code` at arbitrary points (tests and diagnostics):
     /// out = 7 planes of points.size() floats.
     virtual std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) = 0;

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace cambium {
@@ -504,52 +505,90 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
 Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
 {
     const double* w = params_.data() + in.a;
-    if (in.b == CB_TRANSFORM) {
+    auto linearImage = [&](const double m[12]) {
         Box out;
         for (const auto& c : box.corners())
-            out.expand(glm::dvec3(w[0] * c.x + w[1] * c.y + w[2] * c.z + w[3],
-                                  w[4] * c.x + w[5] * c.y + w[6] * c.z + w[7],
-                                  w[8] * c.x + w[9] * c.y + w[10] * c.z + w[11]));
+            out.expand(glm::dvec3(m[0] * c.x + m[1] * c.y + m[2] * c.z + m[3],
+                                  m[4] * c.x + m[5] * c.y + m[6] * c.z + m[7],
+                                  m[8] * c.x + m[9] * c.y + m[10] * c.z + m[11]));
         return out;
-    }
-    // The other warps: every point of the box is within delta of its centre,
-    // so its image is within lip * delta of the centre's image, where lip
-    // bounds the Jacobian's norm over the box.
-    const glm::dvec3 c = box.center();
-    const double delta = 0.5 * glm::length(box.size());
-    double lip;
+    };
+    if (in.b == CB_TRANSFORM)
+        return linearImage(w);
     if (in.b == CB_BEND) {
-        if (w[13] <= 0.0) {
-            lip = 1.0;
+        const glm::dvec3 p0 = load3(w), u = load3(w + 3), v = load3(w + 6), ax = load3(w + 9);
+        const double len = w[12], theta = w[13], rho = w[14], ch = w[15], sh = w[16], ls = w[17];
+        // Local coordinates of the box's points: x along u, y along v, z along ax.
+        double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, z0 = kInf, z1 = -kInf;
+        for (const auto& c : box.corners()) {
+            const glm::dvec3 d = c - p0;
+            x0 = std::min(x0, glm::dot(d, u));
+            x1 = std::max(x1, glm::dot(d, u));
+            y0 = std::min(y0, glm::dot(d, v));
+            y1 = std::max(y1, glm::dot(d, v));
+            z0 = std::min(z0, glm::dot(d, ax));
+            z1 = std::max(z1, glm::dot(d, ax));
+        }
+        // Child-space images, as (a, y') boxes in the same frame, of each of
+        // cb_bend_apply's three regions, each taken for the whole box.
+        std::vector<std::array<double, 4>> parts;  // a0 a1 y0 y1
+        if (theta <= 0.0) {
+            parts.push_back({x0, x1, y0, y1});
         } else {
-            // Along the arc the axial coordinate stretches by (L/theta)/r, r the
-            // distance from the arc's axis (through its centre, along w).
-            const glm::dvec3 p0 = load3(w), u = load3(w + 3), v = load3(w + 6), ax = load3(w + 9);
-            const glm::dvec3 centre = p0 + 0.5 * w[12] * u - w[14] * w[15] * v;
-            const double reach = 1e9 * (1.0 + glm::length(box.size()) + glm::length(centre));
+            // Arc: a stays in [0, L]; y' = r - rho with r the distance from the
+            // arc's axis (through its centre, along ax).
+            const glm::dvec3 centre = p0 + 0.5 * len * u - rho * ch * v;
+            const double reach = 1e3 * (1.0 + glm::length(box.size()) + glm::length(centre - p0));
             const double rmin =
                 std::sqrt(segmentBoxDistance2(centre - reach * ax, centre + reach * ax, box));
-            if (rmin <= 1e-12)  // the box touches the arc's axis: no useful bound
-                return Box(glm::dvec3(-1e15), glm::dvec3(1e15));
-            lip = std::max(1.0, (w[12] / w[13]) / rmin);
+            double rmax = 0.0;
+            for (const auto& c : box.corners()) {
+                const glm::dvec3 d = c - centre;
+                rmax = std::max(rmax, glm::length(d - glm::dot(d, ax) * ax));
+            }
+            parts.push_back({0.0, len, rmin - rho, rmax - rho});
+            // Before p0 and after p1: rigid motions (scaled along the tangent).
+            auto linear = [&](double ox, double j00, double j01, double j10, double j11, double a0) {
+                double a[4] = {kInf, -kInf, kInf, -kInf};
+                for (double x : {x0, x1})
+                    for (double y : {y0, y1}) {
+                        const double av = a0 + j00 * (x - ox) + j01 * y, yv = j10 * (x - ox) + j11 * y;
+                        a[0] = std::min(a[0], av);
+                        a[1] = std::max(a[1], av);
+                        a[2] = std::min(a[2], yv);
+                        a[3] = std::max(a[3], yv);
+                    }
+                parts.push_back({a[0], a[1], a[2], a[3]});
+            };
+            linear(0.0, ls * ch, ls * sh, -sh, ch, 0.0);
+            linear(len, ls * ch, -ls * sh, sh, ch, len);
         }
-    } else {
-        const glm::dvec3 o = load3(w), a = load3(w + 3);
-        double rmax = 0.0;
-        for (const auto& k : box.corners()) {
-            const glm::dvec3 d = k - o;
-            rmax = std::max(rmax, glm::length(d - glm::dot(d, a) * a));
-        }
-        if (in.b == CB_TWIST) {
-            lip = 1.0 + std::abs(w[6]) * rmax;
-        } else {
-            const double smin = std::min(w[7], w[8]);
-            lip = std::max(1.0, 1.0 / smin) + std::abs(w[8] - w[7]) / w[6] * rmax / (smin * smin);
-        }
+        Box out;
+        for (const auto& q : parts)
+            for (double a : {q[0], q[1]})
+                for (double y : {q[2], q[3]})
+                    for (double z : {z0, z1})
+                        out.expand(p0 + a * u + y * v + z * ax);
+        return out;
     }
-    double J[9];
-    const cb_vec3 qc = cb_warp_apply(in.b, w, cb_v3(c.x, c.y, c.z), J);
-    return Box::around(glm::dvec3(qc.x, qc.y, qc.z), lip * delta);
+    // Twist and taper keep the height along their axis and move points only
+    // across it: the image lies in a cylinder about the axis.
+    const glm::dvec3 o = load3(w), a = load3(w + 3);
+    double hmin = kInf, hmax = -kInf, rmax = 0.0;
+    for (const auto& k : box.corners()) {
+        const glm::dvec3 d = k - o;
+        const double hh = glm::dot(d, a);
+        hmin = std::min(hmin, hh);
+        hmax = std::max(hmax, hh);
+        rmax = std::max(rmax, glm::length(d - hh * a));
+    }
+    if (in.b == CB_TAPER)
+        rmax /= std::min(w[7], w[8]);
+    Box out;
+    out.expand(o + hmin * a);
+    out.expand(o + hmax * a);
+    const glm::dvec3 e = rmax * glm::sqrt(glm::max(glm::dvec3(0.0), 1.0 - a * a));
+    return Box(out.lo - e, out.hi + e);
 }
 
 Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const

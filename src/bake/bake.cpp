@@ -1,0 +1,147 @@
+// cambium — the bake command's work.
+#include "bake/bake.h"
+
+#include "bake/cl_runtime.h"
+#include "bake/vdb_io.h"
+#include "blobtree/scene_io.h"
+#include "core/error.h"
+#include "model/skeleton.h"
+
+#include <fmt/format.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <sys/resource.h>
+#include <unistd.h>
+
+namespace cambium {
+
+namespace {
+
+bool endsWith(const std::string& s, const std::string& suffix)
+{
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string bytes(double b)
+{
+    const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
+    int u = 0;
+    while (b >= 1000.0 && u < 6) {
+        b /= 1000.0;
+        ++u;
+    }
+    return fmt::format("{:.3g} {}", b, units[u]);
+}
+
+}  // namespace
+
+double availableMemoryBytes()
+{
+    std::ifstream in("/proc/meminfo");
+    std::string key;
+    double kb;
+    std::string unit;
+    while (in >> key >> kb >> unit)
+        if (key == "MemAvailable:")
+            return kb * 1024.0;
+    return double(::sysconf(_SC_AVPHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+}
+
+double peakMemoryBytes()
+{
+    struct rusage r;
+    ::getrusage(RUSAGE_SELF, &r);
+    return double(r.ru_maxrss) * 1024.0;
+}
+
+BlobTree loadModel(const std::string& path)
+{
+    if (endsWith(path, ".json"))
+        return loadScene(path);
+    return skeletonToBlend(loadSkeleton(path));
+}
+
+BakeReport runBake(const BakeRequest& req)
+{
+    BakeReport report;
+    if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
+        throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
+    const BlobTree tree = loadModel(req.input);
+    const FieldProgram program = FieldProgram::compile(tree);
+    const Box bounds = program.positiveBounds();
+    if (bounds.empty())
+        throw InputError(fmt::format("{}: the model has no surface: its field is nowhere above the "
+                                     "threshold (empty scene, or only negative fields)",
+                                     req.input));
+    const glm::dvec3 size = bounds.size();
+    report.extent = std::max({size.x, size.y, size.z});
+    double h;
+    if (req.voxelSize) {
+        h = *req.voxelSize;
+        if (!std::isfinite(h) || !(h > 0.0))
+            throw InputError(fmt::format("--voxel-size must be a positive number (got {})", h));
+    } else {
+        h = autoVoxelSize(program);
+        report.autoVoxelSize = true;
+    }
+    // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
+    const double span = (std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
+                                   std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)}) +
+                         req.halfWidth * h) / h;
+    const double need = estimateBakeBytes(program, h, req.halfWidth);
+    const double have = availableMemoryBytes();
+    if (!(span < 1e9) || need > have)
+        throw InputError(fmt::format(
+            "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across ({:.3g} "
+            "voxels), and this machine has {} available: use a larger --voxel-size",
+            h, bytes(need), report.extent, report.extent / h, bytes(have)));
+    checkWritable(req.output);
+
+    std::unique_ptr<tbb::global_control> threads;
+    if (req.threads > 0) {
+        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                        size_t(req.threads));
+        const std::string n = std::to_string(req.threads);
+        ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
+        ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
+    }
+    std::unique_ptr<FieldSampler> sampler;
+    if (req.device == "opencl") {
+        try {
+            sampler = makeOpenCLSampler();
+        } catch (const OpenCLError& e) {
+            throw InputError(fmt::format("{}\n(use --device cpu to bake on the CPU without OpenCL)", e.what()));
+        }
+    } else if (req.device == "cpu") {
+        sampler = makeCpuSampler();
+    } else {
+        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", req.device));
+    }
+    report.device = sampler->name();
+
+    BakeOptions opt;
+    opt.voxelSize = h;
+    opt.halfWidth = req.halfWidth;
+    opt.fog = req.fog;
+    opt.progress = req.progress;
+    const BakedGrids grids = bakeLevelSet(program, *sampler, opt);
+    if (grids.stats.activeVoxels == 0)
+        throw InputError(fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
+                                     "nothing to bake (use a smaller --voxel-size)",
+                                     req.input, h));
+    VdbFileInfo info;
+    info.scene = req.input;
+    info.threshold = tree.threshold();
+    info.halfWidth = req.halfWidth;
+    info.half = req.half;
+    writeVdb(grids, req.output, info);
+    report.stats = grids.stats;
+    report.peakMemoryBytes = peakMemoryBytes();
+    return report;
+}
+
+}  // namespace cambium

@@ -1,0 +1,48 @@
+// cambium — a bake from a model file to a .vdb file: validation, sampling
+// device, level set, output.  What `cambium bake` runs.
+#pragma once
+
+#include "bake/levelset.h"
+
+#include <functional>
+#include <optional>
+#include <string>
+
+namespace cambium {
+
+/// Reads a model: a JSON scene (.json) or a skeleton text file (anything
+/// else, docs/skeleton-format.md), the latter as a summation blend of cones.
+BlobTree loadModel(const std::string& path);
+
+struct BakeRequest {
+    std::string input;                 ///< scene or skeleton file
+    std::string output;                ///< .vdb path
+    std::optional<double> voxelSize;   ///< default: 512 voxels across the surface bounds
+    double halfWidth = 3.0;            ///< voxels
+    std::string device = "opencl";     ///< "opencl" or "cpu"
+    bool fog = false;
+    bool half = false;
+    int threads = 0;                   ///< 0: all cores
+    std::function<void(const char*, double)> progress;
+};
+
+struct BakeReport {
+    BakeStats stats;
+    bool autoVoxelSize = false;
+    double extent = 0.0;       ///< largest extent of the surface bounds
+    double peakMemoryBytes = 0.0;
+    std::string device;
+};
+
+/// Validates everything first (model, voxel size, memory, output path) and
+/// throws InputError naming the problem before any work or output; then
+/// bakes and writes.  An OpenCL failure names the problem and suggests
+/// --device cpu.
+BakeReport runBake(const BakeRequest& request);
+
+/// Bytes of memory available to this process (MemAvailable).
+double availableMemoryBytes();
+/// Peak resident memory of this process so far.
+double peakMemoryBytes();
+
+}  // namespace cambium

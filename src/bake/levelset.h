@@ -1,0 +1,66 @@
+// cambium — baking a FieldProgram into an OpenVDB narrow-band level set.
+#pragma once
+
+#include "bake/sampler.h"
+#include "field/program.h"
+
+#include <openvdb/openvdb.h>
+
+#include <functional>
+#include <string>
+
+namespace cambium {
+
+struct BakeOptions {
+    double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
+    double halfWidth = 3.0;  ///< narrow-band half-width in voxels
+    bool fog = false;        ///< also make a `density` fog volume
+    /// Called with a stage name and the fraction done; may be called from
+    /// several threads at once.
+    std::function<void(const char* stage, double fraction)> progress;
+};
+
+struct BakeStats {
+    double voxelSize = 0.0;
+    size_t boxesTested = 0;      ///< interval tests during the topology search
+    size_t candidateLeaves = 0;  ///< leaves sampled
+    size_t activeLeaves = 0;     ///< leaves holding band voxels
+    size_t activeVoxels = 0;     ///< voxels in the band
+    size_t surfacePoints = 0;    ///< voxels next to a sign change (the first layer)
+    double meanProgramLength = 0.0;  ///< instructions per leaf program
+    double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
+};
+
+struct BakedGrids {
+    openvdb::FloatGrid::Ptr surface;  ///< level set `surface`
+    openvdb::Vec3fGrid::Ptr color;    ///< `Cd` on the band
+    openvdb::FloatGrid::Ptr density;  ///< `density` fog volume, with BakeOptions::fog
+    BakeStats stats;
+};
+
+/// Bakes the field's surface F = T into a narrow band of signed distances:
+/// world units, negative inside, background halfWidth * voxelSize, class
+/// GRID_LEVEL_SET, name `surface`, plus the blended colour `Cd` on the band.
+///
+/// 1. topology: leaves that can hold band voxels (findBandLeaves);
+/// 2. sampling: the value at every voxel of those leaves;
+/// 3. surface points: each voxel next to a sign change of F - T is sampled
+///    again for gradient and colour, and gets its distance (T - F)/|grad F|
+///    (bounded by the crossings along its edges) and the closest surface
+///    point and normal that follow;
+/// 4. propagation: directional sweeps hand every voxel the nearest of its
+///    neighbours' surface points; its distance is measured to that point's
+///    tangent plane (exact for planes, second order for curved surfaces);
+/// 5. voxels within the band become active; signedFloodFill sets the rest.
+BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
+                        const BakeOptions& options);
+
+/// A voxel size that puts about `voxels` voxels across the largest extent of
+/// the surface bounds.
+double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);
+
+/// Estimated bytes a bake needs at this voxel size (from the primitives'
+/// surface area): used to refuse a voxel size the machine cannot hold.
+double estimateBakeBytes(const FieldProgram& program, double voxelSize, double halfWidth);
+
+}  // namespace cambium

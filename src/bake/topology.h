@@ -1,0 +1,35 @@
+// cambium — the narrow-band topology: which 8^3 leaves of voxels can hold
+// voxels within the band, found hierarchically from coarse tiles down with
+// interval bounds of the field, each leaf with its specialised program.
+#pragma once
+
+#include "bake/sampler.h"
+#include "field/program.h"
+
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+namespace cambium {
+
+struct BandTopology {
+    std::vector<LeafJob> leaves;  ///< sorted by tile, then by position (deterministic)
+    std::vector<Instr> pool;      ///< the leaves' programs
+    size_t boxesTested = 0;       ///< interval evaluations over boxes
+};
+
+/// Finds every leaf (origin a multiple of 8, voxel (i, j, k) at (i, j, k) * h)
+/// that can contain a voxel within halfWidth voxels of the surface F = T: a
+/// leaf is kept when the field's interval over its voxel-centre box grown by
+/// halfWidth * h contains T.  Boxes that fail the test are never subdivided,
+/// so the work follows the surface, not the volume.  Each leaf's program is
+/// specialised to its voxel-centre box.
+BandTopology findBandLeaves(const FieldProgram& program, double voxelSize, double halfWidth,
+                            const std::function<void(double)>& progress = {});
+
+/// Index-space box (inclusive, leaf-aligned) that the search covers: the
+/// field's positive support grown by the band.
+void bandIndexBounds(const FieldProgram& program, double voxelSize, double halfWidth,
+                     long long lo[3], long long hi[3]);
+
+}  // namespace cambium

@@ -1,0 +1,33 @@
+// cambium — writing baked grids to .vdb files that other software opens.
+#pragma once
+
+#include "bake/levelset.h"
+
+#include <string>
+
+namespace cambium {
+
+struct VdbFileInfo {
+    std::string scene;      ///< the source the grids were baked from
+    double threshold = 0.5;
+    double halfWidth = 3.0;
+    long long frame = 0;    ///< growth frame number (0 for a single bake)
+    double time = 0.0;      ///< model time of the frame
+    bool half = false;      ///< store floats as 16-bit halves
+};
+
+/// Writes the grids (surface, Cd, density if present) with grid statistics
+/// metadata and cambium's own metadata, Blosc-compressed, to a temporary
+/// file beside `path` that is renamed over it only when complete: a crash
+/// never leaves a half-written .vdb.  Throws InputError when the path cannot
+/// be written.
+void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
+
+/// Fails early, before any work, when `path` cannot be created (missing
+/// directory, no permission): creates and removes a temporary file beside it.
+void checkWritable(const std::string& path);
+
+/// The name of the temporary file writeVdb writes before renaming.
+std::string temporaryPathFor(const std::string& path);
+
+}  // namespace cambium

@@ -1,0 +1,35 @@
+// cambium — tree skeletons: internodes with end points, radii and parents.
+#pragma once
+
+#include "blobtree/blobtree.h"
+
+#include <glm/glm.hpp>
+
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+struct Internode {
+    long long id = 0;
+    long long parent = -1;  ///< -1 for a root
+    glm::dvec3 p0{0.0}, p1{0.0};
+    double r0 = 0.0, r1 = 0.0;  ///< surface radius at p0 and at p1
+};
+
+struct Skeleton {
+    std::vector<Internode> internodes;
+};
+
+/// Reads the text format of ../shared/bench/gen_skeleton.py (docs/skeleton-format.md):
+/// one internode per line, `id parent x0 y0 z0 x1 y1 z1 r0 r1`; blank lines and
+/// lines starting with # are ignored.  Throws InputError naming the file, line
+/// and field of anything malformed.
+Skeleton parseSkeleton(const std::string& text, const std::string& source);
+Skeleton loadSkeleton(const std::string& path);
+
+/// The simplest BlobTree of a skeleton: a summation blend of one cone per
+/// internode (the benchmark field).
+BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold = 0.5);
+
+}  // namespace cambium
