@@ -27,7 +27,9 @@
 #include "cb_primitives.h"
 #include "cb_warps.h"
 
-/* Opcodes.  Primitives use their node-type numbers (CB_SPHERE ... ). */
+/* Opcodes.  Primitives use their node-type numbers (CB_SPHERE ... ), with
+ * the parameter block at a and, for the host, the index of their support box
+ * in c. */
 #define CB_I_CONST 8   /* push the constant prm[a] */
 #define CB_I_OPEN 9    /* push the accumulator of the operator whose block is at a; b = node type;
                           c = index of the subtree's support box (host only) */

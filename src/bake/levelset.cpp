@@ -9,9 +9,11 @@
 #include <openvdb/tools/SignedFloodFill.h>
 
 #include <fmt/format.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <cstdlib>
+#include <cstring>
 
 #include <algorithm>
 #include <chrono>
@@ -36,6 +38,33 @@ struct SurfacePoint {
 };
 
 inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
+
+// Four lanes of the propagation sweeps as SSE registers (baseline x86-64):
+// the selects compile to masks, not to branches the processor mispredicts.
+typedef float V4f __attribute__((vector_size(16)));
+typedef int32_t V4i __attribute__((vector_size(16)));
+
+template <class V, class T>
+inline V load4(const T* p, int stride)
+{
+    if (stride == 1) {
+        V v;
+        std::memcpy(&v, p, sizeof(V));
+        return v;
+    }
+    return V{p[0], p[stride], p[2 * stride], p[3 * stride]};
+}
+
+template <class V, class T>
+inline void store4(T* p, int stride, const V& v)
+{
+    if (stride == 1) {
+        std::memcpy(p, &v, sizeof(V));
+        return;
+    }
+    for (int j = 0; j < 4; ++j)
+        p[j * stride] = v[j];
+}
 
 uint64_t leafKey(int x, int y, int z)
 {
@@ -211,8 +240,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
 
     t = Clock::now();
     std::vector<SurfacePoint> points(np);
-    std::vector<int32_t> src(n * kLeafVoxels, -1);   // nearest surface point, -1 for none
-    std::vector<float> d2(n * kLeafVoxels, INFINITY);  // its squared distance, index units
+    std::vector<uint16_t> pointVoxel(np);  // each point's voxel in its leaf
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
         const int32_t* o = topo.leaves[l].origin;
         for (size_t k = 0; k < edges[l].size(); ++k) {
@@ -242,8 +270,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 sp.n[c] = int16_t(std::lround(32767.0f * nrm[c]));
                 sp.rgb[c] = surface[q].color[c];
             }
-            src[l * kLeafVoxels + size_t(i)] = int32_t(q);
-            d2[l * kLeafVoxels + size_t(i)] = dist * dist;
+            pointVoxel[q] = uint16_t(i);
         }
         edges[l] = {};
     });
@@ -253,109 +280,207 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "values {:.3f} s, surface points {:.3f} s ({} points)\n", valueSeconds, since(t), np);
 
-    // 4. Propagation: sweeps along each axis in both directions, each voxel
-    // offered its predecessor's surface point; two rounds.  Lines are
-    // independent, so the result is deterministic.
+    // 4 and 5, tile by tile (the topology's 128^3 tiles, whose leaves are
+    // contiguous): propagation over the tile's leaves and a one-leaf halo of
+    // their neighbours (a band voxel's nearest point is within halfWidth + 2
+    // voxels, well inside a leaf), then the tile's grid leaves.
+    std::vector<size_t> tileStart;
+    for (size_t l = 0; l < n; ++l) {
+        const int32_t* o = topo.leaves[l].origin;
+        const int32_t* p = l ? topo.leaves[l - 1].origin : nullptr;
+        if (!p || (o[0] >> 7) != (p[0] >> 7) || (o[1] >> 7) != (p[1] >> 7) || (o[2] >> 7) != (p[2] >> 7))
+            tileStart.push_back(l);
+    }
+    tileStart.push_back(n);
     const float limit2 = float((W + 2.0) * (W + 2.0));
-    // Two rounds: the first carries points along x, then y, then z; the second
-    // repairs the paths the first could not take (max error 0.25 -> 0.1 voxel,
-    // tests/test_bake.cpp).
-    for (int pass = 0; pass < 6; ++pass) {
-        const int axis = pass % 3;
-        const auto rows = chains(topo.leaves, axis);
-        const int stride = axis == 0 ? 1 : (axis == 1 ? 8 : 64);
-        const int s1 = axis == 0 ? 8 : 1, s2 = axis == 2 ? 8 : 64;  // the other two axes' strides
-        for (int dir : {1, -1})
-            tbb::parallel_for(size_t(0), rows.size(), [&](size_t r) {
-                const auto& chain = rows[r];
-                const int nc = int(chain.size());
-                for (int line = 0; line < 64; ++line) {
-                    const int base = (line & 7) * s1 + (line >> 3) * s2;
-                    int32_t carry = -1;
+    std::vector<openvdb::FloatTree::LeafNodeType*> sLeaves(n, nullptr);
+    std::vector<openvdb::Vec3fTree::LeafNodeType*> cLeaves(n, nullptr);
+    std::vector<size_t> activeCount(n, 0);
+    std::atomic<size_t> tilesDone{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
+    struct Scratch {
+        std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
+        std::vector<float> d2;             // its squared distance
+        std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
+        std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch;
+    tbb::parallel_for(size_t(0), tileStart.size() - 1, [&](size_t tile) {
+        Scratch& S = scratch.local();
+        const size_t t0 = tileStart[tile], t1 = tileStart[tile + 1];
+        // The tile's leaves, then its halo.
+        S.leaves.resize(t1 - t0);
+        std::iota(S.leaves.begin(), S.leaves.end(), int32_t(t0));
+        for (size_t l = t0; l < t1; ++l)
+            for (int32_t m : nb[l])
+                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1))
+                    S.leaves.push_back(m);
+        std::sort(S.leaves.begin() + long(t1 - t0), S.leaves.end());
+        S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
+        const size_t nl = S.leaves.size();
+        localLeaves += nl;
+        S.src.assign(nl * kLeafVoxels, -1);
+        S.d2.assign(nl * kLeafVoxels, INFINITY);
+        // Voxels without a point carry one infinitely far away, so that the
+        // sweeps below need no branches.
+        for (auto& p : S.pos)
+            p.assign(nl * kLeafVoxels, 1e15f);
+        std::vector<LeafJob> local(nl);
+        S.pts.clear();
+        for (size_t k = 0; k < nl; ++k) {
+            const size_t l = size_t(S.leaves[k]);
+            local[k] = topo.leaves[l];
+            for (size_t q = first[l]; q < first[l + 1]; ++q) {
+                const glm::vec3 p(points[q].p[0], points[q].p[1], points[q].p[2]);
+                const int i = pointVoxel[q];
+                const size_t at = k * kLeafVoxels + size_t(i);
+                const glm::vec3 v(float(local[k].origin[0] + (i & 7)), float(local[k].origin[1] + ((i >> 3) & 7)),
+                                  float(local[k].origin[2] + (i >> 6)));
+                S.src[at] = int32_t(S.pts.size());
+                S.pts.push_back(points[q]);
+                S.d2[at] = glm::dot(v - p, v - p);
+                for (int c = 0; c < 3; ++c)
+                    S.pos[c][at] = p[c];
+            }
+        }
+        const auto tSweep = Clock::now();
+        // Sweeps along each axis in both directions, each voxel offered its
+        // predecessor's surface point; two rounds (the second repairs the
+        // paths the first could not take: max error 0.25 -> 0.1 voxel,
+        // tests/test_bake.cpp).
+        for (int pass = 0; pass < 6; ++pass) {
+            const int axis = pass % 3;
+            // Eight parallel lines at a time, along `lane` (the other axis with
+            // the smaller stride): their carries are independent, so the
+            // processor overlaps them instead of waiting on one chain of
+            // dependent selects.
+            const int lane = axis == 0 ? 1 : 0, other = 3 - axis - lane;
+            const auto rows = chains(local, axis);
+            auto strideOf = [](int ax) { return ax == 0 ? 1 : (ax == 1 ? 8 : 64); };
+            const int stride = strideOf(axis), sl_ = strideOf(lane), so = strideOf(other);
+            for (int dir : {1, -1})
+                for (const auto& chain : rows) {
+                    const int nc = int(chain.size());
+                    // One leaf at a time with all its 64 lines, so that the
+                    // leaf's state stays in the first-level cache; each line's
+                    // carried point passes on to the next leaf of the chain.
+                    V4i carry[16];
+                    V4f along[16], cl[16], co[16];
+                    for (int j = 0; j < 16; ++j) {
+                        carry[j] = V4i{} - 1;
+                        along[j] = cl[j] = co[j] = V4f{} + 1e15f;
+                    }
+                    const V4f lanes = {0.0f, 1.0f, 2.0f, 3.0f};
                     for (int c = 0; c < nc; ++c) {
-                        const int leaf = chain[size_t(dir > 0 ? c : nc - 1 - c)];
-                        const int32_t* o = topo.leaves[size_t(leaf)].origin;
-                        int32_t* sl = src.data() + size_t(leaf) * kLeafVoxels;
-                        float* dl = d2.data() + size_t(leaf) * kLeafVoxels;
-                        for (int s = 0; s < 8; ++s) {
-                            const int a = dir > 0 ? s : 7 - s;
-                            const int i = base + a * stride;
-                            if (carry >= 0) {
-                                const SurfacePoint& sp = points[size_t(carry)];
-                                const float dx = float(o[0] + (i & 7)) - sp.p[0],
-                                            dy = float(o[1] + ((i >> 3) & 7)) - sp.p[1],
-                                            dz = float(o[2] + (i >> 6)) - sp.p[2];
-                                const float dd = dx * dx + dy * dy + dz * dz;
-                                if (dd < dl[i] && dd < limit2) {
-                                    dl[i] = dd;
-                                    sl[i] = carry;
-                                }
+                        const int k = chain[size_t(dir > 0 ? c : nc - 1 - c)];
+                        const int32_t* o = local[size_t(k)].origin;
+                        const size_t lb = size_t(k) * kLeafVoxels;
+                        int32_t* __restrict sv = S.src.data() + lb;
+                        float* __restrict dl = S.d2.data() + lb;
+                        float* __restrict pa = S.pos[axis].data() + lb;
+                        float* __restrict pl = S.pos[lane].data() + lb;
+                        float* __restrict po = S.pos[other].data() + lb;
+                        for (int g = 0; g < 16; ++g) {  // 8 lines (other) x 2 groups of 4 (lane)
+                            const int lo = g >> 1, j0 = 4 * (g & 1);
+                            const V4f cO = V4f{} + float(o[other] + lo);
+                            const V4f cL = lanes + float(o[lane] + j0);
+                            V4i cr = carry[g];
+                            V4f al = along[g], cll = cl[g], col = co[g];
+                            for (int step = 0; step < 8; ++step) {
+                                const int a = dir > 0 ? step : 7 - step;
+                                const int i = a * stride + j0 * sl_ + lo * so;
+                                const V4f ca = V4f{} + float(o[axis] + a);
+                                const V4f da = ca - al, dL = cL - cll, dO = cO - col;
+                                const V4f dd = da * da + dL * dL + dO * dO;
+                                const V4f cur = load4<V4f>(dl + i, sl_);
+                                const V4i better = (dd < cur) & (dd < limit2);
+                                cr = better ? cr : load4<V4i>(sv + i, sl_);
+                                al = better ? al : load4<V4f>(pa + i, sl_);
+                                cll = better ? cll : load4<V4f>(pl + i, sl_);
+                                col = better ? col : load4<V4f>(po + i, sl_);
+                                store4(dl + i, sl_, better ? dd : cur);
+                                store4(sv + i, sl_, cr);
+                                store4(pa + i, sl_, al);
+                                store4(pl + i, sl_, cll);
+                                store4(po + i, sl_, col);
                             }
-                            carry = sl[i];
+                            carry[g] = cr;
+                            along[g] = al;
+                            cl[g] = cll;
+                            co[g] = col;
                         }
                     }
                 }
-            });
-    }
-    d2 = {};
-    progress("assembly", 0.5);
+        }
+        sweepNs += size_t(since(tSweep) * 1e9);
+        const auto tLeaves = Clock::now();
+        // The tile's grid leaves, written straight into their buffers.
+        for (size_t k = 0; k < t1 - t0; ++k) {
+            const size_t l = t0 + k;
+            const int32_t* o = topo.leaves[l].origin;
+            float sd[kLeafVoxels];
+            int32_t from[kLeafVoxels];
+            size_t active = 0;
+            for (int i = 0; i < kLeafVoxels; ++i) {
+                const bool inside = value[l * kLeafVoxels + size_t(i)] > Tf;
+                sd[i] = inside ? -background : background;
+                from[i] = -1;
+                const int32_t si = S.src[k * kLeafVoxels + size_t(i)];
+                if (si < 0)
+                    continue;
+                const SurfacePoint& sp = S.pts[size_t(si)];
+                const glm::vec3 d(float(o[0] + (i & 7)) - sp.p[0], float(o[1] + ((i >> 3) & 7)) - sp.p[1],
+                                  float(o[2] + (i >> 6)) - sp.p[2]);
+                const float euclid = glm::length(d);
+                float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
+                // The tangent plane's distance, where it agrees with the field's
+                // sign and does not exceed the distance to the point itself.
+                if ((plane < 0.0f) != inside || std::abs(plane) > euclid)
+                    plane = inside ? -euclid : euclid;
+                const float v = plane * float(h);
+                if (std::abs(v) < background) {
+                    sd[i] = v;
+                    from[i] = si;
+                    ++active;
+                }
+            }
+            activeCount[l] = active;
+            if (!active)
+                continue;
+            const openvdb::Coord origin(o[0], o[1], o[2]);
+            auto* sl = new openvdb::FloatTree::LeafNodeType(origin, background, false);
+            auto* cl = new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
+            float* sv = sl->buffer().data();
+            openvdb::Vec3f* cv = cl->buffer().data();
+            for (int i = 0; i < kLeafVoxels; ++i) {
+                // VDB leaves index x slowest: offset = 64 x + 8 y + z.
+                const openvdb::Index off = openvdb::Index(64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6));
+                sv[off] = sd[i];
+                if (from[i] >= 0) {
+                    const uint8_t* rgb = S.pts[size_t(from[i])].rgb;
+                    cv[off] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+                    sl->getValueMask().setOn(off);
+                    cl->getValueMask().setOn(off);
+                }
+            }
+            sLeaves[l] = sl;
+            cLeaves[l] = cl;
+        }
+        leavesNs += size_t(since(tLeaves) * 1e9);
+        progress("assembly", double(++tilesDone) / double(tileStart.size() - 1));
+    });
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "sweeps done {:.3f} s\n", since(t));
-
-    // 5. Grids.
+        fmt::print(stderr, "propagation and leaves {:.3f} s (thread time: sweeps {:.3f} s, leaves {:.3f} s)\n",
+                   since(t), sweepNs * 1e-9, leavesNs * 1e-9);
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
+                   localLeaves.load(), n);
+    value = {};
+    points = {};
     out.surface = openvdb::FloatGrid::create(background);
     out.color = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
     const auto xform = openvdb::math::Transform::createLinearTransform(h);
     out.surface->setTransform(xform);
     out.color->setTransform(xform->copy());
-    std::vector<openvdb::FloatTree::LeafNodeType*> sLeaves(n, nullptr);
-    std::vector<openvdb::Vec3fTree::LeafNodeType*> cLeaves(n, nullptr);
-    std::vector<size_t> activeCount(n, 0);
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const int32_t* o = topo.leaves[l].origin;
-        const openvdb::Coord origin(o[0], o[1], o[2]);
-        auto* sl = new openvdb::FloatTree::LeafNodeType(origin, background, false);
-        auto* cl = new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
-        size_t active = 0;
-        for (int i = 0; i < kLeafVoxels; ++i) {
-            const int x = i & 7, y = (i >> 3) & 7, z = i >> 6;
-            const bool inside = value[l * kLeafVoxels + size_t(i)] > Tf;
-            // VDB leaves index x slowest: offset = 64 x + 8 y + z.
-            const openvdb::Index off = openvdb::Index(64 * x + 8 * y + z);
-            float v = inside ? -background : background;
-            const int32_t si = src[l * kLeafVoxels + size_t(i)];
-            if (si >= 0) {
-                const SurfacePoint& sp = points[size_t(si)];
-                const glm::vec3 d(float(o[0] + x) - sp.p[0], float(o[1] + y) - sp.p[1],
-                                  float(o[2] + z) - sp.p[2]);
-                const float euclid = glm::length(d);
-                float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
-                // The tangent plane's distance, where it agrees with the field's sign
-                // and does not exceed the distance to the point itself.
-                if ((plane < 0.0f) != inside || std::abs(plane) > euclid)
-                    plane = inside ? -euclid : euclid;
-                const float sd = plane * float(h);
-                if (std::abs(sd) < background) {
-                    sl->setValueOn(off, sd);
-                    cl->setValueOn(off, openvdb::Vec3f(sp.rgb[0], sp.rgb[1], sp.rgb[2]) / 255.0f);
-                    ++active;
-                    continue;
-                }
-            }
-            sl->setValueOnly(off, v);
-        }
-        activeCount[l] = active;
-        if (active) {
-            sLeaves[l] = sl;
-            cLeaves[l] = cl;
-        } else {
-            delete sl;
-            delete cl;
-        }
-    });
-    value = {};
-    src = {};
-    points = {};
     for (size_t l = 0; l < n; ++l)
         if (sLeaves[l]) {
             out.surface->tree().addLeaf(sLeaves[l]);

@@ -31,6 +31,7 @@ public:
     void emit(int index)
     {
         const Node& n = tree_.node(index);
+        current_ = index;
         switch (kindOf(n.type)) {
         case NodeKind::Primitive: emitPrimitive(n); break;
         case NodeKind::Operator: emitOperator(index, n); break;
@@ -68,7 +69,7 @@ private:
             break;
         }
         push(n.shade);
-        code_.push_back({int(n.type), at, 0, 0});
+        code_.push_back({int(n.type), at, 0, box(current_)});
         ++primitives;
     }
 
@@ -143,6 +144,7 @@ private:
     }
 
     const BlobTree& tree_;
+    int current_ = -1;
     std::vector<double>& P_;
     std::vector<Instr>& code_;
     std::vector<Box>& boxes_;
@@ -609,7 +611,11 @@ Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<In
     }
     if (head.op != CB_I_OPEN && head.op != CB_I_WARP) {
         ++pos;
-        const Interval iv = primitiveInterval(head, box);
+        // Most primitives of a big tree are far from a given box: their
+        // support box says so before any distance is computed.
+        const Interval iv = subtreeSupport_[size_t(head.c)].intersected(box).empty()
+                                ? Interval{0.0, 0.0}
+                                : primitiveInterval(head, box);
         if (iv.isZero())
             emitZero();
         else if (out)
