@@ -1,6 +1,7 @@
 // cambium — the command-line tool.  A thin table of sub-commands: each parses
 // its arguments and calls the library.
 #include "bake/bake.h"
+#include "bench/bake_bench.h"
 #include "blobtree/evaluator.h"
 #include "blobtree/scene_io.h"
 #include "blobtree/stats.h"
@@ -172,6 +173,39 @@ int main(int argc, char** argv)
         if (voxelOpt->count())
             bake.voxelSize = voxelSize;
         action = [&] { return runBakeCommand(bake); };
+    });
+
+    auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
+    bench->require_subcommand(1);
+    std::string generator = CAMBIUM_BENCH_GENERATOR;
+    std::vector<std::string> benchCases = {"1000:0.01", "20000:0.005"};
+    bool skipCpu = false;
+    auto* benchBake = bench->add_subcommand(
+        "bake", "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
+                "ParticlesToLevelSet, on trees from ../shared/bench/gen_skeleton.py");
+    benchBake->add_option("--generator", generator, "gen_skeleton.py")->capture_default_str();
+    benchBake->add_option("--case", benchCases, "INTERNODES:VOXEL_SIZE (repeatable)")->capture_default_str();
+    benchBake->add_flag("--skip-cpu", skipCpu, "Leave out the CPU path");
+    benchBake->callback([&] {
+        action = [&] {
+            char dir[] = "/tmp/cambium-bench-XXXXXX";
+            if (!::mkdtemp(dir))
+                throw std::runtime_error("cannot create a temporary directory");
+            std::vector<BakeBenchCase> cases;
+            for (const std::string& c : benchCases) {
+                const auto colon = c.find(':');
+                if (colon == std::string::npos)
+                    throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
+                const int n = std::stoi(c.substr(0, colon));
+                BakeBenchCase bc;
+                bc.skeleton = generateSkeleton(generator, n, dir);
+                bc.label = fmt::format("tree of {} internodes", n);
+                bc.voxelSize = std::stod(c.substr(colon + 1));
+                cases.push_back(bc);
+            }
+            runBakeBench(cases, skipCpu);
+            return 0;
+        };
     });
 
     auto* ver = app.add_subcommand("version", "Print the versions of cambium, its libraries and the "

@@ -1,0 +1,203 @@
+// cambium — bake benchmark.
+#include "bench/bake_bench.h"
+
+#include "bake/levelset.h"
+#include "bake/topology.h"
+#include "core/error.h"
+#include "model/skeleton.h"
+
+#include "cb_primitives.h"
+
+#include <fmt/format.h>
+#include <openvdb/tools/ParticlesToLevelSet.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <thread>
+#include <unistd.h>
+
+namespace cambium {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double residentBytes()
+{
+    std::ifstream in("/proc/self/statm");
+    double pages = 0, rss = 0;
+    in >> pages >> rss;
+    return rss * double(::sysconf(_SC_PAGESIZE));
+}
+
+/// Runs f while a thread records the peak resident memory.
+template <class F>
+double timed(F&& f, double& peakBytes)
+{
+    std::atomic<bool> done{false};
+    std::atomic<double> peak{residentBytes()};
+    std::thread watch([&] {
+        while (!done) {
+            const double r = residentBytes();
+            if (r > peak)
+                peak = r;
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    });
+    const auto t0 = Clock::now();
+    f();
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    done = true;
+    watch.join();
+    peakBytes = std::max(peak.load(), residentBytes());
+    return s;
+}
+
+struct Spheres {
+    std::vector<openvdb::Vec3R> p;
+    std::vector<openvdb::Real> r;
+    using PosType = openvdb::Vec3R;
+    size_t size() const { return p.size(); }
+    void getPos(size_t n, openvdb::Vec3R& xyz) const { xyz = p[n]; }
+    void getPosRad(size_t n, openvdb::Vec3R& xyz, openvdb::Real& rad) const
+    {
+        xyz = p[n];
+        rad = r[n];
+    }
+};
+
+/// The naive way: every voxel of the box, every primitive, summed.  Times a
+/// patch of voxels and extrapolates to the whole box.
+double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& voxels)
+{
+    const glm::dvec3 size = box.size() / h;
+    voxels = std::ceil(size.x) * std::ceil(size.y) * std::ceil(size.z);
+    const double prims = double(s.internodes.size());
+    // About 2e8 voxel-primitive evaluations: a second or two.
+    const size_t patch = size_t(std::max(64.0, std::min(voxels, 2e8 / prims)));
+    const size_t nx = size_t(std::ceil(size.x));
+    std::vector<float> out(patch);
+    const auto t0 = Clock::now();
+    tbb::parallel_for(size_t(0), patch, [&](size_t v) {
+        const glm::dvec3 p = box.lo + h * glm::dvec3(double(v % nx), double((v / nx) % 997), 0.0);
+        double f = 0.0;
+        for (const Internode& n : s.internodes) {
+            const glm::dvec3 axis = n.p1 - n.p0;
+            const double len = glm::length(axis);
+            cb_vec3 g;
+            f += cb_cone_field(cb_v3(p.x, p.y, p.z), cb_v3(n.p0.x, n.p0.y, n.p0.z),
+                               cb_v3(axis.x / len, axis.y / len, axis.z / len), len, n.r0, n.r1, 1.0,
+                               0.5, &g);
+        }
+        out[v] = float(f);
+    });
+    const double t = std::chrono::duration<double>(Clock::now() - t0).count();
+    return t * voxels / double(patch);
+}
+
+std::string thousands(double v)
+{
+    std::string s = fmt::format("{:.0f}", v);
+    for (int i = int(s.size()) - 3; i > 0; i -= 3)
+        s.insert(size_t(i), ",");
+    return s;
+}
+
+}  // namespace
+
+std::string generateSkeleton(const std::string& generator, int internodes, const std::string& dir)
+{
+    const std::string path = fmt::format("{}/tree{}.txt", dir, internodes);
+    const std::string cmd = fmt::format("python3 '{}' --internodes {} > '{}'", generator, internodes, path);
+    if (std::system(cmd.c_str()) != 0)
+        throw InputError(fmt::format("could not run the workload generator: {}", cmd));
+    return path;
+}
+
+std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu)
+{
+    std::vector<std::vector<BakeBenchRow>> all;
+    auto opencl = makeOpenCLSampler();  // built once, as across the frames of a sequence
+    auto cpu = makeCpuSampler();
+    for (const BakeBenchCase& c : cases) {
+        const Skeleton skeleton = loadSkeleton(c.skeleton);
+        const BlobTree tree = skeletonToBlend(skeleton);
+        const FieldProgram program = FieldProgram::compile(tree);
+        const double h = c.voxelSize;
+        const Box box = program.positiveBounds().padded(c.halfWidth * h);
+        std::vector<BakeBenchRow> rows;
+        BakeOptions opt;
+        opt.voxelSize = h;
+        opt.halfWidth = c.halfWidth;
+        for (FieldSampler* s : {opencl.get(), cpu.get()}) {
+            if (s == cpu.get() && skipCpu)
+                continue;
+            BakeBenchRow r;
+            r.method = s == opencl.get() ? "(a) cambium, OpenCL on PoCL" : "(b) cambium, CPU path (TBB)";
+            BakedGrids g;
+            r.seconds = timed([&] { g = bakeLevelSet(program, *s, opt); }, r.peakBytes);
+            r.activeVoxels = double(g.stats.activeVoxels);
+            rows.push_back(r);
+        }
+        {
+            BakeBenchRow r;
+            r.method = "(c) naive dense evaluation";
+            r.estimated = true;
+            double voxels = 0.0;
+            r.seconds = naiveDenseSeconds(skeleton, box, h, voxels);
+            r.activeVoxels = voxels;
+            r.peakBytes = voxels * sizeof(float);  // the dense grid it would fill
+            rows.push_back(r);
+        }
+        {
+            BakeBenchRow r;
+            r.method = "(d) OpenVDB ParticlesToLevelSet";
+            Spheres sp;
+            for (const Internode& n : skeleton.internodes) {
+                const double L = glm::length(n.p1 - n.p0), rmin = std::min(n.r0, n.r1);
+                const int steps = std::max(1, int(std::ceil(L / (0.5 * rmin))));
+                for (int k = 0; k <= steps; ++k) {
+                    const double t = double(k) / steps;
+                    const glm::dvec3 q = n.p0 + t * (n.p1 - n.p0);
+                    sp.p.emplace_back(q.x, q.y, q.z);
+                    sp.r.push_back(n.r0 + t * (n.r1 - n.r0));
+                }
+            }
+            openvdb::FloatGrid::Ptr grid;
+            r.seconds = timed(
+                [&] {
+                    grid = openvdb::FloatGrid::create(float(c.halfWidth * h));
+                    grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
+                    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+                    openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
+                    raster.setRmin(1.0);  // thin twigs would vanish under the default 1.5 voxels
+                    raster.rasterizeSpheres(sp);
+                    raster.finalize(true);
+                },
+                r.peakBytes);
+            r.activeVoxels = double(grid->activeVoxelCount());
+            r.method += fmt::format(" ({} spheres)", thousands(double(sp.size())));
+            rows.push_back(r);
+        }
+        fmt::print("\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels\n",
+                   c.label, thousands(double(skeleton.internodes.size())), h, c.halfWidth,
+                   thousands(rows[2].activeVoxels));
+        fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels",
+                   "M voxels/s", "peak MB", "time/(a)");
+        for (const BakeBenchRow& r : rows) {
+            const bool dense = r.method.rfind("(c)", 0) == 0;
+            fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10.0f} {:>10.2f}\n", r.method,
+                       fmt::format("{}{:.3g}", r.estimated ? "~" : "", r.seconds),
+                       dense ? "(dense)" : thousands(r.activeVoxels),
+                       dense ? std::string("-") : fmt::format("{:.3g}", r.activeVoxels / r.seconds * 1e-6),
+                       r.peakBytes / 1e6, r.seconds / rows[0].seconds);
+        }
+        all.push_back(rows);
+    }
+    return all;
+}
+
+}  // namespace cambium
