@@ -93,24 +93,6 @@ CB_FN cb_vec3 cb_load3(CB_GLOBAL const cb_scalar* prm, int i)
     return cb_v3(prm[i], prm[i + 1], prm[i + 2]);
 }
 
-/* A primitive's colour exists where its field does: black where the field
- * is zero, so that folding zero fields away never changes a colour. */
-CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g, CB_GLOBAL const cb_scalar* rgb)
-{
-    s->v[i] = v;
-    if (CB_GRADIENT) {
-        s->gx[i] = g.x;
-        s->gy[i] = g.y;
-        s->gz[i] = g.z;
-    }
-    if (CB_COLOR) {
-        cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
-        s->cr[i] = on * rgb[0];
-        s->cg[i] = on * rgb[1];
-        s->cb[i] = on * rgb[2];
-    }
-}
-
 CB_FN void cb_push(cb_stack* s, int i, cb_real v, cb_vec3 g, cb_vec3 c)
 {
     s->v[i] = v;
@@ -124,6 +106,14 @@ CB_FN void cb_push(cb_stack* s, int i, cb_real v, cb_vec3 g, cb_vec3 c)
         s->cg[i] = c.y;
         s->cb[i] = c.z;
     }
+}
+
+/* A primitive's colour exists where its field does: black where the field
+ * is zero, so that folding zero fields away never changes a colour. */
+CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g, CB_GLOBAL const cb_scalar* rgb)
+{
+    cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
+    cb_push(s, i, v, g, cb_scale(cb_v3(rgb[0], rgb[1], rgb[2]), on));
 }
 
 /* Starts an accumulator for an operator of type `type` in entry i. */

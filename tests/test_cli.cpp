@@ -101,6 +101,80 @@ TEST(Cli, VersionListsTheLibrariesAndAnOpenCLDevice)
     EXPECT_NE(r.out.find("OpenCL"), std::string::npos) << r.out;
 }
 
+TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
+{
+    const auto out = std::filesystem::temp_directory_path() / "cambium_cli_bake.vdb";
+    std::filesystem::remove(out);
+    const Result r = run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --voxel-size 0.05");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(out));
+    EXPECT_NE(r.out.find("active voxels"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("peak memory"), std::string::npos) << r.out;
+    // Without --voxel-size the summary states the automatic choice.
+    const Result a = run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --device cpu");
+    ASSERT_EQ(a.status, 0) << a.err;
+    EXPECT_NE(a.out.find("(auto: 512 voxels across"), std::string::npos) << a.out;
+    std::filesystem::remove(out);
+}
+
+TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
+{
+    const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_bad_bake";
+    std::filesystem::create_directories(dir);
+    const std::string out = (dir / "out.vdb").string();
+    const auto empty = dir / "empty.json";
+    {
+        std::ofstream f(empty);
+        f << R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": -1}})";
+    }
+    struct Case {
+        std::string args, expected;
+    };
+    const Case cases[] = {
+        {kExamples + "sphere_and_cone.json -o /nonexistent/dir/out.vdb", "/nonexistent/dir/out.vdb: cannot write the output"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size 1e-7",
+         "a voxel size of 1e-07 would need about"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2", "--voxel-size must be a positive number"},
+        {empty.string() + " -o " + out, "the model has no surface"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --device gpu", "--device must be opencl or cpu"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --half-width 0.5", "--half-width must be between 1 and 64"},
+    };
+    for (const Case& c : cases) {
+        const Result r = run("bake " + c.args);
+        EXPECT_EQ(r.status, 2) << c.args;
+        EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.err;
+        // Nothing written: no output, no temporary file.
+        for (const auto& e : std::filesystem::directory_iterator(dir))
+            EXPECT_EQ(e.path().extension(), ".json") << e.path();
+    }
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, BakeReadsTheBenchmarkSkeletonFormat)
+{
+    const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_skeleton";
+    std::filesystem::create_directories(dir);
+    const auto sk = dir / "tree.txt";
+    {
+        std::ofstream f(sk);
+        f << "# id parent x0 y0 z0 x1 y1 z1 r0 r1\n"
+             "0 -1 0 0 0 0 1 0 0.1 0.08\n"
+             "1 0 0 1 0 0.3 1.5 0 0.05 0.04\n";
+    }
+    const std::string out = (dir / "tree.vdb").string();
+    const Result r = run("bake " + sk.string() + " -o " + out + " --voxel-size 0.01");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(out));
+    {
+        std::ofstream f(sk);
+        f << "0 -1 0 0 0 0 1 0 0.1\n";
+    }
+    const Result bad = run("bake " + sk.string() + " -o " + out + " --voxel-size 0.01");
+    EXPECT_EQ(bad.status, 2);
+    EXPECT_NE(bad.err.find("tree.txt:1: expected 10 fields"), std::string::npos) << bad.err;
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, UnknownCommandIsAUsageError)
 {
     const Result r = run("frobnicate");

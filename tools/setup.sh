@@ -38,6 +38,8 @@ cmake --build "$build" -j"$(nproc)"
 case "$mode" in
   run)
     "$build/cambium" info "$root/examples/branch_junction.json"
+    mkdir -p "$root/out"
+    "$build/cambium" bake "$root/examples/branch_junction.json" -o "$root/out/branch_junction.vdb"
     ;;
   test)
     ctest --test-dir "$build" --output-on-failure -j"$(nproc)"

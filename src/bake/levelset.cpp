@@ -30,6 +30,7 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 
 constexpr int kBatchLeaves = 4096;
 
+
 /// A point on the surface found next to a sign change, in index space.
 struct SurfacePoint {
     float p[3];      // position
@@ -432,11 +433,19 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                                   float(o[2] + (i >> 6)) - sp.p[2]);
                 const float euclid = glm::length(d);
                 float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
-                // The tangent plane's distance, where it agrees with the field's
-                // sign and does not exceed the distance to the point itself.
-                if ((plane < 0.0f) != inside || std::abs(plane) > euclid)
-                    plane = inside ? -euclid : euclid;
-                const float v = plane * float(h);
+                // The tangent plane's distance corrects for the spacing of the
+                // surface points (about a voxel) where the surface is smooth:
+                // there the nearest point lies near the foot of the
+                // perpendicular.  A lateral offset of several voxels means a
+                // crease (CSG, a scar's rim) whose nearest point is the point
+                // itself: the Euclidean distance takes over from 1.5 to 2.5
+                // voxels of offset.
+                const float lateral = std::sqrt(std::max(0.0f, euclid * euclid - plane * plane));
+                const float blend = std::clamp(lateral - 1.5f, 0.0f, 1.0f);
+                float mag = std::abs(plane) + (euclid - std::abs(plane)) * blend * blend * (3.0f - 2.0f * blend);
+                if ((plane < 0.0f) != inside)
+                    mag = euclid;  // the plane disagrees with the field's sign
+                const float v = (inside ? -mag : mag) * float(h);
                 if (std::abs(v) < background) {
                     sd[i] = v;
                     from[i] = si;

@@ -119,6 +119,14 @@ private:
     size_t size_ = 0;
 };
 
+/// Sets a kernel's arguments in order.
+template <class... Args>
+void setArgs(cl_kernel k, const Args&... args)
+{
+    cl_uint i = 0;
+    (checkCL(clSetKernelArg(k, i++, sizeof(Args), &args), "clSetKernelArg"), ...);
+}
+
 class OpenCLSampler final : public FieldSampler {
 public:
     OpenCLSampler()
@@ -166,11 +174,7 @@ public:
         const size_t bytes = n * kLeafVoxels * sizeof(float);
         cl_mem result = out_.reserve(ctx_, bytes, CL_MEM_WRITE_ONLY);
         const float hf = float(h);
-        clSetKernelArg(valuesKernel_, 0, sizeof(cl_mem), &code);
-        clSetKernelArg(valuesKernel_, 1, sizeof(cl_mem), &params);
-        clSetKernelArg(valuesKernel_, 2, sizeof(cl_mem), &table);
-        clSetKernelArg(valuesKernel_, 3, sizeof(float), &hf);
-        clSetKernelArg(valuesKernel_, 4, sizeof(cl_mem), &result);
+        setArgs(valuesKernel_, code, params, table, hf, result);
         // An explicit local size: PoCL recompiles for every new global size otherwise.
         const size_t local = 64, global = 64 * n;
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global, &local, 0,
@@ -216,15 +220,7 @@ public:
         cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
         const float hf = float(h);
         const int st = int(stride);
-        clSetKernelArg(surfaceKernel_, 0, sizeof(cl_mem), &code);
-        clSetKernelArg(surfaceKernel_, 1, sizeof(cl_mem), &params);
-        clSetKernelArg(surfaceKernel_, 2, sizeof(cl_mem), &table);
-        clSetKernelArg(surfaceKernel_, 3, sizeof(float), &hf);
-        clSetKernelArg(surfaceKernel_, 4, sizeof(cl_mem), &cl);
-        clSetKernelArg(surfaceKernel_, 5, sizeof(cl_mem), &cv);
-        clSetKernelArg(surfaceKernel_, 6, sizeof(int), &st);
-        clSetKernelArg(surfaceKernel_, 7, sizeof(cl_mem), &grad);
-        clSetKernelArg(surfaceKernel_, 8, sizeof(cl_mem), &col);
+        setArgs(surfaceKernel_, code, params, table, hf, cl, cv, st, grad, col);
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), surfaceKernel_, 1, nullptr, &chunks, &local, 0,
                                        nullptr, nullptr),
                 "clEnqueueNDRangeKernel(sample_surface)");
@@ -254,12 +250,7 @@ public:
         cl_mem result = out_.reserve(ctx_, kSampleChannels * stride * sizeof(float), CL_MEM_WRITE_ONLY);
         cl_mem params = params_.get();
         const int length = int(code.size), st = int(stride);
-        clSetKernelArg(pointsKernel_, 0, sizeof(cl_mem), &codeMem);
-        clSetKernelArg(pointsKernel_, 1, sizeof(int), &length);
-        clSetKernelArg(pointsKernel_, 2, sizeof(cl_mem), &params);
-        clSetKernelArg(pointsKernel_, 3, sizeof(cl_mem), &pts);
-        clSetKernelArg(pointsKernel_, 4, sizeof(int), &st);
-        clSetKernelArg(pointsKernel_, 5, sizeof(cl_mem), &result);
+        setArgs(pointsKernel_, codeMem, length, params, pts, st, result);
         const size_t local = 8, global = stride / 8;
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), pointsKernel_, 1, nullptr, &global, &local, 0,
                                        nullptr, nullptr),

@@ -20,33 +20,6 @@ Box segmentBox(const glm::dvec3& a, const glm::dvec3& b, double pad)
     return box.padded(pad);
 }
 
-/// Box of a cylinder of radius r around the axis from a to b.
-Box cylinderBox(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& axis, double r)
-{
-    Box box;
-    box.expand(a);
-    box.expand(b);
-    const glm::dvec3 e = r * glm::sqrt(glm::max(glm::dvec3(0.0), 1.0 - axis * axis));
-    return Box(box.lo - e, box.hi + e);
-}
-
-/// Axial range and largest distance from the axis (origin o, unit axis a) over
-/// a box's corners.  Distance to a line is convex, so the corners bound it.
-void axialExtent(const Box& box, const glm::dvec3& o, const glm::dvec3& a, double& hmin,
-                 double& hmax, double& rmax)
-{
-    hmin = INFINITY;
-    hmax = -INFINITY;
-    rmax = 0.0;
-    for (const auto& c : box.corners()) {
-        const glm::dvec3 d = c - o;
-        const double h = glm::dot(d, a);
-        hmin = std::min(hmin, h);
-        hmax = std::max(hmax, h);
-        rmax = std::max(rmax, glm::length(d - h * a));
-    }
-}
-
 Box bendImage(const cb_bend& b, const Box& box)
 {
     if (b.theta <= 0.0)
@@ -89,15 +62,8 @@ Box warpImage(const Node& n, const Box& box)
     if (box.empty())
         return box;
     switch (n.type) {
-    case NodeType::TRANSFORM: {
-        const auto& f = std::get<TransformParams>(n.params).forward;
-        Box out;
-        for (const auto& c : box.corners())
-            out.expand(glm::dvec3(f[0] * c.x + f[1] * c.y + f[2] * c.z + f[3],
-                                  f[4] * c.x + f[5] * c.y + f[6] * c.z + f[7],
-                                  f[8] * c.x + f[9] * c.y + f[10] * c.z + f[11]));
-        return out;
-    }
+    case NodeType::TRANSFORM:
+        return affineImage(box, std::get<TransformParams>(n.params).forward);
     case NodeType::BEND:
         return bendImage(std::get<cb_bend>(n.params), box);
     case NodeType::TWIST: {

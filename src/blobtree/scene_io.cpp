@@ -439,12 +439,7 @@ BlobTree parseScene(const std::string& text, const std::string& source)
 
 BlobTree loadScene(const std::string& path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-        throw InputError(fmt::format("{}: cannot read the scene file: {}", path, std::strerror(errno)));
-    std::ostringstream text;
-    text << in.rdbuf();
-    return parseScene(text.str(), path);
+    return parseScene(readTextFile(path, "scene file"), path);
 }
 
 }  // namespace cambium

@@ -3,6 +3,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <array>
 #include <limits>
 
@@ -56,5 +57,44 @@ struct Box {
         return c;
     }
 };
+
+/// Range of heights along the unit axis a from o, and the largest distance
+/// from that axis, over a box's corners (distance to a line is convex, so the
+/// corners bound it over the whole box).
+inline void axialExtent(const Box& box, const glm::dvec3& o, const glm::dvec3& a, double& hmin,
+                        double& hmax, double& rmax)
+{
+    hmin = std::numeric_limits<double>::infinity();
+    hmax = -hmin;
+    rmax = 0.0;
+    for (const auto& c : box.corners()) {
+        const glm::dvec3 d = c - o;
+        const double h = glm::dot(d, a);
+        hmin = std::min(hmin, h);
+        hmax = std::max(hmax, h);
+        rmax = std::max(rmax, glm::length(d - h * a));
+    }
+}
+
+/// The box of the image of a box under the affine map m (row-major 3x4).
+inline Box affineImage(const Box& box, const double m[12])
+{
+    Box out;
+    for (const auto& c : box.corners())
+        out.expand(glm::dvec3(m[0] * c.x + m[1] * c.y + m[2] * c.z + m[3],
+                              m[4] * c.x + m[5] * c.y + m[6] * c.z + m[7],
+                              m[8] * c.x + m[9] * c.y + m[10] * c.z + m[11]));
+    return out;
+}
+
+/// The box of a cylinder of radius r about the unit axis a, from a0 to a1.
+inline Box cylinderBox(const glm::dvec3& a0, const glm::dvec3& a1, const glm::dvec3& a, double r)
+{
+    Box box;
+    box.expand(a0);
+    box.expand(a1);
+    const glm::dvec3 e = r * glm::sqrt(glm::max(glm::dvec3(0.0), 1.0 - a * a));
+    return Box(box.lo - e, box.hi + e);
+}
 
 }  // namespace cambium

@@ -29,4 +29,7 @@ private:
     std::string field_;
 };
 
+/// The whole text of a file; InputError "<path>: cannot read the <what>: <reason>".
+std::string readTextFile(const std::string& path, const char* what);
+
 }  // namespace cambium

@@ -507,16 +507,8 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
 Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
 {
     const double* w = params_.data() + in.a;
-    auto linearImage = [&](const double m[12]) {
-        Box out;
-        for (const auto& c : box.corners())
-            out.expand(glm::dvec3(m[0] * c.x + m[1] * c.y + m[2] * c.z + m[3],
-                                  m[4] * c.x + m[5] * c.y + m[6] * c.z + m[7],
-                                  m[8] * c.x + m[9] * c.y + m[10] * c.z + m[11]));
-        return out;
-    };
     if (in.b == CB_TRANSFORM)
-        return linearImage(w);
+        return affineImage(box, w);
     if (in.b == CB_BEND) {
         const glm::dvec3 p0 = load3(w), u = load3(w + 3), v = load3(w + 6), ax = load3(w + 9);
         const double len = w[12], theta = w[13], rho = w[14], ch = w[15], sh = w[16], ls = w[17];
@@ -576,21 +568,11 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
     // Twist and taper keep the height along their axis and move points only
     // across it: the image lies in a cylinder about the axis.
     const glm::dvec3 o = load3(w), a = load3(w + 3);
-    double hmin = kInf, hmax = -kInf, rmax = 0.0;
-    for (const auto& k : box.corners()) {
-        const glm::dvec3 d = k - o;
-        const double hh = glm::dot(d, a);
-        hmin = std::min(hmin, hh);
-        hmax = std::max(hmax, hh);
-        rmax = std::max(rmax, glm::length(d - hh * a));
-    }
+    double hmin, hmax, rmax;
+    axialExtent(box, o, a, hmin, hmax, rmax);
     if (in.b == CB_TAPER)
         rmax /= std::min(w[7], w[8]);
-    Box out;
-    out.expand(o + hmin * a);
-    out.expand(o + hmax * a);
-    const glm::dvec3 e = rmax * glm::sqrt(glm::max(glm::dvec3(0.0), 1.0 - a * a));
-    return Box(out.lo - e, out.hi + e);
+    return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
 }
 
 Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const

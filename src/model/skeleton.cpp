@@ -75,12 +75,7 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
 
 Skeleton loadSkeleton(const std::string& path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-        throw InputError(fmt::format("{}: cannot read the skeleton file: {}", path, std::strerror(errno)));
-    std::ostringstream text;
-    text << in.rdbuf();
-    return parseSkeleton(text.str(), path);
+    return parseSkeleton(readTextFile(path, "skeleton file"), path);
 }
 
 BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold)
