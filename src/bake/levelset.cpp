@@ -40,31 +40,93 @@ struct SurfacePoint {
 
 inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 
-// Four lanes of the propagation sweeps as SSE registers (baseline x86-64):
-// the selects compile to masks, not to branches the processor mispredicts.
-typedef float V4f __attribute__((vector_size(16)));
-typedef int32_t V4i __attribute__((vector_size(16)));
-
-template <class V, class T>
-inline V load4(const T* p, int stride)
+/// One directional sweep along the chains of leaves of one axis: every
+/// voxel is offered the surface point its predecessor holds, and takes it when
+/// it is nearer.  Eight lines are processed together as vector lanes (along
+/// `lane`, the other axis with the smaller stride); the selects compile to
+/// masks, and with AVX2 (chosen at run time) a lane vector is one register.
+/// State per voxel of the local leaves: its point's index, squared distance
+/// and position (carried, so the sweep never looks a point up).
+__attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sweepAxis(
+    const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
+    int dir, int32_t* __restrict srcAll, float* __restrict d2All, float* const pos[3],
+    float limit2)
 {
-    if (stride == 1) {
-        V v;
-        std::memcpy(&v, p, sizeof(V));
-        return v;
+    typedef float V8f __attribute__((vector_size(32)));
+    typedef int32_t V8i __attribute__((vector_size(32)));
+    const int lane = axis == 0 ? 1 : 0, other = 3 - axis - lane;
+    const int stride = axis == 0 ? 1 : (axis == 1 ? 8 : 64);
+    const int sl = lane == 0 ? 1 : 8, so = other == 1 ? 8 : 64;
+#define CB_LOAD8(V, p)                                     \
+    ([&] {                                                 \
+        V v_;                                              \
+        if (sl == 1) {                                     \
+            std::memcpy(&v_, (p), sizeof(V));              \
+        } else {                                           \
+            for (int j_ = 0; j_ < 8; ++j_)                 \
+                v_[j_] = (p)[j_ * sl];                     \
+        }                                                  \
+        return v_;                                         \
+    }())
+#define CB_STORE8(p, v)                                    \
+    do {                                                   \
+        if (sl == 1) {                                     \
+            std::memcpy((p), &(v), sizeof(v));             \
+        } else {                                           \
+            for (int j_ = 0; j_ < 8; ++j_)                 \
+                (p)[j_ * sl] = (v)[j_];                    \
+        }                                                  \
+    } while (0)
+    const V8f lanes = {0, 1, 2, 3, 4, 5, 6, 7};
+    for (const auto& chain : rows) {
+        const int nc = int(chain.size());
+        V8i carry[8];
+        V8f along[8], cl[8], co[8];
+        for (int g = 0; g < 8; ++g) {
+            carry[g] = V8i{} - 1;
+            along[g] = cl[g] = co[g] = V8f{} + 1e15f;
+        }
+        for (int c = 0; c < nc; ++c) {
+            const int k = chain[size_t(dir > 0 ? c : nc - 1 - c)];
+            const int32_t* o = local[size_t(k)].origin;
+            const size_t lb = size_t(k) * kLeafVoxels;
+            int32_t* sv = srcAll + lb;
+            float* dl = d2All + lb;
+            float* pa = pos[axis] + lb;
+            float* pl = pos[lane] + lb;
+            float* po = pos[other] + lb;
+            const V8f cL = lanes + float(o[lane]);
+            for (int g = 0; g < 8; ++g) {  // the eight lines along `other`
+                const V8f cO = V8f{} + float(o[other] + g);
+                V8i cr = carry[g];
+                V8f al = along[g], cll = cl[g], col = co[g];
+                for (int step = 0; step < 8; ++step) {
+                    const int a = dir > 0 ? step : 7 - step;
+                    const int i = a * stride + g * so;
+                    const V8f da = float(o[axis] + a) - al, dL = cL - cll, dO = cO - col;
+                    const V8f dd = da * da + dL * dL + dO * dO;
+                    const V8f cur = CB_LOAD8(V8f, dl + i);
+                    const V8i better = (dd < cur) & (dd < limit2);
+                    cr = better ? cr : CB_LOAD8(V8i, sv + i);
+                    al = better ? al : CB_LOAD8(V8f, pa + i);
+                    cll = better ? cll : CB_LOAD8(V8f, pl + i);
+                    col = better ? col : CB_LOAD8(V8f, po + i);
+                    const V8f best = better ? dd : cur;
+                    CB_STORE8(dl + i, best);
+                    CB_STORE8(sv + i, cr);
+                    CB_STORE8(pa + i, al);
+                    CB_STORE8(pl + i, cll);
+                    CB_STORE8(po + i, col);
+                }
+                carry[g] = cr;
+                along[g] = al;
+                cl[g] = cll;
+                co[g] = col;
+            }
+        }
     }
-    return V{p[0], p[stride], p[2 * stride], p[3 * stride]};
-}
-
-template <class V, class T>
-inline void store4(T* p, int stride, const V& v)
-{
-    if (stride == 1) {
-        std::memcpy(p, &v, sizeof(V));
-        return;
-    }
-    for (int j = 0; j < 4; ++j)
-        p[j * stride] = v[j];
+#undef CB_LOAD8
+#undef CB_STORE8
 }
 
 uint64_t leafKey(int x, int y, int z)
@@ -348,69 +410,12 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         // predecessor's surface point; two rounds (the second repairs the
         // paths the first could not take: max error 0.25 -> 0.1 voxel,
         // tests/test_bake.cpp).
+        float* const pos[3] = {S.pos[0].data(), S.pos[1].data(), S.pos[2].data()};
         for (int pass = 0; pass < 6; ++pass) {
             const int axis = pass % 3;
-            // Eight parallel lines at a time, along `lane` (the other axis with
-            // the smaller stride): their carries are independent, so the
-            // processor overlaps them instead of waiting on one chain of
-            // dependent selects.
-            const int lane = axis == 0 ? 1 : 0, other = 3 - axis - lane;
             const auto rows = chains(local, axis);
-            auto strideOf = [](int ax) { return ax == 0 ? 1 : (ax == 1 ? 8 : 64); };
-            const int stride = strideOf(axis), sl_ = strideOf(lane), so = strideOf(other);
             for (int dir : {1, -1})
-                for (const auto& chain : rows) {
-                    const int nc = int(chain.size());
-                    // One leaf at a time with all its 64 lines, so that the
-                    // leaf's state stays in the first-level cache; each line's
-                    // carried point passes on to the next leaf of the chain.
-                    V4i carry[16];
-                    V4f along[16], cl[16], co[16];
-                    for (int j = 0; j < 16; ++j) {
-                        carry[j] = V4i{} - 1;
-                        along[j] = cl[j] = co[j] = V4f{} + 1e15f;
-                    }
-                    const V4f lanes = {0.0f, 1.0f, 2.0f, 3.0f};
-                    for (int c = 0; c < nc; ++c) {
-                        const int k = chain[size_t(dir > 0 ? c : nc - 1 - c)];
-                        const int32_t* o = local[size_t(k)].origin;
-                        const size_t lb = size_t(k) * kLeafVoxels;
-                        int32_t* __restrict sv = S.src.data() + lb;
-                        float* __restrict dl = S.d2.data() + lb;
-                        float* __restrict pa = S.pos[axis].data() + lb;
-                        float* __restrict pl = S.pos[lane].data() + lb;
-                        float* __restrict po = S.pos[other].data() + lb;
-                        for (int g = 0; g < 16; ++g) {  // 8 lines (other) x 2 groups of 4 (lane)
-                            const int lo = g >> 1, j0 = 4 * (g & 1);
-                            const V4f cO = V4f{} + float(o[other] + lo);
-                            const V4f cL = lanes + float(o[lane] + j0);
-                            V4i cr = carry[g];
-                            V4f al = along[g], cll = cl[g], col = co[g];
-                            for (int step = 0; step < 8; ++step) {
-                                const int a = dir > 0 ? step : 7 - step;
-                                const int i = a * stride + j0 * sl_ + lo * so;
-                                const V4f ca = V4f{} + float(o[axis] + a);
-                                const V4f da = ca - al, dL = cL - cll, dO = cO - col;
-                                const V4f dd = da * da + dL * dL + dO * dO;
-                                const V4f cur = load4<V4f>(dl + i, sl_);
-                                const V4i better = (dd < cur) & (dd < limit2);
-                                cr = better ? cr : load4<V4i>(sv + i, sl_);
-                                al = better ? al : load4<V4f>(pa + i, sl_);
-                                cll = better ? cll : load4<V4f>(pl + i, sl_);
-                                col = better ? col : load4<V4f>(po + i, sl_);
-                                store4(dl + i, sl_, better ? dd : cur);
-                                store4(sv + i, sl_, cr);
-                                store4(pa + i, sl_, al);
-                                store4(pl + i, sl_, cll);
-                                store4(po + i, sl_, col);
-                            }
-                            carry[g] = cr;
-                            along[g] = al;
-                            cl[g] = cll;
-                            co[g] = col;
-                        }
-                    }
-                }
+                sweepAxis(rows, local, axis, dir, S.src.data(), S.d2.data(), pos, limit2);
         }
         sweepNs += size_t(since(tSweep) * 1e9);
         const auto tLeaves = Clock::now();
