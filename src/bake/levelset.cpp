@@ -57,17 +57,17 @@ __attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sw
     const int lane = axis == 0 ? 1 : 0, other = 3 - axis - lane;
     const int stride = axis == 0 ? 1 : (axis == 1 ? 8 : 64);
     const int sl = lane == 0 ? 1 : 8, so = other == 1 ? 8 : 64;
-#define CB_LOAD8(V, p)                                     \
-    ([&] {                                                 \
-        V v_;                                              \
+    // Statement macros, not helpers: a helper (or lambda) would be compiled
+    // for the default target and pass these vectors with a different ABI.
+#define CB_LOAD8(v, p)                                     \
+    do {                                                   \
         if (sl == 1) {                                     \
-            std::memcpy(&v_, (p), sizeof(V));              \
+            std::memcpy(&(v), (p), sizeof(v));             \
         } else {                                           \
             for (int j_ = 0; j_ < 8; ++j_)                 \
-                v_[j_] = (p)[j_ * sl];                     \
+                (v)[j_] = (p)[j_ * sl];                    \
         }                                                  \
-        return v_;                                         \
-    }())
+    } while (0)
 #define CB_STORE8(p, v)                                    \
     do {                                                   \
         if (sl == 1) {                                     \
@@ -105,12 +105,18 @@ __attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sw
                     const int i = a * stride + g * so;
                     const V8f da = float(o[axis] + a) - al, dL = cL - cll, dO = cO - col;
                     const V8f dd = da * da + dL * dL + dO * dO;
-                    const V8f cur = CB_LOAD8(V8f, dl + i);
+                    V8f cur, a0, l0, o0;
+                    V8i s0;
+                    CB_LOAD8(cur, dl + i);
+                    CB_LOAD8(s0, sv + i);
+                    CB_LOAD8(a0, pa + i);
+                    CB_LOAD8(l0, pl + i);
+                    CB_LOAD8(o0, po + i);
                     const V8i better = (dd < cur) & (dd < limit2);
-                    cr = better ? cr : CB_LOAD8(V8i, sv + i);
-                    al = better ? al : CB_LOAD8(V8f, pa + i);
-                    cll = better ? cll : CB_LOAD8(V8f, pl + i);
-                    col = better ? col : CB_LOAD8(V8f, po + i);
+                    cr = better ? cr : s0;
+                    al = better ? al : a0;
+                    cll = better ? cll : l0;
+                    col = better ? col : o0;
                     const V8f best = better ? dd : cur;
                     CB_STORE8(dl + i, best);
                     CB_STORE8(sv + i, cr);
