@@ -19,7 +19,6 @@
 #include <chrono>
 #include <cmath>
 #include <array>
-#include <unordered_map>
 
 namespace cambium {
 
@@ -45,12 +44,12 @@ inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 /// it is nearer.  Eight lines are processed together as vector lanes (along
 /// `lane`, the other axis with the smaller stride); the selects compile to
 /// masks, and with AVX2 (chosen at run time) a lane vector is one register.
-/// State per voxel of the local leaves: its point's index, squared distance
-/// and position (carried, so the sweep never looks a point up).
+/// State per voxel of the local leaves: its point's index and position
+/// (carried, so the sweep never looks a point up; the squared distance is
+/// recomputed from it, which costs less than moving it through memory).
 __attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sweepAxis(
     const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
-    int dir, int32_t* __restrict srcAll, float* __restrict d2All, float* const pos[3],
-    float limit2)
+    int dir, int32_t* __restrict srcAll, float* const pos[3], float limit2)
 {
     typedef float V8f __attribute__((vector_size(32)));
     typedef int32_t V8i __attribute__((vector_size(32)));
@@ -91,7 +90,6 @@ __attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sw
             const int32_t* o = local[size_t(k)].origin;
             const size_t lb = size_t(k) * kLeafVoxels;
             int32_t* sv = srcAll + lb;
-            float* dl = d2All + lb;
             float* pa = pos[axis] + lb;
             float* pl = pos[lane] + lb;
             float* po = pos[other] + lb;
@@ -103,22 +101,22 @@ __attribute__((target_clones("arch=skylake-avx512", "avx2", "default"))) void sw
                 for (int step = 0; step < 8; ++step) {
                     const int a = dir > 0 ? step : 7 - step;
                     const int i = a * stride + g * so;
-                    const V8f da = float(o[axis] + a) - al, dL = cL - cll, dO = cO - col;
+                    const float ca = float(o[axis] + a);
+                    const V8f da = ca - al, dL = cL - cll, dO = cO - col;
                     const V8f dd = da * da + dL * dL + dO * dO;
-                    V8f cur, a0, l0, o0;
+                    V8f a0, l0, o0;
                     V8i s0;
-                    CB_LOAD8(cur, dl + i);
                     CB_LOAD8(s0, sv + i);
                     CB_LOAD8(a0, pa + i);
                     CB_LOAD8(l0, pl + i);
                     CB_LOAD8(o0, po + i);
+                    const V8f ea = ca - a0, eL = cL - l0, eO = cO - o0;
+                    const V8f cur = ea * ea + eL * eL + eO * eO;
                     const V8i better = (dd < cur) & (dd < limit2);
                     cr = better ? cr : s0;
                     al = better ? al : a0;
                     cll = better ? cll : l0;
                     col = better ? col : o0;
-                    const V8f best = better ? dd : cur;
-                    CB_STORE8(dl + i, best);
                     CB_STORE8(sv + i, cr);
                     CB_STORE8(pa + i, al);
                     CB_STORE8(pl + i, cll);
@@ -227,22 +225,35 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         progress("sampling", 0.8 * double(b1) / double(n));
     }
     const double valueSeconds = since(t);
+    const auto tEdges = Clock::now();
 
     // 3. Neighbours, the voxels next to a sign change of F - T, their
     // gradients and colours, and the surface points they give.
     std::vector<std::array<int32_t, 27>> nb(n);  // (dx+1) + 3 (dy+1) + 9 (dz+1), -1 if absent
     {
-        std::unordered_map<uint64_t, int> index;
-        index.reserve(n * 2);
-        for (size_t l = 0; l < n; ++l)
-            index[leafKey(topo.leaves[l].origin[0], topo.leaves[l].origin[1], topo.leaves[l].origin[2])] =
-                int(l);
+        // Leaf origins to indices: open addressing, linear probing.
+        size_t cap = 1;
+        while (cap < 2 * n + 2)
+            cap <<= 1;
+        std::vector<uint64_t> keys(cap, ~uint64_t(0));
+        std::vector<int32_t> vals(cap, -1);
+        auto slot = [&](uint64_t k) { return size_t((k * 0x9E3779B97F4A7C15ull) >> 20) & (cap - 1); };
+        for (size_t l = 0; l < n; ++l) {
+            const uint64_t k = leafKey(topo.leaves[l].origin[0], topo.leaves[l].origin[1], topo.leaves[l].origin[2]);
+            size_t i = slot(k);
+            while (keys[i] != ~uint64_t(0))
+                i = (i + 1) & (cap - 1);
+            keys[i] = k;
+            vals[i] = int32_t(l);
+        }
         tbb::parallel_for(size_t(0), n, [&](size_t l) {
             const int32_t* o = topo.leaves[l].origin;
             for (int k = 0; k < 27; ++k) {
-                const auto it = index.find(leafKey(o[0] + 8 * (k % 3 - 1), o[1] + 8 * ((k / 3) % 3 - 1),
-                                                   o[2] + 8 * (k / 9 - 1)));
-                nb[l][size_t(k)] = it == index.end() ? -1 : it->second;
+                const uint64_t key = leafKey(o[0] + 8 * (k % 3 - 1), o[1] + 8 * ((k / 3) % 3 - 1), o[2] + 8 * (k / 9 - 1));
+                size_t i = slot(key);
+                while (keys[i] != key && keys[i] != ~uint64_t(0))
+                    i = (i + 1) & (cap - 1);
+                nb[l][size_t(k)] = keys[i] == key ? vals[i] : -1;
             }
         });
     }
@@ -256,39 +267,71 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         float t;
     };
     std::vector<std::vector<Edge>> edges(n);
+    // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
+    std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        // The leaf's values with a one-voxel halo from its neighbours (NaN
-        // where no leaf was sampled: no surface can be within a voxel there).
-        float F[10][10][10];
-        for (int z = -1; z <= 8; ++z)
-            for (int y = -1; y <= 8; ++y)
-                for (int x = -1; x <= 8; ++x) {
-                    const int ox = x < 0 ? -1 : (x > 7), oy = y < 0 ? -1 : (y > 7), oz = z < 0 ? -1 : (z > 7);
-                    const int nl = (ox | oy | oz) ? nb[l][size_t((ox + 1) + 3 * (oy + 1) + 9 * (oz + 1))] : int(l);
-                    F[z + 1][y + 1][x + 1] =
-                        nl < 0 ? NAN
-                               : value[size_t(nl) * kLeafVoxels + size_t(vox(x - 8 * ox, y - 8 * oy, z - 8 * oz))] - Tf;
-                }
-        for (int z = 0; z < 8; ++z)
-            for (int y = 0; y < 8; ++y)
-                for (int x = 0; x < 8; ++x) {
-                    const float fv = F[z + 1][y + 1][x + 1];
-                    const bool in = fv > 0.0f;
-                    float edge = INFINITY;
-                    int e = 0;
-                    for (int k = 0; k < 6; ++k) {
-                        const float fu = F[z + 1 + dirs[k][2]][y + 1 + dirs[k][1]][x + 1 + dirs[k][0]];
-                        if (fu == fu && (fu > 0.0f) != in) {
-                            const float tc = fv / (fv - fu);
-                            if (tc < edge) {
-                                edge = tc;
-                                e = k;
-                            }
+        const float* v = value.data() + l * kLeafVoxels;
+        for (int z = 0; z < 8; ++z) {
+            uint64_t m = 0;
+            for (int i = 0; i < 64; ++i)
+                m |= uint64_t(v[64 * z + i] > Tf) << i;
+            insideBits[l][size_t(z)] = m;
+        }
+    });
+    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+        // The voxels with a face neighbour on the other side of the surface,
+        // by shifting the inside bits; a missing neighbour leaf (no surface
+        // within a voxel of it) counts as the same side.
+        constexpr uint64_t col0 = 0x0101010101010101ull, col7 = col0 << 7, row0 = 0xFFull, row7 = row0 << 56;
+        const auto& M = insideBits[l];
+        auto plane = [&](int k, int z) -> const uint64_t* {
+            const int32_t m = nb[l][size_t(k)];
+            return m < 0 ? nullptr : &insideBits[size_t(m)][size_t(z)];
+        };
+        const float* own = value.data() + l * kLeafVoxels;
+        for (int z = 0; z < 8; ++z) {
+            const uint64_t m = M[size_t(z)];
+            const uint64_t* xp = plane(14, z);
+            const uint64_t* xm = plane(12, z);
+            const uint64_t* yp = plane(16, z);
+            const uint64_t* ym = plane(10, z);
+            const uint64_t nxp = ((m >> 1) & ~col7) | (xp ? (*xp & col0) << 7 : m & col7);
+            const uint64_t nxm = ((m << 1) & ~col0) | (xm ? (*xm & col7) >> 7 : m & col0);
+            const uint64_t nyp = (m >> 8) | (yp ? (*yp & row0) << 56 : m & row7);
+            const uint64_t nym = (m << 8) | (ym ? (*ym & row7) >> 56 : m & row0);
+            const uint64_t* zp = z < 7 ? &M[size_t(z + 1)] : plane(22, 0);
+            const uint64_t* zm = z > 0 ? &M[size_t(z - 1)] : plane(4, 7);
+            const uint64_t nzp = zp ? *zp : m, nzm = zm ? *zm : m;
+            uint64_t change = (m ^ nxp) | (m ^ nxm) | (m ^ nyp) | (m ^ nym) | (m ^ nzp) | (m ^ nzm);
+            while (change) {
+                const int bit = __builtin_ctzll(change);
+                change &= change - 1;
+                const int x = bit & 7, y = bit >> 3;
+                const int i = vox(x, y, z);
+                const float fv = own[i] - Tf;
+                const bool in = fv > 0.0f;
+                float edge = INFINITY;
+                int e = 0;
+                for (int k = 0; k < 6; ++k) {
+                    const int nx = x + dirs[k][0], ny = y + dirs[k][1], nz = z + dirs[k][2];
+                    const int ox = nx < 0 ? -1 : (nx > 7), oy = ny < 0 ? -1 : (ny > 7), oz = nz < 0 ? -1 : (nz > 7);
+                    const int32_t nl = (ox | oy | oz) ? nb[l][size_t((ox + 1) + 3 * (oy + 1) + 9 * (oz + 1))] : int32_t(l);
+                    if (nl < 0)
+                        continue;
+                    const float fu = value[size_t(nl) * kLeafVoxels + size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))] - Tf;
+                    if ((fu > 0.0f) != in) {
+                        const float tc = fv / (fv - fu);
+                        if (tc < edge) {
+                            edge = tc;
+                            e = k;
                         }
                     }
-                    if (edge <= 1.0f)
-                        edges[l].push_back({uint16_t(vox(x, y, z)), uint8_t(e), edge});
                 }
+                if (edge <= 1.0f)
+                    edges[l].push_back({uint16_t(i), uint8_t(e), edge});
+            }
+        }
+        // Voxels come out plane by plane in x + 8 y order: voxel order.
     });
     std::vector<size_t> first(n + 1, 0);
     for (size_t l = 0; l < n; ++l)
@@ -299,6 +342,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (size_t k = 0; k < edges[l].size(); ++k)
             queries[first[l] + k] = {int32_t(l), edges[l][k].voxel};
     });
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "neighbours and sign changes {:.3f} s\n", since(tEdges));
     t = Clock::now();
     std::vector<SurfaceSample> surface(np);
     sampler.sampleSurface(topo.leaves, queries, h, surface.data());
@@ -349,15 +394,17 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "values {:.3f} s, surface points {:.3f} s ({} points)\n", valueSeconds, since(t), np);
 
-    // 4 and 5, tile by tile (the topology's 128^3 tiles, whose leaves are
-    // contiguous): propagation over the tile's leaves and a one-leaf halo of
-    // their neighbours (a band voxel's nearest point is within halfWidth + 2
-    // voxels, well inside a leaf), then the tile's grid leaves.
+    // 4 and 5, tile by tile (64^3 voxels: octants of the topology's tiles,
+    // whose leaves are contiguous in its depth-first order): propagation over
+    // the tile's leaves and a one-leaf halo of their neighbours (a band
+    // voxel's nearest point is within halfWidth + 2 voxels, well inside a
+    // leaf), then the tile's grid leaves.  A 64^3 tile's state stays in the
+    // caches through the twelve sweeps (128^3 tiles: 1.5 times slower).
     std::vector<size_t> tileStart;
     for (size_t l = 0; l < n; ++l) {
         const int32_t* o = topo.leaves[l].origin;
         const int32_t* p = l ? topo.leaves[l - 1].origin : nullptr;
-        if (!p || (o[0] >> 7) != (p[0] >> 7) || (o[1] >> 7) != (p[1] >> 7) || (o[2] >> 7) != (p[2] >> 7))
+        if (!p || (o[0] >> 6) != (p[0] >> 6) || (o[1] >> 6) != (p[1] >> 6) || (o[2] >> 6) != (p[2] >> 6))
             tileStart.push_back(l);
     }
     tileStart.push_back(n);
@@ -368,7 +415,6 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     std::atomic<size_t> tilesDone{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
     struct Scratch {
         std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
-        std::vector<float> d2;             // its squared distance
         std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
         std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact
     };
@@ -388,7 +434,6 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         const size_t nl = S.leaves.size();
         localLeaves += nl;
         S.src.assign(nl * kLeafVoxels, -1);
-        S.d2.assign(nl * kLeafVoxels, INFINITY);
         // Voxels without a point carry one infinitely far away, so that the
         // sweeps below need no branches.
         for (auto& p : S.pos)
@@ -402,11 +447,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 const glm::vec3 p(points[q].p[0], points[q].p[1], points[q].p[2]);
                 const int i = pointVoxel[q];
                 const size_t at = k * kLeafVoxels + size_t(i);
-                const glm::vec3 v(float(local[k].origin[0] + (i & 7)), float(local[k].origin[1] + ((i >> 3) & 7)),
-                                  float(local[k].origin[2] + (i >> 6)));
                 S.src[at] = int32_t(S.pts.size());
                 S.pts.push_back(points[q]);
-                S.d2[at] = glm::dot(v - p, v - p);
                 for (int c = 0; c < 3; ++c)
                     S.pos[c][at] = p[c];
             }
@@ -421,7 +463,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             const int axis = pass % 3;
             const auto rows = chains(local, axis);
             for (int dir : {1, -1})
-                sweepAxis(rows, local, axis, dir, S.src.data(), S.d2.data(), pos, limit2);
+                sweepAxis(rows, local, axis, dir, S.src.data(), pos, limit2);
         }
         sweepNs += size_t(since(tSweep) * 1e9);
         const auto tLeaves = Clock::now();
@@ -442,8 +484,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 const SurfacePoint& sp = S.pts[size_t(si)];
                 const glm::vec3 d(float(o[0] + (i & 7)) - sp.p[0], float(o[1] + ((i >> 3) & 7)) - sp.p[1],
                                   float(o[2] + (i >> 6)) - sp.p[2]);
-                const float euclid = glm::length(d);
-                float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
+                const float e2 = glm::dot(d, d);
+                const float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
+                const float lateral2 = e2 - plane * plane;
                 // The tangent plane's distance corrects for the spacing of the
                 // surface points (about a voxel) where the surface is smooth:
                 // there the nearest point lies near the foot of the
@@ -451,11 +494,13 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 // crease (CSG, a scar's rim) whose nearest point is the point
                 // itself: the Euclidean distance takes over from 1.5 to 2.5
                 // voxels of offset.
-                const float lateral = std::sqrt(std::max(0.0f, euclid * euclid - plane * plane));
-                const float blend = std::clamp(lateral - 1.5f, 0.0f, 1.0f);
-                float mag = std::abs(plane) + (euclid - std::abs(plane)) * blend * blend * (3.0f - 2.0f * blend);
-                if ((plane < 0.0f) != inside)
-                    mag = euclid;  // the plane disagrees with the field's sign
+                float mag = std::abs(plane);
+                if ((plane < 0.0f) != inside) {
+                    mag = std::sqrt(e2);  // the plane disagrees with the field's sign
+                } else if (lateral2 > 1.5f * 1.5f) {
+                    const float blend = std::min(std::sqrt(lateral2) - 1.5f, 1.0f);
+                    mag += (std::sqrt(e2) - mag) * blend * blend * (3.0f - 2.0f * blend);
+                }
                 const float v = (inside ? -mag : mag) * float(h);
                 if (std::abs(v) < background) {
                     sd[i] = v;
@@ -488,6 +533,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         leavesNs += size_t(since(tLeaves) * 1e9);
         progress("assembly", double(++tilesDone) / double(tileStart.size() - 1));
     });
+    const auto tTree = Clock::now();
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "propagation and leaves {:.3f} s (thread time: sweeps {:.3f} s, leaves {:.3f} s)\n",
                    since(t), sweepNs * 1e-9, leavesNs * 1e-9);
@@ -509,6 +555,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             st.activeVoxels += activeCount[l];
         }
     openvdb::tools::signedFloodFill(out.surface->tree());
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "tree and flood fill {:.3f} s\n", since(tTree));
     out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
     out.surface->setName("surface");
     out.color->setName("Cd");
@@ -518,8 +566,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         openvdb::tools::sdfToFogVolume(*out.density);
         out.density->setName("density");
     }
-    st.assemblySeconds = since(t);
     st.seconds = since(start);
+    st.assemblySeconds = st.seconds - st.topologySeconds - st.samplingSeconds;
     progress("assembly", 1.0);
     return out;
 }
