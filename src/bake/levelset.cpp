@@ -425,9 +425,12 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         // The tile's leaves, then its halo.
         S.leaves.resize(t1 - t0);
         std::iota(S.leaves.begin(), S.leaves.end(), int32_t(t0));
+        // A neighbour without surface points only carries points from two
+        // leaves away, beyond a band voxel's reach (halfWidth + 2 voxels < 8):
+        // only neighbours with points join the halo.
         for (size_t l = t0; l < t1; ++l)
             for (int32_t m : nb[l])
-                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1))
+                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1) && first[size_t(m) + 1] > first[size_t(m)])
                     S.leaves.push_back(m);
         std::sort(S.leaves.begin() + long(t1 - t0), S.leaves.end());
         S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
