@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include <filesystem>
+#include <random>
 
 namespace {
 
@@ -288,6 +289,82 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
         // medial axis inside the band (CSG edges, PCM ridges) a true distance
         // function's finite-difference gradient is not of unit length.
         EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface, 8), "");
+    }
+}
+
+// --- colour ------------------------------------------------------------------------
+
+TEST(BakeColour, TwoColoursGiveCdOnEveryBandVoxel)
+{
+    // A red and a blue sphere blended: Cd is defined on exactly the band's
+    // voxels, red at the red sphere's far side, blue at the blue one's, and a
+    // field-weighted mix (r + b = 1, g = 0) everywhere.
+    BlobTree t;
+    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
+    t.setColor(a, {1, 0, 0});
+    t.setColor(b, {0, 0, 1});
+    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
+    t.finalize();
+    ASSERT_FALSE(FieldProgram::compile(t).uniformColor());
+    const double h = 0.02;
+    for (bool cpu : {true, false}) {
+        const BakedGrids g = bakeTree(t, h, 3.0, cpu);
+        EXPECT_TRUE(g.color->tree().hasSameTopology(g.surface->tree()));
+        EXPECT_GT(g.color->activeVoxelCount(), 1000u);
+        for (auto it = g.color->cbeginValueOn(); it; ++it) {
+            const openvdb::Vec3f c = *it;
+            ASSERT_NEAR(c.x() + c.z(), 1.0, 0.01) << it.getCoord();
+            ASSERT_NEAR(c.y(), 0.0, 1e-6) << it.getCoord();
+        }
+        auto acc = g.color->getConstAccessor();
+        // The spheres' far poles: where the x axis first enters the surface.
+        ReferenceEvaluator ref(t);
+        for (int side : {-1, 1}) {
+            int x = side * 60;
+            while (ref.value(glm::dvec3(x * h, 0, 0)) < 0.5)
+                x -= side;
+            openvdb::Coord c(x, 0, 0);
+            ASSERT_TRUE(acc.isValueOn(c)) << c;
+            const openvdb::Vec3f v = acc.getValue(c);
+            EXPECT_NEAR(side < 0 ? v.x() : v.z(), 1.0, 0.02) << c;
+        }
+    }
+}
+
+TEST(BakeColour, OneColourIsTheBackgroundOfAnEmptyCdGrid)
+{
+    // Every primitive the same colour: the evaluator's colour is that colour
+    // wherever the field is defined (blends normalise their weights, CSG picks
+    // a child's), so Cd holds it as its background and no voxels.
+    for (int which = 0; which < 4; ++which) {
+        BlobTree t = completenessScene(which);
+        const glm::dvec3 colour(0.25, 0.5, 0.125);
+        t.setColor(t.root(), colour);
+        t.finalize();
+        const FieldProgram prog = FieldProgram::compile(t);
+        ASSERT_TRUE(prog.uniformColor()) << which;
+        EXPECT_EQ(*prog.uniformColor(), colour);
+        ReferenceEvaluator ref(t);
+        std::mt19937 rng(which);
+        std::uniform_real_distribution<double> u(-0.8, 0.8);
+        int checked = 0;
+        for (int k = 0; k < 20000; ++k) {
+            const glm::dvec3 p(u(rng), u(rng), u(rng));
+            const FieldSample s = ref.sample(p);
+            if (s.value > 0.2) {
+                ++checked;
+                ASSERT_NEAR(glm::length(s.color - colour), 0.0, 1e-9) << which;
+            }
+        }
+        EXPECT_GT(checked, 100);
+        auto sampler = makeCpuSampler();
+        BakeOptions o;
+        o.voxelSize = 0.04;
+        const BakedGrids g = bakeLevelSet(prog, *sampler, o);
+        EXPECT_EQ(g.color->activeVoxelCount(), 0u);
+        EXPECT_EQ(g.color->tree().leafCount(), 0u);
+        EXPECT_EQ(g.color->background(), openvdb::Vec3f(0.25f, 0.5f, 0.125f));
+        EXPECT_GT(g.surface->activeVoxelCount(), 1000u);
     }
 }
 

@@ -27,6 +27,7 @@ public:
     }
 
     size_t primitives = 0;
+    std::vector<glm::dvec3> shades;  ///< the distinct primitive colours, up to two
 
     void emit(int index)
     {
@@ -71,6 +72,8 @@ private:
         push(n.shade);
         code_.push_back({int(n.type), at, 0, box(current_)});
         ++primitives;
+        if (shades.size() < 2 && (shades.empty() || shades[0] != n.shade))
+            shades.push_back(n.shade);
     }
 
     void pushCombiner(const Combiner& c)
@@ -414,6 +417,8 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     Compiler c(tree, prog.params_, prog.code_, prog.subtreeSupport_);
     c.emit(tree.root());
     prog.primitives_ = c.primitives;
+    if (c.shades.size() == 1)
+        prog.uniformColor_ = c.shades[0];
     const auto bounds = computeBounds(tree);
     prog.positive_ = bounds[size_t(tree.root())].positive;
     prog.support_ = bounds[size_t(tree.root())].support;

@@ -8,6 +8,7 @@
 #include "core/box.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace cambium {
@@ -51,6 +52,10 @@ public:
     const Box& supportBounds() const { return support_; }
     /// Number of primitives in the whole program.
     size_t primitiveCount() const { return primitives_; }
+    /// The colour of every primitive when they all have the same: then the
+    /// field's colour is that colour wherever it is defined (every operator
+    /// blends or picks its children's colours).
+    const std::optional<glm::dvec3>& uniformColor() const { return uniformColor_; }
 
     /// Bounds of the field of `code` over `box`, and (when `out` is given)
     /// `code` specialised to the box appended to *out: children whose field is
@@ -79,6 +84,7 @@ private:
     std::vector<Box> subtreeSupport_;  ///< indexed by OPEN.c / WARP.c
     Box positive_, support_;
     size_t primitives_ = 0;
+    std::optional<glm::dvec3> uniformColor_;
 };
 
 /// Squared distance between the segment [a, b] and a box (exact).
