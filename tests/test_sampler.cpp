@@ -12,6 +12,7 @@
 #include "cb_primitives.h"
 
 #include <gtest/gtest.h>
+#include <openvdb/math/Half.h>
 
 namespace {
 
@@ -196,6 +197,29 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
             ASSERT_NEAR(ga, r.gradient[k], 1e-3 * std::max(1.0, std::abs(r.gradient[k]))) << "query " << q;
             ASSERT_LE(std::abs(int(sa[q].color[k]) - int(sb[q].color[k])), 1) << "query " << q;
         }
+    }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(HalfFloat, EveryHalfConvertsExactlyAndBack)
+{
+    // Against OpenVDB's (Imath's) half for all 65,536 bit patterns.
+    for (uint32_t b = 0; b < 0x10000u; ++b) {
+        openvdb::math::internal::half h;
+        h.setBits(uint16_t(b));
+        const float want = float(h), got = cambium::halfToFloat(uint16_t(b));
+        if (std::isnan(want)) {
+            EXPECT_TRUE(std::isnan(got)) << b;
+            continue;
+        }
+        uint32_t wb, gb;
+        std::memcpy(&wb, &want, 4);
+        std::memcpy(&gb, &got, 4);
+        ASSERT_EQ(wb, gb) << "half bits " << b;
+        EXPECT_EQ(cambium::floatToHalf(got), uint16_t(b));
     }
 }
 

@@ -347,6 +347,10 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             return m < 0 ? nullptr : &insideBits[size_t(m)][size_t(z)];
         };
         const float* own = value.data() + l * kLeafVoxels;
+        // Per plane and direction (the order of dirs), the voxels whose
+        // neighbour that way is on the other side.
+        uint64_t across[8][6];
+        size_t count = 0;
         for (int z = 0; z < 8; ++z) {
             const uint64_t m = M[size_t(z)];
             const uint64_t* xp = plane(14, z);
@@ -360,29 +364,34 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             const uint64_t* zp = z < 7 ? &M[size_t(z + 1)] : plane(22, 0);
             const uint64_t* zm = z > 0 ? &M[size_t(z - 1)] : plane(4, 7);
             const uint64_t nzp = zp ? *zp : m, nzm = zm ? *zm : m;
-            uint64_t change = (m ^ nxp) | (m ^ nxm) | (m ^ nyp) | (m ^ nym) | (m ^ nzp) | (m ^ nzm);
+            const uint64_t d[6] = {m ^ nxp, m ^ nxm, m ^ nyp, m ^ nym, m ^ nzp, m ^ nzm};
+            for (int k = 0; k < 6; ++k)
+                across[z][k] = d[k];
+            count += size_t(__builtin_popcountll(d[0] | d[1] | d[2] | d[3] | d[4] | d[5]));
+        }
+        edges[l].reserve(count);
+        for (int z = 0; z < 8; ++z) {
+            const uint64_t* d = across[z];
+            uint64_t change = d[0] | d[1] | d[2] | d[3] | d[4] | d[5];
             while (change) {
                 const int bit = __builtin_ctzll(change);
                 change &= change - 1;
                 const int x = bit & 7, y = bit >> 3;
                 const int i = vox(x, y, z);
                 const float fv = own[i] - Tf;
-                const bool in = fv > 0.0f;
                 float edge = INFINITY;
                 int e = 0;
                 for (int k = 0; k < 6; ++k) {
+                    if (!((d[k] >> bit) & 1))
+                        continue;  // same side that way (or no leaf there)
                     const int nx = x + dirs[k][0], ny = y + dirs[k][1], nz = z + dirs[k][2];
                     const int ox = nx < 0 ? -1 : (nx > 7), oy = ny < 0 ? -1 : (ny > 7), oz = nz < 0 ? -1 : (nz > 7);
                     const int32_t nl = (ox | oy | oz) ? nb[l][size_t((ox + 1) + 3 * (oy + 1) + 9 * (oz + 1))] : int32_t(l);
-                    if (nl < 0)
-                        continue;
                     const float fu = value[size_t(nl) * kLeafVoxels + size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))] - Tf;
-                    if ((fu > 0.0f) != in) {
-                        const float tc = fv / (fv - fu);
-                        if (tc < edge) {
-                            edge = tc;
-                            e = k;
-                        }
+                    const float tc = fv / (fv - fu);
+                    if (tc < edge) {
+                        edge = tc;
+                        e = k;
                     }
                 }
                 if (edge <= 1.0f)
@@ -407,50 +416,44 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     sampler.sampleSurface(topo.leaves, queries, h, surface.data());
     queries = {};
     st.samplingSeconds = valueSeconds + since(t);
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "sampling: values {:.3f} s, surface {:.3f} s ({} points)\n", valueSeconds, since(t), np);
     progress("sampling", 1.0);
     topo.pool = {};
 
-    t = Clock::now();
-    std::vector<SurfacePoint> points(np);
-    std::vector<uint16_t> pointVoxel(np);  // each point's voxel in its leaf
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+    // A surface voxel's point: computed where a tile needs it (tiles share
+    // halo leaves, but a point costs less than storing all of them).
+    auto surfacePoint = [&](size_t l, size_t k) {
         const int32_t* o = topo.leaves[l].origin;
-        for (size_t k = 0; k < edges[l].size(); ++k) {
-            const Edge& ed = edges[l][k];
-            const size_t q = first[l] + k;
-            const int i = ed.voxel;
-            const float fv = value[l * kLeafVoxels + size_t(i)] - Tf;
-            const bool in = fv > 0.0f;
-            const glm::vec3 g(halfToFloat(surface[q].gradient[0]), halfToFloat(surface[q].gradient[1]),
-                              halfToFloat(surface[q].gradient[2]));
-            const float glen = glm::length(g);
-            // Outward normal: against the gradient (F grows inwards).
-            glm::vec3 nrm = glen > 0.0f ? -g / glen : glm::vec3(0.0f);
-            float dist = glen > 0.0f ? std::abs(fv) / (glen * float(h)) : INFINITY;
-            if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
-                dist = ed.t;
-                if (!(glen > 0.0f))
-                    nrm = (in ? 1.0f : -1.0f) *
-                          glm::vec3(float(dirs[ed.dir][0]), float(dirs[ed.dir][1]), float(dirs[ed.dir][2]));
-            }
-            // Closest point: from outside, inwards along -n; from inside, outwards.
-            const glm::vec3 cp = glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
-                                           float(o[2] + (i >> 6))) + (in ? dist : -dist) * nrm;
-            SurfacePoint& sp = points[q];
-            for (int c = 0; c < 3; ++c) {
-                sp.p[c] = cp[c];
-                sp.n[c] = int16_t(std::lround(32767.0f * nrm[c]));
-                sp.rgb[c] = surface[q].color[c];
-            }
-            pointVoxel[q] = uint16_t(i);
+        const Edge& ed = edges[l][k];
+        const size_t q = first[l] + k;
+        const int i = ed.voxel;
+        const float fv = value[l * kLeafVoxels + size_t(i)] - Tf;
+        const bool in = fv > 0.0f;
+        const glm::vec3 g(halfToFloat(surface[q].gradient[0]), halfToFloat(surface[q].gradient[1]),
+                          halfToFloat(surface[q].gradient[2]));
+        const float glen = glm::length(g);
+        // Outward normal: against the gradient (F grows inwards).
+        glm::vec3 nrm = glen > 0.0f ? -g / glen : glm::vec3(0.0f);
+        float dist = glen > 0.0f ? std::abs(fv) / (glen * float(h)) : INFINITY;
+        if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
+            dist = ed.t;
+            if (!(glen > 0.0f))
+                nrm = (in ? 1.0f : -1.0f) *
+                      glm::vec3(float(dirs[ed.dir][0]), float(dirs[ed.dir][1]), float(dirs[ed.dir][2]));
         }
-        edges[l] = {};
-    });
-    edges = {};
-    surface = {};
+        // Closest point: from outside, inwards along -n; from inside, outwards.
+        const glm::vec3 cp = glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
+                                       float(o[2] + (i >> 6))) + (in ? dist : -dist) * nrm;
+        SurfacePoint sp;
+        for (int c = 0; c < 3; ++c) {
+            sp.p[c] = cp[c];
+            sp.n[c] = int16_t(32767.0f * nrm[c] + (nrm[c] < 0.0f ? -0.5f : 0.5f));  // rounded
+            sp.rgb[c] = surface[q].color[c];
+        }
+        return sp;
+    };
     st.surfacePoints = np;
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "values {:.3f} s, surface points {:.3f} s ({} points)\n", valueSeconds, since(t), np);
 
     // 4 and 5, tile by tile (64^3 voxels: octants of the topology's tiles,
     // whose leaves are contiguous in its depth-first order): propagation over
@@ -458,6 +461,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // voxel's nearest point is within halfWidth + 2 voxels, well inside a
     // leaf), then the tile's grid leaves.  A 64^3 tile's state stays in the
     // caches through the twelve sweeps (128^3 tiles: 1.5 times slower).
+    t = Clock::now();
     std::vector<size_t> tileStart;
     for (size_t l = 0; l < n; ++l) {
         const int32_t* o = topo.leaves[l].origin;
@@ -506,14 +510,13 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (size_t k = 0; k < nl; ++k) {
             const size_t l = size_t(S.leaves[k]);
             local[k] = topo.leaves[l];
-            for (size_t q = first[l]; q < first[l + 1]; ++q) {
-                const glm::vec3 p(points[q].p[0], points[q].p[1], points[q].p[2]);
-                const int i = pointVoxel[q];
-                const size_t at = k * kLeafVoxels + size_t(i);
+            for (size_t e = 0; e < edges[l].size(); ++e) {
+                const SurfacePoint sp = surfacePoint(l, e);
+                const size_t at = k * kLeafVoxels + size_t(edges[l][e].voxel);
                 S.src[at] = int32_t(S.pts.size());
-                S.pts.push_back(points[q]);
+                S.pts.push_back(sp);
                 for (int c = 0; c < 3; ++c)
-                    S.pos[c][at] = p[c];
+                    S.pos[c][at] = sp.p[c];
             }
         }
         const auto tSweep = Clock::now();
@@ -606,7 +609,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
     value = {};
-    points = {};
+    edges = {};
+    surface = {};
     out.surface = openvdb::FloatGrid::create(background);
     // A model of one colour has that colour wherever the surface is: its Cd
     // grid is that colour as the background, without voxels (on the 20k

@@ -12,13 +12,6 @@
 
 namespace cambium {
 
-float halfToFloat(uint16_t h)
-{
-    openvdb::math::internal::half v;
-    v.setBits(h);
-    return float(v);
-}
-
 uint16_t floatToHalf(float f) { return openvdb::math::internal::half(f).bits(); }
 
 namespace {

@@ -5,6 +5,7 @@
 #include "field/program.h"
 
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -29,8 +30,27 @@ struct SurfaceSample {
     uint8_t color[3];
 };
 
-/// IEEE half <-> float.
-float halfToFloat(uint16_t h);
+/// IEEE half -> float, exactly (every half is a float), by moving the bits:
+/// inline, since the assembly converts tens of millions of gradients.
+inline float halfToFloat(uint16_t h)
+{
+    const uint32_t sign = uint32_t(h & 0x8000u) << 16, e = (h >> 10) & 0x1Fu, m = h & 0x3FFu;
+    uint32_t bits;
+    if (e == 0x1Fu) {
+        bits = sign | 0x7F800000u | (m << 13);  // infinities and NaNs
+    } else if (e != 0) {
+        bits = sign | ((e + 112u) << 23) | (m << 13);  // normal: rebias 15 -> 127
+    } else {
+        // Zero or subnormal: m * 2^-24, exact in float.
+        const float v = float(m) * 5.9604644775390625e-8f;
+        std::memcpy(&bits, &v, 4);
+        bits |= sign;
+    }
+    float f;
+    std::memcpy(&f, &bits, 4);
+    return f;
+}
+/// float -> IEEE half, rounded to nearest even.
 uint16_t floatToHalf(float f);
 
 /// A leaf to sample: its origin in voxel index space and its program, a
