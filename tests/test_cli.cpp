@@ -150,7 +150,7 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
     std::filesystem::remove_all(dir);
 }
 
-TEST(Cli, BakeReadsTheBenchmarkSkeletonFormat)
+TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
 {
     const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_skeleton";
     std::filesystem::create_directories(dir);
@@ -161,6 +161,9 @@ TEST(Cli, BakeReadsTheBenchmarkSkeletonFormat)
              "0 -1 0 0 0 0 1 0 0.1 0.08\n"
              "1 0 0 1 0 0.3 1.5 0 0.05 0.04\n";
     }
+    const Result info = run("info " + sk.string());
+    ASSERT_EQ(info.status, 0) << info.err;
+    EXPECT_NE(info.out.find("2 primitives"), std::string::npos) << info.out;
     const std::string out = (dir / "tree.vdb").string();
     const Result r = run("bake " + sk.string() + " -o " + out + " --voxel-size 0.01");
     ASSERT_EQ(r.status, 0) << r.err;

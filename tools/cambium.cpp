@@ -27,7 +27,7 @@ std::string vec(const glm::dvec3& v) { return fmt::format("({:.6g}, {:.6g}, {:.6
 
 int runInfo(const std::string& scenePath)
 {
-    const BlobTree tree = loadScene(scenePath);
+    const BlobTree tree = loadModel(scenePath);
     const TreeStats s = computeStats(tree);
     fmt::print("scene      {}\n", scenePath);
     fmt::print("threshold  {}\n", tree.threshold());
@@ -49,7 +49,7 @@ int runInfo(const std::string& scenePath)
 
 int runEval(const std::string& scenePath, const std::vector<double>& xyz)
 {
-    const BlobTree tree = loadScene(scenePath);
+    const BlobTree tree = loadModel(scenePath);
     const ReferenceEvaluator eval(tree);
     const glm::dvec3 p(xyz[0], xyz[1], xyz[2]);
     const FieldSample s = eval.sample(p);
@@ -144,13 +144,13 @@ int main(int argc, char** argv)
 
     std::string scene;
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
-    info->add_option("scene", scene, "Scene file (JSON, docs/scene-format.md)")->required();
+    info->add_option("scene", scene, "Scene (JSON, docs/scene-format.md) or skeleton (docs/skeleton-format.md)")->required();
     info->callback([&] { action = [&] { return runInfo(scene); }; });
 
     std::vector<double> point;
     auto* eval = app.add_subcommand("eval", "Evaluate a scene's field, gradient and colour at a point "
                                             "(CPU reference evaluator)");
-    eval->add_option("scene", scene, "Scene file")->required();
+    eval->add_option("scene", scene, "Scene (JSON) or skeleton")->required();
     eval->add_option("point", point, "x y z")->required()->expected(3);
     eval->callback([&] { action = [&] { return runEval(scene, point); }; });
 
