@@ -1,6 +1,7 @@
 // cambium — narrow-band topology by interval subdivision.
 #include "bake/topology.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <atomic>
@@ -24,10 +25,16 @@ struct Search {
                    glm::dvec3(o[0] + size - 1, o[1] + size - 1, o[2] + size - 1) * h);
     }
 
-    void descend(Code code, const int o[3], int size, std::vector<LeafJob>& leaves,
-                 std::vector<Instr>& pool)
+    /// One buffer per level of the descent, reused from box to box.
+    struct Scratch {
+        std::vector<Instr> level[8];
+    };
+
+    void descend(Code code, const int o[3], int size, int depth, Scratch& scratch,
+                 std::vector<LeafJob>& leaves, std::vector<Instr>& pool)
     {
-        std::vector<Instr> spec;
+        std::vector<Instr>& spec = scratch.level[depth];
+        spec.clear();
         ++boxes;
         const Interval iv = prog.specialize(code, centres(o, size).padded(pad), &spec);
         if (!iv.contains(T))
@@ -43,9 +50,15 @@ struct Search {
         for (int c = 0; c < 8; ++c) {
             const int oc[3] = {o[0] + (c & 1) * half, o[1] + ((c >> 1) & 1) * half,
                                o[2] + ((c >> 2) & 1) * half};
-            descend(spec, oc, half, leaves, pool);
+            descend(spec, oc, half, depth + 1, scratch, leaves, pool);
         }
     }
+};
+
+/// A cube of the coarse levels (above the tiles) with its specialised program.
+struct Coarse {
+    int o[3];
+    std::vector<Instr> code;
 };
 
 long long floorDiv(long long a, long long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -70,22 +83,54 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
         return out;
     long long lo[3], hi[3];
     bandIndexBounds(program, h, halfWidth, lo, hi);
-    // Tiles of 128^3 voxels aligned to OpenVDB's internal nodes cover the box.
+    // Tiles of 128^3 voxels aligned to OpenVDB's internal nodes cover the
+    // box.  Above them, coarse cubes of 2^k tiles are specialised level by
+    // level, so that a tile starts from the few primitives near it rather
+    // than from all of them (20,000 cones: a third of the search's time).
     long long t0[3], nt[3];
     for (int k = 0; k < 3; ++k) {
         t0[k] = floorDiv(lo[k], kTile);
         nt[k] = floorDiv(hi[k], kTile) - t0[k] + 1;
     }
-    const size_t tiles = size_t(nt[0] * nt[1] * nt[2]);
+    int span = 1;  // tiles per side of the root cube
+    while (span < nt[0] || span < nt[1] || span < nt[2])
+        span *= 2;
     Search search{program, h, halfWidth * h, program.threshold()};
+    std::vector<Coarse> level(1);
+    for (int k = 0; k < 3; ++k)
+        level[0].o[k] = int(t0[k] * kTile);
+    level[0].code = program.code();
+    for (int size = span * kTile; size > kTile; size /= 2) {
+        // Children of every cube, inside the covered box; those that can hold
+        // band voxels go on with their specialised programs.
+        const int half = size / 2;
+        std::vector<Coarse> next(level.size() * 8);
+        tbb::parallel_for(size_t(0), next.size(), [&](size_t i) {
+            const Coarse& parent = level[i / 8];
+            const int c = int(i % 8);
+            Coarse& child = next[i];
+            for (int k = 0; k < 3; ++k)
+                child.o[k] = parent.o[k] + ((c >> k) & 1) * half;
+            for (int k = 0; k < 3; ++k)
+                if (child.o[k] > hi[k])
+                    return;  // beyond the box: left empty
+            ++search.boxes;
+            const Interval iv = program.specialize(parent.code, search.centres(child.o, half).padded(search.pad), &child.code);
+            if (!iv.contains(search.T))
+                child.code.clear();
+        });
+        level.clear();
+        for (Coarse& c : next)
+            if (!c.code.empty())
+                level.push_back(std::move(c));
+    }
+    const size_t tiles = level.size();
     std::vector<std::vector<LeafJob>> tileLeaves(tiles);
     std::vector<std::vector<Instr>> tilePools(tiles);
+    tbb::enumerable_thread_specific<Search::Scratch> scratch;
     std::atomic<size_t> done{0};
     tbb::parallel_for(size_t(0), tiles, [&](size_t t) {
-        const int o[3] = {int((t0[0] + long(t % size_t(nt[0]))) * kTile),
-                          int((t0[1] + long((t / size_t(nt[0])) % size_t(nt[1]))) * kTile),
-                          int((t0[2] + long(t / size_t(nt[0] * nt[1]))) * kTile)};
-        search.descend(program.code(), o, kTile, tileLeaves[t], tilePools[t]);
+        search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), tileLeaves[t], tilePools[t]);
         const size_t d = ++done;
         if (progress)
             progress(double(d) / double(tiles));
