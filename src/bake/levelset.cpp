@@ -191,6 +191,47 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 #undef CB_STEP
 }
 
+/// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
+/// from their nearest surface points p (index space, 1e15 where none) with
+/// unit normals n, and whether each lies in the band.  The tangent plane's
+/// distance corrects for the spacing of the surface points (about a voxel)
+/// where the surface is smooth: there the nearest point lies near the foot of
+/// the perpendicular.  A lateral offset of several voxels means a crease (CSG,
+/// a scar's rim) whose nearest point is the point itself: the Euclidean
+/// distance takes over from 1.5 to 2.5 voxels of offset; it also takes over
+/// where the plane disagrees with the field's sign.  Branch-free, so that it
+/// runs as vectors (clones chosen at run time, as for the sweeps; the file is
+/// compiled without errno and trapping math, which would keep it scalar).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
+    const int32_t* origin, const float* __restrict value, float T, const float* __restrict px,
+    const float* __restrict py, const float* __restrict pz, const float* __restrict nx,
+    const float* __restrict ny, const float* __restrict nz, float h, float background,
+    float* __restrict sd, uint8_t* __restrict on)
+{
+    const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
+    int active = 0;
+    for (int i = 0; i < kLeafVoxels; ++i) {
+        const float sign = value[i] > T ? -1.0f : 1.0f;  // negative inside
+        const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
+                    dz = oz + float(i >> 6) - pz[i];
+        const float e2 = dx * dx + dy * dy + dz * dz;
+        const float plane = dx * nx[i] + dy * ny[i] + dz * nz[i];
+        const float euclid = std::sqrt(e2);
+        const float l2 = e2 - plane * plane;
+        const float lateral = std::sqrt(l2 > 0.0f ? l2 : 0.0f);
+        const float b0 = lateral - 1.5f, b1 = b0 > 0.0f ? b0 : 0.0f, b = b1 < 1.0f ? b1 : 1.0f;
+        const float flat = std::fabs(plane);
+        const float blended = flat + (euclid - flat) * (b * b * (3.0f - 2.0f * b));
+        const float mag = (plane < 0.0f) != (sign < 0.0f) ? euclid : blended;
+        const float v = sign * mag * h;
+        const bool in = std::fabs(v) < background;  // false where there is no point (1e15)
+        sd[i] = in ? v : sign * background;
+        on[i] = in;
+        active += in;
+    }
+    return active;
+}
+
 uint64_t leafKey(int x, int y, int z)
 {
     return (uint64_t(uint32_t(x >> 3) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> 3) & 0x1FFFFF) << 21) |
@@ -537,44 +578,20 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (size_t k = 0; k < t1 - t0; ++k) {
             const size_t l = t0 + k;
             const int32_t* o = topo.leaves[l].origin;
-            float sd[kLeafVoxels];
-            int32_t from[kLeafVoxels];
-            size_t active = 0;
+            // The nearest points' normals, gathered (zero where none).
+            float nrm[3][kLeafVoxels], sd[kLeafVoxels];
+            uint8_t on[kLeafVoxels];
+            const int32_t* src = S.src.data() + k * kLeafVoxels;
             for (int i = 0; i < kLeafVoxels; ++i) {
-                const bool inside = value[l * kLeafVoxels + size_t(i)] > Tf;
-                sd[i] = inside ? -background : background;
-                from[i] = -1;
-                const int32_t si = S.src[k * kLeafVoxels + size_t(i)];
-                if (si < 0)
-                    continue;
-                const SurfacePoint& sp = S.pts[size_t(si)];
-                const glm::vec3 d(float(o[0] + (i & 7)) - sp.p[0], float(o[1] + ((i >> 3) & 7)) - sp.p[1],
-                                  float(o[2] + (i >> 6)) - sp.p[2]);
-                const float e2 = glm::dot(d, d);
-                const float plane = (d.x * float(sp.n[0]) + d.y * float(sp.n[1]) + d.z * float(sp.n[2])) / 32767.0f;
-                const float lateral2 = e2 - plane * plane;
-                // The tangent plane's distance corrects for the spacing of the
-                // surface points (about a voxel) where the surface is smooth:
-                // there the nearest point lies near the foot of the
-                // perpendicular.  A lateral offset of several voxels means a
-                // crease (CSG, a scar's rim) whose nearest point is the point
-                // itself: the Euclidean distance takes over from 1.5 to 2.5
-                // voxels of offset.
-                float mag = std::abs(plane);
-                if ((plane < 0.0f) != inside) {
-                    mag = std::sqrt(e2);  // the plane disagrees with the field's sign
-                } else if (lateral2 > 1.5f * 1.5f) {
-                    const float blend = std::min(std::sqrt(lateral2) - 1.5f, 1.0f);
-                    mag += (std::sqrt(e2) - mag) * blend * blend * (3.0f - 2.0f * blend);
-                }
-                const float v = (inside ? -mag : mag) * float(h);
-                if (std::abs(v) < background) {
-                    sd[i] = v;
-                    from[i] = si;
-                    ++active;
-                }
+                const int32_t si = src[i];
+                for (int c = 0; c < 3; ++c)
+                    nrm[c][i] = si < 0 ? 0.0f : float(S.pts[size_t(si)].n[c]) * (1.0f / 32767.0f);
             }
-            activeCount[l] = active;
+            const size_t at = k * kLeafVoxels;
+            const int active = leafDistances(o, value.data() + l * kLeafVoxels, Tf, S.pos[0].data() + at,
+                                             S.pos[1].data() + at, S.pos[2].data() + at, nrm[0], nrm[1], nrm[2],
+                                             float(h), background, sd, on);
+            activeCount[l] = size_t(active);
             if (!active)
                 continue;
             const openvdb::Coord origin(o[0], o[1], o[2]);
@@ -582,18 +599,22 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             auto* cl = uniform ? nullptr : new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
             float* sv = sl->buffer().data();
             openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
+            // VDB leaves index x slowest: offset = 64 x + 8 y + z, so mask
+            // word x holds bit 8 y + z.
+            uint64_t words[8] = {};
             for (int i = 0; i < kLeafVoxels; ++i) {
-                // VDB leaves index x slowest: offset = 64 x + 8 y + z.
-                const openvdb::Index off = openvdb::Index(64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6));
-                sv[off] = sd[i];
-                if (from[i] >= 0) {
-                    sl->getValueMask().setOn(off);
-                    if (cl) {
-                        const uint8_t* rgb = S.pts[size_t(from[i])].rgb;
-                        cv[off] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
-                        cl->getValueMask().setOn(off);
-                    }
+                const int x = i & 7, yz = ((i >> 3) & 7) * 8 + (i >> 6);
+                sv[64 * x + yz] = sd[i];
+                words[x] |= uint64_t(on[i]) << yz;
+                if (cl && on[i]) {
+                    const uint8_t* rgb = S.pts[size_t(src[i])].rgb;
+                    cv[64 * x + yz] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
                 }
+            }
+            for (int x = 0; x < 8; ++x) {
+                sl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
+                if (cl)
+                    cl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
             }
             sLeaves[l] = sl;
             cLeaves[l] = cl;
