@@ -2,6 +2,7 @@
 #include "bake/levelset.h"
 
 #include "bake/topology.h"
+#include "core/memory.h"
 
 #include "cb_program.h"
 
@@ -315,12 +316,12 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
 
     // 2. Values of every voxel of those leaves, in batches.
     t = Clock::now();
-    std::vector<float> value(n * kLeafVoxels);
+    std::unique_ptr<float[]> value = parallelArray<float>(n * kLeafVoxels);
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
     for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
         const size_t b1 = std::min(n, b0 + kBatchLeaves);
-        sampler.sampleValues(topo.leaves, b0, b1, h, value.data() + b0 * kLeafVoxels);
+        sampler.sampleValues(topo.leaves, b0, b1, h, value.get() + b0 * kLeafVoxels);
         progress("sampling", 0.8 * double(b1) / double(n));
     }
     const double valueSeconds = since(t);
@@ -369,7 +370,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
     std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const float* v = value.data() + l * kLeafVoxels;
+        const float* v = value.get() + l * kLeafVoxels;
         for (int z = 0; z < 8; ++z) {
             uint64_t m = 0;
             for (int i = 0; i < 64; ++i)
@@ -387,7 +388,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             const int32_t m = nb[l][size_t(k)];
             return m < 0 ? nullptr : &insideBits[size_t(m)][size_t(z)];
         };
-        const float* own = value.data() + l * kLeafVoxels;
+        const float* own = value.get() + l * kLeafVoxels;
         // Per plane and direction (the order of dirs), the voxels whose
         // neighbour that way is on the other side.
         uint64_t across[8][6];
@@ -453,8 +454,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "neighbours and sign changes {:.3f} s\n", since(tEdges));
     t = Clock::now();
-    std::vector<SurfaceSample> surface(np);
-    sampler.sampleSurface(topo.leaves, queries, h, surface.data());
+    std::unique_ptr<SurfaceSample[]> surface = parallelArray<SurfaceSample>(np);
+    sampler.sampleSurface(topo.leaves, queries, h, surface.get());
     queries = {};
     st.samplingSeconds = valueSeconds + since(t);
     if (std::getenv("CAMBIUM_TIMING"))
@@ -592,7 +593,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                     nrm[c][i] = si < 0 ? 0.0f : float(S.pts[size_t(si)].n[c]) * (1.0f / 32767.0f);
             }
             const size_t at = k * kLeafVoxels;
-            const int active = leafDistances(o, value.data() + l * kLeafVoxels, Tf, S.pos[0].data() + at,
+            const int active = leafDistances(o, value.get() + l * kLeafVoxels, Tf, S.pos[0].data() + at,
                                              S.pos[1].data() + at, S.pos[2].data() + at, nrm[0], nrm[1], nrm[2],
                                              float(h), background, sd, on);
             activeCount[l] = size_t(active);
@@ -633,9 +634,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
-    value = {};
+    value.reset();
     edges = {};
-    surface = {};
+    surface.reset();
     out.surface = openvdb::FloatGrid::create(background);
     // A model of one colour has that colour wherever the surface is: its Cd
     // grid is that colour as the background, without voxels (on the 20k

@@ -93,6 +93,19 @@ public:
         return mem_;
     }
     cl_mem get() const { return mem_; }
+    /// The first `bytes` mapped into host memory (no copy on a CPU device):
+    /// CL_MAP_READ, or CL_MAP_WRITE_INVALIDATE_REGION to fill it.
+    void* map(const OpenCLContext& ctx, cl_map_flags flags, size_t bytes)
+    {
+        cl_int err;
+        void* p = clEnqueueMapBuffer(ctx.queue(), mem_, CL_TRUE, flags, 0, bytes, 0, nullptr, nullptr, &err);
+        checkCL(err, "clEnqueueMapBuffer");
+        return p;
+    }
+    void unmap(const OpenCLContext& ctx, void* p)
+    {
+        checkCL(clEnqueueUnmapMemObject(ctx.queue(), mem_, p, 0, nullptr, nullptr), "clEnqueueUnmapMemObject");
+    }
     cl_mem reserve(const OpenCLContext& ctx, size_t bytes, cl_mem_flags flags)
     {
         bytes = std::max<size_t>(bytes, 64);
@@ -182,33 +195,44 @@ public:
     {
         if (queries.empty())
             return;
-        // Chunks of eight voxels of one leaf; a short chunk repeats its last voxel.
-        std::vector<int32_t> chunkLeaf;
-        std::vector<uint16_t> chunkVoxels;
-        std::vector<size_t> slot(queries.size());  // where each query's result lands
-        for (size_t q = 0; q < queries.size();) {
-            size_t e = q;
-            while (e < queries.size() && e - q < 8 && queries[e].leaf == queries[q].leaf)
-                ++e;
-            const size_t chunk = chunkLeaf.size();
-            chunkLeaf.push_back(queries[q].leaf);
-            for (size_t k = 0; k < 8; ++k)
-                chunkVoxels.push_back(queries[q + std::min(k, e - q - 1)].voxel);
-            for (size_t k = q; k < e; ++k)
-                slot[k] = 8 * chunk + (k - q);
-            q = e;
-        }
+        // Chunks of eight voxels of one leaf (a short chunk repeats its last
+        // voxel), laid out run by run of the queries' leaves, filled in
+        // parallel straight into the device's buffers.
+        std::vector<size_t> runStart;  // queries are grouped by leaf
+        for (size_t q = 0; q < queries.size(); ++q)
+            if (q == 0 || queries[q].leaf != queries[q - 1].leaf)
+                runStart.push_back(q);
+        runStart.push_back(queries.size());
+        const size_t runs = runStart.size() - 1;
+        std::vector<size_t> firstChunk(runs + 1, 0);
+        for (size_t r = 0; r < runs; ++r)
+            firstChunk[r + 1] = firstChunk[r] + (runStart[r + 1] - runStart[r] + 7) / 8;
         const size_t local = 8;
-        while (chunkLeaf.size() % local) {  // pad to the work-group size
-            chunkLeaf.push_back(chunkLeaf.back());
-            for (int k = 0; k < 8; ++k)
-                chunkVoxels.push_back(chunkVoxels[chunkVoxels.size() - 8]);
+        const size_t chunks = (firstChunk[runs] + local - 1) / local * local;  // whole work-groups
+        const size_t stride = 8 * chunks;
+        chunkLeaf_.reserve(ctx_, chunks * sizeof(int32_t), CL_MEM_READ_ONLY);
+        chunkVoxels_.reserve(ctx_, stride * sizeof(uint16_t), CL_MEM_READ_ONLY);
+        auto* cLeaf = static_cast<int32_t*>(chunkLeaf_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, chunks * sizeof(int32_t)));
+        auto* cVox = static_cast<uint16_t*>(chunkVoxels_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, stride * sizeof(uint16_t)));
+        tbb::parallel_for(size_t(0), runs, [&](size_t r) {
+            const size_t q0 = runStart[r], q1 = runStart[r + 1];
+            for (size_t c = firstChunk[r]; c < firstChunk[r + 1]; ++c) {
+                const size_t q = q0 + 8 * (c - firstChunk[r]);
+                cLeaf[c] = queries[q0].leaf;
+                for (size_t k = 0; k < 8; ++k)
+                    cVox[8 * c + k] = queries[std::min(q + k, q1 - 1)].voxel;
+            }
+        });
+        for (size_t c = firstChunk[runs]; c < chunks; ++c) {  // padding: copies of the last chunk
+            cLeaf[c] = cLeaf[c - 1];
+            for (size_t k = 0; k < 8; ++k)
+                cVox[8 * c + k] = cVox[8 * (c - 1) + k];
         }
-        const size_t chunks = chunkLeaf.size(), stride = 8 * chunks;
+        chunkLeaf_.unmap(ctx_, cLeaf);
+        chunkVoxels_.unmap(ctx_, cVox);
         cl_mem code = pool_.get(), params = params_.get();
         cl_mem table = table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
-        cl_mem cl = chunkLeaf_.upload(ctx_, chunkLeaf.data(), chunks * sizeof(int32_t), CL_MEM_READ_ONLY);
-        cl_mem cv = chunkVoxels_.upload(ctx_, chunkVoxels.data(), stride * sizeof(uint16_t), CL_MEM_READ_ONLY);
+        cl_mem cl = chunkLeaf_.get(), cv = chunkVoxels_.get();
         cl_mem grad = out_.reserve(ctx_, 3 * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
         cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
         const float hf = float(h);
@@ -217,18 +241,19 @@ public:
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), surfaceKernel_, 1, nullptr, &chunks, &local, 0,
                                        nullptr, nullptr),
                 "clEnqueueNDRangeKernel(sample_surface)");
-        std::vector<uint16_t> g(3 * stride);
-        std::vector<uint8_t> c(3 * stride);
-        checkCL(clEnqueueReadBuffer(ctx_.queue(), grad, CL_TRUE, 0, g.size() * 2, g.data(), 0, nullptr, nullptr),
-                "clEnqueueReadBuffer");
-        checkCL(clEnqueueReadBuffer(ctx_.queue(), col, CL_TRUE, 0, c.size(), c.data(), 0, nullptr, nullptr),
-                "clEnqueueReadBuffer");
-        tbb::parallel_for(size_t(0), queries.size(), [&](size_t q) {
-            for (int k = 0; k < 3; ++k) {
-                out[q].gradient[k] = g[size_t(k) * stride + slot[q]];
-                out[q].color[k] = c[size_t(k) * stride + slot[q]];
+        const auto* g = static_cast<const uint16_t*>(out_.map(ctx_, CL_MAP_READ, 3 * stride * sizeof(uint16_t)));
+        const auto* c = static_cast<const uint8_t*>(out2_.map(ctx_, CL_MAP_READ, 3 * stride));
+        tbb::parallel_for(size_t(0), runs, [&](size_t r) {
+            for (size_t q = runStart[r]; q < runStart[r + 1]; ++q) {
+                const size_t at = 8 * firstChunk[r] + (q - runStart[r]);
+                for (int k = 0; k < 3; ++k) {
+                    out[q].gradient[k] = g[size_t(k) * stride + at];
+                    out[q].color[k] = c[size_t(k) * stride + at];
+                }
             }
         });
+        out_.unmap(ctx_, const_cast<uint16_t*>(g));
+        out2_.unmap(ctx_, const_cast<uint8_t*>(c));
     }
 
     std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) override
