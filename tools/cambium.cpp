@@ -14,6 +14,7 @@
 #include <openvdb/openvdb.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -180,12 +181,16 @@ int main(int argc, char** argv)
     std::string generator = CAMBIUM_BENCH_GENERATOR;
     std::vector<std::string> benchCases = {"1000:0.01", "20000:0.005"};
     bool skipCpu = false;
+    int repeats = 3;
     auto* benchBake = bench->add_subcommand(
         "bake", "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
                 "ParticlesToLevelSet, on trees from ../shared/bench/gen_skeleton.py");
     benchBake->add_option("--generator", generator, "gen_skeleton.py")->capture_default_str();
     benchBake->add_option("--case", benchCases, "INTERNODES:VOXEL_SIZE (repeatable)")->capture_default_str();
     benchBake->add_flag("--skip-cpu", skipCpu, "Leave out the CPU path");
+    benchBake->add_option("--repeat", repeats, "Runs of each method, in turn; the table shows medians")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100));
     benchBake->callback([&] {
         action = [&] {
             char dir[] = "/tmp/cambium-bench-XXXXXX";
@@ -203,7 +208,8 @@ int main(int argc, char** argv)
                 bc.voxelSize = std::stod(c.substr(colon + 1));
                 cases.push_back(bc);
             }
-            runBakeBench(cases, skipCpu);
+            runBakeBench(cases, skipCpu, repeats);
+            std::filesystem::remove_all(dir);
             return 0;
         };
     });

@@ -117,78 +117,88 @@ std::string generateSkeleton(const std::string& generator, int internodes, const
     return path;
 }
 
-std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu)
+std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu,
+                                                    int repeats)
 {
     std::vector<std::vector<BakeBenchRow>> all;
     auto opencl = makeOpenCLSampler();  // built once, as across the frames of a sequence
     auto cpu = makeCpuSampler();
+    repeats = std::max(1, repeats);
     for (const BakeBenchCase& c : cases) {
         const Skeleton skeleton = loadSkeleton(c.skeleton);
         const BlobTree tree = skeletonToBlend(skeleton);
         const FieldProgram program = FieldProgram::compile(tree);
         const double h = c.voxelSize;
         const Box box = program.positiveBounds().padded(c.halfWidth * h);
-        std::vector<BakeBenchRow> rows;
         BakeOptions opt;
         opt.voxelSize = h;
         opt.halfWidth = c.halfWidth;
-        for (FieldSampler* s : {opencl.get(), cpu.get()}) {
-            if (s == cpu.get() && skipCpu)
-                continue;
-            BakeBenchRow r;
-            r.method = s == opencl.get() ? "(a) cambium, OpenCL on PoCL" : "(b) cambium, CPU path (TBB)";
-            BakedGrids g;
-            r.seconds = timed([&] { g = bakeLevelSet(program, *s, opt); }, r.peakBytes);
-            r.activeVoxels = double(g.stats.activeVoxels);
-            rows.push_back(r);
+        Spheres sp;  // (d)'s input, built outside its timing
+        for (const Internode& n : skeleton.internodes) {
+            const double L = glm::length(n.p1 - n.p0), rmin = std::min(n.r0, n.r1);
+            const int steps = std::max(1, int(std::ceil(L / (0.5 * rmin))));
+            for (int k = 0; k <= steps; ++k) {
+                const double t = double(k) / steps;
+                const glm::dvec3 q = n.p0 + t * (n.p1 - n.p0);
+                sp.p.emplace_back(q.x, q.y, q.z);
+                sp.r.push_back(n.r0 + t * (n.r1 - n.r0));
+            }
         }
+        // The measured methods run in turn, `repeats` rounds (a b d a b d ...),
+        // so that a drift of the machine's speed touches all of them alike;
+        // each row reports its median.
+        std::vector<BakeBenchRow> rows;
+        rows.push_back({"(a) cambium, OpenCL on PoCL"});
+        if (!skipCpu)
+            rows.push_back({"(b) cambium, CPU path (TBB)"});
+        rows.push_back({fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", thousands(double(sp.size())))});
+        std::vector<std::vector<double>> times(rows.size());
+        for (int rep = 0; rep < repeats; ++rep) {
+            for (size_t m = 0; m < rows.size(); ++m) {
+                BakeBenchRow& r = rows[m];
+                double peak = 0.0;
+                if (r.method.rfind("(d)", 0) == 0) {
+                    openvdb::FloatGrid::Ptr grid;
+                    times[m].push_back(timed(
+                        [&] {
+                            grid = openvdb::FloatGrid::create(float(c.halfWidth * h));
+                            grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
+                            grid->setGridClass(openvdb::GRID_LEVEL_SET);
+                            openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
+                            raster.setRmin(1.0);  // thin twigs would vanish under the default 1.5 voxels
+                            raster.rasterizeSpheres(sp);
+                            raster.finalize(true);
+                        },
+                        peak));
+                    r.activeVoxels = double(grid->activeVoxelCount());
+                } else {
+                    FieldSampler& s = m == 0 ? *opencl : *cpu;
+                    BakedGrids g;
+                    times[m].push_back(timed([&] { g = bakeLevelSet(program, s, opt); }, peak));
+                    r.activeVoxels = double(g.stats.activeVoxels);
+                }
+                r.peakBytes = std::max(r.peakBytes, peak);
+            }
+        }
+        for (size_t m = 0; m < rows.size(); ++m) {
+            std::sort(times[m].begin(), times[m].end());
+            rows[m].seconds = times[m][times[m].size() / 2];
+        }
+        double boxVoxels = 0.0;
         {
             BakeBenchRow r;
             r.method = "(c) naive dense evaluation";
             r.estimated = true;
             double voxels = 0.0;
             r.seconds = naiveDenseSeconds(skeleton, box, h, voxels);
-            r.activeVoxels = voxels;
+            r.activeVoxels = boxVoxels = voxels;
             r.peakBytes = voxels * sizeof(float);  // the dense grid it would fill
-            rows.push_back(r);
+            rows.insert(rows.end() - 1, r);
         }
-        {
-            BakeBenchRow r;
-            r.method = "(d) OpenVDB ParticlesToLevelSet";
-            Spheres sp;
-            for (const Internode& n : skeleton.internodes) {
-                const double L = glm::length(n.p1 - n.p0), rmin = std::min(n.r0, n.r1);
-                const int steps = std::max(1, int(std::ceil(L / (0.5 * rmin))));
-                for (int k = 0; k <= steps; ++k) {
-                    const double t = double(k) / steps;
-                    const glm::dvec3 q = n.p0 + t * (n.p1 - n.p0);
-                    sp.p.emplace_back(q.x, q.y, q.z);
-                    sp.r.push_back(n.r0 + t * (n.r1 - n.r0));
-                }
-            }
-            openvdb::FloatGrid::Ptr grid;
-            r.seconds = timed(
-                [&] {
-                    grid = openvdb::FloatGrid::create(float(c.halfWidth * h));
-                    grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
-                    grid->setGridClass(openvdb::GRID_LEVEL_SET);
-                    openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
-                    raster.setRmin(1.0);  // thin twigs would vanish under the default 1.5 voxels
-                    raster.rasterizeSpheres(sp);
-                    raster.finalize(true);
-                },
-                r.peakBytes);
-            r.activeVoxels = double(grid->activeVoxelCount());
-            r.method += fmt::format(" ({} spheres)", thousands(double(sp.size())));
-            rows.push_back(r);
-        }
-        double boxVoxels = 0.0;
-        for (const BakeBenchRow& r : rows)
-            if (r.method.rfind("(c)", 0) == 0)
-                boxVoxels = r.activeVoxels;  // the dense row's count is the box's
-        fmt::print("\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels\n",
+        fmt::print("\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels; "
+                   "median of {} runs\n",
                    c.label, thousands(double(skeleton.internodes.size())), h, c.halfWidth,
-                   thousands(boxVoxels));
+                   thousands(boxVoxels), repeats);
         fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels",
                    "M voxels/s", "peak MB", "time/(a)");
         for (const BakeBenchRow& r : rows) {

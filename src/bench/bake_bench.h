@@ -26,9 +26,10 @@ struct BakeBenchRow {
 /// over the same topology, (c) a naive dense evaluation of the same field
 /// (every voxel of the bounding box, every primitive; extrapolated from a
 /// timed slab), (d) OpenVDB's ParticlesToLevelSet of spheres along every
-/// internode (minimum radius lowered to 1 voxel).  Prints the table.
+/// internode (minimum radius lowered to 1 voxel).  (a), (b) and (d) run in
+/// turn `repeats` times and report their median.  Prints the table.
 std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases,
-                                                    bool skipCpu = false);
+                                                    bool skipCpu = false, int repeats = 3);
 
 /// Writes skeletons with ../shared/bench/gen_skeleton.py (python3).
 std::string generateSkeleton(const std::string& generator, int internodes, const std::string& dir);
