@@ -6,7 +6,7 @@
  *   cb_scalar  one number: a parameter read from a table;
  *   cb_real    the value at the points being evaluated: on the host one point
  *              (double, so the reference evaluator is the precise oracle); in a
- *              kernel compiled with -D CB_LANES=8, eight points at once (float8),
+ *              kernel compiled with -D CB_LANES=8 (or 16), eight points at once (float8),
  *              because PoCL vectorises only what is written as vectors.
  * The math is written without data-dependent branches (CB_SELECT instead of
  * if/?:) so the same text is correct for scalars and for vectors.  Scalars
@@ -22,7 +22,10 @@
 #define CB_LANES 1
 #endif
 typedef float cb_scalar;
-#if CB_LANES == 8
+#if CB_LANES == 16
+typedef float16 cb_real;
+typedef int16 cb_mask;
+#elif CB_LANES == 8
 typedef float8 cb_real;
 typedef int8 cb_mask;
 #elif CB_LANES == 4
@@ -32,7 +35,7 @@ typedef int4 cb_mask;
 typedef float cb_real;
 typedef int cb_mask;
 #else
-#error "CB_LANES must be 1, 4 or 8"
+#error "CB_LANES must be 1, 4, 8 or 16"
 #endif
 #define CB_R(x) (x##f)
 #define CB_TINY 1e-37f /* smallest divisor worth dividing by */

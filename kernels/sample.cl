@@ -2,7 +2,7 @@
  *
  * Built with -D CB_LANES=8: each work-item evaluates eight points at once as
  * float8 lanes (PoCL vectorises only what is written as vectors; a GPU runs
- * the same code).  The programs are region-specialised FieldPrograms
+ * the same code); the values kernel is built 16 wide (-D CB_LANES=16).  The programs are region-specialised FieldPrograms
  * (kernels/cb_program.h), so a leaf near one twig runs a handful of
  * instructions.  The CPU reference of these kernels is
  * FieldProgram::evaluate (src/field/program.cpp), the same interpreter in
@@ -13,8 +13,10 @@
 #define CB_LEAF_VOXELS 512
 
 /* Values of every voxel of 8^3 leaves (built with -D CB_GRADIENT=0 -D CB_COLOR=0).
- * One work-group of 64 work-items per leaf; work-item r evaluates row r, the
- * voxels (x0 + 0..7, y0 + (r & 7), z0 + (r >> 3)).  Voxel (i, j, k) sits at
+ * 16 wide: one work-group of 32 work-items per leaf, work-item r evaluates
+ * rows 2 r and 2 r + 1, the voxels (x0 + 0..7, y0 + 2 (r & 3) + 0..1,
+ * z0 + (r >> 2)); 8 wide: 64 work-items, work-item r row r, the voxels
+ * (x0 + 0..7, y0 + (r & 7), z0 + (r >> 3)).  Voxel (i, j, k) sits at
  * (i, j, k) * voxelSize in world space (OpenVDB's linear transform).
  * leaves: 5 ints per leaf: x0 y0 z0, offset and length of its program in code.
  * out: 512 floats per leaf, x fastest. */
@@ -25,13 +27,25 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
     int leaf = (int)get_group_id(0);
     int row = (int)get_local_id(0);
     __global const int* L = leaves + 5 * leaf;
+#if CB_LANES == 16
+    /* Two rows per work-item (32 per leaf): rows 2 r and 2 r + 1. */
+    const float8 i8 = (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f);
+    cb_real x = ((float16)((float)L[0]) + (float16)(i8, i8)) * voxelSize;
+    int y0 = L[1] + 2 * (row & 3);
+    cb_real y = (float16)((float8)((float)y0), (float8)((float)(y0 + 1))) * voxelSize;
+    float z = (float)(L[2] + (row >> 2)) * voxelSize;
+    cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
+    vstore16(s.v, 0, out + (size_t)leaf * CB_LEAF_VOXELS + 16 * row);
+#else
     cb_real x = ((float8)((float)L[0]) + (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f)) * voxelSize;
     float y = (float)(L[1] + (row & 7)) * voxelSize;
     float z = (float)(L[2] + (row >> 3)) * voxelSize;
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
     vstore8(s.v, 0, out + (size_t)leaf * CB_LEAF_VOXELS + 8 * row);
+#endif
 }
 
+#if CB_LANES == 8 /* the values kernel alone may be built 16 wide */
 /* Gradient and colour at chosen voxels of chosen leaves (the voxels next to
  * the surface), eight voxels of one leaf per work-item: chunkLeaf[i] is the
  * leaf of chunk i, chunkVoxels[8 i .. 8 i + 7] its voxel indices (x + 8 y + 64 z).
@@ -76,3 +90,4 @@ __kernel void sample_points(__global const int* code, const int length,
     vstore8(s.c.y, 0, out + 5 * stride + i);
     vstore8(s.c.z, 0, out + 6 * stride + i);
 }
+#endif
