@@ -45,12 +45,28 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
 #endif
 }
 
-#if CB_LANES == 8 /* the values kernel alone may be built 16 wide */
 /* Gradient and colour at chosen voxels of chosen leaves (the voxels next to
- * the surface), eight voxels of one leaf per work-item: chunkLeaf[i] is the
- * leaf of chunk i, chunkVoxels[8 i .. 8 i + 7] its voxel indices (x + 8 y + 64 z).
- * out: gradient as 3 planes of `stride` halves, colour as 3 planes of
- * `stride` bytes, entry 8 i + lane. */
+ * the surface), CB_LANES (8 or 16) voxels of one leaf per work-item:
+ * chunkLeaf[i] is the leaf of chunk i, chunkVoxels[CB_LANES i + lane] its
+ * voxel indices (x + 8 y + 64 z).  out: gradient as 3 planes of `stride`
+ * halves, colour as 3 planes of `stride` bytes, entry CB_LANES i + lane. */
+#if CB_LANES == 16
+#define CB_VLOAD vload16
+#define CB_VSTORE vstore16
+#define CB_VSTORE_HALF vstore_half16
+#define CB_CONVERT_INT convert_int16
+#define CB_CONVERT_FLOAT convert_float16
+#define CB_CONVERT_UCHAR convert_uchar16_sat_rte
+#define CB_INT int16
+#else
+#define CB_VLOAD vload8
+#define CB_VSTORE vstore8
+#define CB_VSTORE_HALF vstore_half8
+#define CB_CONVERT_INT convert_int8
+#define CB_CONVERT_FLOAT convert_float8
+#define CB_CONVERT_UCHAR convert_uchar8_sat_rte
+#define CB_INT int8
+#endif
 __kernel void sample_surface(__global const int* code, __global const float* prm,
                              __global const int* leaves, const float voxelSize,
                              __global const int* chunkLeaf, __global const ushort* chunkVoxels,
@@ -58,19 +74,20 @@ __kernel void sample_surface(__global const int* code, __global const float* prm
 {
     int chunk = (int)get_global_id(0);
     __global const int* L = leaves + 5 * chunkLeaf[chunk];
-    int8 v = convert_int8(vload8(chunk, chunkVoxels));
-    cb_vec3 p = cb_v3(convert_float8((int8)(L[0]) + (v & 7)) * voxelSize,
-                      convert_float8((int8)(L[1]) + ((v >> 3) & 7)) * voxelSize,
-                      convert_float8((int8)(L[2]) + (v >> 6)) * voxelSize);
+    CB_INT v = CB_CONVERT_INT(CB_VLOAD(chunk, chunkVoxels));
+    cb_vec3 p = cb_v3(CB_CONVERT_FLOAT((CB_INT)(L[0]) + (v & 7)) * voxelSize,
+                      CB_CONVERT_FLOAT((CB_INT)(L[1]) + ((v >> 3) & 7)) * voxelSize,
+                      CB_CONVERT_FLOAT((CB_INT)(L[2]) + (v >> 6)) * voxelSize);
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, p);
-    vstore_half8(s.g.x, chunk, gradient);
-    vstore_half8(s.g.y, chunk, gradient + stride);
-    vstore_half8(s.g.z, chunk, gradient + 2 * stride);
-    vstore8(convert_uchar8_sat_rte(s.c.x * 255.0f), chunk, color);
-    vstore8(convert_uchar8_sat_rte(s.c.y * 255.0f), chunk, color + stride);
-    vstore8(convert_uchar8_sat_rte(s.c.z * 255.0f), chunk, color + 2 * stride);
+    CB_VSTORE_HALF(s.g.x, chunk, gradient);
+    CB_VSTORE_HALF(s.g.y, chunk, gradient + stride);
+    CB_VSTORE_HALF(s.g.z, chunk, gradient + 2 * stride);
+    CB_VSTORE(CB_CONVERT_UCHAR(s.c.x * 255.0f), chunk, color);
+    CB_VSTORE(CB_CONVERT_UCHAR(s.c.y * 255.0f), chunk, color + stride);
+    CB_VSTORE(CB_CONVERT_UCHAR(s.c.z * 255.0f), chunk, color + 2 * stride);
 }
 
+#if CB_LANES == 8
 /* Evaluates one program at arbitrary points, eight per work-item: points and
  * out are planes (x, y, z / value, gx, gy, gz, r, g, b) of `stride` floats,
  * stride a multiple of 8. */

@@ -146,7 +146,8 @@ public:
         cl_int err;
         valuesKernel_ = clCreateKernel(valuesProgram_, "sample_values", &err);
         checkCL(err, "clCreateKernel(sample_values)");
-        surfaceKernel_ = clCreateKernel(program_, "sample_surface", &err);
+        surfaceProgram_ = ctx_.build(source, "-cl-std=CL1.2 -cl-mad-enable -D CB_LANES=16");
+        surfaceKernel_ = clCreateKernel(surfaceProgram_, "sample_surface", &err);
         checkCL(err, "clCreateKernel(sample_surface)");
         pointsKernel_ = clCreateKernel(program_, "sample_points", &err);
         checkCL(err, "clCreateKernel(sample_points)");
@@ -158,6 +159,7 @@ public:
         clReleaseKernel(pointsKernel_);
         clReleaseProgram(program_);
         clReleaseProgram(valuesProgram_);
+        clReleaseProgram(surfaceProgram_);
     }
 
     void setProgram(const FieldProgram& program) override
@@ -197,7 +199,8 @@ public:
     {
         if (queries.empty())
             return;
-        // Chunks of eight voxels of one leaf (a short chunk repeats its last
+        constexpr size_t kChunk = 16;  // the surface kernel's width (CB_LANES)
+        // Chunks of kChunk voxels of one leaf (a short chunk repeats its last
         // voxel), laid out run by run of the queries' leaves, filled in
         // parallel straight into the device's buffers.
         std::vector<size_t> runStart;  // queries are grouped by leaf
@@ -208,10 +211,10 @@ public:
         const size_t runs = runStart.size() - 1;
         std::vector<size_t> firstChunk(runs + 1, 0);
         for (size_t r = 0; r < runs; ++r)
-            firstChunk[r + 1] = firstChunk[r] + (runStart[r + 1] - runStart[r] + 7) / 8;
-        const size_t local = 8;
+            firstChunk[r + 1] = firstChunk[r] + (runStart[r + 1] - runStart[r] + kChunk - 1) / kChunk;
+        const size_t local = 8;  // work-items (chunks) per work-group
         const size_t chunks = (firstChunk[runs] + local - 1) / local * local;  // whole work-groups
-        const size_t stride = 8 * chunks;
+        const size_t stride = kChunk * chunks;
         chunkLeaf_.reserve(ctx_, chunks * sizeof(int32_t), CL_MEM_READ_ONLY);
         chunkVoxels_.reserve(ctx_, stride * sizeof(uint16_t), CL_MEM_READ_ONLY);
         auto* cLeaf = static_cast<int32_t*>(chunkLeaf_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, chunks * sizeof(int32_t)));
@@ -219,16 +222,16 @@ public:
         tbb::parallel_for(size_t(0), runs, [&](size_t r) {
             const size_t q0 = runStart[r], q1 = runStart[r + 1];
             for (size_t c = firstChunk[r]; c < firstChunk[r + 1]; ++c) {
-                const size_t q = q0 + 8 * (c - firstChunk[r]);
+                const size_t q = q0 + kChunk * (c - firstChunk[r]);
                 cLeaf[c] = queries[q0].leaf;
-                for (size_t k = 0; k < 8; ++k)
-                    cVox[8 * c + k] = queries[std::min(q + k, q1 - 1)].voxel;
+                for (size_t k = 0; k < kChunk; ++k)
+                    cVox[kChunk * c + k] = queries[std::min(q + k, q1 - 1)].voxel;
             }
         });
         for (size_t c = firstChunk[runs]; c < chunks; ++c) {  // padding: copies of the last chunk
             cLeaf[c] = cLeaf[c - 1];
-            for (size_t k = 0; k < 8; ++k)
-                cVox[8 * c + k] = cVox[8 * (c - 1) + k];
+            for (size_t k = 0; k < kChunk; ++k)
+                cVox[kChunk * c + k] = cVox[kChunk * (c - 1) + k];
         }
         chunkLeaf_.unmap(ctx_, cLeaf);
         chunkVoxels_.unmap(ctx_, cVox);
@@ -247,7 +250,7 @@ public:
         const auto* c = static_cast<const uint8_t*>(out2_.map(ctx_, CL_MAP_READ, 3 * stride));
         tbb::parallel_for(size_t(0), runs, [&](size_t r) {
             for (size_t q = runStart[r]; q < runStart[r + 1]; ++q) {
-                const size_t at = 8 * firstChunk[r] + (q - runStart[r]);
+                const size_t at = kChunk * firstChunk[r] + (q - runStart[r]);
                 for (int k = 0; k < 3; ++k) {
                     out[q].gradient[k] = g[size_t(k) * stride + at];
                     out[q].color[k] = c[size_t(k) * stride + at];
@@ -290,7 +293,7 @@ public:
 
 private:
     OpenCLContext ctx_;
-    cl_program program_ = nullptr, valuesProgram_ = nullptr;
+    cl_program program_ = nullptr, valuesProgram_ = nullptr, surfaceProgram_ = nullptr;
     cl_kernel valuesKernel_ = nullptr, surfaceKernel_ = nullptr, pointsKernel_ = nullptr;
     DeviceBuffer params_, pool_, code_, table_, out_, out2_, chunkLeaf_, chunkVoxels_;
 };
