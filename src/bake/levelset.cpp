@@ -51,7 +51,7 @@ inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 /// recomputed from it, which costs less than moving it through memory).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void sweepAxis(
     const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
-    int dir, int32_t* __restrict srcAll, float* const pos[3], float limit2)
+    int32_t* __restrict srcAll, float* const pos[3], float limit2)
 {
     typedef float V8f __attribute__((vector_size(32)));
     typedef int32_t V8i __attribute__((vector_size(32)));
@@ -124,7 +124,11 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
     const V8f lanes = {0, 1, 2, 3, 4, 5, 6, 7};
     V8im tS[64];
     V8fm tA[64], tL[64], tO[64];
-    for (const auto& chain : rows) {
+    // Each chain forwards, then backwards while its leaves are still in the
+    // caches (a tile's state does not fit in L2: two passes over the tile
+    // would read it from L3 twice).
+    for (const auto& chain : rows)
+    for (int dir = 1; dir >= -1; dir -= 2) {
         const int nc = int(chain.size());
         V8i carry[8];
         V8f along[8], cl[8], co[8];
@@ -574,8 +578,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             rows[axis] = chains(local, axis);
         for (int pass = 0; pass < 6; ++pass) {
             const int axis = pass % 3;
-            for (int dir : {1, -1})
-                sweepAxis(rows[axis], local, axis, dir, S.src.data(), pos, limit2);
+            sweepAxis(rows[axis], local, axis, S.src.data(), pos, limit2);
         }
         sweepNs += size_t(since(tSweep) * 1e9);
         const auto tLeaves = Clock::now();
