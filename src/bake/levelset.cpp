@@ -237,12 +237,6 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
     return active;
 }
 
-uint64_t leafKey(int x, int y, int z)
-{
-    return (uint64_t(uint32_t(x >> 3) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> 3) & 0x1FFFFF) << 21) |
-           uint64_t(uint32_t(z >> 3) & 0x1FFFFF);
-}
-
 /// Chains of consecutive leaves along one axis: directional sweeps run along them.
 std::vector<std::vector<int>> chains(const std::vector<LeafJob>& jobs, int axis)
 {
@@ -335,29 +329,64 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // gradients and colours, and the surface points they give.
     std::vector<std::array<int32_t, 27>> nb(n);  // (dx+1) + 3 (dy+1) + 9 (dz+1), -1 if absent
     {
-        // Leaf origins to indices: open addressing, linear probing.
+        // Leaf origins to indices through the 128^3 tiles the topology grouped
+        // them by (each tile's leaves are contiguous): per tile a dense 16^3
+        // table, the tiles in a small hash.
+        std::vector<size_t> tileFirst;
+        for (size_t l = 0; l < n; ++l) {
+            const int32_t* o = topo.leaves[l].origin;
+            const int32_t* p = l ? topo.leaves[l - 1].origin : nullptr;
+            if (!p || (o[0] >> 7) != (p[0] >> 7) || (o[1] >> 7) != (p[1] >> 7) || (o[2] >> 7) != (p[2] >> 7))
+                tileFirst.push_back(l);
+        }
+        const size_t tiles = tileFirst.size();
+        tileFirst.push_back(n);
+        auto tileKey = [](int x, int y, int z) {  // of a voxel
+            return (uint64_t(uint32_t(x >> 7) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> 7) & 0x1FFFFF) << 21) |
+                   uint64_t(uint32_t(z >> 7) & 0x1FFFFF);
+        };
         size_t cap = 1;
-        while (cap < 2 * n + 2)
+        while (cap < 2 * tiles + 2)
             cap <<= 1;
         std::vector<uint64_t> keys(cap, ~uint64_t(0));
         std::vector<int32_t> vals(cap, -1);
         auto slot = [&](uint64_t k) { return size_t((k * 0x9E3779B97F4A7C15ull) >> 20) & (cap - 1); };
-        for (size_t l = 0; l < n; ++l) {
-            const uint64_t k = leafKey(topo.leaves[l].origin[0], topo.leaves[l].origin[1], topo.leaves[l].origin[2]);
+        for (size_t ti = 0; ti < tiles; ++ti) {
+            const int32_t* o = topo.leaves[tileFirst[ti]].origin;
+            const uint64_t k = tileKey(o[0], o[1], o[2]);
             size_t i = slot(k);
             while (keys[i] != ~uint64_t(0))
                 i = (i + 1) & (cap - 1);
             keys[i] = k;
-            vals[i] = int32_t(l);
+            vals[i] = int32_t(ti);
         }
-        tbb::parallel_for(size_t(0), n, [&](size_t l) {
-            const int32_t* o = topo.leaves[l].origin;
-            for (int k = 0; k < 27; ++k) {
-                const uint64_t key = leafKey(o[0] + 8 * (k % 3 - 1), o[1] + 8 * ((k / 3) % 3 - 1), o[2] + 8 * (k / 9 - 1));
-                size_t i = slot(key);
-                while (keys[i] != key && keys[i] != ~uint64_t(0))
-                    i = (i + 1) & (cap - 1);
-                nb[l][size_t(k)] = keys[i] == key ? vals[i] : -1;
+        auto findTile = [&](int x, int y, int z) -> int32_t {
+            const uint64_t k = tileKey(x, y, z);
+            size_t i = slot(k);
+            while (keys[i] != k && keys[i] != ~uint64_t(0))
+                i = (i + 1) & (cap - 1);
+            return keys[i] == k ? vals[i] : -1;
+        };
+        std::unique_ptr<int32_t[]> dense = parallelArray<int32_t>(tiles * 4096);
+        tbb::parallel_for(size_t(0), tiles, [&](size_t ti) {
+            int32_t* d = dense.get() + ti * 4096;
+            std::fill(d, d + 4096, -1);
+            for (size_t l = tileFirst[ti]; l < tileFirst[ti + 1]; ++l) {
+                const int32_t* o = topo.leaves[l].origin;
+                d[((o[0] >> 3) & 15) + 16 * ((o[1] >> 3) & 15) + 256 * ((o[2] >> 3) & 15)] = int32_t(l);
+            }
+        });
+        tbb::parallel_for(size_t(0), tiles, [&](size_t ti) {
+            for (size_t l = tileFirst[ti]; l < tileFirst[ti + 1]; ++l) {
+                const int32_t* o = topo.leaves[l].origin;
+                for (int k = 0; k < 27; ++k) {
+                    const int x = o[0] + 8 * (k % 3 - 1), y = o[1] + 8 * ((k / 3) % 3 - 1), z = o[2] + 8 * (k / 9 - 1);
+                    const bool same = (x >> 7) == (o[0] >> 7) && (y >> 7) == (o[1] >> 7) && (z >> 7) == (o[2] >> 7);
+                    const int32_t tile = same ? int32_t(ti) : findTile(x, y, z);
+                    nb[l][size_t(k)] = tile < 0 ? -1
+                                                : dense[size_t(tile) * 4096 + size_t(((x >> 3) & 15) + 16 * ((y >> 3) & 15) +
+                                                                                     256 * ((z >> 3) & 15))];
+                }
             }
         });
     }
