@@ -172,6 +172,18 @@ TEST(SegmentBoxDistance, MatchesBruteForce)
         EXPECT_LE(exact, brute + 1e-12);
         EXPECT_NEAR(std::sqrt(exact), std::sqrt(brute), 2e-3);
     }
+    // Adversarial: a point, axis-parallel segments, one inside, one along a
+    // face, one through a corner, one whose closest point is interior.
+    const Box unit(glm::dvec3(0.0), glm::dvec3(1.0));
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({2, 0.5, 0.5}, {2, 0.5, 0.5}, unit), 1.0);
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({2, 0.5, 0.5}, {3, 0.5, 0.5}, unit), 1.0);
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({3, 0.5, 0.5}, {2, 0.5, 0.5}, unit), 1.0);
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({0.2, 0.3, 0.4}, {0.7, 0.6, 0.5}, unit), 0.0);
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({0, 1, -1}, {1, 1, -1}, unit), 1.0);
+    EXPECT_DOUBLE_EQ(segmentBoxDistance2({-1, -1, -1}, {2, 2, 2}, unit), 0.0);
+    EXPECT_NEAR(segmentBoxDistance2({-1, 2, 0.5}, {2, 2, 0.5}, unit), 1.0, 1e-15);
+    EXPECT_NEAR(segmentBoxDistance2({-1, 3, 0.5}, {3, -1, 2.5}, unit), 0.2, 1e-15);  // at t = 0.45
+    EXPECT_NEAR(segmentBoxDistance2({-1, 2, 2}, {2, 2, -1}, unit), 1.0, 1e-12);
 }
 
 }  // namespace

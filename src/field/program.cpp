@@ -168,22 +168,26 @@ double pointBoxDistance(const glm::dvec3& p, const Box& b)
     return glm::length(d);
 }
 
-double pointSegmentDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b)
+/// Largest distance from the segment [a, b] to the points of a box: distance
+/// to a segment is convex, so a corner attains it.
+double segmentBoxMaxDistance(const glm::dvec3& a, const glm::dvec3& b, const Box& box)
 {
     const glm::dvec3 ab = b - a;
-    const double l2 = glm::dot(ab, ab);
-    const double t = l2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
-    return glm::length(p - (a + t * ab));
+    const double l2 = glm::dot(ab, ab), inv = l2 > 0.0 ? 1.0 / l2 : 0.0;
+    double m2 = 0.0;
+    for (int i = 0; i < 8; ++i) {
+        const glm::dvec3 c(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y, i & 4 ? box.hi.z : box.lo.z);
+        const double t = std::clamp(glm::dot(c - a, ab) * inv, 0.0, 1.0);
+        const glm::dvec3 e = c - (a + t * ab);
+        m2 = std::max(m2, glm::dot(e, e));
+    }
+    return std::sqrt(m2);
 }
 
-/// [min, max] distance from the segment [a, b] to the points of a box.
-void segmentBoxRange(const glm::dvec3& a, const glm::dvec3& b, const Box& box, double& dmin,
-                     double& dmax)
+/// Whether the Wyvill falloff w(k (d/r - 1 + sigma)) is zero for every d >= dmin, r <= rmax.
+bool beyondSupport(double dmin, double rmax, double sigma, double xT)
 {
-    dmin = std::sqrt(segmentBoxDistance2(a, b, box));
-    dmax = 0.0;
-    for (const auto& c : box.corners())  // distance to a segment is convex: corners bound it
-        dmax = std::max(dmax, pointSegmentDistance(c, a, b));
+    return xT / sigma * (dmin / rmax - 1.0 + sigma) >= 1.0;
 }
 
 /// Interval of the Wyvill falloff w(k (d/r - 1 + sigma)) for d in [dmin, dmax], r in [rmin, rmax].
@@ -366,13 +370,27 @@ size_t skipSubtree(Code in, size_t pos)
 
 double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& box)
 {
-    // The squared distance from a + t (b - a) to the box is a convex piecewise
-    // quadratic in t; its pieces change where a coordinate crosses a face.
+    // g(t) = |a + t d - box|^2 is convex and piecewise quadratic in t; its
+    // derivative g'(t) = 2 sum_k d_k e_k(t), e_k the excess of coordinate k
+    // beyond the box, is nondecreasing and piecewise linear.  The minimum on
+    // [0, 1] is at an end where g' does not change sign there, else on the
+    // piece where g' crosses zero, where it is linear.
     const glm::dvec3 d = b - a;
+    auto excess = [&](int k, double t) {
+        const double x = a[k] + t * d[k];
+        return x < box.lo[k] ? x - box.lo[k] : (x > box.hi[k] ? x - box.hi[k] : 0.0);
+    };
+    auto slope = [&](double t) { return d.x * excess(0, t) + d.y * excess(1, t) + d.z * excess(2, t); };
+    auto value = [&](double t) {
+        const double ex = excess(0, t), ey = excess(1, t), ez = excess(2, t);
+        return ex * ex + ey * ey + ez * ez;
+    };
+    if (slope(0.0) >= 0.0)
+        return value(0.0);
+    if (slope(1.0) <= 0.0)
+        return value(1.0);
     double breaks[8];
     int nb = 0;
-    breaks[nb++] = 0.0;
-    breaks[nb++] = 1.0;
     for (int k = 0; k < 3; ++k) {
         if (d[k] == 0.0)
             continue;
@@ -382,29 +400,24 @@ double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& 
                 breaks[nb++] = t;
         }
     }
-    std::sort(breaks, breaks + nb);
-    double best = kInf;
-    for (int i = 0; i + 1 < nb; ++i) {
-        const double t0 = breaks[i], t1 = breaks[i + 1], tm = 0.5 * (t0 + t1);
-        double A = 0.0, B = 0.0, C = 0.0;  // A t^2 + B t + C on [t0, t1]
-        for (int k = 0; k < 3; ++k) {
-            const double x = a[k] + tm * d[k];
-            double c0;
-            if (x < box.lo[k])
-                c0 = a[k] - box.lo[k];
-            else if (x > box.hi[k])
-                c0 = a[k] - box.hi[k];
-            else
-                continue;
-            A += d[k] * d[k];
-            B += 2.0 * c0 * d[k];
-            C += c0 * c0;
+    breaks[nb++] = 1.0;
+    for (int i = 1; i < nb; ++i)  // insertion sort: at most seven
+        for (int j = i; j > 0 && breaks[j - 1] > breaks[j]; --j)
+            std::swap(breaks[j - 1], breaks[j]);
+    double t0 = 0.0;
+    for (int i = 0; i < nb; ++i) {
+        const double t1 = breaks[i];
+        if (t1 <= t0)
+            continue;
+        if (slope(t1) >= 0.0 || i == nb - 1) {
+            // g' is linear on [t0, t1], negative at t0: its zero.
+            const double s0 = slope(t0), s1 = slope(t1);
+            const double t = s1 > s0 ? std::clamp(t0 + (t1 - t0) * (-s0 / (s1 - s0)), t0, t1) : t1;
+            return std::max(std::min({value(t), value(t0), value(t1)}), 0.0);
         }
-        double t = A > 0.0 ? std::clamp(-B / (2.0 * A), t0, t1) : t0;
-        best = std::min({best, A * t * t + B * t + C, A * t0 * t0 + B * t0 + C,
-                         A * t1 * t1 + B * t1 + C});
+        t0 = t1;
     }
-    return std::max(best, 0.0);
+    return value(1.0);
 }
 
 int FieldProgram::maxStackDepth() { return CB_STACK_DEPTH; }
@@ -478,17 +491,20 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
     case CB_SPHERE: {
         const glm::dvec3 c = load3(q);
         dmin = pointBoxDistance(c, box);
-        dmax = 0.0;
-        for (const auto& k : box.corners())
-            dmax = std::max(dmax, glm::length(k - c));
+        if (beyondSupport(dmin, q[3], q[4], xT))
+            return {0.0, 0.0};  // the farthest corner need not be found
+        dmax = segmentBoxMaxDistance(c, c, box);
         return skeletalInterval(dmin, dmax, q[3], q[3], q[4], xT, q[5]);
     }
     case CB_SEGMENT:
     case CB_CONE: {
         const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
-        segmentBoxRange(a, b, box, dmin, dmax);
-        return skeletalInterval(dmin, dmax, std::min(q[7], q[8]), std::max(q[7], q[8]), q[9], xT,
-                                q[10]);
+        const double rmin = std::min(q[7], q[8]), rmax = std::max(q[7], q[8]);
+        dmin = std::sqrt(segmentBoxDistance2(a, b, box));
+        if (beyondSupport(dmin, rmax, q[9], xT))
+            return {0.0, 0.0};
+        dmax = segmentBoxMaxDistance(a, b, box);
+        return skeletalInterval(dmin, dmax, rmin, rmax, q[9], xT, q[10]);
     }
     default: {  // convolution segment
         const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
