@@ -398,6 +398,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         uint16_t voxel;
         uint8_t dir;
         float t;
+        float f;  // F - T at the voxel, kept so that making the point reads no values
     };
     std::vector<std::vector<Edge>> edges(n);
     // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
@@ -470,7 +471,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                     }
                 }
                 if (edge <= 1.0f)
-                    edges[l].push_back({uint16_t(i), uint8_t(e), edge});
+                    edges[l].push_back({uint16_t(i), uint8_t(e), edge, fv});
             }
         }
         // Voxels come out plane by plane in x + 8 y order: voxel order.
@@ -503,7 +504,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         const Edge& ed = edges[l][k];
         const size_t q = first[l] + k;
         const int i = ed.voxel;
-        const float fv = value[l * kLeafVoxels + size_t(i)] - Tf;
+        const float fv = ed.f;
         const bool in = fv > 0.0f;
         const glm::vec3 g(halfToFloat(surface[q].gradient[0]), halfToFloat(surface[q].gradient[1]),
                           halfToFloat(surface[q].gradient[2]));
