@@ -34,7 +34,7 @@ constexpr int kBatchLeaves = 4096;
 /// A point on the surface found next to a sign change, in index space.
 struct SurfacePoint {
     float p[3];      // position
-    int16_t n[3];    // outward unit normal * 32767
+    float n[3];      // outward unit normal
     uint8_t rgb[3];  // colour
 };
 
@@ -133,7 +133,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
         V8i carry[8];
         V8f along[8], cl[8], co[8];
         for (int g = 0; g < 8; ++g) {
-            carry[g] = V8i{} - 1;
+            carry[g] = V8i{};  // point 0: none
             along[g] = cl[g] = co[g] = V8f{} + 1e15f;
         }
         for (int c = 0; c < nc; ++c) {
@@ -198,7 +198,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 
 /// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
 /// from their nearest surface points p (index space, 1e15 where none) with
-/// unit normals n, and whether each lies in the band.  The tangent plane's
+/// unit normals (nx, ny, nz)[src], and whether each lies in the band.  The tangent plane's
 /// distance corrects for the spacing of the surface points (about a voxel)
 /// where the surface is smooth: there the nearest point lies near the foot of
 /// the perpendicular.  A lateral offset of several voxels means a crease (CSG,
@@ -209,9 +209,9 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 /// compiled without errno and trapping math, which would keep it scalar).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
     const int32_t* origin, const float* __restrict value, float T, const float* __restrict px,
-    const float* __restrict py, const float* __restrict pz, const float* __restrict nx,
-    const float* __restrict ny, const float* __restrict nz, float h, float background,
-    float* __restrict sd, uint8_t* __restrict on)
+    const float* __restrict py, const float* __restrict pz, const int32_t* __restrict src,
+    const float* __restrict nx, const float* __restrict ny, const float* __restrict nz, float h,
+    float background, float* __restrict sd, uint8_t* __restrict on)
 {
     const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
     int active = 0;
@@ -220,7 +220,8 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
         const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
                     dz = oz + float(i >> 6) - pz[i];
         const float e2 = dx * dx + dy * dy + dz * dz;
-        const float plane = dx * nx[i] + dy * ny[i] + dz * nz[i];
+        const int32_t j = src[i];  // gathered: the point's normal
+        const float plane = dx * nx[j] + dy * ny[j] + dz * nz[j];
         const float euclid = std::sqrt(e2);
         const float l2 = e2 - plane * plane;
         const float lateral = std::sqrt(l2 > 0.0f ? l2 : 0.0f);
@@ -524,7 +525,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         SurfacePoint sp;
         for (int c = 0; c < 3; ++c) {
             sp.p[c] = cp[c];
-            sp.n[c] = int16_t(32767.0f * nrm[c] + (nrm[c] < 0.0f ? -0.5f : 0.5f));  // rounded
+            sp.n[c] = nrm[c];
             sp.rgb[c] = surface[q].color[c];
         }
         return sp;
@@ -556,7 +557,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     struct Scratch {
         std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
         std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
-        std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact
+        std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact; 0: none
+        std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(size_t(0), tileStart.size() - 1, [&](size_t tile) {
@@ -576,13 +578,15 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
         const size_t nl = S.leaves.size();
         localLeaves += nl;
-        S.src.assign(nl * kLeafVoxels, -1);
+        S.src.assign(nl * kLeafVoxels, 0);  // point 0: none (zero normal)
         // Voxels without a point carry one infinitely far away, so that the
         // sweeps below need no branches.
         for (auto& p : S.pos)
             p.assign(nl * kLeafVoxels, 1e15f);
         std::vector<LeafJob> local(nl);
-        S.pts.clear();
+        S.pts.assign(1, SurfacePoint{});
+        for (auto& v : S.nrm)
+            v.assign(1, 0.0f);
         for (size_t k = 0; k < nl; ++k) {
             const size_t l = size_t(S.leaves[k]);
             local[k] = topo.leaves[l];
@@ -591,6 +595,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 const size_t at = k * kLeafVoxels + size_t(edges[l][e].voxel);
                 S.src[at] = int32_t(S.pts.size());
                 S.pts.push_back(sp);
+                for (int c = 0; c < 3; ++c)
+                    S.nrm[c].push_back(sp.n[c]);
                 for (int c = 0; c < 3; ++c)
                     S.pos[c][at] = sp.p[c];
             }
@@ -616,19 +622,13 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (size_t k = 0; k < t1 - t0; ++k) {
             const size_t l = t0 + k;
             const int32_t* o = topo.leaves[l].origin;
-            // The nearest points' normals, gathered (zero where none).
-            float nrm[3][kLeafVoxels], sd[kLeafVoxels];
+            float sd[kLeafVoxels];
             uint8_t on[kLeafVoxels];
             const int32_t* src = S.src.data() + k * kLeafVoxels;
-            for (int i = 0; i < kLeafVoxels; ++i) {
-                const int32_t si = src[i];
-                for (int c = 0; c < 3; ++c)
-                    nrm[c][i] = si < 0 ? 0.0f : float(S.pts[size_t(si)].n[c]) * (1.0f / 32767.0f);
-            }
             const size_t at = k * kLeafVoxels;
             const int active = leafDistances(o, value.get() + l * kLeafVoxels, Tf, S.pos[0].data() + at,
-                                             S.pos[1].data() + at, S.pos[2].data() + at, nrm[0], nrm[1], nrm[2],
-                                             float(h), background, sd, on);
+                                             S.pos[1].data() + at, S.pos[2].data() + at, src, S.nrm[0].data(),
+                                             S.nrm[1].data(), S.nrm[2].data(), float(h), background, sd, on);
             activeCount[l] = size_t(active);
             if (!active)
                 continue;
