@@ -688,7 +688,10 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             ++st.activeLeaves;
             st.activeVoxels += activeCount[l];
         }
-    openvdb::tools::signedFloodFill(out.surface->tree());
+    // The leaves' inactive voxels already hold +-background by the field's
+    // sign: only the tiles above them need the flood fill (minLevel 1; at the
+    // leaf level it would replace those signs by a scan-line guess).
+    openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, 1);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "tree and flood fill {:.3f} s\n", since(tTree));
     out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
