@@ -166,10 +166,12 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
             // Vector index of line g's voxel at step a: rows of 8 (x-sweeps:
             // columns of the transposed planes).
             const int va = axis == 0 ? 1 : stride / 8, vg = axis == 0 ? 8 : so / 8;
-            // Steps outside, lines inside: eight independent chains in flight.
+            // Steps outside, lines inside (unrolled, so that their carries stay
+            // in registers): eight independent chains in flight.
             for (int step = 0; step < 8; ++step) {
                 const int a = dir > 0 ? step : 7 - step;
                 const float ca = float(o[axis] + a);
+#pragma GCC unroll 8
                 for (int g = 0; g < 8; ++g) {
                     const V8f cO = V8f{} + float(o[other] + g);
                     V8i cr = carry[g];
