@@ -641,16 +641,22 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
             // VDB leaves index x slowest: offset = 64 x + 8 y + z, so mask
             // word x holds bit 8 y + z.
+            // (x innermost and unrolled: the eight words stay in registers.)
             uint64_t words[8] = {};
-            for (int i = 0; i < kLeafVoxels; ++i) {
-                const int x = i & 7, yz = ((i >> 3) & 7) * 8 + (i >> 6);
-                sv[64 * x + yz] = sd[i];
-                words[x] |= uint64_t(on[i]) << yz;
-                if (cl && on[i]) {
-                    const uint8_t* rgb = S.pts[size_t(src[i])].rgb;
-                    cv[64 * x + yz] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+            for (int yz = 0; yz < 64; ++yz) {
+                const int base = 8 * (yz >> 3) + 64 * (yz & 7);  // voxel (0, y, z)
+#pragma GCC unroll 8
+                for (int x = 0; x < 8; ++x) {
+                    sv[64 * x + yz] = sd[base + x];
+                    words[x] |= uint64_t(on[base + x]) << yz;
                 }
             }
+            if (cl)
+                for (int i = 0; i < kLeafVoxels; ++i)
+                    if (on[i]) {
+                        const uint8_t* rgb = S.pts[size_t(src[i])].rgb;
+                        cv[64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6)] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+                    }
             for (int x = 0; x < 8; ++x) {
                 sl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
                 if (cl)
