@@ -586,21 +586,28 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (auto& p : S.pos)
             p.assign(nl * kLeafVoxels, 1e15f);
         std::vector<LeafJob> local(nl);
-        S.pts.assign(1, SurfacePoint{});
-        for (auto& v : S.nrm)
-            v.assign(1, 0.0f);
+        size_t count = 1;  // point 0: none
+        for (size_t k = 0; k < nl; ++k)
+            count += edges[size_t(S.leaves[k])].size();
+        S.pts.resize(count);
+        S.pts[0] = SurfacePoint{};
+        for (auto& v : S.nrm) {
+            v.resize(count);
+            v[0] = 0.0f;
+        }
+        int32_t next = 1;
         for (size_t k = 0; k < nl; ++k) {
             const size_t l = size_t(S.leaves[k]);
             local[k] = topo.leaves[l];
-            for (size_t e = 0; e < edges[l].size(); ++e) {
+            for (size_t e = 0; e < edges[l].size(); ++e, ++next) {
                 const SurfacePoint sp = surfacePoint(l, e);
                 const size_t at = k * kLeafVoxels + size_t(edges[l][e].voxel);
-                S.src[at] = int32_t(S.pts.size());
-                S.pts.push_back(sp);
-                for (int c = 0; c < 3; ++c)
-                    S.nrm[c].push_back(sp.n[c]);
-                for (int c = 0; c < 3; ++c)
+                S.src[at] = next;
+                S.pts[size_t(next)] = sp;
+                for (int c = 0; c < 3; ++c) {
+                    S.nrm[c][size_t(next)] = sp.n[c];
                     S.pos[c][at] = sp.p[c];
+                }
             }
         }
         const auto tSweep = Clock::now();
