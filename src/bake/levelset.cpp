@@ -15,6 +15,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 
 #include <algorithm>
 #include <chrono>
@@ -358,8 +359,11 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             const int32_t* o = topo.leaves[tileFirst[ti]].origin;
             const uint64_t k = tileKey(o[0], o[1], o[2]);
             size_t i = slot(k);
-            while (keys[i] != ~uint64_t(0))
+            while (keys[i] != ~uint64_t(0)) {
+                if (keys[i] == k)
+                    throw std::logic_error("bake: the leaves of a 128^3 tile are not contiguous");
                 i = (i + 1) & (cap - 1);
+            }
             keys[i] = k;
             vals[i] = int32_t(ti);
         }
