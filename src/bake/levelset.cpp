@@ -41,162 +41,25 @@ struct SurfacePoint {
 
 inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 
-/// One directional sweep along the chains of leaves of one axis: every
-/// voxel is offered the surface point its predecessor holds, and takes it when
-/// it is nearer.  Eight lines are processed together as vector lanes (along
-/// `lane`, the other axis with the smaller stride); the selects compile to
-/// masks; with AVX2 or AVX-512 (x86-64-v3/v4 clones chosen at run time by
-/// the CPU's features) a lane vector is one register.
-/// State per voxel of the local leaves: its point's index and position
-/// (carried, so the sweep never looks a point up; the squared distance is
-/// recomputed from it, which costs less than moving it through memory).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void sweepAxis(
-    const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
-    int32_t* __restrict srcAll, float* const pos[3], float limit2)
+// The directional sweeps (src/bake/sweep.inc), compiled for AVX-512 with
+// vectors of sixteen lanes, and with eight lanes for AVX2 and older CPUs.
+#define CB_SWEEP_NAME sweepAxis16
+#define CB_SWEEP_TARGET __attribute__((target("arch=x86-64-v4")))
+#define CB_SWEEP_LINES 2
+#include "bake/sweep.inc"
+#define CB_SWEEP_NAME sweepAxis8
+#define CB_SWEEP_TARGET __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define CB_SWEEP_LINES 1
+#include "bake/sweep.inc"
+
+void sweepAxis(const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
+               int32_t* srcAll, float* const pos[3], float limit2)
 {
-    typedef float V8f __attribute__((vector_size(32)));
-    typedef int32_t V8i __attribute__((vector_size(32)));
-    // The same, as found in memory: aligned to their elements only.
-    typedef float V8fm __attribute__((vector_size(32), aligned(4), may_alias));
-    typedef int32_t V8im __attribute__((vector_size(32), aligned(4), may_alias));
-    const int lane = axis == 0 ? 1 : 0, other = 3 - axis - lane;
-    const int stride = axis == 0 ? 1 : (axis == 1 ? 8 : 64);
-    const int so = other == 1 ? 8 : 64;
-    // Statement macros, not helpers: a helper (or lambda) would be compiled
-    // for the default target and pass these vectors with a different ABI.
-    // An 8x8 transpose in three butterfly stages (x-sweeps: a plane's rows
-    // are loaded whole, turned so that a vector holds a column, swept, turned
-    // back; strided loads of single floats cost three times as much).
-#define CB_TRANSPOSE8(T, dst, src)                                                       \
-    do {                                                                                \
-        const char* s_ = reinterpret_cast<const char*>(src);                            \
-        char* d_ = reinterpret_cast<char*>(dst);                                        \
-        T r0_, r1_, r2_, r3_, r4_, r5_, r6_, r7_;                                       \
-        std::memcpy(&r0_, s_, 32);                                                      \
-        std::memcpy(&r1_, s_ + 32, 32);                                                 \
-        std::memcpy(&r2_, s_ + 64, 32);                                                 \
-        std::memcpy(&r3_, s_ + 96, 32);                                                 \
-        std::memcpy(&r4_, s_ + 128, 32);                                                \
-        std::memcpy(&r5_, s_ + 160, 32);                                                \
-        std::memcpy(&r6_, s_ + 192, 32);                                                \
-        std::memcpy(&r7_, s_ + 224, 32);                                                \
-        const V8i lo1_ = {0, 8, 1, 9, 4, 12, 5, 13}, hi1_ = {2, 10, 3, 11, 6, 14, 7, 15}; \
-        const V8i lo2_ = {0, 1, 8, 9, 4, 5, 12, 13}, hi2_ = {2, 3, 10, 11, 6, 7, 14, 15}; \
-        const V8i lo3_ = {0, 1, 2, 3, 8, 9, 10, 11}, hi3_ = {4, 5, 6, 7, 12, 13, 14, 15}; \
-        const T t0_ = __builtin_shuffle(r0_, r1_, lo1_), t1_ = __builtin_shuffle(r0_, r1_, hi1_); \
-        const T t2_ = __builtin_shuffle(r2_, r3_, lo1_), t3_ = __builtin_shuffle(r2_, r3_, hi1_); \
-        const T t4_ = __builtin_shuffle(r4_, r5_, lo1_), t5_ = __builtin_shuffle(r4_, r5_, hi1_); \
-        const T t6_ = __builtin_shuffle(r6_, r7_, lo1_), t7_ = __builtin_shuffle(r6_, r7_, hi1_); \
-        const T s0_ = __builtin_shuffle(t0_, t2_, lo2_), s1_ = __builtin_shuffle(t0_, t2_, hi2_); \
-        const T s2_ = __builtin_shuffle(t1_, t3_, lo2_), s3_ = __builtin_shuffle(t1_, t3_, hi2_); \
-        const T s4_ = __builtin_shuffle(t4_, t6_, lo2_), s5_ = __builtin_shuffle(t4_, t6_, hi2_); \
-        const T s6_ = __builtin_shuffle(t5_, t7_, lo2_), s7_ = __builtin_shuffle(t5_, t7_, hi2_); \
-        r0_ = __builtin_shuffle(s0_, s4_, lo3_);                                        \
-        r1_ = __builtin_shuffle(s1_, s5_, lo3_);                                        \
-        r2_ = __builtin_shuffle(s2_, s6_, lo3_);                                        \
-        r3_ = __builtin_shuffle(s3_, s7_, lo3_);                                        \
-        r4_ = __builtin_shuffle(s0_, s4_, hi3_);                                        \
-        r5_ = __builtin_shuffle(s1_, s5_, hi3_);                                        \
-        r6_ = __builtin_shuffle(s2_, s6_, hi3_);                                        \
-        r7_ = __builtin_shuffle(s3_, s7_, hi3_);                                        \
-        std::memcpy(d_, &r0_, 32);                                                      \
-        std::memcpy(d_ + 32, &r1_, 32);                                                 \
-        std::memcpy(d_ + 64, &r2_, 32);                                                 \
-        std::memcpy(d_ + 96, &r3_, 32);                                                 \
-        std::memcpy(d_ + 128, &r4_, 32);                                                \
-        std::memcpy(d_ + 160, &r5_, 32);                                                \
-        std::memcpy(d_ + 192, &r6_, 32);                                                \
-        std::memcpy(d_ + 224, &r7_, 32);                                                \
-    } while (0)
-    // One step of a sweep: the voxels at `ca` along the axis (one per lane)
-    // are offered the carried point.
-#define CB_STEP(s0, a0, l0, o0)                                          \
-    do {                                                                 \
-        const V8f da = ca - al, dL = cL - cll, dO = cO - col;            \
-        const V8f dd = da * da + dL * dL + dO * dO;                      \
-        const V8f ea = ca - (a0), eL = cL - (l0), eO = cO - (o0);        \
-        const V8f cur = ea * ea + eL * eL + eO * eO;                     \
-        const V8i better = (dd < cur) & (dd < limit2);                   \
-        cr = (s0) = better ? cr : (s0);                                  \
-        al = (a0) = better ? al : (a0);                                  \
-        cll = (l0) = better ? cll : (l0);                                \
-        col = (o0) = better ? col : (o0);                                \
-    } while (0)
-    const V8f lanes = {0, 1, 2, 3, 4, 5, 6, 7};
-    V8im tS[64];
-    V8fm tA[64], tL[64], tO[64];
-    // Each chain forwards, then backwards while its leaves are still in the
-    // caches (a tile's state does not fit in L2: two passes over the tile
-    // would read it from L3 twice).
-    for (const auto& chain : rows)
-    for (int dir = 1; dir >= -1; dir -= 2) {
-        const int nc = int(chain.size());
-        V8i carry[8];
-        V8f along[8], cl[8], co[8];
-        for (int g = 0; g < 8; ++g) {
-            carry[g] = V8i{};  // point 0: none
-            along[g] = cl[g] = co[g] = V8f{} + 1e15f;
-        }
-        for (int c = 0; c < nc; ++c) {
-            const int k = chain[size_t(dir > 0 ? c : nc - 1 - c)];
-            const int32_t* o = local[size_t(k)].origin;
-            const size_t lb = size_t(k) * kLeafVoxels;
-            int32_t* sv = srcAll + lb;
-            float* pa = pos[axis] + lb;
-            float* pl = pos[lane] + lb;
-            float* po = pos[other] + lb;
-            const V8f cL = lanes + float(o[lane]);
-            // The leaf's state as vectors: for x-sweeps its z planes transposed
-            // (a vector holds a column along y), else the memory itself.
-            V8im* S = reinterpret_cast<V8im*>(sv);
-            V8fm* A = reinterpret_cast<V8fm*>(pa);
-            V8fm* L = reinterpret_cast<V8fm*>(pl);
-            V8fm* O = reinterpret_cast<V8fm*>(po);
-            if (axis == 0) {
-                for (int g = 0; g < 8; ++g) {
-                    CB_TRANSPOSE8(V8i, &tS[8 * g], sv + 64 * g);
-                    CB_TRANSPOSE8(V8f, &tA[8 * g], pa + 64 * g);
-                    CB_TRANSPOSE8(V8f, &tL[8 * g], pl + 64 * g);
-                    CB_TRANSPOSE8(V8f, &tO[8 * g], po + 64 * g);
-                }
-                S = tS;
-                A = tA;
-                L = tL;
-                O = tO;
-            }
-            // Vector index of line g's voxel at step a: rows of 8 (x-sweeps:
-            // columns of the transposed planes).
-            const int va = axis == 0 ? 1 : stride / 8, vg = axis == 0 ? 8 : so / 8;
-            // Steps outside, lines inside (unrolled, so that their carries stay
-            // in registers): eight independent chains in flight.
-            for (int step = 0; step < 8; ++step) {
-                const int a = dir > 0 ? step : 7 - step;
-                const float ca = float(o[axis] + a);
-#pragma GCC unroll 8
-                for (int g = 0; g < 8; ++g) {
-                    const V8f cO = V8f{} + float(o[other] + g);
-                    V8i cr = carry[g];
-                    V8f al = along[g], cll = cl[g], col = co[g];
-                    const int v = a * va + g * vg;
-                    CB_STEP(S[v], A[v], L[v], O[v]);
-                    carry[g] = cr;
-                    along[g] = al;
-                    cl[g] = cll;
-                    co[g] = col;
-                }
-            }
-            if (axis == 0) {
-                for (int g = 0; g < 8; ++g) {
-                    CB_TRANSPOSE8(V8i, sv + 64 * g, &tS[8 * g]);
-                    CB_TRANSPOSE8(V8f, pa + 64 * g, &tA[8 * g]);
-                    CB_TRANSPOSE8(V8f, pl + 64 * g, &tL[8 * g]);
-                    CB_TRANSPOSE8(V8f, po + 64 * g, &tO[8 * g]);
-                }
-            }
-        }
-    }
-#undef CB_TRANSPOSE8
-#undef CB_STEP
+    static const bool avx512 = __builtin_cpu_supports("x86-64-v4");
+    if (avx512)
+        sweepAxis16(rows, local, axis, srcAll, pos, limit2);
+    else
+        sweepAxis8(rows, local, axis, srcAll, pos, limit2);
 }
 
 /// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
