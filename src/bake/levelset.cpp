@@ -52,14 +52,15 @@ inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 #define CB_SWEEP_LINES 1
 #include "bake/sweep.inc"
 
+/// `turned`: scratch for the x-sweeps' transposed chains.
 void sweepAxis(const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
-               int32_t* srcAll, float* const pos[3], float limit2)
+               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
 {
     static const bool avx512 = __builtin_cpu_supports("x86-64-v4");
     if (avx512)
-        sweepAxis16(rows, local, axis, srcAll, pos, limit2);
+        sweepAxis16(rows, local, axis, srcAll, pos, limit2, turned);
     else
-        sweepAxis8(rows, local, axis, srcAll, pos, limit2);
+        sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
 }
 
 /// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
@@ -434,12 +435,14 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     std::vector<openvdb::FloatTree::LeafNodeType*> sLeaves(n, nullptr);
     std::vector<openvdb::Vec3fTree::LeafNodeType*> cLeaves(n, nullptr);
     std::vector<size_t> activeCount(n, 0);
+    std::atomic<size_t> axisNs[3] = {0, 0, 0};
     std::atomic<size_t> tilesDone{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
     struct Scratch {
         std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
         std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
         std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact; 0: none
         std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
+        std::vector<float> turned;         // the x-sweeps' transposed chains
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(size_t(0), tileStart.size() - 1, [&](size_t tile) {
@@ -502,7 +505,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             rows[axis] = chains(local, axis);
         for (int pass = 0; pass < 6; ++pass) {
             const int axis = pass % 3;
-            sweepAxis(rows[axis], local, axis, S.src.data(), pos, limit2);
+            const auto ta = Clock::now();
+            sweepAxis(rows[axis], local, axis, S.src.data(), pos, limit2, S.turned);
+            axisNs[axis] += size_t(since(ta) * 1e9);
         }
         sweepNs += size_t(since(tSweep) * 1e9);
         const auto tLeaves = Clock::now();
@@ -558,6 +563,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "propagation and leaves {:.3f} s (thread time: sweeps {:.3f} s, leaves {:.3f} s)\n",
                    since(t), sweepNs * 1e-9, leavesNs * 1e-9);
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "axes {} {} {}\n", axisNs[0] * 1e-9, axisNs[1] * 1e-9, axisNs[2] * 1e-9);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
