@@ -435,18 +435,19 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     std::vector<openvdb::FloatTree::LeafNodeType*> sLeaves(n, nullptr);
     std::vector<openvdb::Vec3fTree::LeafNodeType*> cLeaves(n, nullptr);
     std::vector<size_t> activeCount(n, 0);
-    std::atomic<size_t> axisNs[3] = {0, 0, 0};
+    std::atomic<size_t> axisNs[3] = {0, 0, 0}, qNs[3] = {0, 0, 0};
     std::atomic<size_t> tilesDone{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
     struct Scratch {
         std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
         std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
-        std::vector<SurfacePoint> pts;     // the tile's points (with its halo's), local and compact; 0: none
+        std::vector<std::array<uint8_t, 3>> rgb;  // the colours of the tile's points (with its halo's; 0: none)
         std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
         std::vector<float> turned;         // the x-sweeps' transposed chains
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(size_t(0), tileStart.size() - 1, [&](size_t tile) {
         Scratch& S = scratch.local();
+        const auto tq0 = Clock::now();
         const size_t t0 = tileStart[tile], t1 = tileStart[tile + 1];
         // The tile's leaves, then its halo.
         S.leaves.resize(t1 - t0);
@@ -462,17 +463,19 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
         const size_t nl = S.leaves.size();
         localLeaves += nl;
+        const auto tq1 = Clock::now();
         S.src.assign(nl * kLeafVoxels, 0);  // point 0: none (zero normal)
         // Voxels without a point carry one infinitely far away, so that the
         // sweeps below need no branches.
         for (auto& p : S.pos)
             p.assign(nl * kLeafVoxels, 1e15f);
+        const auto tq2 = Clock::now();
         std::vector<LeafJob> local(nl);
         size_t count = 1;  // point 0: none
         for (size_t k = 0; k < nl; ++k)
             count += edges[size_t(S.leaves[k])].size();
-        S.pts.resize(count);
-        S.pts[0] = SurfacePoint{};
+        if (!uniform)  // a model of one colour needs no colours per point
+            S.rgb.resize(count);
         for (auto& v : S.nrm) {
             v.resize(count);
             v[0] = 0.0f;
@@ -485,7 +488,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 const SurfacePoint sp = surfacePoint(l, e);
                 const size_t at = k * kLeafVoxels + size_t(edges[l][e].voxel);
                 S.src[at] = next;
-                S.pts[size_t(next)] = sp;
+                if (!uniform)
+                    S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
                 for (int c = 0; c < 3; ++c) {
                     S.nrm[c][size_t(next)] = sp.n[c];
                     S.pos[c][at] = sp.p[c];
@@ -493,6 +497,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             }
         }
         const auto tSweep = Clock::now();
+        qNs[0] += size_t(std::chrono::duration<double>(tq1 - tq0).count() * 1e9);
+        qNs[1] += size_t(std::chrono::duration<double>(tq2 - tq1).count() * 1e9);
+        qNs[2] += size_t(std::chrono::duration<double>(tSweep - tq2).count() * 1e9);
         // Sweeps along each axis in both directions, each voxel offered its
         // predecessor's surface point; two rounds (the second repairs the
         // paths the first could not take: max error 0.25 -> 0.1 voxel,
@@ -545,7 +552,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             if (cl)
                 for (int i = 0; i < kLeafVoxels; ++i)
                     if (on[i]) {
-                        const uint8_t* rgb = S.pts[size_t(src[i])].rgb;
+                        const uint8_t* rgb = S.rgb[size_t(src[i])].data();
                         cv[64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6)] = openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
                     }
             for (int x = 0; x < 8; ++x) {
@@ -564,7 +571,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         fmt::print(stderr, "propagation and leaves {:.3f} s (thread time: sweeps {:.3f} s, leaves {:.3f} s)\n",
                    since(t), sweepNs * 1e-9, leavesNs * 1e-9);
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "axes {} {} {}\n", axisNs[0] * 1e-9, axisNs[1] * 1e-9, axisNs[2] * 1e-9);
+        fmt::print(stderr, "axes {} {} {} halo {} init {} points {}\n", axisNs[0] * 1e-9, axisNs[1] * 1e-9, axisNs[2] * 1e-9, qNs[0]*1e-9, qNs[1]*1e-9, qNs[2]*1e-9);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
