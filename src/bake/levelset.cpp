@@ -533,7 +533,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             if (!active)
                 continue;
             const openvdb::Coord origin(o[0], o[1], o[2]);
-            auto* sl = new openvdb::FloatTree::LeafNodeType(origin, background, false);
+            // (PartialCreate: the buffer is allocated by data() and not filled:
+            // every value is written below.)
+            auto* sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin, background, false);
             auto* cl = uniform ? nullptr : new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
             float* sv = sl->buffer().data();
             openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
