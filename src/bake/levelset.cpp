@@ -182,7 +182,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
 
     // 2. Values of every voxel of those leaves, in batches.
     t = Clock::now();
-    std::unique_ptr<float[]> value = parallelArray<float>(n * kLeafVoxels);
+    auto value = parallelArray<float>(n * kLeafVoxels);
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
     for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
@@ -238,7 +238,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 i = (i + 1) & (cap - 1);
             return keys[i] == k ? vals[i] : -1;
         };
-        std::unique_ptr<int32_t[]> dense = parallelArray<int32_t>(tiles * 4096);
+        auto dense = parallelArray<int32_t>(tiles * 4096);
         tbb::parallel_for(size_t(0), tiles, [&](size_t ti) {
             int32_t* d = dense.get() + ti * 4096;
             std::fill(d, d + 4096, -1);
@@ -272,7 +272,6 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         float f;  // F - T at the voxel, kept so that making the point reads no values
     };
     const double tNb = since(tEdges);
-    std::vector<std::vector<Edge>> edges(n);
     // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
     std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
@@ -285,25 +284,17 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         }
     });
     const double tBits = since(tEdges);
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        // The voxels with a face neighbour on the other side of the surface,
-        // by shifting the inside bits; a missing neighbour leaf (no surface
-        // within a voxel of it) counts as the same side.
+    // The voxels of leaf l with a face neighbour on the other side of the
+    // surface, per plane z and direction (the order of dirs), by shifting the
+    // inside bits; a missing neighbour leaf (no surface within a voxel of it)
+    // counts as the same side.  Returns how many voxels have one.
+    auto crossings = [&](size_t l, uint64_t across[8][6]) {
         constexpr uint64_t col0 = 0x0101010101010101ull, col7 = col0 << 7, row0 = 0xFFull, row7 = row0 << 56;
         const auto& M = insideBits[l];
         auto plane = [&](int k, int z) -> const uint64_t* {
             const int32_t m = nb[l][size_t(k)];
             return m < 0 ? nullptr : &insideBits[size_t(m)][size_t(z)];
         };
-        const float* own = value.get() + l * kLeafVoxels;
-        // The values were last read long ago (they are out of the caches) and
-        // are read here at scattered voxels: fetch the next leaf's ahead.
-        if (l + 1 < n)
-            for (int i = 0; i < kLeafVoxels; i += 16)
-                __builtin_prefetch(own + kLeafVoxels + i);
-        // Per plane and direction (the order of dirs), the voxels whose
-        // neighbour that way is on the other side.
-        uint64_t across[8][6];
         size_t count = 0;
         for (int z = 0; z < 8; ++z) {
             const uint64_t m = M[size_t(z)];
@@ -323,7 +314,30 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 across[z][k] = d[k];
             count += size_t(__builtin_popcountll(d[0] | d[1] | d[2] | d[3] | d[4] | d[5]));
         }
-        edges[l].reserve(count);
+        return count;
+    };
+    // The surface voxels of all leaves in one array, leaf by leaf: counted,
+    // then written (one block: no allocation per leaf).
+    std::vector<size_t> first(n + 1, 0);
+    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+        uint64_t across[8][6];
+        first[l + 1] = crossings(l, across);
+    });
+    for (size_t l = 0; l < n; ++l)
+        first[l + 1] += first[l];
+    const size_t np = first[n];
+    auto edges = parallelArray<Edge>(np);
+    auto queries = parallelArray<SurfaceQuery>(np);
+    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+        const float* own = value.get() + l * kLeafVoxels;
+        // The values were last read long ago (they are out of the caches) and
+        // are read here at scattered voxels: fetch the next leaf's ahead.
+        if (l + 1 < n)
+            for (int i = 0; i < kLeafVoxels; i += 16)
+                __builtin_prefetch(own + kLeafVoxels + i);
+        uint64_t across[8][6];
+        crossings(l, across);
+        size_t j = first[l];
         for (int z = 0; z < 8; ++z) {
             const uint64_t* d = across[z];
             uint64_t change = d[0] | d[1] | d[2] | d[3] | d[4] | d[5];
@@ -351,29 +365,22 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                     e = tc < edge ? k : e;
                     edge = tc < edge ? tc : edge;
                 }
-                if (edge <= 1.0f)
-                    edges[l].push_back({uint16_t(i), uint8_t(e), edge, fv});
+                // Across a sign change fv / (fv - fu) lies in [0, 1].
+                edges[j] = {uint16_t(i), uint8_t(e), std::min(edge, 1.0f), fv};
+                queries[j] = {int32_t(l), uint16_t(i)};
+                ++j;
             }
         }
         // Voxels come out plane by plane in x + 8 y order: voxel order.
     });
     const double tEd = since(tEdges);
-    std::vector<size_t> first(n + 1, 0);
-    for (size_t l = 0; l < n; ++l)
-        first[l + 1] = first[l] + edges[l].size();
-    const size_t np = first[n];
-    std::vector<SurfaceQuery> queries(np);
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        for (size_t k = 0; k < edges[l].size(); ++k)
-            queries[first[l] + k] = {int32_t(l), edges[l][k].voxel};
-    });
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "neighbours {:.3f} s, inside bits {:.3f} s, sign changes {:.3f} s, queries {:.3f} s\n", tNb,
                    tBits - tNb, tEd - tBits, since(tEdges) - tEd);
     t = Clock::now();
-    std::unique_ptr<SurfaceSample[]> surface = parallelArray<SurfaceSample>(np);
-    sampler.sampleSurface(topo.leaves, queries, h, surface.get());
-    queries = {};
+    auto surface = parallelArray<SurfaceSample>(np);
+    sampler.sampleSurface(topo.leaves, queries.get(), np, h, surface.get());
+    queries.reset();
     st.samplingSeconds = valueSeconds + since(t);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "sampling: values {:.3f} s, surface {:.3f} s ({} points)\n", valueSeconds, since(t), np);
@@ -382,22 +389,24 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
 
     // A surface voxel's point: computed where a tile needs it (tiles share
     // halo leaves, but a point costs less than storing all of them).
+    const float invH = float(1.0 / h);
     auto surfacePoint = [&](size_t l, size_t k) {
         const int32_t* o = topo.leaves[l].origin;
-        const Edge& ed = edges[l][k];
         const size_t q = first[l] + k;
+        const Edge& ed = edges[q];
         const int i = ed.voxel;
         const float fv = ed.f;
         const bool in = fv > 0.0f;
         const glm::vec3 g(halfToFloat(surface[q].gradient[0]), halfToFloat(surface[q].gradient[1]),
                           halfToFloat(surface[q].gradient[2]));
-        const float glen = glm::length(g);
+        const float g2 = glm::dot(g, g);
         // Outward normal: against the gradient (F grows inwards).
-        glm::vec3 nrm = glen > 0.0f ? -g / glen : glm::vec3(0.0f);
-        float dist = glen > 0.0f ? std::abs(fv) / (glen * float(h)) : INFINITY;
+        const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
+        glm::vec3 nrm = -inv * g;
+        float dist = g2 > 0.0f ? std::abs(fv) * inv * invH : INFINITY;
         if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
             dist = ed.t;
-            if (!(glen > 0.0f))
+            if (!(g2 > 0.0f))
                 nrm = (in ? 1.0f : -1.0f) *
                       glm::vec3(float(dirs[ed.dir][0]), float(dirs[ed.dir][1]), float(dirs[ed.dir][2]));
         }
@@ -464,16 +473,14 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         const size_t nl = S.leaves.size();
         localLeaves += nl;
         const auto tq1 = Clock::now();
-        S.src.assign(nl * kLeafVoxels, 0);  // point 0: none (zero normal)
-        // Voxels without a point carry one infinitely far away, so that the
-        // sweeps below need no branches.
+        S.src.resize(nl * kLeafVoxels);
         for (auto& p : S.pos)
-            p.assign(nl * kLeafVoxels, 1e15f);
+            p.resize(nl * kLeafVoxels);
         const auto tq2 = Clock::now();
         std::vector<LeafJob> local(nl);
         size_t count = 1;  // point 0: none
         for (size_t k = 0; k < nl; ++k)
-            count += edges[size_t(S.leaves[k])].size();
+            count += first[size_t(S.leaves[k]) + 1] - first[size_t(S.leaves[k])];
         if (!uniform)  // a model of one colour needs no colours per point
             S.rgb.resize(count);
         for (auto& v : S.nrm) {
@@ -484,9 +491,16 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         for (size_t k = 0; k < nl; ++k) {
             const size_t l = size_t(S.leaves[k]);
             local[k] = topo.leaves[l];
-            for (size_t e = 0; e < edges[l].size(); ++e, ++next) {
+            // The leaf's state, then its points (in the caches: leaf by leaf).
+            // Voxels without a point hold point 0 (none, zero normal) placed
+            // infinitely far away, so that the sweeps need no branches.
+            const size_t lb = k * kLeafVoxels;
+            std::fill_n(S.src.begin() + long(lb), kLeafVoxels, 0);
+            for (auto& p : S.pos)
+                std::fill_n(p.begin() + long(lb), kLeafVoxels, 1e15f);
+            for (size_t e = 0; e < first[l + 1] - first[l]; ++e, ++next) {
                 const SurfacePoint sp = surfacePoint(l, e);
-                const size_t at = k * kLeafVoxels + size_t(edges[l][e].voxel);
+                const size_t at = k * kLeafVoxels + size_t(edges[first[l] + e].voxel);
                 S.src[at] = next;
                 if (!uniform)
                     S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
@@ -578,8 +592,13 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
     value.reset();
-    edges = {};
+    const double tf1 = since(tTree);
+    edges.reset();
+    const double tf2 = since(tTree);
     surface.reset();
+    if (std::getenv("CAMBIUM_TIMING"))
+        fmt::print(stderr, "free value {:.3f} edges {:.3f}\n", tf1, tf2 - tf1);
+    const double tFree = since(tTree);
     out.surface = openvdb::FloatGrid::create(background);
     // A model of one colour has that colour wherever the surface is: its Cd
     // grid is that colour as the background, without voxels (on the 20k
@@ -590,20 +609,26 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     const auto xform = openvdb::math::Transform::createLinearTransform(h);
     out.surface->setTransform(xform);
     out.color->setTransform(xform->copy());
+    // Through accessors: consecutive leaves mostly share their internal
+    // nodes (depth-first order), which the accessors keep at hand.
+    openvdb::FloatGrid::Accessor sAcc = out.surface->getAccessor();
+    openvdb::Vec3fGrid::Accessor cAcc = out.color->getAccessor();
     for (size_t l = 0; l < n; ++l)
         if (sLeaves[l]) {
-            out.surface->tree().addLeaf(sLeaves[l]);
+            sAcc.addLeaf(sLeaves[l]);
             if (cLeaves[l])
-                out.color->tree().addLeaf(cLeaves[l]);
+                cAcc.addLeaf(cLeaves[l]);
             ++st.activeLeaves;
             st.activeVoxels += activeCount[l];
         }
     // The leaves' inactive voxels already hold +-background by the field's
     // sign: only the tiles above them need the flood fill (minLevel 1; at the
     // leaf level it would replace those signs by a scan-line guess).
+    const double tAdd = since(tTree);
     openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, 1);
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "tree and flood fill {:.3f} s\n", since(tTree));
+        fmt::print(stderr, "freeing {:.3f} s, tree {:.3f} s, flood fill {:.3f} s\n", tFree, tAdd - tFree,
+                   since(tTree) - tAdd);
     out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
     out.surface->setName("surface");
     out.color->setName("Cd");

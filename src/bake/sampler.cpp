@@ -41,10 +41,10 @@ public:
         });
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const std::vector<SurfaceQuery>& queries,
+    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
                        double h, SurfaceSample* out) override
     {
-        tbb::parallel_for(size_t(0), queries.size(), [&](size_t q) {
+        tbb::parallel_for(size_t(0), count, [&](size_t q) {
             const LeafJob& job = leaves[size_t(queries[q].leaf)];
             const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
             const FieldSample s = program_->evaluate(code, voxelPosition(job, queries[q].voxel, h));
@@ -194,20 +194,20 @@ public:
                 "clEnqueueReadBuffer");
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const std::vector<SurfaceQuery>& queries,
+    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
                        double h, SurfaceSample* out) override
     {
-        if (queries.empty())
+        if (count == 0)
             return;
         constexpr size_t kChunk = 16;  // the surface kernel's width (CB_LANES)
         // Chunks of kChunk voxels of one leaf (a short chunk repeats its last
         // voxel), laid out run by run of the queries' leaves, filled in
         // parallel straight into the device's buffers.
         std::vector<size_t> runStart;  // queries are grouped by leaf
-        for (size_t q = 0; q < queries.size(); ++q)
+        for (size_t q = 0; q < count; ++q)
             if (q == 0 || queries[q].leaf != queries[q - 1].leaf)
                 runStart.push_back(q);
-        runStart.push_back(queries.size());
+        runStart.push_back(count);
         const size_t runs = runStart.size() - 1;
         std::vector<size_t> firstChunk(runs + 1, 0);
         for (size_t r = 0; r < runs; ++r)

@@ -72,10 +72,10 @@ public:
     /// out, voxel x + 8 y + 64 z.
     virtual void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end,
                               double voxelSize, float* out) = 0;
-    /// Gradient and colour at the queried voxels (queries grouped by leaf).
-    virtual void sampleSurface(const std::vector<LeafJob>& leaves,
-                               const std::vector<SurfaceQuery>& queries, double voxelSize,
-                               SurfaceSample* out) = 0;
+    /// Gradient and colour at the queried voxels, `count` queries grouped by
+    /// leaf, into out[0, count).
+    virtual void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
+                               double voxelSize, SurfaceSample* out) = 0;
     /// Evaluates `code` at arbitrary points (tests and diagnostics):
     /// out = 7 planes of points.size() floats.
     virtual std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) = 0;
