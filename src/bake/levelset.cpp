@@ -375,8 +375,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     });
     const double tEd = since(tEdges);
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "neighbours {:.3f} s, inside bits {:.3f} s, sign changes {:.3f} s, queries {:.3f} s\n", tNb,
-                   tBits - tNb, tEd - tBits, since(tEdges) - tEd);
+        fmt::print(stderr, "neighbours {:.3f} s, inside bits {:.3f} s, sign changes and queries {:.3f} s\n", tNb,
+                   tBits - tNb, tEd - tBits);
     t = Clock::now();
     auto surface = parallelArray<SurfaceSample>(np);
     sampler.sampleSurface(topo.leaves, queries.get(), np, h, surface.get());
@@ -444,7 +444,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     std::vector<openvdb::FloatTree::LeafNodeType*> sLeaves(n, nullptr);
     std::vector<openvdb::Vec3fTree::LeafNodeType*> cLeaves(n, nullptr);
     std::vector<size_t> activeCount(n, 0);
-    std::atomic<size_t> axisNs[3] = {0, 0, 0}, qNs[3] = {0, 0, 0};
+    std::atomic<size_t> axisNs[3] = {0, 0, 0}, haloNs{0}, pointsNs{0};
     std::atomic<size_t> tilesDone{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
     struct Scratch {
         std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
@@ -476,7 +476,6 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         S.src.resize(nl * kLeafVoxels);
         for (auto& p : S.pos)
             p.resize(nl * kLeafVoxels);
-        const auto tq2 = Clock::now();
         std::vector<LeafJob> local(nl);
         size_t count = 1;  // point 0: none
         for (size_t k = 0; k < nl; ++k)
@@ -511,9 +510,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             }
         }
         const auto tSweep = Clock::now();
-        qNs[0] += size_t(std::chrono::duration<double>(tq1 - tq0).count() * 1e9);
-        qNs[1] += size_t(std::chrono::duration<double>(tq2 - tq1).count() * 1e9);
-        qNs[2] += size_t(std::chrono::duration<double>(tSweep - tq2).count() * 1e9);
+        haloNs += size_t(std::chrono::duration<double>(tq1 - tq0).count() * 1e9);
+        pointsNs += size_t(std::chrono::duration<double>(tSweep - tq1).count() * 1e9);
         // Sweeps along each axis in both directions, each voxel offered its
         // predecessor's surface point; two rounds (the second repairs the
         // paths the first could not take: max error 0.25 -> 0.1 voxel,
@@ -584,20 +582,17 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     });
     const auto tTree = Clock::now();
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "propagation and leaves {:.3f} s (thread time: sweeps {:.3f} s, leaves {:.3f} s)\n",
-                   since(t), sweepNs * 1e-9, leavesNs * 1e-9);
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "axes {} {} {} halo {} init {} points {}\n", axisNs[0] * 1e-9, axisNs[1] * 1e-9, axisNs[2] * 1e-9, qNs[0]*1e-9, qNs[1]*1e-9, qNs[2]*1e-9);
+        fmt::print(stderr,
+                   "propagation and leaves {:.3f} s (thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s "
+                   "(x {:.3f}, y {:.3f}, z {:.3f}), leaves {:.3f} s)\n",
+                   since(t), haloNs * 1e-9, pointsNs * 1e-9, sweepNs * 1e-9, axisNs[0] * 1e-9, axisNs[1] * 1e-9,
+                   axisNs[2] * 1e-9, leavesNs * 1e-9);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
                    localLeaves.load(), n);
     value.reset();
-    const double tf1 = since(tTree);
     edges.reset();
-    const double tf2 = since(tTree);
     surface.reset();
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "free value {:.3f} edges {:.3f}\n", tf1, tf2 - tf1);
     const double tFree = since(tTree);
     out.surface = openvdb::FloatGrid::create(background);
     // A model of one colour has that colour wherever the surface is: its Cd
