@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <deque>
 #include <array>
 #include <cmath>
 
@@ -281,11 +282,11 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
 /// Which children a combiner can do without on a region where the children's
 /// fields lie in `iv`: removing them changes neither value nor gradient nor
 /// colour anywhere in the region (up to ties between equal values).
-std::vector<char> droppable(const double* op, const std::vector<Interval>& iv, double T)
+void droppable(const double* op, const std::vector<Interval>& iv, double T, std::vector<char>& drop)
 {
     const int type = int(op[0]);
     const size_t n = iv.size();
-    std::vector<char> drop(n, 0);
+    drop.assign(n, 0);
     switch (type) {
     case CB_BLEND:
         for (size_t i = 0; i < n; ++i)
@@ -334,7 +335,6 @@ std::vector<char> droppable(const double* op, const std::vector<Interval>& iv, d
     default:
         break;
     }
-    return drop;
 }
 
 /// Whether an operator left with its one child `iv` computes exactly that child.
@@ -479,7 +479,7 @@ FieldSample FieldProgram::evaluate(Code code, const glm::dvec3& p) const
 Interval FieldProgram::specialize(Code code, const Box& box, std::vector<Instr>* out) const
 {
     size_t pos = 0;
-    return node(code, pos, box, out);
+    return node(code, pos, box, out, 0);
 }
 
 Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
@@ -596,7 +596,26 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
     return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
 }
 
-Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const
+namespace {
+
+/// node()'s working lists, one set per depth of the recursion and thread,
+/// reused from call to call (the topology search specialises millions of
+/// times; five fresh vectors per call cost as much as the intervals).
+struct NodeScratch {
+    struct Child {
+        size_t begin, end;
+    };
+    std::vector<Child> kids;
+    std::vector<Interval> iv;
+    std::vector<char> drop, drop2;
+    std::vector<size_t> kept;
+    std::vector<Instr> segment;
+};
+thread_local std::deque<NodeScratch> tlsNodeScratch;  // a deque: growing keeps references valid
+
+}  // namespace
+
+Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const
 {
     const Instr head = in.data[pos];
     const double T = params_[CB_P_T];
@@ -638,7 +657,7 @@ Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<In
         const size_t start = out ? out->size() : 0;
         if (out)
             out->push_back(head);
-        const Interval iv = node(in, pos, warpChildBox(head, box), out);
+        const Interval iv = node(in, pos, warpChildBox(head, box), out, depth + 1);
         ++pos;  // UNWARP
         if (out) {
             if (iv.isZero()) {
@@ -656,17 +675,19 @@ Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<In
     const bool gbb = head.b == CB_GBB;
     const double* op1 = params_.data() + head.a;
     const double* op2 = gbb ? op1 + CB_OP_SIZE : nullptr;
-    struct Child {
-        size_t begin, end;
-    };
-    std::vector<Child> kids;
-    std::vector<Interval> iv;
+    if (tlsNodeScratch.size() <= depth)
+        tlsNodeScratch.resize(depth + 1);
+    NodeScratch& scratch = tlsNodeScratch[depth];
+    auto& kids = scratch.kids;
+    auto& iv = scratch.iv;
+    kids.clear();
+    iv.clear();
     const size_t start = out ? out->size() : 0;
     Interval bound{0.0, 0.0};
     size_t boundBegin = 0, boundEnd = 0;
     while (in.data[pos].op != CB_I_CLOSE) {
         const size_t b = out ? out->size() : 0;
-        const Interval i = node(in, pos, box, out);
+        const Interval i = node(in, pos, box, out, depth + 1);
         const size_t e = out ? out->size() : 0;
         if (in.data[pos].op == CB_I_ACC) {
             ++pos;
@@ -682,36 +703,38 @@ Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<In
 
     Interval result;
     const double* op = op1;  // the combiner that will remain
-    std::vector<char> drop;
+    auto& drop = scratch.drop;
     bool keepGbb = false;
     if (!gbb) {
         result = combine(op1, iv, T);
-        drop = droppable(op1, iv, T);
+        droppable(op1, iv, T, drop);
     } else {
         const Interval i1 = combine(op1, iv, T), i2 = combine(op2, iv, T);
         const double b0 = std::clamp(bound.lo, 0.0, 1.0), b1 = std::clamp(bound.hi, 0.0, 1.0);
         if (b1 <= 0.0) {  // bound 0 everywhere: B2 alone
             op = op2;
             result = i2;
-            drop = droppable(op2, iv, T);
+            droppable(op2, iv, T, drop);
         } else if (b0 >= 1.0) {  // bound 1 everywhere: B1 alone
             result = i1;
-            drop = droppable(op1, iv, T);
+            droppable(op1, iv, T, drop);
         } else {
             keepGbb = true;
             result = {std::min(i1.lo, i2.lo), std::max(i1.hi, i2.hi)};
-            const auto d1 = droppable(op1, iv, T), d2 = droppable(op2, iv, T);
-            drop.resize(iv.size());
+            droppable(op1, iv, T, drop);
+            droppable(op2, iv, T, scratch.drop2);
             for (size_t i = 0; i < iv.size(); ++i)
-                drop[i] = d1[i] && d2[i];
+                drop[i] = drop[i] && scratch.drop2[i];
         }
     }
     if (!out)
         return result;
 
     // Rebuild this node's code from the kept children.
-    std::vector<Instr> segment;
-    std::vector<size_t> kept;
+    auto& segment = scratch.segment;
+    auto& kept = scratch.kept;
+    segment.clear();
+    kept.clear();
     for (size_t i = 0; i < kids.size(); ++i)
         if (!drop[i])
             kept.push_back(i);

@@ -75,7 +75,7 @@ public:
     static int maxWarpDepth();
 
 private:
-    Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out) const;
+    Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
     Interval primitiveInterval(const Instr& in, const Box& box) const;
     Box warpChildBox(const Instr& in, const Box& box) const;
 
