@@ -41,6 +41,14 @@ struct SurfacePoint {
 
 inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 
+/// Chains of consecutive leaves along one axis, leaf by leaf (indices into
+/// the tile's local leaves): directional sweeps run along them.
+struct Chains {
+    std::vector<int> leaf;   ///< chain after chain
+    std::vector<int> start;  ///< chain k: leaf[start[k], start[k + 1])
+    size_t size() const { return start.empty() ? 0 : start.size() - 1; }
+};
+
 // The directional sweeps (src/bake/sweep.inc), compiled for AVX-512 with
 // vectors of sixteen lanes, and with eight lanes for AVX2 and older CPUs.
 #define CB_SWEEP_NAME sweepAxis16
@@ -53,7 +61,7 @@ inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
 #include "bake/sweep.inc"
 
 /// `turned`: scratch for the x-sweeps' transposed chains.
-void sweepAxis(const std::vector<std::vector<int>>& rows, const std::vector<LeafJob>& local, int axis,
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
                int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
 {
     static const bool avx512 = __builtin_cpu_supports("x86-64-v4");
@@ -105,23 +113,41 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
     return active;
 }
 
-/// Chains of consecutive leaves along one axis: directional sweeps run along them.
-std::vector<std::vector<int>> chains(const std::vector<LeafJob>& jobs, int axis)
+/// The chains of `jobs` along `axis`, through a dense table of the leaves'
+/// box (a tile's leaves with their halo span ten leaves a side), line by line.
+void buildChains(const std::vector<LeafJob>& jobs, int axis, std::vector<int>& table, Chains& out)
 {
+    out.leaf.clear();
+    out.start.clear();
+    if (jobs.empty())
+        return;
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k)
+        lo[k] = hi[k] = jobs[0].origin[k] >> 3;
+    for (const LeafJob& j : jobs)
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], j.origin[k] >> 3);
+            hi[k] = std::max(hi[k], j.origin[k] >> 3);
+        }
     const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-    std::vector<std::array<int, 4>> keys(jobs.size());  // (a, b, along, index)
-    for (size_t i = 0; i < jobs.size(); ++i)
-        keys[i] = {jobs[i].origin[a], jobs[i].origin[b], jobs[i].origin[axis], int(i)};
-    std::sort(keys.begin(), keys.end());
-    std::vector<std::vector<int>> out;
-    for (size_t k = 0; k < keys.size(); ++k) {
-        const bool continues = k > 0 && keys[k][0] == keys[k - 1][0] && keys[k][1] == keys[k - 1][1] &&
-                               keys[k][2] == keys[k - 1][2] + 8;
-        if (!continues)
-            out.emplace_back();
-        out.back().push_back(keys[k][3]);
+    const size_t nu = size_t(hi[axis] - lo[axis] + 1), nv = size_t(hi[a] - lo[a] + 1), nw = size_t(hi[b] - lo[b] + 1);
+    table.assign(nu * nv * nw, -1);
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        const int* o = jobs[i].origin;
+        table[size_t((o[axis] >> 3) - lo[axis]) +
+              nu * (size_t((o[a] >> 3) - lo[a]) + nv * size_t((o[b] >> 3) - lo[b]))] = int(i);
     }
-    return out;
+    for (size_t line = 0; line < nv * nw; ++line) {
+        const int* t = table.data() + line * nu;
+        for (size_t u = 0; u < nu; ++u) {
+            if (t[u] < 0)
+                continue;
+            if (u == 0 || t[u - 1] < 0)
+                out.start.push_back(int(out.leaf.size()));
+            out.leaf.push_back(t[u]);
+        }
+    }
+    out.start.push_back(int(out.leaf.size()));
 }
 
 }  // namespace
@@ -452,6 +478,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         std::vector<std::array<uint8_t, 3>> rgb;  // the colours of the tile's points (with its halo's; 0: none)
         std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
         std::vector<float> turned;         // the x-sweeps' transposed chains
+        Chains rows[3];                    // the chains along each axis
+        std::vector<int> table;            // (building them)
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::parallel_for(size_t(0), tileStart.size() - 1, [&](size_t tile) {
@@ -519,13 +547,12 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         float* const pos[3] = {S.pos[0].data(), S.pos[1].data(), S.pos[2].data()};
         // (Both rounds must run over the halo too: without it in the second,
         // the far error of a capsule grows from 0.11 to 0.46 voxel.)
-        std::vector<std::vector<int>> rows[3];
         for (int axis = 0; axis < 3; ++axis)
-            rows[axis] = chains(local, axis);
+            buildChains(local, axis, S.table, S.rows[axis]);
         for (int pass = 0; pass < 6; ++pass) {
             const int axis = pass % 3;
             const auto ta = Clock::now();
-            sweepAxis(rows[axis], local, axis, S.src.data(), pos, limit2, S.turned);
+            sweepAxis(S.rows[axis], local, axis, S.src.data(), pos, limit2, S.turned);
             axisNs[axis] += size_t(since(ta) * 1e9);
         }
         sweepNs += size_t(since(tSweep) * 1e9);
