@@ -1,5 +1,6 @@
 // cambium — leaf samplers (OpenCL and CPU).
 #include "bake/sampler.h"
+#include "core/memory.h"
 
 #include "bake/cl_runtime.h"
 #include "bake/kernel_sources.h"
@@ -182,14 +183,38 @@ public:
         cl_mem code = pool_.get(), params = params_.get();
         cl_mem table = table_.upload(ctx_, leaves.data() + begin, n * sizeof(LeafJob), CL_MEM_READ_ONLY);
         const size_t bytes = n * kLeafVoxels * sizeof(float);
-        cl_mem result = out_.reserve(ctx_, bytes, CL_MEM_WRITE_ONLY);
+        // Aligned output (parallelArray's) is written in place: a CPU device
+        // uses it as it is, where a copy would cost a pass over all values.
+        const bool inPlace = reinterpret_cast<uintptr_t>(out) % kParallelArrayAlignment == 0;
+        cl_mem result;
+        if (inPlace) {
+            cl_int err;
+            result = clCreateBuffer(ctx_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, bytes, out, &err);
+            checkCL(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
+        } else {
+            result = out_.reserve(ctx_, bytes, CL_MEM_WRITE_ONLY);
+        }
         const float hf = float(h);
         setArgs(valuesKernel_, code, params, table, hf, result);
         // An explicit local size: PoCL recompiles for every new global size otherwise.
         const size_t local = 32, global = 32 * n;  // two rows per work-item
-        checkCL(clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global, &local, 0,
-                                       nullptr, nullptr),
-                "clEnqueueNDRangeKernel(sample_values)");
+        cl_int status = clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global, &local, 0,
+                                               nullptr, nullptr);
+        if (inPlace) {
+            // Mapping makes the host memory hold the results (a no-op where
+            // the device works in it); the buffer goes, the memory stays ours.
+            void* p = nullptr;
+            if (status == CL_SUCCESS)
+                p = clEnqueueMapBuffer(ctx_.queue(), result, CL_TRUE, CL_MAP_READ, 0, bytes, 0, nullptr,
+                                       nullptr, &status);
+            if (p)
+                clEnqueueUnmapMemObject(ctx_.queue(), result, p, 0, nullptr, nullptr);
+            clFinish(ctx_.queue());
+            clReleaseMemObject(result);
+            checkCL(status, "sample_values (in place)");
+            return;
+        }
+        checkCL(status, "clEnqueueNDRangeKernel(sample_values)");
         checkCL(clEnqueueReadBuffer(ctx_.queue(), result, CL_TRUE, 0, bytes, out, 0, nullptr, nullptr),
                 "clEnqueueReadBuffer");
     }

@@ -7,10 +7,16 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
 #include <memory>
+#include <new>
 #include <type_traits>
 
 namespace cambium {
+
+/// parallelArray's alignment: OpenCL devices can use such memory as it is
+/// (CL_MEM_USE_HOST_PTR; PoCL asks for 128 bytes).
+constexpr size_t kParallelArrayAlignment = 128;
 
 /// Deleter of parallelArray: the pages go back to the kernel from all threads
 /// (freeing a few hundred MB costs the kernel tens of milliseconds on one
@@ -27,7 +33,7 @@ struct ParallelRelease {
             tbb::parallel_for(lo, hi, chunk, [&](uintptr_t a) {
                 madvise(reinterpret_cast<void*>(a), std::min(chunk, hi - a), MADV_DONTNEED);
             });
-        delete[] p;
+        ::operator delete[](p, std::align_val_t(kParallelArrayAlignment));
     }
 };
 
@@ -43,7 +49,8 @@ ParallelArray<T> parallelArray(size_t n)
 {
     static_assert(std::is_trivial_v<T>, "parallelArray holds trivial types only");
     const size_t size = n * sizeof(T);
-    ParallelArray<T> a(new T[n], ParallelRelease<T>{size});
+    ParallelArray<T> a(static_cast<T*>(::operator new[](std::max<size_t>(size, 1), std::align_val_t(kParallelArrayAlignment))),
+                       ParallelRelease<T>{size});
     constexpr size_t page = 4096;
     char* bytes = reinterpret_cast<char*>(a.get());
     tbb::parallel_for(size_t(0), (size + page - 1) / page, [&](size_t p) { bytes[p * page] = 0; });
