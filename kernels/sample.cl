@@ -19,10 +19,11 @@
  * (x0 + 0..7, y0 + (r & 7), z0 + (r >> 3)).  Voxel (i, j, k) sits at
  * (i, j, k) * voxelSize in world space (OpenVDB's linear transform).
  * leaves: 5 ints per leaf: x0 y0 z0, offset and length of its program in code.
- * out: 512 floats per leaf, x fastest. */
+ * out: 512 halves per leaf, x fastest: F - T, rounded to nearest even (relative
+ * precision 2^-11 where it matters, next to the surface; its sign is the side). */
 __kernel void sample_values(__global const int* code, __global const float* prm,
                             __global const int* leaves, const float voxelSize,
-                            __global float* out)
+                            __global half* out)
 {
     int leaf = (int)get_group_id(0);
     int row = (int)get_local_id(0);
@@ -35,13 +36,13 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
     cb_real y = (float16)((float8)((float)y0), (float8)((float)(y0 + 1))) * voxelSize;
     float z = (float)(L[2] + (row >> 2)) * voxelSize;
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
-    vstore16(s.v, 0, out + (size_t)leaf * CB_LEAF_VOXELS + 16 * row);
+    vstore_half16_rte(s.v - prm[CB_P_T], 0, out + (size_t)leaf * CB_LEAF_VOXELS + 16 * row);
 #else
     cb_real x = ((float8)((float)L[0]) + (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f)) * voxelSize;
     float y = (float)(L[1] + (row & 7)) * voxelSize;
     float z = (float)(L[2] + (row >> 3)) * voxelSize;
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
-    vstore8(s.v, 0, out + (size_t)leaf * CB_LEAF_VOXELS + 8 * row);
+    vstore_half8_rte(s.v - prm[CB_P_T], 0, out + (size_t)leaf * CB_LEAF_VOXELS + 8 * row);
 #endif
 }
 

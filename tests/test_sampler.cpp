@@ -165,7 +165,7 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
         s->setProgram(prog);
         s->setLeafCode(pool);
     }
-    std::vector<float> a(jobs.size() * kLeafVoxels), b(a.size());
+    std::vector<uint16_t> a(jobs.size() * kLeafVoxels), b(a.size());  // F - T as halves
     cpu->sampleValues(jobs, 0, jobs.size(), h, a.data());
     cl_->sampleValues(jobs, 0, jobs.size(), h, b.data());
     // Gradient and colour at a scattering of voxels, grouped by leaf.
@@ -185,9 +185,16 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
     for (size_t l = 0; l < jobs.size(); ++l)
         for (int i = 0; i < kLeafVoxels; ++i) {
             const size_t k = l * kLeafVoxels + size_t(i);
-            ASSERT_NEAR(a[k], b[k], 1e-5) << "leaf " << l << " voxel " << i;
+            // F - T rounded to half: 2^-11 relative, plus what float evaluation adds.
+            const float fa = halfToFloat(a[k]), fb = halfToFloat(b[k]);
+            ASSERT_NEAR(fa, fb, 1e-5 + std::ldexp(std::max(std::abs(fa), std::abs(fb)), -10))
+                << "leaf " << l << " voxel " << i;
             // The specialised CPU program equals the reference at the voxel centre.
-            ASSERT_NEAR(a[k], ref.value(position(l, i)), 1e-6);
+            const double r = ref.value(position(l, i)) - prog.threshold();
+            ASSERT_NEAR(fa, r, 1e-6 + std::ldexp(std::abs(r), -11));
+            if (std::abs(r) > 1e-6) {  // the side, exactly
+                ASSERT_EQ(halfPositive(a[k]), r > 0.0) << "leaf " << l << " voxel " << i;
+            }
         }
     for (size_t q = 0; q < queries.size(); ++q) {
         const FieldSample r = ref.sample(position(size_t(queries[q].leaf), queries[q].voxel));

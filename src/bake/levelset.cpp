@@ -83,7 +83,7 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
 /// runs as vectors (clones chosen at run time, as for the sweeps; the file is
 /// compiled without errno and trapping math, which would keep it scalar).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
-    const int32_t* origin, const float* __restrict value, float T, const float* __restrict px,
+    const int32_t* origin, const uint16_t* __restrict value, const float* __restrict px,
     const float* __restrict py, const float* __restrict pz, const int32_t* __restrict src,
     const float* __restrict nx, const float* __restrict ny, const float* __restrict nz, float h,
     float background, float* __restrict sd, uint8_t* __restrict on)
@@ -91,7 +91,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
     const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
     int active = 0;
     for (int i = 0; i < kLeafVoxels; ++i) {
-        const float sign = value[i] > T ? -1.0f : 1.0f;  // negative inside
+        const float sign = int16_t(value[i]) > 0 ? -1.0f : 1.0f;  // F - T > 0 (halfPositive): inside, negative
         const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
                     dz = oz + float(i >> 6) - pz[i];
         const float e2 = dx * dx + dy * dy + dz * dz;
@@ -183,7 +183,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                         const BakeOptions& opt)
 {
     const auto start = Clock::now();
-    const double h = opt.voxelSize, W = opt.halfWidth, T = program.threshold();
+    const double h = opt.voxelSize, W = opt.halfWidth;
     // The background is the band's half-width in world units, rounded up so
     // that OpenVDB's checks see at least halfWidth voxels.
     float background = float(W * h);
@@ -208,7 +208,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
 
     // 2. Values of every voxel of those leaves, in batches.
     t = Clock::now();
-    auto value = parallelArray<float>(n * kLeafVoxels);
+    auto value = parallelArray<uint16_t>(n * kLeafVoxels);  // F - T
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
     for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
@@ -287,7 +287,6 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             }
         });
     }
-    const float Tf = float(T);
     static const int dirs[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
     // Per leaf, its surface voxels in voxel order with the distance (voxels)
     // to the nearest crossing along their edges and that edge's direction.
@@ -301,11 +300,11 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
     std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const float* v = value.get() + l * kLeafVoxels;
+        const uint16_t* v = value.get() + l * kLeafVoxels;
         for (int z = 0; z < 8; ++z) {
             uint64_t m = 0;
             for (int i = 0; i < 64; ++i)
-                m |= uint64_t(v[64 * z + i] > Tf) << i;
+                m |= uint64_t(halfPositive(v[64 * z + i])) << i;
             insideBits[l][size_t(z)] = m;
         }
     });
@@ -355,11 +354,11 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     auto edges = parallelArray<Edge>(np);
     auto queries = parallelArray<SurfaceQuery>(np);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const float* own = value.get() + l * kLeafVoxels;
+        const uint16_t* own = value.get() + l * kLeafVoxels;
         // The values were last read long ago (they are out of the caches) and
         // are read here at scattered voxels: fetch the next leaf's ahead.
         if (l + 1 < n)
-            for (int i = 0; i < kLeafVoxels; i += 16)
+            for (int i = 0; i < kLeafVoxels; i += 32)
                 __builtin_prefetch(own + kLeafVoxels + i);
         uint64_t across[8][6];
         crossings(l, across);
@@ -372,7 +371,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                 change &= change - 1;
                 const int x = bit & 7, y = bit >> 3;
                 const int i = vox(x, y, z);
-                const float fv = own[i] - Tf;
+                const float fv = halfToFloat(own[i]);
                 float edge = INFINITY;
                 int e = 0;
                 // Branch-free over the six directions (whether a direction
@@ -386,7 +385,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                     const int32_t nl = (ox | oy | oz) ? nb[l][size_t((ox + 1) + 3 * (oy + 1) + 9 * (oz + 1))] : int32_t(l);
                     const size_t at = cross ? size_t(nl) * kLeafVoxels + size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))
                                             : l * kLeafVoxels + size_t(i);
-                    const float fu = value[at] - Tf;
+                    const float fu = halfToFloat(value[at]);
                     const float tc = cross ? fv / (fv - fu) : INFINITY;
                     e = tc < edge ? k : e;
                     edge = tc < edge ? tc : edge;
@@ -565,7 +564,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             uint8_t on[kLeafVoxels];
             const int32_t* src = S.src.data() + k * kLeafVoxels;
             const size_t at = k * kLeafVoxels;
-            const int active = leafDistances(o, value.get() + l * kLeafVoxels, Tf, S.pos[0].data() + at,
+            const int active = leafDistances(o, value.get() + l * kLeafVoxels, S.pos[0].data() + at,
                                              S.pos[1].data() + at, S.pos[2].data() + at, src, S.nrm[0].data(),
                                              S.nrm[1].data(), S.nrm[2].data(), float(h), background, sd, on);
             activeCount[l] = size_t(active);

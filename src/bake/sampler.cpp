@@ -31,14 +31,15 @@ public:
     }
 
     void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end, double h,
-                      float* out) override
+                      uint16_t* out) override
     {
+        const float T = float(program_->threshold());
         tbb::parallel_for(begin, end, [&](size_t l) {
             const LeafJob& job = leaves[l];
             const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
-            for (int i = 0; i < kLeafVoxels; ++i)
+            for (int i = 0; i < kLeafVoxels; ++i)  // F - T in float, as the kernel
                 out[(l - begin) * kLeafVoxels + size_t(i)] =
-                    float(program_->evaluate(code, voxelPosition(job, i, h)).value);
+                    floatToHalf(float(program_->evaluate(code, voxelPosition(job, i, h)).value) - T);
         });
     }
 
@@ -175,14 +176,14 @@ public:
     }
 
     void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end, double h,
-                      float* out) override
+                      uint16_t* out) override
     {
         if (begin >= end)
             return;
         const size_t n = end - begin;
         cl_mem code = pool_.get(), params = params_.get();
         cl_mem table = table_.upload(ctx_, leaves.data() + begin, n * sizeof(LeafJob), CL_MEM_READ_ONLY);
-        const size_t bytes = n * kLeafVoxels * sizeof(float);
+        const size_t bytes = n * kLeafVoxels * sizeof(uint16_t);
         // Aligned output (parallelArray's) is written in place: a CPU device
         // uses it as it is, where a copy would cost a pass over all values.
         const bool inPlace = reinterpret_cast<uintptr_t>(out) % kParallelArrayAlignment == 0;

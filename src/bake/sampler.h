@@ -31,27 +31,29 @@ struct SurfaceSample {
 };
 
 /// IEEE half -> float, exactly (every half is a float), by moving the bits:
-/// inline, since the assembly converts tens of millions of gradients.
+/// inline and branch-free, since the assembly converts tens of millions of
+/// values and gradients.
 inline float halfToFloat(uint16_t h)
 {
-    const uint32_t sign = uint32_t(h & 0x8000u) << 16, e = (h >> 10) & 0x1Fu, m = h & 0x3FFu;
-    uint32_t bits;
-    if (e == 0x1Fu) {
-        bits = sign | 0x7F800000u | (m << 13);  // infinities and NaNs
-    } else if (e != 0) {
-        bits = sign | ((e + 112u) << 23) | (m << 13);  // normal: rebias 15 -> 127
-    } else {
-        // Zero or subnormal: m * 2^-24, exact in float.
-        const float v = float(m) * 5.9604644775390625e-8f;
-        std::memcpy(&bits, &v, 4);
-        bits |= sign;
-    }
+    const uint32_t sign = uint32_t(h & 0x8000u) << 16, em = h & 0x7FFFu;
+    // Exponent and mantissa moved into a float's places read as the value
+    // times 2^-112, exactly, for normal and subnormal halves (a subnormal half
+    // becomes a subnormal float, scaled back to a normal one); infinities and
+    // NaNs take exponent 255.
+    uint32_t bits = em << 13;
     float f;
+    std::memcpy(&f, &bits, 4);
+    f *= 0x1p112f;
+    std::memcpy(&bits, &f, 4);
+    bits = em >= 0x7C00u ? (0x7F800000u | ((em & 0x3FFu) << 13)) : bits;
+    bits |= sign;
     std::memcpy(&f, &bits, 4);
     return f;
 }
 /// float -> IEEE half, rounded to nearest even.
 uint16_t floatToHalf(float f);
+/// Whether a half is positive and not zero (F - T > 0: inside).
+inline bool halfPositive(uint16_t h) { return int16_t(h) > 0; }
 
 /// A leaf to sample: its origin in voxel index space and its program, a
 /// range of a shared code pool.
@@ -68,10 +70,12 @@ public:
     virtual void setProgram(const FieldProgram& program) = 0;
     /// Fixes the pool of leaf programs that LeafJobs refer to.
     virtual void setLeafCode(const std::vector<Instr>& codePool) = 0;
-    /// Values of every voxel of leaves[begin, end): 512 floats per leaf into
-    /// out, voxel x + 8 y + 64 z.
+    /// F - T at every voxel of leaves[begin, end), as IEEE halves (rounded to
+    /// nearest even, from F - T in float): 512 per leaf into out, voxel
+    /// x + 8 y + 64 z.  Relative precision where it matters, next to the
+    /// surface; the sign bit tells the side (inside: positive, not zero).
     virtual void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end,
-                              double voxelSize, float* out) = 0;
+                              double voxelSize, uint16_t* out) = 0;
     /// Gradient and colour at the queried voxels, `count` queries grouped by
     /// leaf, into out[0, count).
     virtual void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
