@@ -7,28 +7,8 @@
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <fcntl.h>
-#include <unistd.h>
 
 namespace cambium {
-
-std::string temporaryPathFor(const std::string& path)
-{
-    return fmt::format("{}.tmp-{}", path, ::getpid());
-}
-
-void checkWritable(const std::string& path)
-{
-    const std::string tmp = temporaryPathFor(path);
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
-    if (fd < 0)
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
-    ::close(fd);
-    ::unlink(tmp.c_str());
-}
 
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
@@ -51,21 +31,12 @@ void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInf
     }
     openvdb::MetaMap fileMeta;
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
-    const std::string tmp = temporaryPathFor(path);
-    try {
+    writeAtomically(path, [&](const std::string& tmp) {
         openvdb::io::File file(tmp);
         file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         file.write(out, fileMeta);
         file.close();
-    } catch (const std::exception& e) {
-        ::unlink(tmp.c_str());
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, e.what()));
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        ::unlink(tmp.c_str());
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, why));
-    }
+    });
 }
 
 }  // namespace cambium

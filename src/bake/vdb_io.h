@@ -2,6 +2,7 @@
 #pragma once
 
 #include "bake/levelset.h"
+#include "core/files.h"
 
 #include <string>
 
@@ -22,12 +23,5 @@ struct VdbFileInfo {
 /// never leaves a half-written .vdb.  Throws InputError when the path cannot
 /// be written.
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
-
-/// Fails early, before any work, when `path` cannot be created (missing
-/// directory, no permission): creates and removes a temporary file beside it.
-void checkWritable(const std::string& path);
-
-/// The name of the temporary file writeVdb writes before renaming.
-std::string temporaryPathFor(const std::string& path);
 
 }  // namespace cambium
