@@ -6,6 +6,7 @@
 #include "bake/vdb_io.h"
 
 #include "blobtree/bounds.h"
+#include "bake_util.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
@@ -62,16 +63,6 @@ Errors compareWithExact(const openvdb::FloatGrid& grid, const std::function<doub
             }
     e.mean = e.active ? sum / double(e.active) : 0.0;
     return e;
-}
-
-BakedGrids bakeTree(const BlobTree& tree, double h, double W = 3.0, bool cpu = true)
-{
-    const FieldProgram prog = FieldProgram::compile(tree);
-    auto sampler = cpu ? makeCpuSampler() : makeOpenCLSampler();
-    BakeOptions o;
-    o.voxelSize = h;
-    o.halfWidth = W;
-    return bakeLevelSet(prog, *sampler, o);
 }
 
 void expectAccurate(const Errors& e, const char* what)

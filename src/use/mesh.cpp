@@ -1,0 +1,189 @@
+// cambium — polygonising a baked level set and writing the mesh.
+#include "use/mesh.h"
+
+#include "core/error.h"
+#include "core/files.h"
+
+#include <fmt/format.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+namespace cambium {
+
+TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color, double adaptivity)
+{
+    TriangleMesh mesh;
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(surface, points, tris, quads, 0.0, std::clamp(adaptivity, 0.0, 1.0));
+    mesh.points = std::move(points);
+    // volumeToMesh winds its polygons clockwise seen from outside a level set
+    // (whose inside is negative): reversed here.
+    mesh.triangles.reserve(tris.size() + 2 * quads.size());
+    for (const auto& t : tris)
+        mesh.triangles.push_back({t[2], t[1], t[0]});
+    for (const auto& q : quads) {
+        // The shorter diagonal gives the better-shaped pair.
+        const float d02 = (mesh.points[q[0]] - mesh.points[q[2]]).lengthSqr();
+        const float d13 = (mesh.points[q[1]] - mesh.points[q[3]]).lengthSqr();
+        if (d02 <= d13) {
+            mesh.triangles.push_back({q[2], q[1], q[0]});
+            mesh.triangles.push_back({q[3], q[2], q[0]});
+        } else {
+            mesh.triangles.push_back({q[3], q[1], q[0]});
+            mesh.triangles.push_back({q[3], q[2], q[1]});
+        }
+    }
+    // Normals: central differences of the trilinear level set, half a voxel
+    // either side; colours: trilinear Cd.
+    const double h = surface.voxelSize()[0];
+    const size_t n = mesh.points.size();
+    mesh.normals.resize(n);
+    if (color)
+        mesh.colors.resize(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+        // (The samplers keep references to the accessors: these must outlive them.)
+        const openvdb::FloatGrid::ConstAccessor dAcc = surface.getConstAccessor();
+        const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> d(
+            dAcc, surface.transform());
+        using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
+        std::unique_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
+        std::unique_ptr<ColorSampler> c;
+        if (color) {
+            cAcc = std::make_unique<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
+            c = std::make_unique<ColorSampler>(*cAcc, color->transform());
+        }
+        for (size_t i = r.begin(); i < r.end(); ++i) {
+            const openvdb::Vec3d p = mesh.points[i];
+            openvdb::Vec3d g;
+            for (int k = 0; k < 3; ++k) {
+                openvdb::Vec3d e(0.0);
+                e[k] = 0.5 * h;
+                g[k] = double(d.wsSample(p + e)) - double(d.wsSample(p - e));
+            }
+            const double len = g.length();
+            mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
+            if (c)
+                mesh.colors[i] = c->wsSample(p);
+        }
+    });
+    return mesh;
+}
+
+namespace {
+
+std::string extensionOf(const std::string& path)
+{
+    const size_t dot = path.rfind('.');
+    std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+    return ext;
+}
+
+uint8_t toByte(float v) { return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+
+void writeObj(const TriangleMesh& m, const std::string& path)
+{
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f)
+        throw std::runtime_error(std::strerror(errno));
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
+    std::fprintf(f, "# cambium mesh: %zu vertices, %zu triangles\n", m.points.size(), m.triangles.size());
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        const auto& p = m.points[i];
+        if (m.colors.empty())
+            std::fprintf(f, "v %.7g %.7g %.7g\n", p[0], p[1], p[2]);
+        else
+            std::fprintf(f, "v %.7g %.7g %.7g %.4g %.4g %.4g\n", p[0], p[1], p[2], m.colors[i][0], m.colors[i][1],
+                         m.colors[i][2]);
+    }
+    for (const auto& nrm : m.normals)
+        std::fprintf(f, "vn %.5g %.5g %.5g\n", nrm[0], nrm[1], nrm[2]);
+    for (const auto& t : m.triangles)  // OBJ counts from 1
+        std::fprintf(f, "f %u//%u %u//%u %u//%u\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
+    if (std::ferror(f))
+        throw std::runtime_error("write error");
+    guard.reset();
+}
+
+void writePly(const TriangleMesh& m, const std::string& path)
+{
+    std::ofstream out(path, std::ios::binary);
+    if (!out)
+        throw std::runtime_error(std::strerror(errno));
+    const bool rgb = !m.colors.empty();
+    out << "ply\nformat binary_little_endian 1.0\ncomment cambium mesh\n"
+        << "element vertex " << m.points.size() << "\n"
+        << "property float x\nproperty float y\nproperty float z\n"
+        << "property float nx\nproperty float ny\nproperty float nz\n";
+    if (rgb)
+        out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    out << "element face " << m.triangles.size() << "\nproperty list uchar uint vertex_indices\nend_header\n";
+    static_assert(sizeof(float) == 4 && sizeof(uint32_t) == 4, "PLY float and uint are 4 bytes");
+    // x86 and ARM are little-endian: the values are written as they are.
+    std::vector<char> buf;
+    const size_t vsize = 24 + (rgb ? 3 : 0);
+    buf.resize(m.points.size() * vsize);
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        char* o = buf.data() + i * vsize;
+        std::memcpy(o, m.points[i].asPointer(), 12);
+        std::memcpy(o + 12, m.normals[i].asPointer(), 12);
+        if (rgb)
+            for (int c = 0; c < 3; ++c)
+                o[24 + c] = char(toByte(m.colors[i][c]));
+    }
+    out.write(buf.data(), std::streamsize(buf.size()));
+    buf.resize(m.triangles.size() * 13);
+    for (size_t i = 0; i < m.triangles.size(); ++i) {
+        char* o = buf.data() + i * 13;
+        o[0] = 3;
+        std::memcpy(o + 1, m.triangles[i].data(), 12);
+    }
+    out.write(buf.data(), std::streamsize(buf.size()));
+    out.close();
+    if (!out)
+        throw std::runtime_error("write error");
+}
+
+}  // namespace
+
+void writeMesh(const TriangleMesh& mesh, const std::string& path)
+{
+    const std::string ext = extensionOf(path);
+    if (ext != "obj" && ext != "ply")
+        throw InputError(fmt::format("{}: unknown mesh format '.{}' (write .obj or .ply)", path, ext));
+    writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
+}
+
+double meshArea(const TriangleMesh& m)
+{
+    double a = 0.0;
+    for (const auto& t : m.triangles) {
+        const openvdb::Vec3d p0 = m.points[t[0]], p1 = m.points[t[1]], p2 = m.points[t[2]];
+        a += 0.5 * (p1 - p0).cross(p2 - p0).length();
+    }
+    return a;
+}
+
+double meshVolume(const TriangleMesh& m)
+{
+    double v = 0.0;
+    for (const auto& t : m.triangles) {
+        const openvdb::Vec3d p0 = m.points[t[0]], p1 = m.points[t[1]], p2 = m.points[t[2]];
+        v += p0.dot(p1.cross(p2)) / 6.0;
+    }
+    return v;
+}
+
+}  // namespace cambium

@@ -1,0 +1,21 @@
+// cambium tests — baking a BlobTree in one call.
+#pragma once
+
+#include "bake/levelset.h"
+#include "bake/sampler.h"
+#include "field/program.h"
+
+namespace cambium::test {
+
+/// The tree baked with voxel size h and half-width W, by the CPU path or OpenCL.
+inline BakedGrids bakeTree(const BlobTree& tree, double h, double W = 3.0, bool cpu = true)
+{
+    const FieldProgram prog = FieldProgram::compile(tree);
+    auto sampler = cpu ? makeCpuSampler() : makeOpenCLSampler();
+    BakeOptions o;
+    o.voxelSize = h;
+    o.halfWidth = W;
+    return bakeLevelSet(prog, *sampler, o);
+}
+
+}  // namespace cambium::test
