@@ -117,6 +117,35 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
     std::filesystem::remove(out);
 }
 
+TEST(Cli, MeshWritesAMeshOfABakedGrid)
+{
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_mesh_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string vdb = (dir / "s.vdb").string(), ply = (dir / "s.ply").string();
+    ASSERT_EQ(run("bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05").status, 0);
+    const Result r = run("mesh " + vdb + " -o " + ply);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find(" triangles"), std::string::npos) << r.out;
+    EXPECT_TRUE(std::filesystem::file_size(ply) > 1000);
+    struct Case {
+        std::string args, expected;
+    };
+    const Case cases[] = {
+        {(dir / "missing.vdb").string() + " -o " + ply, "cannot read it as a .vdb file"},
+        {vdb + " -o " + ply + " --grid density", "no grid named 'density' (it holds: Cd, surface)"},
+        {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
+        {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
+        {vdb + " -o /nonexistent/dir/s.obj", "/nonexistent/dir/s.obj: cannot write the output"},
+        {vdb + " -o " + ply + " --adaptivity 2", "--adaptivity must be between 0 and 1"},
+    };
+    for (const Case& c : cases) {
+        const Result e = run("mesh " + c.args);
+        EXPECT_EQ(e.status, 2) << c.args;
+        EXPECT_NE(e.err.find(c.expected), std::string::npos) << e.err;
+    }
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 {
     const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_bad_bake";

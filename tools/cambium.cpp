@@ -7,6 +7,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "core/versions.h"
+#include "use/mesh.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -175,6 +176,17 @@ int main(int argc, char** argv)
             bake.voxelSize = voxelSize;
         action = [&] { return runBakeCommand(bake); };
     });
+
+    MeshRequest mesh;
+    auto* meshCmd = app.add_subcommand("mesh", "Polygonise a baked level set (OpenVDB's volumeToMesh) into "
+                                                "an OBJ or binary PLY mesh");
+    meshCmd->add_option("input", mesh.input, "Input .vdb file")->required();
+    meshCmd->add_option("-o,--output", mesh.output, "Output mesh (.obj or .ply)")->required();
+    meshCmd->add_option("--adaptivity", mesh.adaptivity,
+                        "0: uniform triangles; up to 1: fewer where the surface is flat")
+        ->capture_default_str();
+    meshCmd->add_option("--grid", mesh.grid, "Name of the level-set grid")->capture_default_str();
+    meshCmd->callback([&] { action = [&] { return runMeshCommand(mesh); }; });
 
     auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
     bench->require_subcommand(1);

@@ -5,11 +5,13 @@
 #include "core/files.h"
 
 #include <fmt/format.h>
+#include <openvdb/io/File.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -158,12 +160,63 @@ void writePly(const TriangleMesh& m, const std::string& path)
 
 }  // namespace
 
+void checkMeshOutput(const std::string& path)
+{
+    const std::string ext = extensionOf(path);
+    if (ext != "obj" && ext != "ply")
+        throw InputError(fmt::format("{}: unknown mesh format '.{}' (write .obj or .ply)", path, ext));
+    checkWritable(path);
+}
+
 void writeMesh(const TriangleMesh& mesh, const std::string& path)
 {
     const std::string ext = extensionOf(path);
     if (ext != "obj" && ext != "ply")
         throw InputError(fmt::format("{}: unknown mesh format '.{}' (write .obj or .ply)", path, ext));
     writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
+}
+
+int runMeshCommand(const MeshRequest& req)
+{
+    if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
+        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
+    checkMeshOutput(req.output);
+    const auto start = std::chrono::steady_clock::now();
+    openvdb::GridPtrVecPtr grids;
+    try {
+        openvdb::io::File file(req.input);
+        file.open();
+        grids = file.getGrids();
+        file.close();
+    } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", req.input, e.what()));
+    }
+    openvdb::FloatGrid::Ptr surface;
+    openvdb::Vec3fGrid::Ptr color;
+    std::string names;
+    for (const auto& g : *grids) {
+        names += (names.empty() ? "" : ", ") + g->getName();
+        if (g->getName() == req.grid) {
+            surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+            if (!surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
+                throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", req.input, req.grid,
+                                             g->valueType(), openvdb::GridBase::gridClassToString(g->getGridClass())));
+        }
+        if (g->getName() == "Cd")
+            color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
+    }
+    if (!surface)
+        throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", req.input, req.grid,
+                                     names.empty() ? "no grids" : names));
+    const TriangleMesh mesh = meshLevelSet(*surface, color.get(), req.adaptivity);
+    writeMesh(mesh, req.output);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
+               "volume {:.6g}\n",
+               req.input, req.output, mesh.points.size(), mesh.triangles.size(),
+               color ? ", colours from Cd" : "", s, double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh),
+               meshVolume(mesh));
+    return 0;
 }
 
 double meshArea(const TriangleMesh& m)

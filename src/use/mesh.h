@@ -32,6 +32,20 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
 /// another extension or an unwritable path.
 void writeMesh(const TriangleMesh& mesh, const std::string& path);
 
+/// Throws InputError, before any work, when `path` is not a .obj or .ply
+/// file that can be written.
+void checkMeshOutput(const std::string& path);
+
+/// `cambium mesh`: the float level-set grid `grid` of a .vdb file (and its
+/// `Cd` grid when present) meshed and written to `output`.
+struct MeshRequest {
+    std::string input, output, grid = "surface";
+    double adaptivity = 0.0;
+};
+/// Runs it and prints a one-line summary; InputError for a missing file, a
+/// missing grid or one that is not a float level set, a bad output path.
+int runMeshCommand(const MeshRequest& request);
+
 /// Surface area and enclosed volume (divergence theorem; positive when the
 /// triangles face outwards) of a mesh.
 double meshArea(const TriangleMesh& mesh);
