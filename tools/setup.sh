@@ -40,6 +40,7 @@ case "$mode" in
     "$build/cambium" info "$root/examples/branch_junction.json"
     mkdir -p "$root/out"
     "$build/cambium" bake "$root/examples/branch_junction.json" -o "$root/out/branch_junction.vdb"
+    "$build/cambium" mesh "$root/out/branch_junction.vdb" -o "$root/out/branch_junction.ply"
     ;;
   test)
     ctest --test-dir "$build" --output-on-failure -j"$(nproc)"
