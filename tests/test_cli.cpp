@@ -146,6 +146,32 @@ TEST(Cli, MeshWritesAMeshOfABakedGrid)
     std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, MeshMeshesASequenceFrameByFrame)
+{
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_seq_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    for (const char* f : {"0003", "0004"})
+        ASSERT_EQ(run("bake " + kExamples + "sphere_and_cone.json -o " + (dir / "t.").string() + f +
+                      ".vdb --voxel-size 0.06")
+                      .status,
+                  0);
+    const std::string in = (dir / "t.####.vdb").string(), out = (dir / "m.####.obj").string();
+    // A missing frame is found before any mesh is written.
+    const Result missing = run("mesh '" + in + "' --frames 3-5 -o '" + out + "'");
+    EXPECT_EQ(missing.status, 2);
+    EXPECT_NE(missing.err.find("t.0005.vdb: no such file (frame 5 of --frames 3-5)"), std::string::npos)
+        << missing.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "m.0003.obj"));
+    const Result noFrames = run("mesh '" + in + "' -o '" + out + "'");
+    EXPECT_EQ(noFrames.status, 2);
+    EXPECT_NE(noFrames.err.find("a sequence needs"), std::string::npos) << noFrames.err;
+    const Result r = run("mesh '" + in + "' --frames 3-4 -o '" + out + "'");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "m.0003.obj"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "m.0004.obj"));
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 {
     const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_bad_bake";

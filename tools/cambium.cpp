@@ -186,6 +186,9 @@ int main(int argc, char** argv)
                         "0: uniform triangles; up to 1: fewer where the surface is flat")
         ->capture_default_str();
     meshCmd->add_option("--grid", mesh.grid, "Name of the level-set grid")->capture_default_str();
+    meshCmd->add_option("--frames", mesh.frames,
+                        "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#' "
+                        "(tree.####.vdb)");
     meshCmd->callback([&] { action = [&] { return runMeshCommand(mesh); }; });
 
     auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");

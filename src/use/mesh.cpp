@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/frames.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
@@ -17,6 +18,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 
@@ -176,11 +178,10 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path)
     writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
 }
 
-int runMeshCommand(const MeshRequest& req)
+namespace {
+
+void meshFile(const MeshRequest& req)
 {
-    if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
-        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
-    checkMeshOutput(req.output);
     const auto start = std::chrono::steady_clock::now();
     openvdb::GridPtrVecPtr grids;
     try {
@@ -216,6 +217,37 @@ int runMeshCommand(const MeshRequest& req)
                req.input, req.output, mesh.points.size(), mesh.triangles.size(),
                color ? ", colours from Cd" : "", s, double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh),
                meshVolume(mesh));
+}
+
+}  // namespace
+
+int runMeshCommand(const MeshRequest& req)
+{
+    if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
+        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
+    const bool sequence = isFramePattern(req.input) || isFramePattern(req.output) || !req.frames.empty();
+    if (!sequence) {
+        checkMeshOutput(req.output);
+        meshFile(req);
+        return 0;
+    }
+    if (!isFramePattern(req.input) || !isFramePattern(req.output) || req.frames.empty())
+        throw InputError("a sequence needs an input and an output with a run of '#' for the frame number, and "
+                         "--frames (e.g. cambium mesh out/tree.####.vdb --frames 1-10 -o out/tree.####.ply)");
+    const std::vector<long long> frames = parseFrames(req.frames);
+    // Everything checked before the first mesh: every input there, the outputs writable.
+    for (long long f : frames) {
+        const std::string in = framePath(req.input, f);
+        if (!std::filesystem::exists(in))
+            throw InputError(fmt::format("{}: no such file (frame {} of --frames {})", in, f, req.frames));
+    }
+    checkMeshOutput(framePath(req.output, frames.front()));
+    for (long long f : frames) {
+        MeshRequest one = req;
+        one.input = framePath(req.input, f);
+        one.output = framePath(req.output, f);
+        meshFile(one);
+    }
     return 0;
 }
 

@@ -37,13 +37,16 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path);
 void checkMeshOutput(const std::string& path);
 
 /// `cambium mesh`: the float level-set grid `grid` of a .vdb file (and its
-/// `Cd` grid when present) meshed and written to `output`.
+/// `Cd` grid when present) meshed and written to `output`; for a sequence,
+/// input and output are patterns with a run of `#` and `frames` a range
+/// (core/frames.h): one mesh per frame.
 struct MeshRequest {
-    std::string input, output, grid = "surface";
+    std::string input, output, grid = "surface", frames;
     double adaptivity = 0.0;
 };
-/// Runs it and prints a one-line summary; InputError for a missing file, a
-/// missing grid or one that is not a float level set, a bad output path.
+/// Runs it and prints a one-line summary per file; InputError, before any
+/// work, for a bad output path or a missing input file, and for a file
+/// without the grid or whose grid is not a float level set.
 int runMeshCommand(const MeshRequest& request);
 
 /// Surface area and enclosed volume (divergence theorem; positive when the

@@ -1,0 +1,50 @@
+// cambium — frame sequences.
+#include "core/frames.h"
+
+#include "core/error.h"
+
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <regex>
+
+namespace cambium {
+
+bool isFramePattern(const std::string& pattern) { return pattern.find('#') != std::string::npos; }
+
+std::string framePath(const std::string& pattern, long long frame)
+{
+    const size_t a = pattern.find('#');
+    if (a == std::string::npos)
+        throw InputError(fmt::format("{}: no run of '#' for the frame number", pattern));
+    size_t b = a;
+    while (b < pattern.size() && pattern[b] == '#')
+        ++b;
+    if (pattern.find('#', b) != std::string::npos)
+        throw InputError(fmt::format("{}: more than one run of '#' (one frame number per name)", pattern));
+    const std::string digits = frame < 0 ? fmt::format("-{:0{}}", -frame, b - a) : fmt::format("{:0{}}", frame, b - a);
+    return pattern.substr(0, a) + digits + pattern.substr(b);
+}
+
+std::vector<long long> parseFrames(const std::string& range, const std::string& option)
+{
+    static const std::regex form(R"(\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*(?::\s*(\d+)\s*)?)?)");
+    std::smatch m;
+    if (!std::regex_match(range, m, form))
+        throw InputError(fmt::format("{} {}: expected FRAME, FIRST-LAST or FIRST-LAST:STEP", option, range));
+    const long long first = std::stoll(m[1]);
+    const long long last = m[2].matched ? std::stoll(m[2]) : first;
+    const long long step = m[3].matched ? std::stoll(m[3]) : 1;
+    if (last < first || step < 1)
+        throw InputError(fmt::format("{} {}: the last frame must not come before the first, and the step must be "
+                                     "at least 1",
+                                     option, range));
+    if ((last - first) / step > 10'000'000)
+        throw InputError(fmt::format("{} {}: more than ten million frames", option, range));
+    std::vector<long long> frames;
+    for (long long f = first; f <= last; f += step)
+        frames.push_back(f);
+    return frames;
+}
+
+}  // namespace cambium

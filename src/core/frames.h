@@ -1,0 +1,21 @@
+// cambium — frame sequences: file-name patterns with `#` runs and frame ranges.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// Whether `pattern` holds a run of `#` (the frame number's place).
+bool isFramePattern(const std::string& pattern);
+
+/// `pattern` with its (single) run of `#` replaced by `frame`, zero-padded to
+/// the run's length: "tree.####.vdb", 12 -> "tree.0012.vdb".  Throws
+/// InputError when the pattern has more than one run of `#` or none.
+std::string framePath(const std::string& pattern, long long frame);
+
+/// The frames of a range "A", "A-B" or "A-B:STEP" (A <= B, STEP >= 1), in
+/// order.  Throws InputError naming `option` for anything else.
+std::vector<long long> parseFrames(const std::string& range, const std::string& option = "--frames");
+
+}  // namespace cambium
