@@ -3,10 +3,9 @@
 
 #include "core/error.h"
 #include "core/files.h"
-#include "core/frames.h"
+#include "use/grid_file.h"
 
 #include <fmt/format.h>
-#include <openvdb/io/File.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
@@ -18,7 +17,6 @@
 #include <cstring>
 #include <stdexcept>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <memory>
 
@@ -178,76 +176,21 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path)
     writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
 }
 
-namespace {
-
-void meshFile(const MeshRequest& req)
-{
-    const auto start = std::chrono::steady_clock::now();
-    openvdb::GridPtrVecPtr grids;
-    try {
-        openvdb::io::File file(req.input);
-        file.open();
-        grids = file.getGrids();
-        file.close();
-    } catch (const std::exception& e) {
-        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", req.input, e.what()));
-    }
-    openvdb::FloatGrid::Ptr surface;
-    openvdb::Vec3fGrid::Ptr color;
-    std::string names;
-    for (const auto& g : *grids) {
-        names += (names.empty() ? "" : ", ") + g->getName();
-        if (g->getName() == req.grid) {
-            surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
-            if (!surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
-                throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", req.input, req.grid,
-                                             g->valueType(), openvdb::GridBase::gridClassToString(g->getGridClass())));
-        }
-        if (g->getName() == "Cd")
-            color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
-    }
-    if (!surface)
-        throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", req.input, req.grid,
-                                     names.empty() ? "no grids" : names));
-    const TriangleMesh mesh = meshLevelSet(*surface, color.get(), req.adaptivity);
-    writeMesh(mesh, req.output);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
-               "volume {:.6g}\n",
-               req.input, req.output, mesh.points.size(), mesh.triangles.size(),
-               color ? ", colours from Cd" : "", s, double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh),
-               meshVolume(mesh));
-}
-
-}  // namespace
-
 int runMeshCommand(const MeshRequest& req)
 {
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
         throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
-    const bool sequence = isFramePattern(req.input) || isFramePattern(req.output) || !req.frames.empty();
-    if (!sequence) {
-        checkMeshOutput(req.output);
-        meshFile(req);
-        return 0;
-    }
-    if (!isFramePattern(req.input) || !isFramePattern(req.output) || req.frames.empty())
-        throw InputError("a sequence needs an input and an output with a run of '#' for the frame number, and "
-                         "--frames (e.g. cambium mesh out/tree.####.vdb --frames 1-10 -o out/tree.####.ply)");
-    const std::vector<long long> frames = parseFrames(req.frames);
-    // Everything checked before the first mesh: every input there, the outputs writable.
-    for (long long f : frames) {
-        const std::string in = framePath(req.input, f);
-        if (!std::filesystem::exists(in))
-            throw InputError(fmt::format("{}: no such file (frame {} of --frames {})", in, f, req.frames));
-    }
-    checkMeshOutput(framePath(req.output, frames.front()));
-    for (long long f : frames) {
-        MeshRequest one = req;
-        one.input = framePath(req.input, f);
-        one.output = framePath(req.output, f);
-        meshFile(one);
-    }
+    forEachFile(req.input, req.output, req.frames, checkMeshOutput, [&](const std::string& in, const std::string& out) {
+        const auto start = std::chrono::steady_clock::now();
+        const LevelSetFile f = readLevelSet(in, req.grid);
+        const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
+        writeMesh(mesh, out);
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
+                   "volume {:.6g}\n",
+                   in, out, mesh.points.size(), mesh.triangles.size(), f.color ? ", colours from Cd" : "", s,
+                   double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
+    });
     return 0;
 }
 

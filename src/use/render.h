@@ -1,0 +1,75 @@
+// cambium — looking at a baked level set: a camera that frames it, ray
+// marching through VDB's hierarchical DDA, simple shading, images written
+// with OpenImageIO.
+#pragma once
+
+#include "core/box.h"
+
+#include <openvdb/openvdb.h>
+
+#include <glm/glm.hpp>
+
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// A pinhole camera, y up.
+struct Camera {
+    glm::dvec3 eye{0.0, 0.0, 1.0}, target{0.0}, up{0.0, 1.0, 0.0};
+    double fovY = 35.0;  ///< vertical field of view, degrees
+};
+
+/// A view of `bounds` (world space) from `azimuthDeg` around the vertical
+/// axis and `elevationDeg` above the horizon, at the distance where the
+/// bounds' enclosing sphere fills the frame (aspect = width / height).
+Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0, double elevationDeg = 20.0);
+
+/// "auto" (a three-quarter view) or "turntable:ANGLE" (the same view turned
+/// ANGLE degrees about the vertical axis).  InputError otherwise.
+Camera parseCamera(const std::string& spec, const Box& bounds, double aspect);
+
+/// The world-space ray through image position (px, py) (pixels, y down).
+void cameraRay(const Camera& cam, int width, int height, double px, double py, glm::dvec3& origin,
+               glm::dvec3& direction);
+
+/// A rendered image: rows top to bottom.
+struct RenderImage {
+    int width = 0, height = 0;
+    std::vector<float> rgb;     ///< linear colour, 3 per pixel
+    std::vector<float> alpha;   ///< fraction of a pixel's samples that hit the surface
+    std::vector<float> depth;   ///< distance to the hit along the pixel's central ray, +inf where it misses
+    std::vector<float> normal;  ///< unit normal at that hit, 3 per pixel (0 where it misses)
+};
+
+/// Linear colour of a surface point with unit normal n and albedo, seen along
+/// `dir`: a key light and a sky; the background for rays that miss.
+glm::vec3 shadeSurface(const glm::vec3& n, const glm::vec3& albedo);
+glm::vec3 shadeBackground(const glm::dvec3& dir);
+
+/// Ray marches a level set on the CPU with OpenVDB's LevelSetRayIntersector
+/// (hierarchical DDA to the zero crossing, then refined), `spp` samples per
+/// pixel (stratified, deterministic), colour from `color` (Cd) when given.
+RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                              const Camera& camera, int width, int height, int spp);
+
+/// Writes an image by the extension of `path`: .png (8-bit sRGB with alpha,
+/// for people) or .exr (float R G B A, Z, N.x N.y N.z, for tools), through a
+/// temporary file.  InputError for another extension.
+void writeImage(const RenderImage& image, const std::string& path);
+
+/// Throws InputError, before any work, when `path` is not a .png or .exr
+/// file that can be written.
+void checkImageOutput(const std::string& path);
+
+/// World-space bounds of a grid's active voxels.
+Box activeWorldBounds(const openvdb::GridBase& grid);
+
+/// `cambium render`.
+struct RenderRequest {
+    std::string input, output, grid = "surface", camera = "auto", device = "cpu", frames;
+    int width = 960, height = 720, spp = 1;
+};
+int runRenderCommand(const RenderRequest& request);
+
+}  // namespace cambium
