@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 
 namespace {
@@ -36,6 +37,32 @@ Result run(const std::string& args)
 }
 
 const std::string kExamples = CAMBIUM_SOURCE_DIR "/examples/";
+
+/// A command line (after the sub-command) and the message it must fail with.
+struct Refusal {
+    std::string args, expected;
+};
+
+/// Each case exits with status 2 and its message.
+void expectRefused(const std::string& command, const std::vector<Refusal>& cases)
+{
+    for (const Refusal& c : cases) {
+        const Result e = run(command + " " + c.args);
+        EXPECT_EQ(e.status, 2) << c.args;
+        EXPECT_NE(e.err.find(c.expected), std::string::npos) << e.err;
+    }
+}
+
+/// A directory of its own for a test, and a small baked .vdb in it.
+std::filesystem::path bakedDir(const std::string& name, std::string& vdb)
+{
+    const auto dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    vdb = (dir / "s.vdb").string();
+    const Result r = run("bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05");
+    EXPECT_EQ(r.status, 0) << r.err;
+    return dir;
+}
 
 TEST(Cli, InfoPrintsCountsDepthAndBounds)
 {
@@ -119,30 +146,21 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
 
 TEST(Cli, MeshWritesAMeshOfABakedGrid)
 {
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_mesh_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    const std::string vdb = (dir / "s.vdb").string(), ply = (dir / "s.ply").string();
-    ASSERT_EQ(run("bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05").status, 0);
+    std::string vdb;
+    const auto dir = bakedDir("cambium_cli_mesh", vdb);
+    const std::string ply = (dir / "s.ply").string();
     const Result r = run("mesh " + vdb + " -o " + ply);
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find(" triangles"), std::string::npos) << r.out;
     EXPECT_TRUE(std::filesystem::file_size(ply) > 1000);
-    struct Case {
-        std::string args, expected;
-    };
-    const Case cases[] = {
+    expectRefused("mesh", {
         {(dir / "missing.vdb").string() + " -o " + ply, "cannot read it as a .vdb file"},
         {vdb + " -o " + ply + " --grid density", "no grid named 'density' (it holds: Cd, surface)"},
         {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
         {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
         {vdb + " -o /nonexistent/dir/s.obj", "/nonexistent/dir/s.obj: cannot write the output"},
         {vdb + " -o " + ply + " --adaptivity 2", "--adaptivity must be between 0 and 1"},
-    };
-    for (const Case& c : cases) {
-        const Result e = run("mesh " + c.args);
-        EXPECT_EQ(e.status, 2) << c.args;
-        EXPECT_NE(e.err.find(c.expected), std::string::npos) << e.err;
-    }
+    });
     std::filesystem::remove_all(dir);
 }
 
@@ -169,6 +187,26 @@ TEST(Cli, MeshMeshesASequenceFrameByFrame)
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(std::filesystem::exists(dir / "m.0003.obj"));
     EXPECT_TRUE(std::filesystem::exists(dir / "m.0004.obj"));
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
+{
+    std::string vdb;
+    const auto dir = bakedDir("cambium_cli_render", vdb);
+    const std::string png = (dir / "s.png").string();
+    const Result r = run("render " + vdb + " -o " + png + " --width 64 --height 48 --spp 2");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("64 x 48, 2 samples per pixel"), std::string::npos) << r.out;
+    EXPECT_TRUE(std::filesystem::file_size(png) > 100);
+    expectRefused("render", {
+        {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
+        {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto or turntable:ANGLE"},
+        {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},
+        {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
+        {vdb + " -o " + png + " --grid Cd", "grid 'Cd' is a vec3s"},
+        {(dir / "missing.vdb").string() + " -o " + png, "cannot read it as a .vdb file"},
+    });
     std::filesystem::remove_all(dir);
 }
 

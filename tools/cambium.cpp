@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/versions.h"
 #include "use/mesh.h"
+#include "use/render.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -190,6 +191,23 @@ int main(int argc, char** argv)
                         "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#' "
                         "(tree.####.vdb)");
     meshCmd->callback([&] { action = [&] { return runMeshCommand(mesh); }; });
+
+    RenderRequest render;
+    auto* renderCmd = app.add_subcommand("render", "Ray-march a baked level set into a picture (.png) or "
+                                                    "channels for tools (.exr)");
+    renderCmd->add_option("input", render.input, "Input .vdb file")->required();
+    renderCmd->add_option("-o,--output", render.output, "Output image (.png or .exr)")->required();
+    renderCmd->add_option("--width", render.width, "Image width in pixels")->capture_default_str();
+    renderCmd->add_option("--height", render.height, "Image height in pixels")->capture_default_str();
+    renderCmd->add_option("--spp", render.spp, "Samples per pixel (anti-aliasing)")->capture_default_str();
+    renderCmd->add_option("--camera", render.camera, "auto (a three-quarter view) or turntable:ANGLE")
+        ->capture_default_str();
+    renderCmd->add_option("--device", render.device, "cpu (OpenVDB's level-set ray intersector)")
+        ->capture_default_str();
+    renderCmd->add_option("--grid", render.grid, "Name of the level-set grid")->capture_default_str();
+    renderCmd->add_option("--frames", render.frames,
+                          "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#'");
+    renderCmd->callback([&] { action = [&] { return runRenderCommand(render); }; });
 
     auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
     bench->require_subcommand(1);

@@ -41,6 +41,7 @@ case "$mode" in
     mkdir -p "$root/out"
     "$build/cambium" bake "$root/examples/branch_junction.json" -o "$root/out/branch_junction.vdb"
     "$build/cambium" mesh "$root/out/branch_junction.vdb" -o "$root/out/branch_junction.ply"
+    "$build/cambium" render "$root/out/branch_junction.vdb" -o "$root/out/branch_junction.png" --spp 4
     ;;
   test)
     ctest --test-dir "$build" --output-on-failure -j"$(nproc)"

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -26,6 +28,19 @@ void checkWritable(const std::string& path)
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     ::close(fd);
     ::unlink(tmp.c_str());
+}
+
+std::string outputFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind)
+{
+    const size_t dot = path.rfind('.'), slash = path.rfind('/');
+    std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+    if (std::find(allowed.begin(), allowed.end(), ext) != allowed.end())
+        return ext;
+    std::string list;
+    for (size_t i = 0; i < allowed.size(); ++i)
+        list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
+    throw InputError(fmt::format("{}: unknown {} format '.{}' (write {})", path, kind, ext, list));
 }
 
 void writeAtomically(const std::string& path, const std::function<void(const std::string& tmp)>& write)

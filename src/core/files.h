@@ -3,6 +3,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -12,6 +13,10 @@ std::string temporaryPathFor(const std::string& path);
 /// Fails early, before any work, when `path` cannot be created (missing
 /// directory, no permission): creates and removes a temporary file beside it.
 void checkWritable(const std::string& path);
+
+/// The lower-case extension of `path` (without the dot) when it is one of
+/// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (write .A or .B)".
+std::string outputFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind);
 
 /// Calls write(tmp) to write the file to a temporary name beside `path`, then
 /// renames it over `path`: a crash or an error never leaves a half-written

@@ -85,14 +85,6 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
 
 namespace {
 
-std::string extensionOf(const std::string& path)
-{
-    const size_t dot = path.rfind('.');
-    std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
-    return ext;
-}
-
 uint8_t toByte(float v) { return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
 
 void writeObj(const TriangleMesh& m, const std::string& path)
@@ -162,17 +154,13 @@ void writePly(const TriangleMesh& m, const std::string& path)
 
 void checkMeshOutput(const std::string& path)
 {
-    const std::string ext = extensionOf(path);
-    if (ext != "obj" && ext != "ply")
-        throw InputError(fmt::format("{}: unknown mesh format '.{}' (write .obj or .ply)", path, ext));
+    outputFormat(path, {"obj", "ply"}, "mesh");
     checkWritable(path);
 }
 
 void writeMesh(const TriangleMesh& mesh, const std::string& path)
 {
-    const std::string ext = extensionOf(path);
-    if (ext != "obj" && ext != "ply")
-        throw InputError(fmt::format("{}: unknown mesh format '.{}' (write .obj or .ply)", path, ext));
+    const std::string ext = outputFormat(path, {"obj", "ply"}, "mesh");
     writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
 }
 

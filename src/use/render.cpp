@@ -1,0 +1,249 @@
+// cambium — looking at a baked level set.
+#include "use/render.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "use/grid_file.h"
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <openvdb/math/Ray.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/RayIntersector.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+namespace cambium {
+
+namespace {
+
+float toSrgb(float v)
+{
+    v = std::clamp(v, 0.0f, 1.0f);
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+}  // namespace
+
+Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg, double elevationDeg)
+{
+    Camera cam;
+    cam.target = bounds.center();
+    const double radius = std::max(0.5 * glm::length(bounds.size()), 1e-9);
+    const double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
+    const glm::dvec3 dir(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
+    // The sphere fits the narrower of the two fields of view, with a margin.
+    const double halfY = glm::radians(0.5 * cam.fovY);
+    const double halfX = std::atan(std::tan(halfY) * aspect);
+    const double distance = 1.05 * radius / std::sin(std::min(halfX, halfY));
+    cam.eye = cam.target + distance * dir;
+    return cam;
+}
+
+Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
+{
+    if (spec == "auto")
+        return framingCamera(bounds, aspect);
+    const std::string turntable = "turntable:";
+    if (spec.rfind(turntable, 0) == 0) {
+        char* end = nullptr;
+        const std::string angle = spec.substr(turntable.size());
+        const double a = std::strtod(angle.c_str(), &end);
+        if (!angle.empty() && end && *end == '\0' && std::isfinite(a))
+            return framingCamera(bounds, aspect, 35.0 + a);
+    }
+    throw InputError(fmt::format("--camera {}: expected auto or turntable:ANGLE (degrees)", spec));
+}
+
+void cameraRay(const Camera& cam, int width, int height, double px, double py, glm::dvec3& origin,
+               glm::dvec3& direction)
+{
+    const glm::dvec3 w = glm::normalize(cam.target - cam.eye);
+    const glm::dvec3 u = glm::normalize(glm::cross(w, cam.up));
+    const glm::dvec3 v = glm::cross(u, w);
+    const double t = std::tan(glm::radians(0.5 * cam.fovY));
+    const double sx = (2.0 * px / width - 1.0) * t * double(width) / double(height);
+    const double sy = (1.0 - 2.0 * py / height) * t;
+    origin = cam.eye;
+    direction = glm::normalize(w + sx * u + sy * v);
+}
+
+glm::vec3 shadeSurface(const glm::vec3& n, const glm::vec3& albedo)
+{
+    const glm::vec3 key = glm::normalize(glm::vec3(-0.45f, 0.75f, 0.5f));
+    const float sky = 0.30f + 0.15f * n.y;       // brighter facing up
+    const float sun = 0.85f * std::max(0.0f, glm::dot(n, key));
+    return albedo * (sky + sun);
+}
+
+glm::vec3 shadeBackground(const glm::dvec3& dir)
+{
+    const float t = float(std::clamp(0.5 * (dir.y + 1.0), 0.0, 1.0));
+    return glm::mix(glm::vec3(0.80f, 0.82f, 0.85f), glm::vec3(0.45f, 0.58f, 0.78f), t);
+}
+
+RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                              const Camera& camera, int width, int height, int spp)
+{
+    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
+    using RayT = Intersector::RayType;
+    RenderImage img;
+    img.width = width;
+    img.height = height;
+    const size_t n = size_t(width) * size_t(height);
+    img.rgb.assign(3 * n, 0.0f);
+    img.alpha.assign(n, 0.0f);
+    img.depth.assign(n, std::numeric_limits<float>::infinity());
+    img.normal.assign(3 * n, 0.0f);
+    const Intersector prototype(surface);
+    const glm::vec3 plain(0.60f, 0.50f, 0.40f);  // bark, where there is no Cd
+    spp = std::max(1, spp);
+    tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
+        const Intersector isect(prototype);  // one per task: it holds an accessor
+        std::unique_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
+        using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
+        std::unique_ptr<ColorSampler> cs;
+        if (color) {
+            cAcc = std::make_unique<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
+            cs = std::make_unique<ColorSampler>(*cAcc, color->transform());
+        }
+        for (int y = rows.begin(); y < rows.end(); ++y)
+            for (int x = 0; x < width; ++x) {
+                const size_t i = size_t(y) * size_t(width) + size_t(x);
+                glm::vec3 sum(0.0f);
+                int hits = 0;
+                for (int s = 0; s < spp; ++s) {
+                    // Sample 0 at the pixel's centre, the others spread by the
+                    // plastic-number (R2) sequence.
+                    const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
+                    const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
+                    glm::dvec3 o, d;
+                    cameraRay(camera, width, height, x + jx, y + jy, o, d);
+                    const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
+                    openvdb::Vec3d p, g;
+                    double t = 0.0;
+                    if (!isect.intersectsWS(ray, p, g, t)) {
+                        sum += shadeBackground(d);
+                        continue;
+                    }
+                    ++hits;
+                    const double len = g.length();
+                    const glm::vec3 nrm = len > 0.0 ? glm::vec3(float(g.x() / len), float(g.y() / len), float(g.z() / len))
+                                                    : glm::vec3(0.0f);
+                    glm::vec3 albedo = plain;
+                    if (cs) {
+                        const openvdb::Vec3f c = cs->wsSample(p);
+                        albedo = glm::vec3(c.x(), c.y(), c.z());
+                    }
+                    sum += shadeSurface(nrm, albedo);
+                    if (s == 0) {
+                        img.depth[i] = float(t);
+                        for (int k = 0; k < 3; ++k)
+                            img.normal[3 * i + size_t(k)] = nrm[k];
+                    }
+                }
+                const glm::vec3 c = sum / float(spp);
+                for (int k = 0; k < 3; ++k)
+                    img.rgb[3 * i + size_t(k)] = c[k];
+                img.alpha[i] = float(hits) / float(spp);
+            }
+    });
+    return img;
+}
+
+void checkImageOutput(const std::string& path)
+{
+    outputFormat(path, {"png", "exr"}, "image");
+    checkWritable(path);
+}
+
+void writeImage(const RenderImage& img, const std::string& path)
+{
+    const std::string ext = outputFormat(path, {"png", "exr"}, "image");
+    writeAtomically(path, [&](const std::string& tmp) {
+        auto out = OIIO::ImageOutput::create(path);  // the plugin by the real name's extension
+        if (!out)
+            throw std::runtime_error(OIIO::geterror());
+        const size_t n = size_t(img.width) * size_t(img.height);
+        std::vector<float> px;
+        OIIO::ImageSpec spec;
+        if (ext == "png") {
+            spec = OIIO::ImageSpec(img.width, img.height, 4, OIIO::TypeDesc::UINT8);
+            spec.attribute("oiio:ColorSpace", "sRGB");
+            px.resize(4 * n);
+            for (size_t i = 0; i < n; ++i) {
+                for (int k = 0; k < 3; ++k)
+                    px[4 * i + size_t(k)] = toSrgb(img.rgb[3 * i + size_t(k)]);
+                px[4 * i + 3] = 1.0f;  // the background is drawn: opaque
+            }
+        } else {
+            spec = OIIO::ImageSpec(img.width, img.height, 8, OIIO::TypeDesc::FLOAT);
+            spec.channelnames = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z"};
+            spec.alpha_channel = 3;
+            spec.z_channel = 4;
+            px.resize(8 * n);
+            for (size_t i = 0; i < n; ++i) {
+                for (int k = 0; k < 3; ++k) {
+                    px[8 * i + size_t(k)] = img.rgb[3 * i + size_t(k)];
+                    px[8 * i + 5 + size_t(k)] = img.normal[3 * i + size_t(k)];
+                }
+                px[8 * i + 3] = img.alpha[i];
+                px[8 * i + 4] = img.depth[i];
+            }
+        }
+        spec.attribute("Software", "cambium");
+        if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
+            throw std::runtime_error(out->geterror());
+    });
+}
+
+Box activeWorldBounds(const openvdb::GridBase& grid)
+{
+    const openvdb::CoordBBox b = grid.evalActiveVoxelBoundingBox();
+    if (b.empty())
+        return Box();
+    const openvdb::Vec3d lo = grid.indexToWorld(b.min().asVec3d()), hi = grid.indexToWorld(b.max().asVec3d());
+    return Box(glm::dvec3(std::min(lo.x(), hi.x()), std::min(lo.y(), hi.y()), std::min(lo.z(), hi.z())),
+               glm::dvec3(std::max(lo.x(), hi.x()), std::max(lo.y(), hi.y()), std::max(lo.z(), hi.z())));
+}
+
+int runRenderCommand(const RenderRequest& req)
+{
+    if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
+        throw InputError(fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
+                                     req.height));
+    if (req.spp < 1 || req.spp > 4096)
+        throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
+    if (req.device != "cpu")
+        throw InputError(fmt::format("--device {}: this build renders on the cpu (OpenVDB's level-set ray "
+                                     "intersector); write --device cpu",
+                                     req.device));
+    parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);  // the spec, before any work
+    forEachFile(req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
+        const auto start = std::chrono::steady_clock::now();
+        const LevelSetFile f = readLevelSet(in, req.grid);
+        const Box bounds = activeWorldBounds(*f.surface);
+        if (bounds.empty())
+            throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
+        const Camera cam = parseCamera(req.camera, bounds, double(req.width) / double(req.height));
+        const RenderImage img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+        writeImage(img, out);
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        size_t covered = 0;
+        for (float a : img.alpha)
+            covered += a > 0.0f;
+        fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
+                   "({:.3g} M rays/s, cpu)\n",
+                   in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
+                   100.0 * double(covered) / double(img.alpha.size()), s,
+                   double(req.width) * req.height * req.spp / s * 1e-6);
+    });
+    return 0;
+}
+
+}  // namespace cambium
