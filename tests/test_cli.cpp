@@ -199,6 +199,9 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("64 x 48, 2 samples per pixel"), std::string::npos) << r.out;
     EXPECT_TRUE(std::filesystem::file_size(png) > 100);
+    const Result m = run("render " + vdb + " -o " + png + " --width 64 --height 48 --via-mesh");
+    ASSERT_EQ(m.status, 0) << m.err;
+    EXPECT_NE(m.out.find("Embree"), std::string::npos) << m.out;
     expectRefused("render", {
         {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
         {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto or turntable:ANGLE"},

@@ -1,6 +1,7 @@
 // Ray marching a level set: hits on an analytic sphere level set within 0.1
 // voxel of the exact ray-sphere intersection, the right pixels hit and miss,
 // a default camera that frames the bounds, images that read back.
+#include "use/mesh.h"
 #include "use/render.h"
 
 #include "bake_util.h"
@@ -72,6 +73,59 @@ TEST(Render, MarchHitsAnAnalyticSphereWhereTheRayDoes)
     std::printf("analytic sphere: largest |t - exact| %.4f voxel over %zu pixels\n", worst, checked);
     EXPECT_LT(worst, 0.1) << "largest |t - exact| in voxels over " << checked << " pixels";
     EXPECT_GT(hits, checked);
+}
+
+/// The level-set march and Embree on the level set's mesh, from the framing view.
+void expectMarchAgreesWithEmbree(const BlobTree& tree, double h, const char* what)
+{
+    const BakedGrids g = test::bakeTree(tree, h);
+    const Camera cam = framingCamera(activeWorldBounds(*g.surface), 4.0 / 3.0, 35.0, 20.0);
+    const int W = 200, H = 150;
+    const RenderImage march = renderLevelSetCpu(*g.surface, nullptr, cam, W, H, 1);
+    const RenderImage embree = renderMeshEmbree(meshLevelSet(*g.surface), cam, W, H, 1);
+    size_t both = 0, close = 0, differ = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < size_t(W * H); ++i) {
+        const bool a = std::isfinite(march.depth[i]), b = std::isfinite(embree.depth[i]);
+        differ += a != b;
+        if (!(a && b))
+            continue;
+        ++both;
+        const double e = std::abs(double(march.depth[i]) - double(embree.depth[i])) / h;
+        close += e < 0.5;
+        worst = std::max(worst, e);
+    }
+    std::printf("%s: %zu pixels hit by both, %.3f %% within 0.5 voxel (worst %.2f), masks differ on %.3f %%\n", what,
+                both, 100.0 * double(close) / double(both), worst, 100.0 * double(differ) / double(W * H));
+    EXPECT_GT(both, 1000u) << what;
+    EXPECT_GE(double(close), 0.99 * double(both)) << what;
+    EXPECT_LT(double(differ), 0.005 * double(W * H)) << what;
+}
+
+TEST(Render, MarchAndEmbreeOnTheMeshAgree)
+{
+    {
+        BlobTree tree;
+        tree.setRoot(tree.sphere({0.013, -0.021, 0.007}, 0.5));
+        tree.finalize();
+        expectMarchAgreesWithEmbree(tree, 0.02, "sphere");
+    }
+    {
+        BlobTree tree;
+        tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
+        tree.finalize();
+        expectMarchAgreesWithEmbree(tree, 0.01, "capsule");
+    }
+    {
+        // A small tree: a trunk and two branches, blended.
+        BlobTree tree;
+        const int trunk = tree.cone({0, 0, 0}, {0, 1.0, 0}, 0.08, 0.05);
+        const int b1 = tree.cone({0, 0.5, 0}, {0.35, 0.85, 0.05}, 0.04, 0.02);
+        const int b2 = tree.cone({0, 0.7, 0}, {-0.3, 1.0, -0.1}, 0.035, 0.015);
+        tree.setRoot(tree.op(Combiner{}, {trunk, b1, b2}));
+        tree.finalize();
+        expectMarchAgreesWithEmbree(tree, 0.005, "small tree");
+    }
 }
 
 TEST(Render, TheDefaultCameraFramesTheBounds)

@@ -205,6 +205,8 @@ int main(int argc, char** argv)
     renderCmd->add_option("--device", render.device, "cpu (OpenVDB's level-set ray intersector)")
         ->capture_default_str();
     renderCmd->add_option("--grid", render.grid, "Name of the level-set grid")->capture_default_str();
+    renderCmd->add_flag("--via-mesh", render.viaMesh,
+                        "Mesh the level set and trace the triangles with Embree (the cross-check)");
     renderCmd->add_option("--frames", render.frames,
                           "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#'");
     renderCmd->callback([&] { action = [&] { return runRenderCommand(render); }; });

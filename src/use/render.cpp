@@ -6,6 +6,7 @@
 #include "use/grid_file.h"
 
 #include <OpenImageIO/imageio.h>
+#include <embree3/rtcore.h>
 #include <fmt/format.h>
 #include <openvdb/math/Ray.h>
 #include <openvdb/tools/Interpolation.h>
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 
@@ -87,11 +89,14 @@ glm::vec3 shadeBackground(const glm::dvec3& dir)
     return glm::mix(glm::vec3(0.80f, 0.82f, 0.85f), glm::vec3(0.45f, 0.58f, 0.78f), t);
 }
 
-RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
-                              const Camera& camera, int width, int height, int spp)
+namespace {
+
+/// Renders by batches of rays, a row's samples at a time, with a tracer made
+/// per task (`makeTracer`: tracers may hold accessors or ray buffers).  A
+/// tracer fills hits[i] for rays[i].
+RenderImage renderRows(const Camera& camera, int width, int height, int spp,
+                       const std::function<BatchTracer()>& makeTracer)
 {
-    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
-    using RayT = Intersector::RayType;
     RenderImage img;
     img.width = width;
     img.height = height;
@@ -100,60 +105,171 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
     img.alpha.assign(n, 0.0f);
     img.depth.assign(n, std::numeric_limits<float>::infinity());
     img.normal.assign(3 * n, 0.0f);
-    const Intersector prototype(surface);
-    const glm::vec3 plain(0.60f, 0.50f, 0.40f);  // bark, where there is no Cd
     spp = std::max(1, spp);
     tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
-        const Intersector isect(prototype);  // one per task: it holds an accessor
-        std::unique_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
-        using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
-        std::unique_ptr<ColorSampler> cs;
-        if (color) {
-            cAcc = std::make_unique<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
-            cs = std::make_unique<ColorSampler>(*cAcc, color->transform());
-        }
-        for (int y = rows.begin(); y < rows.end(); ++y)
-            for (int x = 0; x < width; ++x) {
-                const size_t i = size_t(y) * size_t(width) + size_t(x);
-                glm::vec3 sum(0.0f);
-                int hits = 0;
+        const BatchTracer trace = makeTracer();
+        std::vector<TraceRay> rays(size_t(width) * size_t(spp));
+        std::vector<TraceHit> hits(rays.size());
+        for (int y = rows.begin(); y < rows.end(); ++y) {
+            for (int x = 0; x < width; ++x)
                 for (int s = 0; s < spp; ++s) {
                     // Sample 0 at the pixel's centre, the others spread by the
                     // plastic-number (R2) sequence.
                     const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
                     const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
-                    glm::dvec3 o, d;
-                    cameraRay(camera, width, height, x + jx, y + jy, o, d);
-                    const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
-                    openvdb::Vec3d p, g;
-                    double t = 0.0;
-                    if (!isect.intersectsWS(ray, p, g, t)) {
-                        sum += shadeBackground(d);
+                    TraceRay& r = rays[size_t(x) * size_t(spp) + size_t(s)];
+                    cameraRay(camera, width, height, x + jx, y + jy, r.origin, r.direction);
+                }
+            trace(rays, hits);
+            for (int x = 0; x < width; ++x) {
+                const size_t i = size_t(y) * size_t(width) + size_t(x);
+                glm::vec3 sum(0.0f);
+                int count = 0;
+                for (int s = 0; s < spp; ++s) {
+                    const size_t k = size_t(x) * size_t(spp) + size_t(s);
+                    const TraceHit& h = hits[k];
+                    if (!h.hit) {
+                        sum += shadeBackground(rays[k].direction);
                         continue;
                     }
-                    ++hits;
-                    const double len = g.length();
-                    const glm::vec3 nrm = len > 0.0 ? glm::vec3(float(g.x() / len), float(g.y() / len), float(g.z() / len))
-                                                    : glm::vec3(0.0f);
-                    glm::vec3 albedo = plain;
-                    if (cs) {
-                        const openvdb::Vec3f c = cs->wsSample(p);
-                        albedo = glm::vec3(c.x(), c.y(), c.z());
-                    }
-                    sum += shadeSurface(nrm, albedo);
+                    ++count;
+                    sum += shadeSurface(h.normal, h.albedo);
                     if (s == 0) {
-                        img.depth[i] = float(t);
-                        for (int k = 0; k < 3; ++k)
-                            img.normal[3 * i + size_t(k)] = nrm[k];
+                        img.depth[i] = float(h.t);
+                        for (int c = 0; c < 3; ++c)
+                            img.normal[3 * i + size_t(c)] = h.normal[c];
                     }
                 }
                 const glm::vec3 c = sum / float(spp);
                 for (int k = 0; k < 3; ++k)
                     img.rgb[3 * i + size_t(k)] = c[k];
-                img.alpha[i] = float(hits) / float(spp);
+                img.alpha[i] = float(count) / float(spp);
             }
+        }
     });
     return img;
+}
+
+const glm::vec3 kBark(0.60f, 0.50f, 0.40f);  // the albedo where there is no colour
+
+glm::vec3 unit(double x, double y, double z)
+{
+    const double len = std::sqrt(x * x + y * y + z * z);
+    return len > 0.0 ? glm::vec3(float(x / len), float(y / len), float(z / len)) : glm::vec3(0.0f);
+}
+
+}  // namespace
+
+RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                              const Camera& camera, int width, int height, int spp)
+{
+    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
+    using RayT = Intersector::RayType;
+    using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
+    const Intersector prototype(surface);
+    return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
+        // One intersector (it holds an accessor) and colour sampler per task;
+        // the sampler keeps a reference to its accessor, which lives with it.
+        auto isect = std::make_shared<Intersector>(prototype);
+        std::shared_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
+        std::shared_ptr<ColorSampler> cs;
+        if (color) {
+            cAcc = std::make_shared<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
+            cs = std::make_shared<ColorSampler>(*cAcc, color->transform());
+        }
+        return [isect, cAcc, cs](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+            for (size_t k = 0; k < rays.size(); ++k) {
+                const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
+                const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
+                openvdb::Vec3d p, g;
+                double t = 0.0;
+                TraceHit& h = hits[k];
+                h.hit = isect->intersectsWS(ray, p, g, t);
+                if (!h.hit)
+                    continue;
+                h.t = t;
+                h.normal = unit(g.x(), g.y(), g.z());
+                h.albedo = kBark;
+                if (cs) {
+                    const openvdb::Vec3f c = cs->wsSample(p);
+                    h.albedo = glm::vec3(c.x(), c.y(), c.z());
+                }
+            }
+        };
+    });
+}
+
+RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp)
+{
+    RTCDevice device = rtcNewDevice(nullptr);
+    if (!device)
+        throw std::runtime_error("Embree: cannot create a device");
+    std::unique_ptr<RTCDeviceTy, void (*)(RTCDevice)> deviceGuard(device, rtcReleaseDevice);
+    RTCScene scene = rtcNewScene(device);
+    std::unique_ptr<RTCSceneTy, void (*)(RTCScene)> sceneGuard(scene, rtcReleaseScene);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                          3 * sizeof(float), mesh.points.size()));
+    auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                               3 * sizeof(uint32_t), mesh.triangles.size()));
+    if (!v || !idx) {
+        rtcReleaseGeometry(geom);
+        throw std::runtime_error("Embree: cannot allocate the mesh's buffers");
+    }
+    for (size_t i = 0; i < mesh.points.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            v[3 * i + size_t(k)] = mesh.points[i][k];
+    for (size_t i = 0; i < mesh.triangles.size(); ++i)
+        for (int k = 0; k < 3; ++k)
+            idx[3 * i + size_t(k)] = mesh.triangles[i][size_t(k)];
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(scene, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(scene);
+    return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
+        auto buffer = std::make_shared<std::vector<RTCRayHit>>();
+        return [&mesh, scene, buffer](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+            // A stream of the row's rays (rtcIntersect1M).
+            std::vector<RTCRayHit>& rh = *buffer;
+            rh.resize(rays.size());
+            for (size_t k = 0; k < rays.size(); ++k) {
+                RTCRayHit& r = rh[k];
+                r.ray.org_x = float(rays[k].origin.x);
+                r.ray.org_y = float(rays[k].origin.y);
+                r.ray.org_z = float(rays[k].origin.z);
+                r.ray.dir_x = float(rays[k].direction.x);
+                r.ray.dir_y = float(rays[k].direction.y);
+                r.ray.dir_z = float(rays[k].direction.z);
+                r.ray.tnear = 0.0f;
+                r.ray.tfar = std::numeric_limits<float>::infinity();
+                r.ray.time = 0.0f;
+                r.ray.mask = 0xFFFFFFFFu;
+                r.ray.id = unsigned(k);
+                r.ray.flags = 0;
+                r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            }
+            RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
+            rtcIntersect1M(scene, &ctx, rh.data(), unsigned(rh.size()), sizeof(RTCRayHit));
+            for (size_t k = 0; k < rays.size(); ++k) {
+                TraceHit& h = hits[k];
+                h.hit = rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+                if (!h.hit)
+                    continue;
+                h.t = rh[k].ray.tfar;
+                const auto& tri = mesh.triangles[rh[k].hit.primID];
+                const float u = rh[k].hit.u, w = rh[k].hit.v, b0 = 1.0f - u - w;
+                const openvdb::Vec3s n = b0 * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + w * mesh.normals[tri[2]];
+                h.normal = unit(n.x(), n.y(), n.z());
+                h.albedo = kBark;
+                if (!mesh.colors.empty()) {
+                    const openvdb::Vec3s c = b0 * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + w * mesh.colors[tri[2]];
+                    h.albedo = glm::vec3(c.x(), c.y(), c.z());
+                }
+            }
+        };
+    });
 }
 
 void checkImageOutput(const std::string& path)
@@ -231,17 +347,20 @@ int runRenderCommand(const RenderRequest& req)
         if (bounds.empty())
             throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
         const Camera cam = parseCamera(req.camera, bounds, double(req.width) / double(req.height));
-        const RenderImage img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+        const RenderImage img =
+            req.viaMesh ? renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp)
+                        : renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
         writeImage(img, out);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         size_t covered = 0;
         for (float a : img.alpha)
             covered += a > 0.0f;
         fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
-                   "({:.3g} M rays/s, cpu)\n",
+                   "({:.3g} M rays/s, {})\n",
                    in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
                    100.0 * double(covered) / double(img.alpha.size()), s,
-                   double(req.width) * req.height * req.spp / s * 1e-6);
+                   double(req.width) * req.height * req.spp / s * 1e-6,
+                   req.viaMesh ? "Embree on the volumeToMesh triangles, meshing included" : "cpu level-set march");
     });
     return 0;
 }

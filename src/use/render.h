@@ -4,11 +4,13 @@
 #pragma once
 
 #include "core/box.h"
+#include "use/mesh.h"
 
 #include <openvdb/openvdb.h>
 
 #include <glm/glm.hpp>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -47,11 +49,28 @@ struct RenderImage {
 glm::vec3 shadeSurface(const glm::vec3& n, const glm::vec3& albedo);
 glm::vec3 shadeBackground(const glm::dvec3& dir);
 
+/// A ray, and what it hit: distance, unit normal, albedo.
+struct TraceRay {
+    glm::dvec3 origin, direction;
+};
+struct TraceHit {
+    bool hit = false;
+    double t = 0.0;
+    glm::vec3 normal{0.0f}, albedo{0.0f};
+};
+/// Traces a batch of rays (a row's samples): hits[i] for rays[i].
+using BatchTracer = std::function<void(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits)>;
+
 /// Ray marches a level set on the CPU with OpenVDB's LevelSetRayIntersector
 /// (hierarchical DDA to the zero crossing, then refined), `spp` samples per
 /// pixel (stratified, deterministic), colour from `color` (Cd) when given.
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
                               const Camera& camera, int width, int height, int spp);
+
+/// The same view of a triangle mesh traced by Embree 3 (a stream of a row's
+/// rays at a time, rtcIntersect1M), normals and colours interpolated from
+/// the vertices: the independent check of the level-set march.
+RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp);
 
 /// Writes an image by the extension of `path`: .png (8-bit sRGB with alpha,
 /// for people) or .exr (float R G B A, Z, N.x N.y N.z, for tools), through a
@@ -69,6 +88,7 @@ Box activeWorldBounds(const openvdb::GridBase& grid);
 struct RenderRequest {
     std::string input, output, grid = "surface", camera = "auto", device = "cpu", frames;
     int width = 960, height = 720, spp = 1;
+    bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
 };
 int runRenderCommand(const RenderRequest& request);
 
