@@ -16,6 +16,7 @@
 
 #include <filesystem>
 #include <random>
+#include <unistd.h>
 
 namespace {
 
@@ -373,7 +374,8 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
     const BakedGrids g = bakeLevelSet(prog, *sampler, o);
     for (bool half : {false, true}) {
         const std::string path = (std::filesystem::temp_directory_path() /
-                                  (half ? "cambium_rt_half.vdb" : "cambium_rt.vdb")).string();
+                                  (std::string(half ? "cambium_rt_half_" : "cambium_rt_") + std::to_string(::getpid()) + ".vdb"))
+                                     .string();
         VdbFileInfo info;
         info.scene = "junction";
         info.frame = 7;

@@ -78,7 +78,7 @@ TEST(Cli, InfoPrintsCountsDepthAndBounds)
 
 TEST(Cli, MalformedScenesFailWithAClearMessage)
 {
-    const auto path = std::filesystem::temp_directory_path() / "cambium_cli_bad.json";
+    const auto path = std::filesystem::temp_directory_path() / ("cambium_cli_bad_" + std::to_string(::getpid()) + ".json");
     const std::pair<const char*, const char*> cases[] = {
         {R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
              {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})",
@@ -130,7 +130,7 @@ TEST(Cli, VersionListsTheLibrariesAndAnOpenCLDevice)
 
 TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
 {
-    const auto out = std::filesystem::temp_directory_path() / "cambium_cli_bake.vdb";
+    const auto out = std::filesystem::temp_directory_path() / ("cambium_cli_bake_" + std::to_string(::getpid()) + ".vdb");
     std::filesystem::remove(out);
     const Result r = run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --voxel-size 0.05");
     ASSERT_EQ(r.status, 0) << r.err;
@@ -215,7 +215,7 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
 
 TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 {
-    const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_bad_bake";
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_bad_bake_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string out = (dir / "out.vdb").string();
     const auto empty = dir / "empty.json";
@@ -248,7 +248,7 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 
 TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
 {
-    const auto dir = std::filesystem::temp_directory_path() / "cambium_cli_skeleton";
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_skeleton_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto sk = dir / "tree.txt";
     {
