@@ -2,6 +2,7 @@
 // its arguments and calls the library.
 #include "bake/bake.h"
 #include "bench/bake_bench.h"
+#include "bench/use_bench.h"
 #include "blobtree/evaluator.h"
 #include "blobtree/scene_io.h"
 #include "blobtree/stats.h"
@@ -246,6 +247,46 @@ int main(int argc, char** argv)
             runBakeBench(cases, skipCpu, repeats);
             std::filesystem::remove_all(dir);
             return 0;
+        };
+    });
+
+    int useInternodes = 1000, benchWidth = 768, benchHeight = 768;
+    double useVoxel = 0.01;
+    auto useBench = [&](CLI::App* cmd) {
+        cmd->add_option("--generator", generator, "gen_skeleton.py")->capture_default_str();
+        cmd->add_option("--internodes", useInternodes, "Internodes of the generated tree")->capture_default_str();
+        cmd->add_option("--voxel-size", useVoxel, "Voxel size of the bake")->capture_default_str();
+        cmd->add_option("--repeat", repeats, "Runs of each method; the table shows medians")
+            ->capture_default_str()
+            ->check(CLI::Range(1, 100));
+    };
+    auto withTree = [&](const std::function<void(const std::string&, const std::string&)>& f) {
+        char dir[] = "/tmp/cambium-bench-XXXXXX";
+        if (!::mkdtemp(dir))
+            throw std::runtime_error("cannot create a temporary directory");
+        const std::string skeleton = generateSkeleton(generator, useInternodes, dir);
+        f(skeleton, fmt::format("tree of {} internodes", useInternodes));
+        std::filesystem::remove_all(dir);
+        return 0;
+    };
+    auto* benchMesh = bench->add_subcommand("mesh", "Meshing a baked benchmark tree, against paper 002's figure");
+    useBench(benchMesh);
+    benchMesh->callback([&] {
+        action = [&] {
+            return withTree([&](const std::string& s, const std::string& l) { runMeshBench(s, l, useVoxel, repeats); });
+        };
+    });
+    auto* benchRender = bench->add_subcommand(
+        "render", "Rendering a baked benchmark tree: the CPU level-set march and Embree on its mesh, against "
+                  "the papers' figures");
+    useBench(benchRender);
+    benchRender->add_option("--width", benchWidth, "Image width")->capture_default_str();
+    benchRender->add_option("--height", benchHeight, "Image height")->capture_default_str();
+    benchRender->callback([&] {
+        action = [&] {
+            return withTree([&](const std::string& s, const std::string& l) {
+                runRenderBench(s, l, useVoxel, benchWidth, benchHeight, repeats);
+            });
         };
     });
 

@@ -199,14 +199,26 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
     });
 }
 
-RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp)
+struct EmbreeMesh::Impl {
+    const TriangleMesh& mesh;
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    explicit Impl(const TriangleMesh& m) : mesh(m) {}
+    ~Impl()
+    {
+        if (scene)
+            rtcReleaseScene(scene);
+        if (device)
+            rtcReleaseDevice(device);
+    }
+};
+
+EmbreeMesh::EmbreeMesh(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>(mesh))
 {
-    RTCDevice device = rtcNewDevice(nullptr);
+    RTCDevice device = impl_->device = rtcNewDevice(nullptr);
     if (!device)
         throw std::runtime_error("Embree: cannot create a device");
-    std::unique_ptr<RTCDeviceTy, void (*)(RTCDevice)> deviceGuard(device, rtcReleaseDevice);
-    RTCScene scene = rtcNewScene(device);
-    std::unique_ptr<RTCSceneTy, void (*)(RTCScene)> sceneGuard(scene, rtcReleaseScene);
+    RTCScene scene = impl_->scene = rtcNewScene(device);
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                           3 * sizeof(float), mesh.points.size()));
@@ -216,16 +228,31 @@ RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int
         rtcReleaseGeometry(geom);
         throw std::runtime_error("Embree: cannot allocate the mesh's buffers");
     }
-    for (size_t i = 0; i < mesh.points.size(); ++i)
+    tbb::parallel_for(size_t(0), mesh.points.size(), [&](size_t i) {
         for (int k = 0; k < 3; ++k)
             v[3 * i + size_t(k)] = mesh.points[i][k];
-    for (size_t i = 0; i < mesh.triangles.size(); ++i)
+    });
+    tbb::parallel_for(size_t(0), mesh.triangles.size(), [&](size_t i) {
         for (int k = 0; k < 3; ++k)
             idx[3 * i + size_t(k)] = mesh.triangles[i][size_t(k)];
+    });
     rtcCommitGeometry(geom);
     rtcAttachGeometry(scene, geom);
     rtcReleaseGeometry(geom);
     rtcCommitScene(scene);
+}
+
+EmbreeMesh::~EmbreeMesh() = default;
+
+RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp)
+{
+    return EmbreeMesh(mesh).render(camera, width, height, spp);
+}
+
+RenderImage EmbreeMesh::render(const Camera& camera, int width, int height, int spp) const
+{
+    const TriangleMesh& mesh = impl_->mesh;
+    RTCScene scene = impl_->scene;
     return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
         auto buffer = std::make_shared<std::vector<RTCRayHit>>();
         return [&mesh, scene, buffer](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {

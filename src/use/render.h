@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -67,9 +68,24 @@ using BatchTracer = std::function<void(const std::vector<TraceRay>& rays, std::v
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
                               const Camera& camera, int width, int height, int spp);
 
-/// The same view of a triangle mesh traced by Embree 3 (a stream of a row's
-/// rays at a time, rtcIntersect1M), normals and colours interpolated from
-/// the vertices: the independent check of the level-set march.
+/// A triangle mesh in an Embree 3 scene (its BVH built once), rendered as
+/// the level set is (a stream of a row's rays at a time, rtcIntersect1M),
+/// normals and colours interpolated from the vertices: the independent check
+/// of the level-set march.  The mesh must outlive it.
+class EmbreeMesh {
+public:
+    explicit EmbreeMesh(const TriangleMesh& mesh);
+    ~EmbreeMesh();
+    EmbreeMesh(const EmbreeMesh&) = delete;
+    EmbreeMesh& operator=(const EmbreeMesh&) = delete;
+    RenderImage render(const Camera& camera, int width, int height, int spp) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// EmbreeMesh(mesh).render(...).
 RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp);
 
 /// Writes an image by the extension of `path`: .png (8-bit sRGB with alpha,
