@@ -39,11 +39,30 @@ Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg, double
     const double radius = std::max(0.5 * glm::length(bounds.size()), 1e-9);
     const double az = glm::radians(azimuthDeg), el = glm::radians(elevationDeg);
     const glm::dvec3 dir(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
-    // The sphere fits the narrower of the two fields of view, with a margin.
-    const double halfY = glm::radians(0.5 * cam.fovY);
-    const double halfX = std::atan(std::tan(halfY) * aspect);
-    const double distance = 1.05 * radius / std::sin(std::min(halfX, halfY));
-    cam.eye = cam.target + distance * dir;
+    // The enclosing sphere fits the narrower of the two fields of view; then
+    // the camera moves in (bisection) while the box's corners stay inside
+    // the frame with a 5 % margin: a tall tree fills the height.
+    const double tanY = std::tan(glm::radians(0.5 * cam.fovY)), tanX = tanY * aspect;
+    const double far = radius / std::sin(std::min(std::atan(tanX), std::atan(tanY)));
+    const glm::dvec3 w = -dir, u = glm::normalize(glm::cross(w, cam.up)), v = glm::cross(u, w);
+    auto fits = [&](double distance) {
+        const glm::dvec3 eye = cam.target + distance * dir;
+        for (int k = 0; k < 8; ++k) {
+            const glm::dvec3 c(k & 1 ? bounds.hi.x : bounds.lo.x, k & 2 ? bounds.hi.y : bounds.lo.y,
+                               k & 4 ? bounds.hi.z : bounds.lo.z);
+            const glm::dvec3 e = c - eye;
+            const double z = glm::dot(e, w);
+            if (!(z > 0.0) || std::abs(glm::dot(e, u)) > 0.95 * tanX * z || std::abs(glm::dot(e, v)) > 0.95 * tanY * z)
+                return false;
+        }
+        return true;
+    };
+    double lo = 0.0, hi = 1.1 * far;
+    for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (fits(mid) ? hi : lo) = mid;
+    }
+    cam.eye = cam.target + hi * dir;
     return cam;
 }
 

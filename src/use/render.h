@@ -24,8 +24,8 @@ struct Camera {
 };
 
 /// A view of `bounds` (world space) from `azimuthDeg` around the vertical
-/// axis and `elevationDeg` above the horizon, at the distance where the
-/// bounds' enclosing sphere fills the frame (aspect = width / height).
+/// axis and `elevationDeg` above the horizon, as close as the bounds' corners
+/// allow with a 5 % margin in the frame (aspect = width / height).
 Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0, double elevationDeg = 20.0);
 
 /// "auto" (a three-quarter view) or "turntable:ANGLE" (the same view turned
