@@ -91,7 +91,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
     const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
     int active = 0;
     for (int i = 0; i < kLeafVoxels; ++i) {
-        const float sign = int16_t(value[i]) > 0 ? -1.0f : 1.0f;  // F - T > 0 (halfPositive): inside, negative
+        const float sign = halfPositive(value[i]) ? -1.0f : 1.0f;  // F - T > 0: inside, negative
         const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
                     dz = oz + float(i >> 6) - pz[i];
         const float e2 = dx * dx + dy * dy + dz * dz;
@@ -111,6 +111,23 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
         active += in;
     }
     return active;
+}
+
+/// Where each run of consecutive leaves inside one cube of 2^shift voxels a
+/// side starts, then leaves.size().  The topology lists leaves depth-first
+/// within its 128^3 tiles, so each such cube (shift <= 7) is one run.
+std::vector<size_t> cubeRuns(const std::vector<LeafJob>& leaves, int shift)
+{
+    std::vector<size_t> start;
+    for (size_t l = 0; l < leaves.size(); ++l) {
+        const int32_t* o = leaves[l].origin;
+        const int32_t* p = l ? leaves[l - 1].origin : nullptr;
+        if (!p || (o[0] >> shift) != (p[0] >> shift) || (o[1] >> shift) != (p[1] >> shift) ||
+            (o[2] >> shift) != (p[2] >> shift))
+            start.push_back(l);
+    }
+    start.push_back(leaves.size());
+    return start;
 }
 
 /// The chains of `jobs` along `axis`, through a dense table of the leaves'
@@ -226,15 +243,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         // Leaf origins to indices through the 128^3 tiles the topology grouped
         // them by (each tile's leaves are contiguous): per tile a dense 16^3
         // table, the tiles in a small hash.
-        std::vector<size_t> tileFirst;
-        for (size_t l = 0; l < n; ++l) {
-            const int32_t* o = topo.leaves[l].origin;
-            const int32_t* p = l ? topo.leaves[l - 1].origin : nullptr;
-            if (!p || (o[0] >> 7) != (p[0] >> 7) || (o[1] >> 7) != (p[1] >> 7) || (o[2] >> 7) != (p[2] >> 7))
-                tileFirst.push_back(l);
-        }
-        const size_t tiles = tileFirst.size();
-        tileFirst.push_back(n);
+        const std::vector<size_t> tileFirst = cubeRuns(topo.leaves, 7);
+        const size_t tiles = tileFirst.size() - 1;
         auto tileKey = [](int x, int y, int z) {  // of a voxel
             return (uint64_t(uint32_t(x >> 7) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> 7) & 0x1FFFFF) << 21) |
                    uint64_t(uint32_t(z >> 7) & 0x1FFFFF);
@@ -455,14 +465,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // leaf), then the tile's grid leaves.  A 64^3 tile's state stays in the
     // caches through the twelve sweeps (128^3 tiles: 1.5 times slower).
     t = Clock::now();
-    std::vector<size_t> tileStart;
-    for (size_t l = 0; l < n; ++l) {
-        const int32_t* o = topo.leaves[l].origin;
-        const int32_t* p = l ? topo.leaves[l - 1].origin : nullptr;
-        if (!p || (o[0] >> 6) != (p[0] >> 6) || (o[1] >> 6) != (p[1] >> 6) || (o[2] >> 6) != (p[2] >> 6))
-            tileStart.push_back(l);
-    }
-    tileStart.push_back(n);
+    const std::vector<size_t> tileStart = cubeRuns(topo.leaves, 6);
     const float limit2 = float((W + 2.0) * (W + 2.0));
     const bool uniform = program.uniformColor().has_value();
     const glm::dvec3 uniformRgb = program.uniformColor().value_or(glm::dvec3(0.0));
