@@ -2,6 +2,7 @@
 #pragma once
 
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Interpolation.h>
 
 #include <functional>
 #include <string>
@@ -18,6 +19,23 @@ struct LevelSetFile {
 /// InputError for an unreadable file, a missing grid (the message lists the
 /// file's grids) or one that is not a float level set.
 LevelSetFile readLevelSet(const std::string& path, const std::string& grid = "surface");
+
+/// Trilinear lookups of a grid at world-space points, for one thread: it
+/// owns the accessor its sampler refers to, so it is neither copied nor moved.
+template <class GridT>
+class WorldSampler {
+public:
+    explicit WorldSampler(const GridT& grid) : accessor_(grid.getConstAccessor()), sampler_(accessor_, grid.transform())
+    {
+    }
+    WorldSampler(const WorldSampler&) = delete;
+    WorldSampler& operator=(const WorldSampler&) = delete;
+    typename GridT::ValueType operator()(const openvdb::Vec3d& world) const { return sampler_.wsSample(world); }
+
+private:
+    typename GridT::ConstAccessor accessor_;
+    openvdb::tools::GridSampler<typename GridT::ConstAccessor, openvdb::tools::BoxSampler> sampler_;
+};
 
 /// Runs one(input, output) for a single file, or, when input or output holds
 /// a run of `#` or `frames` is given, for every frame of `frames` with the

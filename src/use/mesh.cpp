@@ -6,7 +6,6 @@
 #include "use/grid_file.h"
 
 #include <fmt/format.h>
-#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
 
@@ -25,11 +24,9 @@ namespace cambium {
 TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color, double adaptivity)
 {
     TriangleMesh mesh;
-    std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(surface, points, tris, quads, 0.0, std::clamp(adaptivity, 0.0, 1.0));
-    mesh.points = std::move(points);
+    openvdb::tools::volumeToMesh(surface, mesh.points, tris, quads, 0.0, std::clamp(adaptivity, 0.0, 1.0));
     // volumeToMesh winds its polygons clockwise seen from outside a level set
     // (whose inside is negative): reversed here.
     mesh.triangles.reserve(tris.size() + 2 * quads.size());
@@ -55,29 +52,22 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     if (color)
         mesh.colors.resize(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
-        // (The samplers keep references to the accessors: these must outlive them.)
-        const openvdb::FloatGrid::ConstAccessor dAcc = surface.getConstAccessor();
-        const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> d(
-            dAcc, surface.transform());
-        using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
-        std::unique_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
-        std::unique_ptr<ColorSampler> c;
-        if (color) {
-            cAcc = std::make_unique<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
-            c = std::make_unique<ColorSampler>(*cAcc, color->transform());
-        }
+        const WorldSampler<openvdb::FloatGrid> d(surface);
+        std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
+        if (color)
+            c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
         for (size_t i = r.begin(); i < r.end(); ++i) {
             const openvdb::Vec3d p = mesh.points[i];
             openvdb::Vec3d g;
             for (int k = 0; k < 3; ++k) {
                 openvdb::Vec3d e(0.0);
                 e[k] = 0.5 * h;
-                g[k] = double(d.wsSample(p + e)) - double(d.wsSample(p - e));
+                g[k] = double(d(p + e)) - double(d(p - e));
             }
             const double len = g.length();
             mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
             if (c)
-                mesh.colors[i] = c->wsSample(p);
+                mesh.colors[i] = (*c)(p);
         }
     });
     return mesh;

@@ -9,7 +9,6 @@
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
 #include <openvdb/math/Ray.h>
-#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/RayIntersector.h>
 #include <tbb/parallel_for.h>
 
@@ -184,19 +183,14 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
 {
     using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
     using RayT = Intersector::RayType;
-    using ColorSampler = openvdb::tools::GridSampler<openvdb::Vec3fGrid::ConstAccessor, openvdb::tools::BoxSampler>;
     const Intersector prototype(surface);
     return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
-        // One intersector (it holds an accessor) and colour sampler per task;
-        // the sampler keeps a reference to its accessor, which lives with it.
+        // One intersector and colour sampler per task: both hold accessors.
         auto isect = std::make_shared<Intersector>(prototype);
-        std::shared_ptr<openvdb::Vec3fGrid::ConstAccessor> cAcc;
-        std::shared_ptr<ColorSampler> cs;
-        if (color) {
-            cAcc = std::make_shared<openvdb::Vec3fGrid::ConstAccessor>(color->getConstAccessor());
-            cs = std::make_shared<ColorSampler>(*cAcc, color->transform());
-        }
-        return [isect, cAcc, cs](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+        std::shared_ptr<const WorldSampler<openvdb::Vec3fGrid>> cs;
+        if (color)
+            cs = std::make_shared<const WorldSampler<openvdb::Vec3fGrid>>(*color);
+        return [isect, cs](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
             for (size_t k = 0; k < rays.size(); ++k) {
                 const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
                 const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
@@ -210,7 +204,7 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
                 h.normal = unit(g.x(), g.y(), g.z());
                 h.albedo = kBark;
                 if (cs) {
-                    const openvdb::Vec3f c = cs->wsSample(p);
+                    const openvdb::Vec3f c = (*cs)(p);
                     h.albedo = glm::vec3(c.x(), c.y(), c.z());
                 }
             }
