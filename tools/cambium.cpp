@@ -29,6 +29,23 @@ using namespace cambium;
 
 std::string vec(const glm::dvec3& v) { return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x, v.y, v.z); }
 
+/// Runs f in a fresh temporary directory for the benchmarks' generated
+/// trees, removed afterwards (also when f throws).  Returns 0.
+int withBenchDirectory(const std::function<void(const std::string&)>& f)
+{
+    char dir[] = "/tmp/cambium-bench-XXXXXX";
+    if (!::mkdtemp(dir))
+        throw std::runtime_error("cannot create a temporary directory");
+    try {
+        f(dir);
+    } catch (...) {
+        std::filesystem::remove_all(dir);
+        throw;
+    }
+    std::filesystem::remove_all(dir);
+    return 0;
+}
+
 int runInfo(const std::string& scenePath)
 {
     const BlobTree tree = loadModel(scenePath);
@@ -229,24 +246,21 @@ int main(int argc, char** argv)
         ->check(CLI::Range(1, 100));
     benchBake->callback([&] {
         action = [&] {
-            char dir[] = "/tmp/cambium-bench-XXXXXX";
-            if (!::mkdtemp(dir))
-                throw std::runtime_error("cannot create a temporary directory");
-            std::vector<BakeBenchCase> cases;
-            for (const std::string& c : benchCases) {
-                const auto colon = c.find(':');
-                if (colon == std::string::npos)
-                    throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
-                const int n = std::stoi(c.substr(0, colon));
-                BakeBenchCase bc;
-                bc.skeleton = generateSkeleton(generator, n, dir);
-                bc.label = fmt::format("tree of {} internodes", n);
-                bc.voxelSize = std::stod(c.substr(colon + 1));
-                cases.push_back(bc);
-            }
-            runBakeBench(cases, skipCpu, repeats);
-            std::filesystem::remove_all(dir);
-            return 0;
+            return withBenchDirectory([&](const std::string& dir) {
+                std::vector<BakeBenchCase> cases;
+                for (const std::string& c : benchCases) {
+                    const auto colon = c.find(':');
+                    if (colon == std::string::npos)
+                        throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
+                    const int n = std::stoi(c.substr(0, colon));
+                    BakeBenchCase bc;
+                    bc.skeleton = generateSkeleton(generator, n, dir);
+                    bc.label = fmt::format("tree of {} internodes", n);
+                    bc.voxelSize = std::stod(c.substr(colon + 1));
+                    cases.push_back(bc);
+                }
+                runBakeBench(cases, skipCpu, repeats);
+            });
         };
     });
 
@@ -261,13 +275,9 @@ int main(int argc, char** argv)
             ->check(CLI::Range(1, 100));
     };
     auto withTree = [&](const std::function<void(const std::string&, const std::string&)>& f) {
-        char dir[] = "/tmp/cambium-bench-XXXXXX";
-        if (!::mkdtemp(dir))
-            throw std::runtime_error("cannot create a temporary directory");
-        const std::string skeleton = generateSkeleton(generator, useInternodes, dir);
-        f(skeleton, fmt::format("tree of {} internodes", useInternodes));
-        std::filesystem::remove_all(dir);
-        return 0;
+        return withBenchDirectory([&](const std::string& dir) {
+            f(generateSkeleton(generator, useInternodes, dir), fmt::format("tree of {} internodes", useInternodes));
+        });
     };
     auto* benchMesh = bench->add_subcommand("mesh", "Meshing a baked benchmark tree, against paper 002's figure");
     useBench(benchMesh);

@@ -1,10 +1,10 @@
 // cambium — mesh and render benchmarks.
 #include "bench/use_bench.h"
 
+#include "bake/bake.h"
 #include "bake/levelset.h"
 #include "bake/sampler.h"
 #include "field/program.h"
-#include "model/skeleton.h"
 #include "use/mesh.h"
 #include "use/render.h"
 
@@ -30,7 +30,7 @@ double median(std::vector<double> v)
 
 BakedGrids bakeSkeleton(const std::string& skeleton, double h)
 {
-    const FieldProgram program = FieldProgram::compile(skeletonToBlend(loadSkeleton(skeleton)));
+    const FieldProgram program = FieldProgram::compile(loadModel(skeleton));
     auto sampler = makeOpenCLSampler();
     BakeOptions opt;
     opt.voxelSize = h;
