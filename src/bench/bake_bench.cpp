@@ -3,6 +3,7 @@
 
 #include "bake/levelset.h"
 #include "bake/topology.h"
+#include "bench/median.h"
 #include "core/error.h"
 #include "model/skeleton.h"
 
@@ -180,10 +181,8 @@ std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchC
                 r.peakBytes = std::max(r.peakBytes, peak);
             }
         }
-        for (size_t m = 0; m < rows.size(); ++m) {
-            std::sort(times[m].begin(), times[m].end());
-            rows[m].seconds = times[m][times[m].size() / 2];
-        }
+        for (size_t m = 0; m < rows.size(); ++m)
+            rows[m].seconds = medianOf(times[m]);
         double boxVoxels = 0.0;
         {
             BakeBenchRow r;

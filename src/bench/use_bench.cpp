@@ -4,6 +4,7 @@
 #include "bake/bake.h"
 #include "bake/levelset.h"
 #include "bake/sampler.h"
+#include "bench/median.h"
 #include "field/program.h"
 #include "use/mesh.h"
 #include "use/render.h"
@@ -21,12 +22,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-double median(std::vector<double> v)
-{
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
 
 BakedGrids bakeSkeleton(const std::string& skeleton, double h)
 {
@@ -50,7 +45,7 @@ void runMeshBench(const std::string& skeleton, const std::string& label, double 
         times.push_back(secondsSince(t));
         triangles = m.triangles.size();
     }
-    const double s = median(times), perMillion = s / (double(triangles) * 1e-6);
+    const double s = medianOf(times), perMillion = s / (double(triangles) * 1e-6);
     fmt::print("\n{} at voxel size {:g} ({} active voxels): meshing, median of {} runs\n", label, h,
                g.stats.activeVoxels, times.size());
     fmt::print("{:<52} {:>12} {:>10} {:>14} {:>16}\n", "method", "triangles", "seconds", "M triangles/s",
@@ -99,8 +94,8 @@ void runRenderBench(const std::string& skeleton, const std::string& label, doubl
         fmt::print("{:<58} {:>10.3g} {:>10.3g} {:>14.3g} {:>16.3g}\n", name, s, rate * 1e-6, 768.0 * 768.0 / rate,
                    1536.0 * 2048.0 * 9.0 / rate);
     };
-    row("CPU level-set march (OpenVDB LevelSetRayIntersector, TBB)", median(march));
-    row("Embree 3 on the volumeToMesh triangles (streams, TBB)", median(embree));
+    row("CPU level-set march (OpenVDB LevelSetRayIntersector, TBB)", medianOf(march));
+    row("Embree 3 on the volumeToMesh triangles (streams, TBB)", medianOf(embree));
     fmt::print("{:<58} {:>10} {:>10} {:>14} {:>16}\n", "papers 000/003 (their renderer)", "-", "-", "430", "~3600");
     fmt::print("(Embree's mesh took {:.3g} s to make and its BVH {:.3g} s to build, not counted above.)\n",
                meshSeconds, bvhSeconds);
