@@ -198,7 +198,11 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
     const Result r = run("render " + vdb + " -o " + png + " --width 64 --height 48 --spp 2");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("64 x 48, 2 samples per pixel"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("OpenCL NanoVDB march"), std::string::npos) << r.out;  // the default device
     EXPECT_TRUE(std::filesystem::file_size(png) > 100);
+    const Result c = run("render " + vdb + " -o " + png + " --width 64 --height 48 --device cpu");
+    ASSERT_EQ(c.status, 0) << c.err;
+    EXPECT_NE(c.out.find("OpenVDB's level-set ray intersector"), std::string::npos) << c.out;
     const Result m = run("render " + vdb + " -o " + png + " --width 64 --height 48 --via-mesh");
     ASSERT_EQ(m.status, 0) << m.err;
     EXPECT_NE(m.out.find("Embree"), std::string::npos) << m.out;
@@ -207,6 +211,7 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
         {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto or turntable:ANGLE"},
         {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},
         {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
+        {vdb + " -o " + png + " --device gpu", "--device must be opencl or cpu (got 'gpu')"},
         {vdb + " -o " + png + " --grid Cd", "grid 'Cd' is a vec3s"},
         {(dir / "missing.vdb").string() + " -o " + png, "cannot read it as a .vdb file"},
     });

@@ -220,7 +220,8 @@ int main(int argc, char** argv)
     renderCmd->add_option("--spp", render.spp, "Samples per pixel (anti-aliasing)")->capture_default_str();
     renderCmd->add_option("--camera", render.camera, "auto (a three-quarter view) or turntable:ANGLE")
         ->capture_default_str();
-    renderCmd->add_option("--device", render.device, "cpu (OpenVDB's level-set ray intersector)")
+    renderCmd->add_option("--device", render.device,
+                          "opencl (NanoVDB's HDDA in an OpenCL kernel) or cpu (OpenVDB's level-set ray intersector)")
         ->capture_default_str();
     renderCmd->add_option("--grid", render.grid, "Name of the level-set grid")->capture_default_str();
     renderCmd->add_flag("--via-mesh", render.viaMesh,
@@ -287,8 +288,8 @@ int main(int argc, char** argv)
         };
     });
     auto* benchRender = bench->add_subcommand(
-        "render", "Rendering a baked benchmark tree: the CPU level-set march and Embree on its mesh, against "
-                  "the papers' figures");
+        "render", "Rendering a baked benchmark tree: the OpenCL and CPU level-set marches and Embree on its mesh, "
+                  "against the papers' figures");
     useBench(benchRender);
     benchRender->add_option("--width", benchWidth, "Image width")->capture_default_str();
     benchRender->add_option("--height", benchHeight, "Image height")->capture_default_str();

@@ -109,18 +109,9 @@ BakeReport runBake(const BakeRequest& req)
         ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
         ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
     }
-    std::unique_ptr<FieldSampler> sampler;
-    if (req.device == "opencl") {
-        try {
-            sampler = makeOpenCLSampler();
-        } catch (const OpenCLError& e) {
-            throw InputError(fmt::format("{}\n(use --device cpu to bake on the CPU without OpenCL)", e.what()));
-        }
-    } else if (req.device == "cpu") {
-        sampler = makeCpuSampler();
-    } else {
-        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", req.device));
-    }
+    checkDeviceOption(req.device);
+    std::unique_ptr<FieldSampler> sampler =
+        req.device == "cpu" ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
     report.device = sampler->name();
 
     BakeOptions opt;

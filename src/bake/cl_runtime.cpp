@@ -1,6 +1,8 @@
 // cambium — OpenCL runtime wrapper.
 #include "bake/cl_runtime.h"
 
+#include "core/error.h"
+
 #include <fmt/format.h>
 
 #include <cstdlib>
@@ -23,6 +25,17 @@ std::string infoString(Query query, Handle h, Param what)
 }
 
 }  // namespace
+
+void checkDeviceOption(const std::string& device)
+{
+    if (device != "opencl" && device != "cpu")
+        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", device));
+}
+
+void throwOpenCLHint(const OpenCLError& e, const char* action)
+{
+    throw InputError(fmt::format("{}\n(use --device cpu to {} on the CPU without OpenCL)", e.what(), action));
+}
 
 void checkCL(cl_int status, const char* what)
 {

@@ -4,6 +4,7 @@
 
 #include <CL/cl.h>
 
+#include <algorithm>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,16 @@ struct OpenCLDeviceInfo {
 
 /// Every device of every platform; empty when no OpenCL platform is installed.
 std::vector<OpenCLDeviceInfo> listOpenCLDevices();
+
+/// The --device option of bake and render: InputError unless "opencl" or "cpu".
+void checkDeviceOption(const std::string& device);
+
+[[noreturn]] void throwOpenCLHint(const OpenCLError& e, const char* action);
+
+/// Runs f; an OpenCLError from it becomes an InputError that says how to do
+/// without OpenCL (`action`: "bake", "render").
+template <class F>
+auto withOpenCLHint(const char* action, F&& f) -> decltype(f());
 
 /// Throws OpenCLError naming `what` and the error code when `status` is not CL_SUCCESS.
 void checkCL(cl_int status, const char* what);
@@ -54,5 +65,75 @@ private:
     cl_context context_ = nullptr;
     cl_command_queue queue_ = nullptr;
 };
+
+/// A device buffer that grows as needed.
+class DeviceBuffer {
+public:
+    DeviceBuffer() = default;
+    DeviceBuffer(const DeviceBuffer&) = delete;
+    DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+    ~DeviceBuffer()
+    {
+        if (mem_)
+            clReleaseMemObject(mem_);
+    }
+    cl_mem upload(const OpenCLContext& ctx, const void* data, size_t bytes, cl_mem_flags flags)
+    {
+        reserve(ctx, bytes, flags);
+        if (bytes)
+            checkCL(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr, nullptr),
+                    "clEnqueueWriteBuffer");
+        return mem_;
+    }
+    cl_mem get() const { return mem_; }
+    /// The first `bytes` mapped into host memory (no copy on a CPU device):
+    /// CL_MAP_READ, or CL_MAP_WRITE_INVALIDATE_REGION to fill it.
+    void* map(const OpenCLContext& ctx, cl_map_flags flags, size_t bytes)
+    {
+        cl_int err;
+        void* p = clEnqueueMapBuffer(ctx.queue(), mem_, CL_TRUE, flags, 0, bytes, 0, nullptr, nullptr, &err);
+        checkCL(err, "clEnqueueMapBuffer");
+        return p;
+    }
+    void unmap(const OpenCLContext& ctx, void* p)
+    {
+        checkCL(clEnqueueUnmapMemObject(ctx.queue(), mem_, p, 0, nullptr, nullptr), "clEnqueueUnmapMemObject");
+    }
+    cl_mem reserve(const OpenCLContext& ctx, size_t bytes, cl_mem_flags flags)
+    {
+        bytes = std::max<size_t>(bytes, 64);
+        if (bytes > size_) {
+            if (mem_)
+                clReleaseMemObject(mem_);
+            cl_int err;
+            size_ = std::max(bytes, size_ + size_ / 2);
+            mem_ = clCreateBuffer(ctx.context(), flags, size_, nullptr, &err);
+            checkCL(err, "clCreateBuffer");
+        }
+        return mem_;
+    }
+
+private:
+    cl_mem mem_ = nullptr;
+    size_t size_ = 0;
+};
+
+/// Sets a kernel's arguments in order.
+template <class... Args>
+void setArgs(cl_kernel k, const Args&... args)
+{
+    cl_uint i = 0;
+    (checkCL(clSetKernelArg(k, i++, sizeof(Args), &args), "clSetKernelArg"), ...);
+}
+
+template <class F>
+auto withOpenCLHint(const char* action, F&& f) -> decltype(f())
+{
+    try {
+        return f();
+    } catch (const OpenCLError& e) {
+        throwOpenCLHint(e, action);
+    }
+}
 
 }  // namespace cambium

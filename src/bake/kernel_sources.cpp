@@ -11,11 +11,32 @@
 
 namespace cambium {
 
+namespace {
+
+std::string embedded(const std::string& name)
+{
+    for (size_t i = 0; i < detail::kEmbeddedKernelCount; ++i)
+        if (name == detail::kEmbeddedKernels[i].name)
+            return detail::kEmbeddedKernels[i].text;
+    throw std::runtime_error(fmt::format("kernel file '{}' is not embedded in this binary", name));
+}
+
+/// Files made by the build rather than kept in kernels/ (NanoVDB's header
+/// prepared for OpenCL): CAMBIUM_KERNEL_DIR need not hold them.
+bool isGenerated(const std::string& name)
+{
+    return name == "PNanoVDB.h";
+}
+
+}  // namespace
+
 std::string kernelFile(const std::string& name)
 {
     if (const char* dir = std::getenv("CAMBIUM_KERNEL_DIR"); dir && *dir) {
         const std::string path = std::string(dir) + "/" + name;
         std::ifstream in(path, std::ios::binary);
+        if (!in && isGenerated(name))
+            return embedded(name);
         if (!in)
             throw std::runtime_error(fmt::format(
                 "kernel file {} not found (CAMBIUM_KERNEL_DIR={}); unset CAMBIUM_KERNEL_DIR to use "
@@ -25,10 +46,7 @@ std::string kernelFile(const std::string& name)
         s << in.rdbuf();
         return s.str();
     }
-    for (size_t i = 0; i < detail::kEmbeddedKernelCount; ++i)
-        if (name == detail::kEmbeddedKernels[i].name)
-            return detail::kEmbeddedKernels[i].text;
-    throw std::runtime_error(fmt::format("kernel file '{}' is not embedded in this binary", name));
+    return embedded(name);
 }
 
 std::vector<std::string> embeddedKernelFiles()

@@ -21,7 +21,9 @@ extern const size_t kEmbeddedKernelCount;
 }  // namespace detail
 
 /// The text of one file of kernels/ ("cb_primitives.h", "sample.cl", ...):
-/// from $CAMBIUM_KERNEL_DIR when set, else the embedded copy.  Throws
+/// from $CAMBIUM_KERNEL_DIR when set, else the embedded copy.  "PNanoVDB.h",
+/// which the build prepares from NanoVDB's header, is always the embedded copy
+/// unless that directory holds one.  Throws
 /// std::runtime_error naming the file when it exists in neither place.
 std::string kernelFile(const std::string& name);
 

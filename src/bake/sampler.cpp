@@ -78,63 +78,6 @@ private:
     const std::vector<Instr>* pool_ = nullptr;
 };
 
-/// A device buffer that grows as needed.
-class DeviceBuffer {
-public:
-    ~DeviceBuffer()
-    {
-        if (mem_)
-            clReleaseMemObject(mem_);
-    }
-    cl_mem upload(const OpenCLContext& ctx, const void* data, size_t bytes, cl_mem_flags flags)
-    {
-        reserve(ctx, bytes, flags);
-        if (bytes)
-            checkCL(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr, nullptr),
-                    "clEnqueueWriteBuffer");
-        return mem_;
-    }
-    cl_mem get() const { return mem_; }
-    /// The first `bytes` mapped into host memory (no copy on a CPU device):
-    /// CL_MAP_READ, or CL_MAP_WRITE_INVALIDATE_REGION to fill it.
-    void* map(const OpenCLContext& ctx, cl_map_flags flags, size_t bytes)
-    {
-        cl_int err;
-        void* p = clEnqueueMapBuffer(ctx.queue(), mem_, CL_TRUE, flags, 0, bytes, 0, nullptr, nullptr, &err);
-        checkCL(err, "clEnqueueMapBuffer");
-        return p;
-    }
-    void unmap(const OpenCLContext& ctx, void* p)
-    {
-        checkCL(clEnqueueUnmapMemObject(ctx.queue(), mem_, p, 0, nullptr, nullptr), "clEnqueueUnmapMemObject");
-    }
-    cl_mem reserve(const OpenCLContext& ctx, size_t bytes, cl_mem_flags flags)
-    {
-        bytes = std::max<size_t>(bytes, 64);
-        if (bytes > size_) {
-            if (mem_)
-                clReleaseMemObject(mem_);
-            cl_int err;
-            size_ = std::max(bytes, size_ + size_ / 2);
-            mem_ = clCreateBuffer(ctx.context(), flags, size_, nullptr, &err);
-            checkCL(err, "clCreateBuffer");
-        }
-        return mem_;
-    }
-
-private:
-    cl_mem mem_ = nullptr;
-    size_t size_ = 0;
-};
-
-/// Sets a kernel's arguments in order.
-template <class... Args>
-void setArgs(cl_kernel k, const Args&... args)
-{
-    cl_uint i = 0;
-    (checkCL(clSetKernelArg(k, i++, sizeof(Args), &args), "clSetKernelArg"), ...);
-}
-
 class OpenCLSampler final : public FieldSampler {
 public:
     OpenCLSampler()

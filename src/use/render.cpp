@@ -1,6 +1,7 @@
 // cambium — looking at a baked level set.
 #include "use/render.h"
 
+#include "bake/cl_runtime.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "use/grid_file.h"
@@ -109,11 +110,7 @@ glm::vec3 shadeBackground(const glm::dvec3& dir)
 
 namespace {
 
-/// Renders by batches of rays, a row's samples at a time, with a tracer made
-/// per task (`makeTracer`: tracers may hold accessors or ray buffers).  A
-/// tracer fills hits[i] for rays[i].
-RenderImage renderRows(const Camera& camera, int width, int height, int spp,
-                       const std::function<BatchTracer()>& makeTracer)
+RenderImage blankImage(int width, int height)
 {
     RenderImage img;
     img.width = width;
@@ -123,52 +120,71 @@ RenderImage renderRows(const Camera& camera, int width, int height, int spp,
     img.alpha.assign(n, 0.0f);
     img.depth.assign(n, std::numeric_limits<float>::infinity());
     img.normal.assign(3 * n, 0.0f);
+    return img;
+}
+
+/// The width * spp rays of row y, pixel by pixel: sample 0 through the
+/// pixel's centre, the others spread by the plastic-number (R2) sequence.
+void generateRow(const Camera& camera, int width, int height, int spp, int y, TraceRay* rays)
+{
+    for (int x = 0; x < width; ++x)
+        for (int s = 0; s < spp; ++s) {
+            const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
+            const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
+            TraceRay& r = rays[size_t(x) * size_t(spp) + size_t(s)];
+            cameraRay(camera, width, height, x + jx, y + jy, r.origin, r.direction);
+        }
+}
+
+/// Shades row y from its rays' hits: the mean of the samples' colours, the
+/// fraction that hit, depth and normal of the central sample.
+void resolveRow(RenderImage& img, int spp, int y, const TraceRay* rays, const TraceHit* hits)
+{
+    for (int x = 0; x < img.width; ++x) {
+        const size_t i = size_t(y) * size_t(img.width) + size_t(x);
+        glm::vec3 sum(0.0f);
+        int count = 0;
+        for (int s = 0; s < spp; ++s) {
+            const size_t k = size_t(x) * size_t(spp) + size_t(s);
+            const TraceHit& h = hits[k];
+            if (!h.hit) {
+                sum += shadeBackground(rays[k].direction);
+                continue;
+            }
+            ++count;
+            sum += shadeSurface(h.normal, h.albedo);
+            if (s == 0) {
+                img.depth[i] = float(h.t);
+                for (int c = 0; c < 3; ++c)
+                    img.normal[3 * i + size_t(c)] = h.normal[c];
+            }
+        }
+        const glm::vec3 c = sum / float(spp);
+        for (int k = 0; k < 3; ++k)
+            img.rgb[3 * i + size_t(k)] = c[k];
+        img.alpha[i] = float(count) / float(spp);
+    }
+}
+
+/// Renders a row at a time on all threads, with a tracer made per task
+/// (`makeTracer`: tracers may hold accessors or ray buffers).
+RenderImage renderRows(const Camera& camera, int width, int height, int spp,
+                       const std::function<BatchTracer()>& makeTracer)
+{
+    RenderImage img = blankImage(width, height);
     spp = std::max(1, spp);
     tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
         const BatchTracer trace = makeTracer();
         std::vector<TraceRay> rays(size_t(width) * size_t(spp));
         std::vector<TraceHit> hits(rays.size());
         for (int y = rows.begin(); y < rows.end(); ++y) {
-            for (int x = 0; x < width; ++x)
-                for (int s = 0; s < spp; ++s) {
-                    // Sample 0 at the pixel's centre, the others spread by the
-                    // plastic-number (R2) sequence.
-                    const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
-                    const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
-                    TraceRay& r = rays[size_t(x) * size_t(spp) + size_t(s)];
-                    cameraRay(camera, width, height, x + jx, y + jy, r.origin, r.direction);
-                }
+            generateRow(camera, width, height, spp, y, rays.data());
             trace(rays, hits);
-            for (int x = 0; x < width; ++x) {
-                const size_t i = size_t(y) * size_t(width) + size_t(x);
-                glm::vec3 sum(0.0f);
-                int count = 0;
-                for (int s = 0; s < spp; ++s) {
-                    const size_t k = size_t(x) * size_t(spp) + size_t(s);
-                    const TraceHit& h = hits[k];
-                    if (!h.hit) {
-                        sum += shadeBackground(rays[k].direction);
-                        continue;
-                    }
-                    ++count;
-                    sum += shadeSurface(h.normal, h.albedo);
-                    if (s == 0) {
-                        img.depth[i] = float(h.t);
-                        for (int c = 0; c < 3; ++c)
-                            img.normal[3 * i + size_t(c)] = h.normal[c];
-                    }
-                }
-                const glm::vec3 c = sum / float(spp);
-                for (int k = 0; k < 3; ++k)
-                    img.rgb[3 * i + size_t(k)] = c[k];
-                img.alpha[i] = float(count) / float(spp);
-            }
+            resolveRow(img, spp, y, rays.data(), hits.data());
         }
     });
     return img;
 }
-
-const glm::vec3 kBark(0.60f, 0.50f, 0.40f);  // the albedo where there is no colour
 
 glm::vec3 unit(double x, double y, double z)
 {
@@ -178,38 +194,84 @@ glm::vec3 unit(double x, double y, double z)
 
 }  // namespace
 
+struct CpuMarcher::Impl {
+    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
+    Intersector prototype;  // copied per tracer: its constructor measures the grid
+    const openvdb::Vec3fGrid* color;
+    Impl(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* c) : prototype(surface), color(c) {}
+};
+
+CpuMarcher::CpuMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
+    : impl_(std::make_unique<Impl>(surface, color))
+{
+}
+
+CpuMarcher::~CpuMarcher() = default;
+
+BatchTracer CpuMarcher::tracer() const
+{
+    using RayT = Impl::Intersector::RayType;
+    // An intersector and colour sampler of its own: both hold accessors.
+    auto isect = std::make_shared<Impl::Intersector>(impl_->prototype);
+    std::shared_ptr<const WorldSampler<openvdb::Vec3fGrid>> cs;
+    if (impl_->color)
+        cs = std::make_shared<const WorldSampler<openvdb::Vec3fGrid>>(*impl_->color);
+    return [isect, cs](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+        hits.resize(rays.size());
+        for (size_t k = 0; k < rays.size(); ++k) {
+            const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
+            const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
+            openvdb::Vec3d p, g;
+            double t = 0.0;
+            TraceHit& h = hits[k];
+            h = TraceHit();
+            h.hit = isect->intersectsWS(ray, p, g, t);
+            if (!h.hit)
+                continue;
+            h.t = t;
+            h.normal = unit(g.x(), g.y(), g.z());
+            h.albedo = kBarkAlbedo;
+            if (cs) {
+                const openvdb::Vec3f c = (*cs)(p);
+                h.albedo = glm::vec3(c.x(), c.y(), c.z());
+            }
+        }
+    };
+}
+
+RenderImage CpuMarcher::render(const Camera& camera, int width, int height, int spp) const
+{
+    return renderRows(camera, width, height, spp, [this] { return tracer(); });
+}
+
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
                               const Camera& camera, int width, int height, int spp)
 {
-    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
-    using RayT = Intersector::RayType;
-    const Intersector prototype(surface);
-    return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
-        // One intersector and colour sampler per task: both hold accessors.
-        auto isect = std::make_shared<Intersector>(prototype);
-        std::shared_ptr<const WorldSampler<openvdb::Vec3fGrid>> cs;
-        if (color)
-            cs = std::make_shared<const WorldSampler<openvdb::Vec3fGrid>>(*color);
-        return [isect, cs](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
-            for (size_t k = 0; k < rays.size(); ++k) {
-                const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
-                const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
-                openvdb::Vec3d p, g;
-                double t = 0.0;
-                TraceHit& h = hits[k];
-                h.hit = isect->intersectsWS(ray, p, g, t);
-                if (!h.hit)
-                    continue;
-                h.t = t;
-                h.normal = unit(g.x(), g.y(), g.z());
-                h.albedo = kBark;
-                if (cs) {
-                    const openvdb::Vec3f c = (*cs)(p);
-                    h.albedo = glm::vec3(c.x(), c.y(), c.z());
-                }
-            }
-        };
-    });
+    return CpuMarcher(surface, color).render(camera, width, height, spp);
+}
+
+RenderImage renderBatches(const Camera& camera, int width, int height, int spp, const BatchTracer& trace,
+                          size_t raysPerBatch)
+{
+    RenderImage img = blankImage(width, height);
+    spp = std::max(1, spp);
+    const size_t rowRays = size_t(width) * size_t(spp);
+    const int rowsPerBatch = int(std::clamp<size_t>(raysPerBatch / rowRays, 1, size_t(height)));
+    std::vector<TraceRay> rays(rowRays * size_t(rowsPerBatch));
+    std::vector<TraceHit> hits(rays.size());
+    for (int y0 = 0; y0 < height; y0 += rowsPerBatch) {
+        const int rows = std::min(rowsPerBatch, height - y0);
+        tbb::parallel_for(0, rows, [&](int r) {
+            generateRow(camera, width, height, spp, y0 + r, rays.data() + size_t(r) * rowRays);
+        });
+        rays.resize(size_t(rows) * rowRays);
+        hits.resize(rays.size());
+        trace(rays, hits);
+        tbb::parallel_for(0, rows, [&](int r) {
+            resolveRow(img, spp, y0 + r, rays.data() + size_t(r) * rowRays, hits.data() + size_t(r) * rowRays);
+        });
+    }
+    return img;
 }
 
 struct EmbreeMesh::Impl {
@@ -302,7 +364,7 @@ RenderImage EmbreeMesh::render(const Camera& camera, int width, int height, int 
                 const float u = rh[k].hit.u, w = rh[k].hit.v, b0 = 1.0f - u - w;
                 const openvdb::Vec3s n = b0 * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + w * mesh.normals[tri[2]];
                 h.normal = unit(n.x(), n.y(), n.z());
-                h.albedo = kBark;
+                h.albedo = kBarkAlbedo;
                 if (!mesh.colors.empty()) {
                     const openvdb::Vec3s c = b0 * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + w * mesh.colors[tri[2]];
                     h.albedo = glm::vec3(c.x(), c.y(), c.z());
@@ -375,10 +437,7 @@ int runRenderCommand(const RenderRequest& req)
                                      req.height));
     if (req.spp < 1 || req.spp > 4096)
         throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
-    if (req.device != "cpu")
-        throw InputError(fmt::format("--device {}: this build renders on the cpu (OpenVDB's level-set ray "
-                                     "intersector); write --device cpu",
-                                     req.device));
+    checkDeviceOption(req.device);
     parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);  // the spec, before any work
     forEachFile(req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
         const auto start = std::chrono::steady_clock::now();
@@ -387,9 +446,15 @@ int runRenderCommand(const RenderRequest& req)
         if (bounds.empty())
             throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
         const Camera cam = parseCamera(req.camera, bounds, double(req.width) / double(req.height));
-        const RenderImage img =
-            req.viaMesh ? renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp)
-                        : renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+        RenderImage img;
+        if (req.viaMesh)
+            img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
+        else if (req.device == "cpu")
+            img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+        else
+            img = withOpenCLHint("render", [&] {
+                return renderLevelSetOpenCL(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+            });
         writeImage(img, out);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         size_t covered = 0;
@@ -400,7 +465,9 @@ int runRenderCommand(const RenderRequest& req)
                    in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
                    100.0 * double(covered) / double(img.alpha.size()), s,
                    double(req.width) * req.height * req.spp / s * 1e-6,
-                   req.viaMesh ? "Embree on the volumeToMesh triangles, meshing included" : "cpu level-set march");
+                   req.viaMesh            ? "Embree on the volumeToMesh triangles, meshing included"
+                   : req.device == "cpu" ? "OpenVDB's level-set ray intersector"
+                                         : "OpenCL NanoVDB march, conversion and kernel build included");
     });
     return 0;
 }

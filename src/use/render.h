@@ -62,11 +62,66 @@ struct TraceHit {
 /// Traces a batch of rays (a row's samples): hits[i] for rays[i].
 using BatchTracer = std::function<void(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits)>;
 
-/// Ray marches a level set on the CPU with OpenVDB's LevelSetRayIntersector
-/// (hierarchical DDA to the zero crossing, then refined), `spp` samples per
-/// pixel (stratified, deterministic), colour from `color` (Cd) when given.
+/// The albedo of a surface without a colour grid.
+inline const glm::vec3 kBarkAlbedo{0.60f, 0.50f, 0.40f};
+
+/// Renders with one tracer called on batches of about `raysPerBatch` rays
+/// (whole rows), rays made and shaded on all threads around each call: for
+/// tracers that use every core themselves (OpenCL).
+RenderImage renderBatches(const Camera& camera, int width, int height, int spp, const BatchTracer& trace,
+                          size_t raysPerBatch = size_t(1) << 20);
+
+/// OpenVDB's LevelSetRayIntersector on a level set (hierarchical DDA to the
+/// zero crossing, then refined on the trilinear interpolant), colour from
+/// `color` (Cd) when given: the CPU march, and the reference of the OpenCL one.
+class CpuMarcher {
+public:
+    CpuMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color);
+    ~CpuMarcher();
+    CpuMarcher(const CpuMarcher&) = delete;
+    CpuMarcher& operator=(const CpuMarcher&) = delete;
+    /// A tracer for one thread at a time (it holds accessors).
+    BatchTracer tracer() const;
+    /// On all threads, a row at a time.
+    RenderImage render(const Camera& camera, int width, int height, int spp) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// CpuMarcher(surface, color).render(...): `spp` samples per pixel
+/// (stratified, deterministic).
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
                               const Camera& camera, int width, int height, int spp);
+
+/// Ray marches a level set with OpenCL (kernels/march.cl): a NanoVDB copy of
+/// the grid (and of `color`, when given) made once, read through PNanoVDB.h,
+/// walked with its hierarchical DDA; the zero crossing of the trilinear
+/// interpolant found cell by cell and refined, as LevelSetRayIntersector
+/// does.  Throws OpenCLError when no OpenCL device is usable.
+class OpenCLMarcher {
+public:
+    OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color);
+    ~OpenCLMarcher();
+    OpenCLMarcher(const OpenCLMarcher&) = delete;
+    OpenCLMarcher& operator=(const OpenCLMarcher&) = delete;
+    /// hits[i] for rays[i] (world space, unit directions).
+    void trace(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) const;
+    RenderImage render(const Camera& camera, int width, int height, int spp) const;
+    /// Bytes of the NanoVDB copies.
+    size_t gridBytes() const;
+    /// "Portable Computing Language: cpu-..." (platform and device).
+    std::string deviceName() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// OpenCLMarcher(surface, color).render(...).
+RenderImage renderLevelSetOpenCL(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                                 const Camera& camera, int width, int height, int spp);
 
 /// A triangle mesh in an Embree 3 scene (its BVH built once), rendered as
 /// the level set is (a stream of a row's rays at a time, rtcIntersect1M),
@@ -102,7 +157,7 @@ Box activeWorldBounds(const openvdb::GridBase& grid);
 
 /// `cambium render`.
 struct RenderRequest {
-    std::string input, output, grid = "surface", camera = "auto", device = "cpu", frames;
+    std::string input, output, grid = "surface", camera = "auto", device = "opencl", frames;
     int width = 960, height = 720, spp = 1;
     bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
 };

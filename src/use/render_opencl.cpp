@@ -1,0 +1,110 @@
+// cambium — ray marching a level set with OpenCL through NanoVDB (kernels/march.cl).
+#include "use/render.h"
+
+#include "bake/cl_runtime.h"
+#include "bake/kernel_sources.h"
+
+#include <fmt/format.h>
+#include <nanovdb/util/OpenToNanoVDB.h>
+#include <tbb/parallel_for.h>
+
+#include <cstring>
+
+namespace cambium {
+
+struct OpenCLMarcher::Impl {
+    OpenCLContext ctx;
+    nanovdb::GridHandle<nanovdb::HostBuffer> surface, color;
+    cl_program program = nullptr;
+    cl_kernel kernel = nullptr;
+    DeviceBuffer surfaceBuffer, colorBuffer;
+    mutable DeviceBuffer rays, hits;
+    ~Impl()
+    {
+        if (kernel)
+            clReleaseKernel(kernel);
+        if (program)
+            clReleaseProgram(program);
+    }
+};
+
+OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
+    : impl_(std::make_unique<Impl>())
+{
+    Impl& m = *impl_;
+    m.surface = nanovdb::openToNanoVDB(surface);
+    if (color)
+        m.color = nanovdb::openToNanoVDB(*color);
+    m.program = m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
+    cl_int err = CL_SUCCESS;
+    m.kernel = clCreateKernel(m.program, "march_rays", &err);
+    checkCL(err, "clCreateKernel(march_rays)");
+    m.surfaceBuffer.upload(m.ctx, m.surface.data(), m.surface.size(), CL_MEM_READ_ONLY);
+    // Without colour the kernel still needs a buffer argument: the surface's.
+    if (color)
+        m.colorBuffer.upload(m.ctx, m.color.data(), m.color.size(), CL_MEM_READ_ONLY);
+}
+
+OpenCLMarcher::~OpenCLMarcher() = default;
+
+size_t OpenCLMarcher::gridBytes() const { return impl_->surface.size() + impl_->color.size(); }
+
+std::string OpenCLMarcher::deviceName() const
+{
+    return impl_->ctx.info().platform + ": " + impl_->ctx.info().device;
+}
+
+void OpenCLMarcher::trace(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) const
+{
+    Impl& m = *impl_;
+    const size_t n = rays.size();
+    hits.resize(n);
+    if (n == 0)
+        return;
+    const size_t bytes = n * 8 * sizeof(float);
+    m.rays.reserve(m.ctx, bytes, CL_MEM_READ_ONLY | CL_MEM_ALLOC_HOST_PTR);
+    m.hits.reserve(m.ctx, bytes, CL_MEM_WRITE_ONLY | CL_MEM_ALLOC_HOST_PTR);
+    auto* in = static_cast<float*>(m.rays.map(m.ctx, CL_MAP_WRITE_INVALIDATE_REGION, bytes));
+    tbb::parallel_for(size_t(0), n, [&](size_t i) {
+        const TraceRay& r = rays[i];
+        const float v[8] = {float(r.origin.x),    float(r.origin.y),    float(r.origin.z),    0.0f,
+                            float(r.direction.x), float(r.direction.y), float(r.direction.z), 0.0f};
+        std::memcpy(in + 8 * i, v, sizeof(v));
+    });
+    m.rays.unmap(m.ctx, in);
+    const cl_mem surface = m.surfaceBuffer.get();
+    const cl_mem color = m.color ? m.colorBuffer.get() : surface;
+    const cl_int hasColor = m.color ? 1 : 0;
+    const cl_float4 albedo = {{kBarkAlbedo.x, kBarkAlbedo.y, kBarkAlbedo.z, 0.0f}};
+    const cl_mem raysMem = m.rays.get(), hitsMem = m.hits.get();
+    const cl_uint count = cl_uint(n);
+    setArgs(m.kernel, surface, color, hasColor, albedo, raysMem, hitsMem, count);
+    const size_t local = 64, global = (n + local - 1) / local * local;
+    checkCL(clEnqueueNDRangeKernel(m.ctx.queue(), m.kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr),
+            "clEnqueueNDRangeKernel(march_rays)");
+    const auto* out = static_cast<const float*>(m.hits.map(m.ctx, CL_MAP_READ, bytes));
+    tbb::parallel_for(size_t(0), n, [&](size_t i) {
+        const float* h = out + 8 * i;
+        TraceHit& hit = hits[i];
+        hit.hit = h[0] >= 0.0f;
+        hit.t = h[0];
+        hit.normal = glm::vec3(h[1], h[2], h[3]);
+        hit.albedo = glm::vec3(h[4], h[5], h[6]);
+    });
+    m.hits.unmap(m.ctx, const_cast<float*>(out));
+    checkCL(clFinish(m.ctx.queue()), "clFinish");
+}
+
+RenderImage OpenCLMarcher::render(const Camera& camera, int width, int height, int spp) const
+{
+    return renderBatches(camera, width, height, spp,
+                         [this](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) { trace(rays, hits); });
+}
+
+RenderImage renderLevelSetOpenCL(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                                 const Camera& camera, int width, int height, int spp)
+{
+    return OpenCLMarcher(surface, color).render(camera, width, height, spp);
+}
+
+}  // namespace cambium
