@@ -12,6 +12,7 @@
 #define CAMBIUM_CB_PNANOVDB_H
 
 #define PNANOVDB_C
+#define PNANOVDB_ADDRESS_32 /* grids under 4 GB (checked by the host): cheaper addresses */
 #define PNANOVDB_HDDA
 #define PNANOVDB_BUF_CUSTOM
 #define PNANOVDB_MEMCPY_CUSTOM
@@ -34,11 +35,11 @@ static inline void cb_pnanovdb_memcpy(void* dst, const void* src, size_t n)
 typedef struct pnanovdb_buf_t {
     __global const uint* data;
 } pnanovdb_buf_t;
-static inline __attribute__((always_inline)) uint pnanovdb_buf_read_uint32(pnanovdb_buf_t buf, ulong byte_offset)
+static inline __attribute__((always_inline)) uint pnanovdb_buf_read_uint32(pnanovdb_buf_t buf, uint byte_offset)
 {
     return buf.data[byte_offset >> 2];
 }
-static inline __attribute__((always_inline)) ulong pnanovdb_buf_read_uint64(pnanovdb_buf_t buf, ulong byte_offset)
+static inline __attribute__((always_inline)) ulong pnanovdb_buf_read_uint64(pnanovdb_buf_t buf, uint byte_offset)
 {
     return ((__global const ulong*)buf.data)[byte_offset >> 3];
 }

@@ -81,17 +81,24 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
     throw InputError(fmt::format("--camera {}: expected auto or turntable:ANGLE (degrees)", spec));
 }
 
+CameraFrame::CameraFrame(const Camera& cam, int width, int height)
+    : eye(cam.eye), w(glm::normalize(cam.target - cam.eye)), u(glm::normalize(glm::cross(w, cam.up))),
+      v(glm::cross(u, w)), tanY(std::tan(glm::radians(0.5 * cam.fovY))), width(width), height(height)
+{
+}
+
+void CameraFrame::ray(double px, double py, glm::dvec3& origin, glm::dvec3& direction) const
+{
+    const double sx = (2.0 * px / width - 1.0) * tanY * double(width) / double(height);
+    const double sy = (1.0 - 2.0 * py / height) * tanY;
+    origin = eye;
+    direction = glm::normalize(w + sx * u + sy * v);
+}
+
 void cameraRay(const Camera& cam, int width, int height, double px, double py, glm::dvec3& origin,
                glm::dvec3& direction)
 {
-    const glm::dvec3 w = glm::normalize(cam.target - cam.eye);
-    const glm::dvec3 u = glm::normalize(glm::cross(w, cam.up));
-    const glm::dvec3 v = glm::cross(u, w);
-    const double t = std::tan(glm::radians(0.5 * cam.fovY));
-    const double sx = (2.0 * px / width - 1.0) * t * double(width) / double(height);
-    const double sy = (1.0 - 2.0 * py / height) * t;
-    origin = cam.eye;
-    direction = glm::normalize(w + sx * u + sy * v);
+    CameraFrame(cam, width, height).ray(px, py, origin, direction);
 }
 
 glm::vec3 shadeSurface(const glm::vec3& n, const glm::vec3& albedo)
@@ -127,12 +134,13 @@ RenderImage blankImage(int width, int height)
 /// pixel's centre, the others spread by the plastic-number (R2) sequence.
 void generateRow(const Camera& camera, int width, int height, int spp, int y, TraceRay* rays)
 {
+    const CameraFrame frame(camera, width, height);
     for (int x = 0; x < width; ++x)
         for (int s = 0; s < spp; ++s) {
             const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
             const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
             TraceRay& r = rays[size_t(x) * size_t(spp) + size_t(s)];
-            cameraRay(camera, width, height, x + jx, y + jy, r.origin, r.direction);
+            frame.ray(x + jx, y + jy, r.origin, r.direction);
         }
 }
 

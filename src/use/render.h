@@ -32,6 +32,16 @@ Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0,
 /// ANGLE degrees about the vertical axis).  InputError otherwise.
 Camera parseCamera(const std::string& spec, const Box& bounds, double aspect);
 
+/// A camera's orthonormal frame for an image size: rays without recomputing it.
+struct CameraFrame {
+    CameraFrame(const Camera& cam, int width, int height);
+    /// The world-space ray through image position (px, py) (pixels, y down).
+    void ray(double px, double py, glm::dvec3& origin, glm::dvec3& direction) const;
+    glm::dvec3 eye, w, u, v;
+    double tanY;
+    int width, height;
+};
+
 /// The world-space ray through image position (px, py) (pixels, y down).
 void cameraRay(const Camera& cam, int width, int height, double px, double py, glm::dvec3& origin,
                glm::dvec3& direction);

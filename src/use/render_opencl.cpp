@@ -3,6 +3,7 @@
 
 #include "bake/cl_runtime.h"
 #include "bake/kernel_sources.h"
+#include "core/error.h"
 
 #include <fmt/format.h>
 #include <nanovdb/util/OpenToNanoVDB.h>
@@ -18,6 +19,7 @@ struct OpenCLMarcher::Impl {
     cl_program program = nullptr;
     cl_kernel kernel = nullptr;
     DeviceBuffer surfaceBuffer, colorBuffer;
+    float skip = 0.0f;  ///< leaves whose values all exceed it hold no crossing
     mutable DeviceBuffer rays, hits;
     ~Impl()
     {
@@ -32,9 +34,16 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
     : impl_(std::make_unique<Impl>())
 {
     Impl& m = *impl_;
-    m.surface = nanovdb::openToNanoVDB(surface);
+    // Leaves' extrema let the march step over leaves far from the surface.
+    m.surface = nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
+    m.skip = float(2.0 * surface.voxelSize()[0]);
     if (color)
-        m.color = nanovdb::openToNanoVDB(*color);
+        m.color = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox, nanovdb::ChecksumMode::Disable);
+    for (const auto* h : {&m.surface, &m.color})
+        if (h->size() >= (uint64_t(1) << 32))  // kernels/cb_pnanovdb.h: 32-bit addresses
+            throw InputError(fmt::format("the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
+                                         "under 4 GB: use --device cpu",
+                                         double(h->size()) * 1e-9));
     m.program = m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
     cl_int err = CL_SUCCESS;
     m.kernel = clCreateKernel(m.program, "march_rays", &err);
@@ -43,6 +52,10 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
     // Without colour the kernel still needs a buffer argument: the surface's.
     if (color)
         m.colorBuffer.upload(m.ctx, m.color.data(), m.color.size(), CL_MEM_READ_ONLY);
+    // PoCL compiles a kernel for its work-group size at the first launch:
+    // one group of rays now, so that the first image does not pay for it.
+    std::vector<TraceHit> hits;
+    trace(std::vector<TraceRay>(64, TraceRay{glm::dvec3(0.0), glm::dvec3(0.0, 0.0, 1.0)}), hits);
 }
 
 OpenCLMarcher::~OpenCLMarcher() = default;
@@ -78,10 +91,11 @@ void OpenCLMarcher::trace(const std::vector<TraceRay>& rays, std::vector<TraceHi
     const cl_float4 albedo = {{kBarkAlbedo.x, kBarkAlbedo.y, kBarkAlbedo.z, 0.0f}};
     const cl_mem raysMem = m.rays.get(), hitsMem = m.hits.get();
     const cl_uint count = cl_uint(n);
-    setArgs(m.kernel, surface, color, hasColor, albedo, raysMem, hitsMem, count);
+    setArgs(m.kernel, surface, color, hasColor, albedo, m.skip, raysMem, hitsMem, count);
     const size_t local = 64, global = (n + local - 1) / local * local;
     checkCL(clEnqueueNDRangeKernel(m.ctx.queue(), m.kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr),
             "clEnqueueNDRangeKernel(march_rays)");
+
     const auto* out = static_cast<const float*>(m.hits.map(m.ctx, CL_MAP_READ, bytes));
     tbb::parallel_for(size_t(0), n, [&](size_t i) {
         const float* h = out + 8 * i;
