@@ -206,7 +206,15 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
     const Result m = run("render " + vdb + " -o " + png + " --width 64 --height 48 --via-mesh");
     ASSERT_EQ(m.status, 0) << m.err;
     EXPECT_NE(m.out.find("Embree"), std::string::npos) << m.out;
+    const std::string ply = (dir / "s.ply").string();
+    ASSERT_EQ(run("mesh " + vdb + " -o " + ply).status, 0);
+    const Result fromMesh = run("render --mesh " + ply + " -o " + png + " --width 64 --height 48");
+    ASSERT_EQ(fromMesh.status, 0) << fromMesh.err;
+    EXPECT_NE(fromMesh.out.find("Embree on the mesh's triangles"), std::string::npos) << fromMesh.out;
     expectRefused("render", {
+        {"--mesh " + ply + " " + vdb + " -o " + png, "--mesh renders a mesh file instead of a .vdb"},
+        {"-o " + png, "nothing to render"},
+        {"--mesh " + (dir / "m.stl").string() + " -o " + png, "unknown mesh format '.stl'"},
         {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
         {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto or turntable:ANGLE"},
         {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},

@@ -184,7 +184,102 @@ TEST(Mesh, FilesReadBack)
         ++files;
     }
     EXPECT_EQ(files, 2u);
+
+    // readMesh gives back what was written: PLY exactly, OBJ to its 5 digits.
+    for (const std::string& path : {ply, obj}) {
+        const TriangleMesh r = readMesh(path);
+        const float tol = path == ply ? 0.0f : 1e-4f;
+        ASSERT_EQ(r.points.size(), m.points.size()) << path;
+        ASSERT_EQ(r.triangles.size(), m.triangles.size()) << path;
+        ASSERT_EQ(r.colors.size(), m.colors.size()) << path;
+        for (size_t i = 0; i < m.points.size(); ++i)
+            for (int k = 0; k < 3; ++k) {
+                ASSERT_NEAR(r.points[i][k], m.points[i][k], tol) << path << " point " << i;
+                ASSERT_NEAR(r.normals[i][k], m.normals[i][k], tol) << path << " normal " << i;
+                // Colours: 8 bits in PLY, 5 digits in OBJ.
+                ASSERT_NEAR(r.colors[i][k], m.colors[i][k], 0.5f / 255.0f + tol) << path << " colour " << i;
+            }
+        for (size_t i = 0; i < m.triangles.size(); ++i)
+            ASSERT_EQ(r.triangles[i], m.triangles[i]) << path << " triangle " << i;
+    }
     std::filesystem::remove_all(dir);
+}
+
+/// Writes `text` to a file of the temporary directory and reads it as a mesh.
+TriangleMesh readText(const std::string& name, const std::string& text)
+{
+    const auto path = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_" + name);
+    {
+        std::ofstream out(path, std::ios::binary);
+        out << text;
+    }
+    struct Remove {
+        std::filesystem::path p;
+        ~Remove() { std::filesystem::remove(p); }
+    } remove{path};
+    return readMesh(path.string());
+}
+
+/// The unit cube [0,1]^3 as six outward quads, in OBJ and in ASCII PLY.
+const char* kCubeObj = "# a cube\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                       "vt 0 0\ng cube\ns off\n"
+                       "f 1 4 3 2\nf 5/1 6/1 7/1 8/1\nf 1 2 6 5\nf -5 -1 -2 -6\nf 1 5 8 4\nf 2 3 7 6\n";
+const char* kCubePly = "ply\nformat ascii 1.0\ncomment a cube\nelement vertex 8\nproperty float x\n"
+                       "property float y\nproperty float z\nproperty float red\nproperty float green\n"
+                       "property float blue\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+                       "0 0 0 1 0 0\n1 0 0 1 0 0\n1 1 0 1 0 0\n0 1 0 1 0 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n"
+                       "1 1 1 0 0 1\n0 1 1 0 0 1\n"
+                       "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 3 7 6 2\n4 0 4 7 3\n4 1 2 6 5\n";
+
+TEST(Mesh, ReadsOtherToolsObjAndPly)
+{
+    for (const auto& [name, text] : {std::pair<const char*, const char*>{"cube.obj", kCubeObj}, {"cube.ply", kCubePly}}) {
+        const TriangleMesh m = readText(name, text);
+        EXPECT_EQ(m.points.size(), 8u) << name;
+        EXPECT_EQ(m.triangles.size(), 12u) << name;  // quads fanned
+        EXPECT_NEAR(meshArea(m), 6.0, 1e-9) << name;
+        EXPECT_NEAR(meshVolume(m), 1.0, 1e-9) << name;  // outward: positive
+        // Normals made from the faces: unit, away from the centre (area
+        // weights over the fanned triangles tilt them from the diagonal).
+        ASSERT_EQ(m.normals.size(), 8u) << name;
+        for (size_t i = 0; i < 8; ++i) {
+            const openvdb::Vec3s out = m.points[i] - openvdb::Vec3s(0.5f);
+            EXPECT_NEAR(m.normals[i].length(), 1.0, 1e-6) << name << " vertex " << i;
+            EXPECT_GT(m.normals[i].dot(out) / out.length(), 0.9) << name << " vertex " << i;
+        }
+    }
+    const TriangleMesh ply = readText("cube.ply", kCubePly);
+    ASSERT_EQ(ply.colors.size(), 8u);
+    EXPECT_EQ(ply.colors[0], openvdb::Vec3s(1, 0, 0));
+    EXPECT_EQ(ply.colors[7], openvdb::Vec3s(0, 0, 1));
+}
+
+TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
+{
+    auto expectRefused = [](const std::string& name, const std::string& text, const std::string& message) {
+        try {
+            readText(name, text);
+            ADD_FAILURE() << name << ": no error, expected " << message;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+        }
+    };
+    expectRefused("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "a.obj:4: vertex index 4 out of range");
+    expectRefused("b.obj", "v 0 0\n", "b.obj:1: 'v' expects 3 numbers");
+    expectRefused("c.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "c.obj:3: a face needs at least 3 vertices");
+    expectRefused("d.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "d.obj:4: bad face corner 'x'");
+    expectRefused("e.obj", "# nothing\n", "the mesh has no faces");
+    expectRefused("f.ply", "ply\nformat binary_big_endian 1.0\nend_header\n", "binary_big_endian' is not read");
+    expectRefused("g.ply", "PLY\n", "not a PLY file");
+    expectRefused("h.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header");
+    expectRefused("i.ply",
+                  "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nend_header\n1234",
+                  "the file ends inside element 'vertex'");
+    expectRefused("j.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n",
+                  "the vertex element has no x, y, z");
+    expectRefused("k.stl", "solid\n", "unknown mesh format '.stl'");
+    EXPECT_THROW(readMesh("/nonexistent/m.obj"), InputError);
 }
 
 }  // namespace

@@ -306,6 +306,28 @@ TEST(Render, MarchAndEmbreeOnTheMeshAgree)
     }
 }
 
+TEST(Render, AMeshFileRendersAsTheMeshItWasWrittenFrom)
+{
+    BlobTree tree;
+    tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
+    tree.finalize();
+    const BakedGrids g = test::bakeTree(tree, 0.02);
+    const TriangleMesh mesh = meshLevelSet(*g.surface);
+    const auto path = std::filesystem::temp_directory_path() / ("cambium_render_mesh_" + std::to_string(::getpid()) + ".ply");
+    writeMesh(mesh, path.string());
+    const TriangleMesh back = readMesh(path.string());
+    std::filesystem::remove(path);
+    const Camera cam = framingCamera(meshBounds(mesh), 1.0);
+    const RenderImage a = renderMeshEmbree(mesh, cam, 64, 64, 1), b = renderMeshEmbree(back, cam, 64, 64, 1);
+    size_t hits = 0;
+    for (size_t i = 0; i < a.depth.size(); ++i) {
+        ASSERT_EQ(a.depth[i], b.depth[i]) << "pixel " << i;
+        ASSERT_EQ(a.rgb[3 * i], b.rgb[3 * i]) << "pixel " << i;
+        hits += std::isfinite(a.depth[i]);
+    }
+    EXPECT_GT(hits, 500u);
+}
+
 TEST(Render, TheDefaultCameraFramesTheBounds)
 {
     const Box b(glm::dvec3(-0.5, 0.0, -0.3), glm::dvec3(0.6, 2.2, 0.4));

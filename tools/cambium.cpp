@@ -213,7 +213,9 @@ int main(int argc, char** argv)
     RenderRequest render;
     auto* renderCmd = app.add_subcommand("render", "Ray-march a baked level set into a picture (.png) or "
                                                     "channels for tools (.exr)");
-    renderCmd->add_option("input", render.input, "Input .vdb file")->required();
+    renderCmd->add_option("input", render.input, "Input .vdb file");
+    renderCmd->add_option("--mesh", render.mesh,
+                          "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
     renderCmd->add_option("-o,--output", render.output, "Output image (.png or .exr)")->required();
     renderCmd->add_option("--width", render.width, "Image width in pixels")->capture_default_str();
     renderCmd->add_option("--height", render.height, "Image height in pixels")->capture_default_str();

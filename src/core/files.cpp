@@ -30,7 +30,7 @@ void checkWritable(const std::string& path)
     ::unlink(tmp.c_str());
 }
 
-std::string outputFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind)
+std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind)
 {
     const size_t dot = path.rfind('.'), slash = path.rfind('/');
     std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1);
@@ -40,7 +40,7 @@ std::string outputFormat(const std::string& path, const std::vector<std::string>
     std::string list;
     for (size_t i = 0; i < allowed.size(); ++i)
         list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
-    throw InputError(fmt::format("{}: unknown {} format '.{}' (write {})", path, kind, ext, list));
+    throw InputError(fmt::format("{}: unknown {} format '.{}' (use {})", path, kind, ext, list));
 }
 
 void writeAtomically(const std::string& path, const std::function<void(const std::string& tmp)>& write)

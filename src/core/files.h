@@ -15,8 +15,8 @@ std::string temporaryPathFor(const std::string& path);
 void checkWritable(const std::string& path);
 
 /// The lower-case extension of `path` (without the dot) when it is one of
-/// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (write .A or .B)".
-std::string outputFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind);
+/// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (use .A or .B)".
+std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind);
 
 /// Calls write(tmp) to write the file to a temporary name beside `path`, then
 /// renames it over `path`: a crash or an error never leaves a half-written

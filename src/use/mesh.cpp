@@ -144,13 +144,13 @@ void writePly(const TriangleMesh& m, const std::string& path)
 
 void checkMeshOutput(const std::string& path)
 {
-    outputFormat(path, {"obj", "ply"}, "mesh");
+    fileFormat(path, {"obj", "ply"}, "mesh");
     checkWritable(path);
 }
 
 void writeMesh(const TriangleMesh& mesh, const std::string& path)
 {
-    const std::string ext = outputFormat(path, {"obj", "ply"}, "mesh");
+    const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
     writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
 }
 

@@ -32,6 +32,14 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
 /// another extension or an unwritable path.
 void writeMesh(const TriangleMesh& mesh, const std::string& path);
 
+/// Reads a triangle mesh from OBJ (v [r g b], vn, f with any of its corner
+/// forms, polygons fanned) or PLY (ascii or binary little-endian; x y z,
+/// optional nx ny nz and red green blue, faces as vertex_indices lists), such
+/// as writeMesh and other tools write.  Missing normals are made from the
+/// triangles.  InputError naming the file (and line) for anything it cannot
+/// read.
+TriangleMesh readMesh(const std::string& path);
+
 /// Throws InputError, before any work, when `path` is not a .obj or .ply
 /// file that can be written.
 void checkMeshOutput(const std::string& path);

@@ -81,9 +81,9 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
     throw InputError(fmt::format("--camera {}: expected auto or turntable:ANGLE (degrees)", spec));
 }
 
-CameraFrame::CameraFrame(const Camera& cam, int width, int height)
+CameraFrame::CameraFrame(const Camera& cam, int w_, int h_)
     : eye(cam.eye), w(glm::normalize(cam.target - cam.eye)), u(glm::normalize(glm::cross(w, cam.up))),
-      v(glm::cross(u, w)), tanY(std::tan(glm::radians(0.5 * cam.fovY))), width(width), height(height)
+      v(glm::cross(u, w)), tanY(std::tan(glm::radians(0.5 * cam.fovY))), width(w_), height(h_)
 {
 }
 
@@ -384,13 +384,13 @@ RenderImage EmbreeMesh::render(const Camera& camera, int width, int height, int 
 
 void checkImageOutput(const std::string& path)
 {
-    outputFormat(path, {"png", "exr"}, "image");
+    fileFormat(path, {"png", "exr"}, "image");
     checkWritable(path);
 }
 
 void writeImage(const RenderImage& img, const std::string& path)
 {
-    const std::string ext = outputFormat(path, {"png", "exr"}, "image");
+    const std::string ext = fileFormat(path, {"png", "exr"}, "image");
     writeAtomically(path, [&](const std::string& tmp) {
         auto out = OIIO::ImageOutput::create(path);  // the plugin by the real name's extension
         if (!out)
@@ -428,6 +428,14 @@ void writeImage(const RenderImage& img, const std::string& path)
     });
 }
 
+Box meshBounds(const TriangleMesh& mesh)
+{
+    Box b;
+    for (const auto& p : mesh.points)
+        b.expand(glm::dvec3(p.x(), p.y(), p.z()));
+    return b;
+}
+
 Box activeWorldBounds(const openvdb::GridBase& grid)
 {
     const openvdb::CoordBBox b = grid.evalActiveVoxelBoundingBox();
@@ -447,14 +455,39 @@ int runRenderCommand(const RenderRequest& req)
         throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
     checkDeviceOption(req.device);
     parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);  // the spec, before any work
-    forEachFile(req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
+    if (!req.mesh.empty() && (!req.input.empty() || req.viaMesh))
+        throw InputError("--mesh renders a mesh file instead of a .vdb: give one or the other");
+    if (req.mesh.empty() && req.input.empty())
+        throw InputError("nothing to render: give a .vdb file (or --mesh MESH.obj|ply)");
+    const bool meshFile = !req.mesh.empty();
+    forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
         const auto start = std::chrono::steady_clock::now();
+        const double aspect = double(req.width) / double(req.height);
+        RenderImage img;
+        auto report = [&](std::chrono::steady_clock::time_point t0, const char* how) {
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            size_t covered = 0;
+            for (float a : img.alpha)
+                covered += a > 0.0f;
+            fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, "
+                       "{:.2f} s ({:.3g} M rays/s, {})\n",
+                       in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
+                       100.0 * double(covered) / double(img.alpha.size()), s,
+                       double(req.width) * req.height * req.spp / s * 1e-6, how);
+        };
+        if (meshFile) {
+            const TriangleMesh mesh = readMesh(in);
+            img = renderMeshEmbree(mesh, parseCamera(req.camera, meshBounds(mesh), aspect), req.width, req.height,
+                                   req.spp);
+            writeImage(img, out);
+            report(start, "Embree on the mesh's triangles, reading included");
+            return;
+        }
         const LevelSetFile f = readLevelSet(in, req.grid);
         const Box bounds = activeWorldBounds(*f.surface);
         if (bounds.empty())
             throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
-        const Camera cam = parseCamera(req.camera, bounds, double(req.width) / double(req.height));
-        RenderImage img;
+        const Camera cam = parseCamera(req.camera, bounds, aspect);
         if (req.viaMesh)
             img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
         else if (req.device == "cpu")
@@ -464,18 +497,9 @@ int runRenderCommand(const RenderRequest& req)
                 return renderLevelSetOpenCL(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
             });
         writeImage(img, out);
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        size_t covered = 0;
-        for (float a : img.alpha)
-            covered += a > 0.0f;
-        fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
-                   "({:.3g} M rays/s, {})\n",
-                   in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
-                   100.0 * double(covered) / double(img.alpha.size()), s,
-                   double(req.width) * req.height * req.spp / s * 1e-6,
-                   req.viaMesh            ? "Embree on the volumeToMesh triangles, meshing included"
-                   : req.device == "cpu" ? "OpenVDB's level-set ray intersector"
-                                         : "OpenCL NanoVDB march, conversion and kernel build included");
+        report(start, req.viaMesh            ? "Embree on the volumeToMesh triangles, meshing included"
+                      : req.device == "cpu" ? "OpenVDB's level-set ray intersector"
+                                            : "OpenCL NanoVDB march, conversion and kernel build included");
     });
     return 0;
 }

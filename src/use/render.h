@@ -162,6 +162,9 @@ void writeImage(const RenderImage& image, const std::string& path);
 /// file that can be written.
 void checkImageOutput(const std::string& path);
 
+/// World-space bounds of a mesh's points.
+Box meshBounds(const TriangleMesh& mesh);
+
 /// World-space bounds of a grid's active voxels.
 Box activeWorldBounds(const openvdb::GridBase& grid);
 
@@ -170,6 +173,7 @@ struct RenderRequest {
     std::string input, output, grid = "surface", camera = "auto", device = "opencl", frames;
     int width = 960, height = 720, spp = 1;
     bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
+    std::string mesh;      ///< render this mesh file (OBJ, PLY) with Embree instead of a .vdb
 };
 int runRenderCommand(const RenderRequest& request);
 

@@ -1,0 +1,315 @@
+// cambium — reading triangle meshes (OBJ, PLY) for `render --mesh`.
+#include "use/mesh.h"
+
+#include "core/error.h"
+#include "core/files.h"
+
+#include <fmt/format.h>
+
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace cambium {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& path, size_t line, const std::string& what)
+{
+    throw InputError(line ? fmt::format("{}:{}: {}", path, line, what) : fmt::format("{}: {}", path, what));
+}
+
+/// Fans a polygon (indices into the points, checked) into triangles.
+void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::string& path, size_t line)
+{
+    if (poly.size() < 3)
+        fail(path, line, fmt::format("a face needs at least 3 vertices (got {})", poly.size()));
+    for (int64_t v : poly)
+        if (v < 0 || size_t(v) >= m.points.size())
+            fail(path, line, fmt::format("vertex index {} out of range (the file has {} vertices so far)", v + 1,
+                                         m.points.size()));
+    for (size_t k = 1; k + 1 < poly.size(); ++k)
+        m.triangles.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
+}
+
+TriangleMesh readObj(const std::string& path)
+{
+    std::ifstream in(path);
+    if (!in)
+        fail(path, 0, "cannot open it");
+    TriangleMesh m;
+    std::vector<openvdb::Vec3s> normals;
+    std::vector<std::pair<size_t, int64_t>> cornerNormals;  // (point, normal) pairs from the faces
+    std::string text;
+    size_t line = 0;
+    std::vector<int64_t> poly;
+    while (std::getline(in, text)) {
+        ++line;
+        std::istringstream s(text);
+        std::string tag;
+        if (!(s >> tag) || tag[0] == '#')
+            continue;
+        if (tag == "v" || tag == "vn") {
+            float x[6];
+            int n = 0;
+            while (n < 6 && s >> x[n])
+                ++n;
+            if (n < 3 || (tag == "v" && n != 3 && n != 6) || (tag == "vn" && n != 3))
+                fail(path, line, fmt::format("'{}' expects 3 numbers{}", tag, tag == "v" ? " (or 6 with a colour)" : ""));
+            if (tag == "vn") {
+                normals.emplace_back(x[0], x[1], x[2]);
+                continue;
+            }
+            m.points.emplace_back(x[0], x[1], x[2]);
+            if (n == 6) {
+                if (m.colors.size() + 1 != m.points.size())
+                    fail(path, line, "some vertices have colours and others not");
+                m.colors.emplace_back(x[3], x[4], x[5]);
+            }
+        } else if (tag == "f") {
+            poly.clear();
+            std::string corner;
+            while (s >> corner) {
+                // v, v/vt, v/vt/vn or v//vn; negative indices count from the end.
+                char* end = nullptr;
+                const long v = std::strtol(corner.c_str(), &end, 10);
+                if (end == corner.c_str() || v == 0 || (*end != '\0' && *end != '/'))
+                    fail(path, line, fmt::format("bad face corner '{}'", corner));
+                const int64_t vi = v > 0 ? v - 1 : int64_t(m.points.size()) + v;
+                poly.push_back(vi);
+                const auto slash1 = corner.find('/');
+                const auto slash2 = slash1 == std::string::npos ? slash1 : corner.find('/', slash1 + 1);
+                if (slash2 != std::string::npos && slash2 + 1 < corner.size()) {
+                    const long n = std::strtol(corner.c_str() + slash2 + 1, &end, 10);
+                    if (n == 0 || *end != '\0')
+                        fail(path, line, fmt::format("bad normal index in '{}'", corner));
+                    cornerNormals.emplace_back(size_t(vi), n > 0 ? n - 1 : int64_t(normals.size()) + n);
+                }
+            }
+            addPolygon(m, poly, path, line);
+        }
+        // Other statements (vt, o, g, s, usemtl, mtllib, l, ...) do not change the surface.
+    }
+    if (!m.colors.empty() && m.colors.size() != m.points.size())
+        fail(path, 0, "some vertices have colours and others not");
+    if (!cornerNormals.empty()) {
+        m.normals.assign(m.points.size(), openvdb::Vec3s(0.0f));
+        for (const auto& [p, n] : cornerNormals) {
+            if (n < 0 || size_t(n) >= normals.size())
+                fail(path, 0, fmt::format("normal index {} out of range ({} normals)", n + 1, normals.size()));
+            m.normals[p] = normals[size_t(n)];
+        }
+    }
+    return m;
+}
+
+/// A PLY scalar type: its size, and a reader to double.
+struct PlyType {
+    int size = 0;
+    char kind = 0;  // 'i' signed, 'u' unsigned, 'f' float
+};
+
+PlyType plyType(const std::string& name, const std::string& path, size_t line)
+{
+    if (name == "char" || name == "int8")
+        return {1, 'i'};
+    if (name == "uchar" || name == "uint8")
+        return {1, 'u'};
+    if (name == "short" || name == "int16")
+        return {2, 'i'};
+    if (name == "ushort" || name == "uint16")
+        return {2, 'u'};
+    if (name == "int" || name == "int32")
+        return {4, 'i'};
+    if (name == "uint" || name == "uint32")
+        return {4, 'u'};
+    if (name == "float" || name == "float32")
+        return {4, 'f'};
+    if (name == "double" || name == "float64")
+        return {8, 'f'};
+    fail(path, line, fmt::format("unknown PLY type '{}'", name));
+}
+
+double readBinary(const char* p, const PlyType& t)
+{
+    switch (t.size * 4 + (t.kind == 'i' ? 0 : t.kind == 'u' ? 1 : 2)) {
+    case 4: { int8_t v; std::memcpy(&v, p, 1); return v; }
+    case 5: { uint8_t v; std::memcpy(&v, p, 1); return v; }
+    case 8: { int16_t v; std::memcpy(&v, p, 2); return v; }
+    case 9: { uint16_t v; std::memcpy(&v, p, 2); return v; }
+    case 16: { int32_t v; std::memcpy(&v, p, 4); return v; }
+    case 17: { uint32_t v; std::memcpy(&v, p, 4); return v; }
+    case 18: { float v; std::memcpy(&v, p, 4); return v; }
+    default: { double v; std::memcpy(&v, p, 8); return v; }
+    }
+}
+
+struct PlyProperty {
+    std::string name;
+    PlyType type, countType;  // countType.size > 0 for a list
+};
+struct PlyElement {
+    std::string name;
+    size_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+TriangleMesh readPly(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        fail(path, 0, "cannot open it");
+    std::string text, format;
+    std::vector<PlyElement> elements;
+    size_t line = 0;
+    if (!std::getline(in, text) || text.rfind("ply", 0) != 0)
+        fail(path, 1, "not a PLY file (it does not start with 'ply')");
+    ++line;
+    while (true) {
+        if (!std::getline(in, text))
+            fail(path, line, "the header has no end_header");
+        ++line;
+        if (!text.empty() && text.back() == '\r')
+            text.pop_back();
+        std::istringstream s(text);
+        std::string tag;
+        s >> tag;
+        if (tag == "end_header")
+            break;
+        if (tag == "format") {
+            s >> format;
+            if (format != "ascii" && format != "binary_little_endian")
+                fail(path, line, fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)", format));
+        } else if (tag == "element") {
+            PlyElement e;
+            if (!(s >> e.name >> e.count))
+                fail(path, line, "expected 'element NAME COUNT'");
+            elements.push_back(e);
+        } else if (tag == "property") {
+            if (elements.empty())
+                fail(path, line, "a property before any element");
+            PlyProperty p;
+            std::string type;
+            s >> type;
+            if (type == "list") {
+                std::string countType, itemType;
+                s >> countType >> itemType;
+                p.countType = plyType(countType, path, line);
+                p.type = plyType(itemType, path, line);
+            } else
+                p.type = plyType(type, path, line);
+            if (!(s >> p.name))
+                fail(path, line, "a property without a name");
+            elements.back().properties.push_back(p);
+        }
+        // comment, obj_info: nothing to do.
+    }
+    if (format.empty())
+        fail(path, line, "the header has no format line");
+
+    TriangleMesh m;
+    const bool ascii = format == "ascii";
+    std::vector<char> record;
+    std::vector<double> values;
+    std::vector<int64_t> poly;
+    for (const PlyElement& e : elements) {
+        auto index = [&](const char* name) -> int {
+            for (size_t i = 0; i < e.properties.size(); ++i)
+                if (e.properties[i].name == name)
+                    return int(i);
+            return -1;
+        };
+        const int x = index("x"), y = index("y"), z = index("z"), nx = index("nx"), ny = index("ny"),
+                  nz = index("nz"), r = index("red"), g = index("green"), b = index("blue");
+        int list = index("vertex_indices");
+        if (list < 0)
+            list = index("vertex_index");
+        if (e.name == "vertex" && (x < 0 || y < 0 || z < 0))
+            fail(path, 0, "the vertex element has no x, y, z");
+        if (e.name == "face" && list < 0)
+            fail(path, 0, "the face element has no vertex_indices list");
+        const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
+        const double colourScale = colours && e.properties[size_t(r)].type.kind != 'f' ? 1.0 / 255.0 : 1.0;
+        for (size_t item = 0; item < e.count; ++item) {
+            values.assign(e.properties.size(), 0.0);
+            poly.clear();
+            std::istringstream s;
+            if (ascii) {
+                if (!std::getline(in, text))
+                    fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item, e.count));
+                s.str(text);
+            }
+            for (size_t k = 0; k < e.properties.size(); ++k) {
+                const PlyProperty& p = e.properties[k];
+                auto one = [&](const PlyType& t) {
+                    double v = 0.0;
+                    if (ascii) {
+                        if (!(s >> v))
+                            fail(path, 0, fmt::format("element '{}' {}: too few values", e.name, item));
+                    } else {
+                        char buf[8];
+                        if (!in.read(buf, t.size))
+                            fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
+                                                      e.count));
+                        v = readBinary(buf, t);
+                    }
+                    return v;
+                };
+                if (p.countType.size == 0) {
+                    values[k] = one(p.type);
+                    continue;
+                }
+                const double n = one(p.countType);
+                if (!(n >= 0.0 && n < 1e6))
+                    fail(path, 0, fmt::format("element '{}' {}: a list of {} items", e.name, item, n));
+                for (int i = 0; i < int(n); ++i) {
+                    const double v = one(p.type);
+                    if (int(k) == list)
+                        poly.push_back(int64_t(v));
+                }
+            }
+            if (e.name == "vertex") {
+                m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]), float(values[size_t(z)]));
+                if (nx >= 0 && ny >= 0 && nz >= 0)
+                    m.normals.emplace_back(float(values[size_t(nx)]), float(values[size_t(ny)]),
+                                           float(values[size_t(nz)]));
+                if (colours)
+                    m.colors.emplace_back(float(values[size_t(r)] * colourScale), float(values[size_t(g)] * colourScale),
+                                          float(values[size_t(b)] * colourScale));
+            } else if (e.name == "face") {
+                addPolygon(m, poly, path, 0);
+            }
+        }
+    }
+    return m;
+}
+
+/// Unit vertex normals, area-weighted from the triangles (outward for
+/// counter-clockwise triangles).
+std::vector<openvdb::Vec3s> vertexNormals(const TriangleMesh& m)
+{
+    std::vector<openvdb::Vec3s> n(m.points.size(), openvdb::Vec3s(0.0f));
+    for (const auto& t : m.triangles) {
+        const openvdb::Vec3s c = (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
+        for (uint32_t v : t)
+            n[v] += c;
+    }
+    for (auto& v : n)
+        v.normalize();
+    return n;
+}
+
+}  // namespace
+
+TriangleMesh readMesh(const std::string& path)
+{
+    const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
+    TriangleMesh m = ext == "obj" ? readObj(path) : readPly(path);
+    if (m.triangles.empty())
+        fail(path, 0, "the mesh has no faces");
+    if (m.normals.size() != m.points.size())
+        m.normals = vertexNormals(m);
+    return m;
+}
+
+}  // namespace cambium
