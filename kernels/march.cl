@@ -5,7 +5,10 @@
  * taken to index space (the grid's own map), clipped to the bounding box of
  * the active voxels, and walked with PNanoVDB's HDDA: a step spans a whole
  * empty node (4096^3 root tile, 128^3 or 8^3 tile) where the tree has no
- * leaf, and one voxel cell inside leaves.  In a leaf the trilinear
+ * leaf, and one voxel cell inside leaves.  A lower node whose active bounds
+ * the ray misses is stepped over, one it meets further on jumped to, and a
+ * leaf more than two voxels from the surface stepped over as a tile
+ * (cb_locate, cb_node_dim).  In a leaf the trilinear
  * interpolant of the distances is evaluated where the ray leaves each cell;
  * where its sign changes, the crossing is refined by regula falsi (Illinois)
  * on the interpolant along the ray.  This is the linear search of OpenVDB's
