@@ -8,6 +8,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "core/versions.h"
+#include "model/turtle.h"
 #include "use/mesh.h"
 #include "use/render.h"
 
@@ -302,6 +303,19 @@ int main(int argc, char** argv)
             });
         };
     });
+
+    LSystemRequest lsys;
+    auto* lsCmd = app.add_subcommand("lsystem", "Derive an L-system (docs/lsystem-format.md) and print the string, "
+                                                "its skeleton or a summary");
+    lsCmd->add_option("input", lsys.input, "L-system file")->required();
+    lsCmd->add_option("--steps", lsys.steps, "Derivation steps (default: the file's derivation length)");
+    lsCmd->add_option("--seed", lsys.seed, "Seed of stochastic productions (default: the file's seed:)");
+    lsCmd->add_option("--max-modules", lsys.maxModules, "Refuse a derivation that makes more modules")
+        ->capture_default_str();
+    lsCmd->add_flag("--print-string", lsys.printString, "Print the derived string (one line, ABOP notation)");
+    lsCmd->add_flag("--print-skeleton", lsys.printSkeleton,
+                    "Print the internodes in the skeleton format, which cambium bake reads");
+    lsCmd->callback([&] { action = [&] { return runLSystemCommand(lsys); }; });
 
     auto* ver = app.add_subcommand("version", "Print the versions of cambium, its libraries and the "
                                               "OpenCL devices found");

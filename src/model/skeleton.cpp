@@ -27,6 +27,8 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
         const auto first = line.find_first_not_of(" \t\r");
         if (first == std::string::npos || line[first] == '#')
             continue;
+        if (const auto hash = line.find('#'); hash != std::string::npos)
+            line.resize(hash);  // a trailing comment
         std::istringstream ls(line);
         std::string tok[10], extra;
         int count = 0;

@@ -15,6 +15,8 @@ struct Internode {
     long long parent = -1;  ///< -1 for a root
     glm::dvec3 p0{0.0}, p1{0.0};
     double r0 = 0.0, r1 = 0.0;  ///< surface radius at p0 and at p1
+    int order = 0;              ///< branch order (0: the trunk's axis)
+    long long module = -1;      ///< index of the module that made it (L-systems), -1 for none
 };
 
 struct Skeleton {

@@ -1,0 +1,851 @@
+// cambium — L-systems: reading, expressions, derivation.
+#include "model/lsystem.h"
+
+#include "core/error.h"
+
+#include <fmt/format.h>
+
+#include <cctype>
+#include <cstring>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+namespace cambium {
+
+// --- expressions ------------------------------------------------------------
+
+struct Expr {
+    enum Op { Const, Var, Neg, Not, Add, Sub, Mul, Div, Pow, Lt, Le, Gt, Ge, Eq, Ne, And, Or, Call } op = Const;
+    double value = 0.0;
+    int var = -1;
+    std::string fn;
+    std::vector<std::shared_ptr<const Expr>> kids;
+};
+
+namespace {
+
+using ExprPtr = std::shared_ptr<const Expr>;
+using Rng = std::mt19937_64;
+
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+double evaluate(const Expr& e, const std::vector<double>& vars, Rng& rng)
+{
+    auto k = [&](size_t i) { return evaluate(*e.kids[i], vars, rng); };
+    switch (e.op) {
+    case Expr::Const: return e.value;
+    case Expr::Var: return vars[size_t(e.var)];
+    case Expr::Neg: return -k(0);
+    case Expr::Not: return k(0) == 0.0 ? 1.0 : 0.0;
+    case Expr::Add: return k(0) + k(1);
+    case Expr::Sub: return k(0) - k(1);
+    case Expr::Mul: return k(0) * k(1);
+    case Expr::Div: return k(0) / k(1);
+    case Expr::Pow: return std::pow(k(0), k(1));
+    case Expr::Lt: return k(0) < k(1);
+    case Expr::Le: return k(0) <= k(1);
+    case Expr::Gt: return k(0) > k(1);
+    case Expr::Ge: return k(0) >= k(1);
+    case Expr::Eq: return k(0) == k(1);
+    case Expr::Ne: return k(0) != k(1);
+    case Expr::And: return k(0) != 0.0 && k(1) != 0.0;
+    case Expr::Or: return k(0) != 0.0 || k(1) != 0.0;
+    case Expr::Call: break;
+    }
+    const std::string& f = e.fn;
+    if (f == "sin") return std::sin(k(0) * kDegree);
+    if (f == "cos") return std::cos(k(0) * kDegree);
+    if (f == "tan") return std::tan(k(0) * kDegree);
+    if (f == "asin") return std::asin(k(0)) / kDegree;
+    if (f == "acos") return std::acos(k(0)) / kDegree;
+    if (f == "atan") return std::atan(k(0)) / kDegree;
+    if (f == "atan2") return std::atan2(k(0), k(1)) / kDegree;
+    if (f == "sqrt") return std::sqrt(k(0));
+    if (f == "exp") return std::exp(k(0));
+    if (f == "log") return std::log(k(0));
+    if (f == "abs") return std::abs(k(0));
+    if (f == "floor") return std::floor(k(0));
+    if (f == "ceil") return std::ceil(k(0));
+    if (f == "trunc") return std::trunc(k(0));
+    if (f == "min") return std::min(k(0), k(1));
+    if (f == "max") return std::max(k(0), k(1));
+    if (f == "pow") return std::pow(k(0), k(1));
+    // ran(x): uniform in [0, x), from the derivation's seeded generator.
+    return std::uniform_real_distribution<double>(0.0, 1.0)(rng) * k(0);
+}
+
+int functionArity(const std::string& f)
+{
+    static const std::map<std::string, int> arity = {
+        {"sin", 1},   {"cos", 1},  {"tan", 1},  {"asin", 1},  {"acos", 1},  {"atan", 1}, {"atan2", 2},
+        {"sqrt", 1},  {"exp", 1},  {"log", 1},  {"abs", 1},   {"floor", 1}, {"ceil", 1}, {"trunc", 1},
+        {"min", 2},   {"max", 2},  {"pow", 2},  {"ran", 1}};
+    const auto it = arity.find(f);
+    return it == arity.end() ? -1 : it->second;
+}
+
+/// Where a piece of text came from: messages say file:line:column.
+struct Place {
+    const std::string* source;
+    int line;
+    int column;  ///< of the piece's first character, 1-based
+};
+
+[[noreturn]] void fail(const Place& at, size_t offset, const std::string& what)
+{
+    throw InputError(fmt::format("{}:{}:{}: {}", *at.source, at.line, at.column + int(offset), what));
+}
+
+/// Recursive descent over one expression (C-like precedence, ^ for power).
+class ExprParser {
+public:
+    ExprParser(const std::string& text, const Place& at, const std::vector<std::string>& formals,
+               const std::map<std::string, double>& defines)
+        : s_(text), at_(at), formals_(formals), defines_(defines)
+    {
+    }
+
+    ExprPtr parseAll()
+    {
+        ExprPtr e = orExpr();
+        skip();
+        if (pos_ < s_.size())
+            fail(at_, pos_, fmt::format("unexpected '{}' in the expression '{}'", s_[pos_], s_));
+        return e;
+    }
+
+private:
+    void skip()
+    {
+        while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_])))
+            ++pos_;
+    }
+    bool eat(const char* tok)
+    {
+        skip();
+        const size_t n = std::strlen(tok);
+        if (s_.compare(pos_, n, tok) == 0) {
+            // '<' must not take the first character of "<=", and so on.
+            if (n == 1 && pos_ + 1 < s_.size() && s_[pos_ + 1] == '=' && std::strchr("<>=!", tok[0]))
+                return false;
+            pos_ += n;
+            return true;
+        }
+        return false;
+    }
+    static ExprPtr node(Expr::Op op, std::vector<ExprPtr> kids)
+    {
+        auto e = std::make_shared<Expr>();
+        e->op = op;
+        e->kids = std::move(kids);
+        return e;
+    }
+    ExprPtr orExpr()
+    {
+        ExprPtr l = andExpr();
+        while (eat("||"))
+            l = node(Expr::Or, {l, andExpr()});
+        return l;
+    }
+    ExprPtr andExpr()
+    {
+        ExprPtr l = equality();
+        while (eat("&&"))
+            l = node(Expr::And, {l, equality()});
+        return l;
+    }
+    ExprPtr equality()
+    {
+        ExprPtr l = comparison();
+        for (;;) {
+            if (eat("=="))
+                l = node(Expr::Eq, {l, comparison()});
+            else if (eat("!="))
+                l = node(Expr::Ne, {l, comparison()});
+            else
+                return l;
+        }
+    }
+    ExprPtr comparison()
+    {
+        ExprPtr l = sum();
+        for (;;) {
+            if (eat("<="))
+                l = node(Expr::Le, {l, sum()});
+            else if (eat(">="))
+                l = node(Expr::Ge, {l, sum()});
+            else if (eat("<"))
+                l = node(Expr::Lt, {l, sum()});
+            else if (eat(">"))
+                l = node(Expr::Gt, {l, sum()});
+            else
+                return l;
+        }
+    }
+    ExprPtr sum()
+    {
+        ExprPtr l = product();
+        for (;;) {
+            if (eat("+"))
+                l = node(Expr::Add, {l, product()});
+            else if (eat("-"))
+                l = node(Expr::Sub, {l, product()});
+            else
+                return l;
+        }
+    }
+    ExprPtr product()
+    {
+        ExprPtr l = unary();
+        for (;;) {
+            if (eat("*"))
+                l = node(Expr::Mul, {l, unary()});
+            else if (eat("/"))
+                l = node(Expr::Div, {l, unary()});
+            else
+                return l;
+        }
+    }
+    ExprPtr unary()
+    {
+        if (eat("-"))
+            return node(Expr::Neg, {unary()});
+        if (eat("+"))
+            return unary();
+        if (eat("!"))
+            return node(Expr::Not, {unary()});
+        return power();
+    }
+    ExprPtr power()
+    {
+        ExprPtr base = primary();
+        if (eat("^"))
+            return node(Expr::Pow, {base, unary()});  // right-associative
+        return base;
+    }
+    ExprPtr primary()
+    {
+        skip();
+        if (pos_ >= s_.size())
+            fail(at_, pos_, fmt::format("the expression '{}' ends too soon", s_));
+        const char c = s_[pos_];
+        if (eat("(")) {
+            ExprPtr e = orExpr();
+            if (!eat(")"))
+                fail(at_, pos_, fmt::format("missing ')' in '{}'", s_));
+            return e;
+        }
+        if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') {
+            char* end = nullptr;
+            const double v = std::strtod(s_.c_str() + pos_, &end);
+            if (end == s_.c_str() + pos_)
+                fail(at_, pos_, fmt::format("bad number in '{}'", s_));
+            pos_ = size_t(end - s_.c_str());
+            auto e = std::make_shared<Expr>();
+            e->value = v;
+            return e;
+        }
+        if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+            const size_t start = pos_;
+            while (pos_ < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_'))
+                ++pos_;
+            const std::string name = s_.substr(start, pos_ - start);
+            if (eat("(")) {
+                const int arity = functionArity(name);
+                if (arity < 0)
+                    fail(at_, start, fmt::format("unknown function '{}'", name));
+                auto e = std::make_shared<Expr>();
+                e->op = Expr::Call;
+                e->fn = name;
+                if (!eat(")")) {
+                    do
+                        e->kids.push_back(orExpr());
+                    while (eat(","));
+                    if (!eat(")"))
+                        fail(at_, pos_, fmt::format("missing ')' after the arguments of {}", name));
+                }
+                if (int(e->kids.size()) != arity)
+                    fail(at_, start, fmt::format("{} takes {} argument{} (got {})", name, arity, arity == 1 ? "" : "s",
+                                                 e->kids.size()));
+                return e;
+            }
+            for (size_t i = 0; i < formals_.size(); ++i)
+                if (formals_[i] == name) {
+                    auto e = std::make_shared<Expr>();
+                    e->op = Expr::Var;
+                    e->var = int(i);
+                    return e;
+                }
+            if (const auto it = defines_.find(name); it != defines_.end()) {
+                auto e = std::make_shared<Expr>();
+                e->value = it->second;
+                return e;
+            }
+            fail(at_, start, fmt::format("'{}' is neither a parameter of the predecessor nor a #define", name));
+        }
+        fail(at_, pos_, fmt::format("unexpected '{}' in the expression '{}'", c, s_));
+    }
+
+    const std::string& s_;
+    Place at_;
+    const std::vector<std::string>& formals_;
+    const std::map<std::string, double>& defines_;
+    size_t pos_ = 0;
+};
+
+// --- module strings -----------------------------------------------------------
+
+/// The symbols the turtle reads, which may come with or without a parameter.
+bool isTurtleSymbol(char c) { return std::strchr("Ff+-&^\\/|$![]%", c) != nullptr; }
+
+/// Splits `text` at top-level commas (outside parentheses).
+std::vector<std::pair<std::string, size_t>> splitArgs(const std::string& text, size_t offset)
+{
+    std::vector<std::pair<std::string, size_t>> out;
+    int depth = 0;
+    size_t start = 0;
+    for (size_t i = 0; i <= text.size(); ++i) {
+        if (i == text.size() || (text[i] == ',' && depth == 0)) {
+            out.emplace_back(text.substr(start, i - start), offset + start);
+            start = i + 1;
+        } else if (text[i] == '(')
+            ++depth;
+        else if (text[i] == ')')
+            --depth;
+    }
+    return out;
+}
+
+/// A module string: each module a symbol, then optionally "(a, b, ...)".
+/// `arg` turns one argument's text (and its offset in `text`) into whatever
+/// the caller keeps.
+template <class F>
+void scanModules(const std::string& text, const Place& at, F&& module)
+{
+    size_t i = 0;
+    int depth = 0;
+    while (i < text.size()) {
+        const char c = text[i];
+        if (std::isspace(static_cast<unsigned char>(c))) {
+            ++i;
+            continue;
+        }
+        if (c == '(' || c == ')' || c == ',')
+            fail(at, i, fmt::format("unexpected '{}'", c));
+        if (c == '[')
+            ++depth;
+        if (c == ']' && --depth < 0)
+            fail(at, i, "']' without a matching '['");
+        const size_t symbol = i++;
+        size_t j = i;
+        while (j < text.size() && std::isspace(static_cast<unsigned char>(text[j])))
+            ++j;
+        std::vector<std::pair<std::string, size_t>> args;
+        if (j < text.size() && text[j] == '(') {
+            int d = 0;
+            size_t k = j;
+            for (; k < text.size(); ++k) {
+                d += text[k] == '(';
+                d -= text[k] == ')';
+                if (d == 0)
+                    break;
+            }
+            if (k == text.size())
+                fail(at, j, "'(' without a matching ')'");
+            const std::string inner = text.substr(j + 1, k - j - 1);
+            if (inner.find_first_not_of(" \t") != std::string::npos)
+                args = splitArgs(inner, j + 1);
+            i = k + 1;
+        }
+        module(c, symbol, args);
+    }
+    if (depth != 0)
+        fail(at, text.size(), fmt::format("{} '[' without a matching ']'", depth));
+}
+
+std::string trim(const std::string& s)
+{
+    const size_t a = s.find_first_not_of(" \t\r"), b = s.find_last_not_of(" \t\r");
+    return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
+}
+
+/// Index of the first occurrence of `c` outside parentheses, or npos.
+size_t findTopLevel(const std::string& s, char c, size_t from = 0)
+{
+    int depth = 0;
+    for (size_t i = from; i < s.size(); ++i) {
+        if (s[i] == '(')
+            ++depth;
+        else if (s[i] == ')')
+            --depth;
+        else if (s[i] == c && depth == 0)
+            return i;
+    }
+    return std::string::npos;
+}
+
+class Reader {
+public:
+    explicit Reader(const std::string& source) { system_.source = source; }
+
+    LSystem read(const std::string& text)
+    {
+        const std::string clean = stripComments(text);
+        std::istringstream in(clean);
+        std::string line;
+        int lineNo = 0;
+        bool haveAxiom = false;
+        while (std::getline(in, line)) {
+            ++lineNo;
+            const std::string t = trim(line);
+            if (t.empty() || t.rfind("//", 0) == 0)
+                continue;
+            const int column = int(line.find_first_not_of(" \t")) + 1;
+            const Place at{&system_.source, lineNo, column};
+            if (t.rfind("#define", 0) == 0) {
+                define(t, at);
+                continue;
+            }
+            if (t.find("-->") != std::string::npos) {
+                production(t, at);
+                continue;
+            }
+            const size_t colon = t.find(':');
+            std::string key = colon == std::string::npos ? t : trim(t.substr(0, colon));
+            for (char& ch : key)
+                ch = char(std::tolower(static_cast<unsigned char>(ch)));
+            const std::string value = colon == std::string::npos ? "" : t.substr(colon + 1);
+            const Place vat{&system_.source, lineNo, column + int(colon) + 1};
+            if (key == "axiom") {
+                system_.axiom = constantModules(value, vat);
+                haveAxiom = true;
+            } else if (key == "derivation length") {
+                system_.derivationLength = int(number(value, vat, 0, 1e6));
+            } else if (key == "ignore") {
+                for (char ch : value)
+                    if (!std::isspace(static_cast<unsigned char>(ch)))
+                        system_.ignore += ch;
+            } else if (key == "angle") {
+                system_.angle = number(value, vat, -360, 360);
+            } else if (key == "step") {
+                system_.step = number(value, vat, 0, 1e9);
+            } else if (key == "width") {
+                system_.width = number(value, vat, 0, 1e9);
+            } else if (key == "seed") {
+                system_.seed = uint64_t(number(value, vat, 0, 9e15));
+            } else if (key == "tropism") {
+                std::istringstream v(value);
+                for (double& x : system_.tropism)
+                    if (!(v >> x) || !std::isfinite(x))
+                        fail(vat, 0, "tropism: expected four numbers, the direction (x y z) and the strength e");
+            } else if (key == "lsystem" || key == "endlsystem" || key == "homomorphism" || key == "endhomomorphism" ||
+                       key == "decomposition" || key == "enddecomposition" || key == "consider") {
+                // cpfg structure lines: one L-system per file here; nothing to do.
+            } else {
+                fail(at, 0, fmt::format("unknown line '{}' (expected #define, Axiom:, derivation length:, ignore:, "
+                                        "angle:, step:, width:, tropism:, seed: or a production with -->)",
+                                        t));
+            }
+        }
+        if (!haveAxiom)
+            throw InputError(fmt::format("{}: no 'Axiom:' line", system_.source));
+        return system_;
+    }
+
+private:
+    static std::string stripComments(const std::string& text)
+    {
+        std::string out;
+        out.reserve(text.size());
+        for (size_t i = 0; i < text.size(); ++i) {
+            if (text.compare(i, 2, "/*") == 0) {
+                const size_t end = text.find("*/", i + 2);
+                for (size_t k = i; k < (end == std::string::npos ? text.size() : end + 2); ++k)
+                    out += text[k] == '\n' ? '\n' : ' ';  // keep line and column numbers
+                i = end == std::string::npos ? text.size() : end + 1;
+            } else
+                out += text[i];
+        }
+        return out;
+    }
+
+    double number(const std::string& text, const Place& at, double lo, double hi)
+    {
+        const ExprPtr e = ExprParser(text, at, {}, defines_).parseAll();
+        Rng rng(0);
+        const double v = evaluate(*e, {}, rng);
+        if (!(v >= lo && v <= hi))
+            fail(at, 0, fmt::format("'{}' is {}: expected a number from {} to {}", trim(text), v, lo, hi));
+        return v;
+    }
+
+    void define(const std::string& t, const Place& at)
+    {
+        std::istringstream s(t.substr(7));
+        std::string name;
+        s >> name;
+        if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_'))
+            fail(at, 0, "#define needs a name and a value");
+        std::string rest;
+        std::getline(s, rest);
+        const size_t offset = t.find(name, 7) + name.size();
+        const ExprPtr e = ExprParser(rest, Place{at.source, at.line, at.column + int(offset)}, {}, defines_).parseAll();
+        Rng rng(0);
+        defines_[name] = evaluate(*e, {}, rng);
+    }
+
+    /// Checks that a module keeps its number of parameters across the file.
+    void arity(char name, size_t count, const Place& at, size_t offset)
+    {
+        if (isTurtleSymbol(name)) {
+            if (count > 1)
+                fail(at, offset, fmt::format("'{}' takes at most one parameter (got {})", name, count));
+            return;
+        }
+        const auto [it, inserted] = arity_.emplace(name, std::make_pair(count, at.line));
+        if (!inserted && it->second.first != count)
+            fail(at, offset, fmt::format("module {} has {} parameter{} here but {} at line {}", name, count,
+                                         count == 1 ? "" : "s", it->second.first, it->second.second));
+    }
+
+    ModuleString constantModules(const std::string& text, const Place& at)
+    {
+        ModuleString out;
+        scanModules(text, at, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+            arity(c, args.size(), at, offset);
+            Module m;
+            m.name = c;
+            Rng rng(0);
+            for (const auto& [a, o] : args)
+                m.params.push_back(evaluate(*ExprParser(a, Place{at.source, at.line, at.column + int(o)}, {}, defines_)
+                                                 .parseAll(),
+                                            {}, rng));
+            out.push_back(m);
+        });
+        return out;
+    }
+
+    std::vector<ModulePattern> patterns(const std::string& text, const Place& at, std::vector<std::string>& formals)
+    {
+        std::vector<ModulePattern> out;
+        scanModules(text, at, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+            arity(c, args.size(), at, offset);
+            ModulePattern p;
+            p.name = c;
+            for (const auto& [a, o] : args) {
+                const std::string name = trim(a);
+                if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_') ||
+                    name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
+                        std::string::npos)
+                    fail(at, o, fmt::format("a formal parameter must be a name (got '{}')", name));
+                for (const auto& f : formals)
+                    if (f == name)
+                        fail(at, o, fmt::format("the formal parameter '{}' appears twice", name));
+                formals.push_back(name);
+                p.formals.push_back(name);
+            }
+            out.push_back(p);
+        });
+        return out;
+    }
+
+    void production(const std::string& t, const Place& at)
+    {
+        Production p;
+        p.line = at.line;
+        const size_t arrow = t.find("-->");
+        std::string lhs = t.substr(0, arrow), rhs = t.substr(arrow + 3);
+        const Place rat{at.source, at.line, at.column + int(arrow) + 3};
+        // predecessor part : condition
+        std::string cond;
+        size_t condAt = 0;
+        if (const size_t colon = findTopLevel(lhs, ':'); colon != std::string::npos) {
+            cond = lhs.substr(colon + 1);
+            condAt = colon + 1;
+            lhs = lhs.substr(0, colon);
+        }
+        std::string left, strict = lhs, right;
+        size_t strictAt = 0, rightAt = 0;
+        if (const size_t lt = findTopLevel(lhs, '<'); lt != std::string::npos) {
+            left = lhs.substr(0, lt);
+            strict = lhs.substr(lt + 1);
+            strictAt = lt + 1;
+        }
+        if (const size_t gt = findTopLevel(strict, '>'); gt != std::string::npos) {
+            right = strict.substr(gt + 1);
+            rightAt = strictAt + gt + 1;
+            strict = strict.substr(0, gt);
+        }
+        std::vector<std::string> formals;
+        p.left = patterns(left, at, formals);
+        const std::vector<ModulePattern> pred =
+            patterns(strict, Place{at.source, at.line, at.column + int(strictAt)}, formals);
+        if (pred.size() != 1)
+            fail(at, strictAt, fmt::format("a production rewrites one module (the predecessor is '{}')", trim(strict)));
+        p.strict = pred[0];
+        p.right = patterns(right, Place{at.source, at.line, at.column + int(rightAt)}, formals);
+        // Formals of the left context come first, then the predecessor's, then the right context's.
+        std::vector<std::string> ordered;
+        for (const std::vector<ModulePattern>* part : std::initializer_list<const std::vector<ModulePattern>*>{&p.left, &pred, &p.right})
+            for (const ModulePattern& m : *part)
+                for (const auto& f : m.formals)
+                    ordered.push_back(f);
+        if (!trim(cond).empty())
+            p.condition =
+                ExprParser(cond, Place{at.source, at.line, at.column + int(condAt)}, ordered, defines_).parseAll();
+        // successor : probability
+        if (const size_t colon = findTopLevel(rhs, ':'); colon != std::string::npos) {
+            const Place pat{at.source, at.line, rat.column + int(colon) + 1};
+            const std::string prob = rhs.substr(colon + 1);
+            rhs = rhs.substr(0, colon);
+            const ExprPtr e = ExprParser(prob, pat, {}, defines_).parseAll();
+            Rng rng(0);
+            p.probability = evaluate(*e, {}, rng);
+            if (!(p.probability > 0.0 && p.probability <= 1e9))
+                fail(pat, 0, fmt::format("a probability must be positive (got {})", p.probability));
+        }
+        scanModules(rhs, rat, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+            arity(c, args.size(), rat, offset);
+            ModuleTemplate m;
+            m.name = c;
+            for (const auto& [a, o] : args)
+                m.args.push_back(
+                    ExprParser(a, Place{at.source, at.line, rat.column + int(o)}, ordered, defines_).parseAll());
+            p.successor.push_back(std::move(m));
+        });
+        system_.productions.push_back(std::move(p));
+    }
+
+    LSystem system_;
+    std::map<std::string, double> defines_;
+    std::map<char, std::pair<size_t, int>> arity_;  // name -> (parameters, line first seen)
+};
+
+// --- derivation ------------------------------------------------------------------
+
+/// For each '[' the index of its ']' and the other way round (-1 elsewhere).
+std::vector<long> matchBrackets(const ModuleString& s)
+{
+    std::vector<long> match(s.size(), -1), stack;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (s[i].name == '[')
+            stack.push_back(long(i));
+        else if (s[i].name == ']' && !stack.empty()) {
+            match[size_t(stack.back())] = long(i);
+            match[i] = stack.back();
+            stack.pop_back();
+        }
+    }
+    return match;
+}
+
+bool matches(const Module& m, const ModulePattern& p) { return m.name == p.name && m.params.size() == p.formals.size(); }
+
+class Deriver {
+public:
+    Deriver(const LSystem& sys, uint64_t seed) : sys_(sys), rng_(seed) {}
+
+    /// The modules that bind the left context, nearest last, or false.
+    bool leftContext(const ModuleString& s, const std::vector<long>& match, size_t i, const Production& p,
+                     std::vector<const Module*>& bound) const
+    {
+        long k = long(i) - 1;
+        for (size_t want = p.left.size(); want-- > 0;) {
+            for (;;) {
+                if (k < 0)
+                    return false;
+                const char c = s[size_t(k)].name;
+                if (c == ']' && match[size_t(k)] >= 0)
+                    k = match[size_t(k)] - 1;  // a whole branch to the left: not an ancestor
+                else if (c == '[' || sys_.ignore.find(c) != std::string::npos)
+                    --k;
+                else
+                    break;
+            }
+            if (!matches(s[size_t(k)], p.left[want]))
+                return false;
+            bound[want] = &s[size_t(k)];
+            --k;
+        }
+        return true;
+    }
+
+    bool rightContext(const ModuleString& s, const std::vector<long>& match, size_t i, const Production& p,
+                      std::vector<const Module*>& bound) const
+    {
+        size_t k = i + 1;
+        for (size_t want = 0; want < p.right.size(); ++want) {
+            for (;;) {
+                if (k >= s.size())
+                    return false;
+                const char c = s[k].name;
+                if (c == '[' && match[k] >= 0)
+                    k = size_t(match[k]) + 1;  // a lateral branch: skipped
+                else if (c == ']')
+                    return false;  // the end of this branch
+                else if (sys_.ignore.find(c) != std::string::npos)
+                    ++k;
+                else
+                    break;
+            }
+            if (!matches(s[k], p.right[want]))
+                return false;
+            bound[want] = &s[k];
+            ++k;
+        }
+        return true;
+    }
+
+    ModuleString step(const ModuleString& s, int stepNo, size_t maxModules)
+    {
+        const std::vector<long> match = matchBrackets(s);
+        // Choose every module's production first: the limit is checked before
+        // the new string is made.
+        std::vector<std::pair<const Production*, std::vector<double>>> chosen(s.size());
+        size_t total = 0;
+        std::vector<const Production*> applicable;
+        std::vector<std::vector<double>> bindings;
+        for (size_t i = 0; i < s.size(); ++i) {
+            applicable.clear();
+            bindings.clear();
+            for (const Production& p : sys_.productions) {
+                if (!matches(s[i], p.strict))
+                    continue;
+                std::vector<const Module*> left(p.left.size()), right(p.right.size());
+                if (!leftContext(s, match, i, p, left) || !rightContext(s, match, i, p, right))
+                    continue;
+                std::vector<double> vars;
+                for (const Module* m : left)
+                    vars.insert(vars.end(), m->params.begin(), m->params.end());
+                vars.insert(vars.end(), s[i].params.begin(), s[i].params.end());
+                for (const Module* m : right)
+                    vars.insert(vars.end(), m->params.begin(), m->params.end());
+                if (p.condition && evaluate(*p.condition, vars, rng_) == 0.0)
+                    continue;
+                applicable.push_back(&p);
+                bindings.push_back(std::move(vars));
+                if (p.probability < 0.0)
+                    break;  // a deterministic production: the first that applies
+            }
+            if (applicable.empty()) {
+                ++total;
+                continue;
+            }
+            size_t pick = applicable.size() - 1;
+            if (applicable.back()->probability > 0.0 || applicable.size() > 1) {
+                // Stochastic: weights of the applicable stochastic productions.
+                double sum = 0.0;
+                for (const Production* p : applicable)
+                    sum += std::max(p->probability, 0.0);
+                double u = std::uniform_real_distribution<double>(0.0, sum)(rng_);
+                for (pick = 0; pick + 1 < applicable.size(); ++pick) {
+                    u -= std::max(applicable[pick]->probability, 0.0);
+                    if (u < 0.0)
+                        break;
+                }
+            }
+            chosen[i] = {applicable[pick], std::move(bindings[pick])};
+            total += applicable[pick]->successor.size();
+        }
+        if (total > maxModules)
+            throw InputError(fmt::format("{}: derivation step {} would make {} modules, more than the limit of {} "
+                                         "(--max-modules; fewer --steps?)",
+                                         sys_.source, stepNo, total, maxModules));
+        ModuleString out;
+        out.reserve(total);
+        for (size_t i = 0; i < s.size(); ++i) {
+            const Production* p = chosen[i].first;
+            if (!p) {
+                out.push_back(s[i]);
+                continue;
+            }
+            for (const ModuleTemplate& t : p->successor) {
+                Module m;
+                m.name = t.name;
+                for (const auto& e : t.args) {
+                    const double v = evaluate(*e, chosen[i].second, rng_);
+                    if (!std::isfinite(v))
+                        throw InputError(fmt::format("{}:{}: derivation step {}: a parameter of {} is {}", sys_.source,
+                                                     p->line, stepNo, t.name, v));
+                    m.params.push_back(v);
+                }
+                out.push_back(std::move(m));
+            }
+        }
+        return cut(out);
+    }
+
+    /// Removes each '%' and the rest of its branch (up to the branch's ']').
+    static ModuleString cut(const ModuleString& s)
+    {
+        ModuleString out;
+        out.reserve(s.size());
+        for (size_t i = 0; i < s.size(); ++i) {
+            if (s[i].name != '%') {
+                out.push_back(s[i]);
+                continue;
+            }
+            int depth = 0;
+            for (++i; i < s.size(); ++i) {
+                if (s[i].name == '[')
+                    ++depth;
+                else if (s[i].name == ']' && depth-- == 0) {
+                    out.push_back(s[i]);
+                    break;
+                }
+            }
+        }
+        return out;
+    }
+
+private:
+    const LSystem& sys_;
+    Rng rng_;
+};
+
+}  // namespace
+
+LSystem parseLSystem(const std::string& text, const std::string& source) { return Reader(source).read(text); }
+
+LSystem loadLSystem(const std::string& path)
+{
+    std::ifstream in(path);
+    if (!in)
+        throw InputError(fmt::format("{}: cannot open the L-system file", path));
+    std::ostringstream s;
+    s << in.rdbuf();
+    return parseLSystem(s.str(), path);
+}
+
+ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules)
+{
+    if (steps < 0)
+        throw InputError(fmt::format("--steps must not be negative (got {})", steps));
+    if (system.axiom.size() > maxModules)
+        throw InputError(fmt::format("{}: the axiom has {} modules, more than the limit of {}", system.source,
+                                     system.axiom.size(), maxModules));
+    Deriver d(system, seed);
+    ModuleString s = Deriver::cut(system.axiom);
+    for (int i = 1; i <= steps; ++i)
+        s = d.step(s, i, maxModules);
+    return s;
+}
+
+std::string formatModules(const ModuleString& s)
+{
+    std::string out;
+    for (const Module& m : s) {
+        out += m.name;
+        if (m.params.empty())
+            continue;
+        out += '(';
+        for (size_t i = 0; i < m.params.size(); ++i)
+            out += (i ? "," : "") + fmt::format("{}", m.params[i]);
+        out += ')';
+    }
+    return out;
+}
+
+}  // namespace cambium

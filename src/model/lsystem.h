@@ -1,0 +1,82 @@
+// cambium — parametric, bracketed, stochastic, context-sensitive L-systems in
+// the notation of "The Algorithmic Beauty of Plants" (ABOP), read from files
+// written as for cpfg (docs/lsystem-format.md).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// One module of a derived string: a one-character name and its parameters.
+struct Module {
+    char name = 0;
+    std::vector<double> params;
+    bool operator==(const Module& o) const { return name == o.name && params == o.params; }
+};
+using ModuleString = std::vector<Module>;
+
+/// An arithmetic expression over the formal parameters of a production
+/// (compiled once; `#define` constants folded in).
+struct Expr;
+
+/// A module pattern on the left of a production: a name and formal parameters.
+struct ModulePattern {
+    char name = 0;
+    std::vector<std::string> formals;
+};
+
+/// A module of a successor: a name and one expression per parameter.
+struct ModuleTemplate {
+    char name = 0;
+    std::vector<std::shared_ptr<const Expr>> args;
+};
+
+struct Production {
+    int line = 0;                       ///< where it is in the file
+    std::vector<ModulePattern> left;    ///< left context (empty: none)
+    ModulePattern strict;               ///< the predecessor
+    std::vector<ModulePattern> right;   ///< right context (empty: none)
+    std::shared_ptr<const Expr> condition;  ///< null: always
+    std::vector<ModuleTemplate> successor;
+    double probability = -1.0;  ///< > 0 for a stochastic production, -1 for none given
+};
+
+/// An L-system and its turtle settings.
+struct LSystem {
+    std::string source;  ///< file name, for messages
+    ModuleString axiom;
+    std::vector<Production> productions;
+    int derivationLength = 0;        ///< "derivation length:" (steps when not given on the command line)
+    std::string ignore;              ///< symbols context matching skips ("ignore:")
+    double angle = 90.0;             ///< default turn angle, degrees ("angle:")
+    double step = 1.0;               ///< default F/f length ("step:")
+    double width = 0.1;              ///< initial width, a diameter ("width:")
+    double tropism[4] = {0, 0, 0, 0};  ///< "tropism: tx ty tz e" (e = 0: none)
+    uint64_t seed = 1;               ///< "seed:" for stochastic productions
+};
+
+/// Reads an L-system (docs/lsystem-format.md).  InputError naming the file,
+/// line and column of anything it cannot read: an unknown directive, a
+/// production or condition that does not parse, unbalanced brackets, a
+/// parameter count that differs from another use of the same module, an
+/// expression that names no parameter or constant.
+LSystem parseLSystem(const std::string& text, const std::string& source);
+LSystem loadLSystem(const std::string& path);
+
+/// Derives `steps` steps from the axiom: every module rewritten in parallel
+/// by the first production (in file order) whose predecessor, contexts and
+/// condition match, or by one of them chosen by their probabilities (seeded
+/// by `seed`) when the matching productions are stochastic; modules without
+/// a production stay.  After each step `%` removes itself and the rest of its
+/// branch.  InputError before a step would exceed `maxModules` modules.
+ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules);
+
+/// The string in the L-system notation: modules without parameters as their
+/// symbol, others as `F(1.5,2)`, numbers in their shortest exact form.
+std::string formatModules(const ModuleString& s);
+
+}  // namespace cambium

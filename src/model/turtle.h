@@ -1,0 +1,39 @@
+// cambium — the 3D turtle of "The Algorithmic Beauty of Plants": a derived
+// L-system string to a skeleton of internodes.
+#pragma once
+
+#include "model/lsystem.h"
+#include "model/skeleton.h"
+
+namespace cambium {
+
+/// Interprets a module string (ABOP chapter 1.5 and 2):
+///   F(l) draw forward (an internode), f(l) move forward without drawing
+///   (default length: `step:`); + - turn left/right about U, & ^ pitch
+///   down/up about L, \ / roll left/right about H (default angle: `angle:`);
+///   | turn around; [ ] push and pop the state; !(w) set the width (a
+///   diameter; internodes get radius w/2 at both ends); $ roll so that L is
+///   horizontal; % cut the rest of the branch; with `tropism: x y z e`, after
+///   every F the heading bends towards T by e |H x T|.  Other symbols are
+///   ignored.  The turtle starts at the origin heading up (+y) with its left
+///   L = +x and up U = -z, so that seen from +z (x right, y up) `+` turns
+///   counter-clockwise as in ABOP's planar figures.
+/// Each internode records its parent (the last internode drawn before it on
+/// the way from the root), its branch order (the number of '[' it is nested
+/// in) and the index of the F module that made it.
+Skeleton interpretTurtle(const LSystem& system, const ModuleString& modules);
+
+/// `cambium lsystem FILE`: derives `steps` steps (the file's derivation
+/// length when negative) and prints the string (one line, ABOP notation),
+/// the skeleton (docs/skeleton-format.md, each line's order and module in a
+/// trailing comment) or, without either, a summary.
+struct LSystemRequest {
+    std::string input;
+    int steps = -1;
+    long long seed = -1;  ///< < 0: the file's seed:
+    size_t maxModules = 2000000;
+    bool printString = false, printSkeleton = false;
+};
+int runLSystemCommand(const LSystemRequest& request);
+
+}  // namespace cambium

@@ -1,0 +1,227 @@
+// L-systems: derivations of ABOP's classic systems, parametric conditions,
+// seeded stochastic choice, context, cuts, limits and errors with their
+// line and column; the turtle against hand-computed coordinates.
+#include "model/lsystem.h"
+#include "model/turtle.h"
+
+#include "core/error.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace {
+
+using namespace cambium;
+
+std::string run(const std::string& text, int steps, uint64_t seed = 1, size_t maxModules = 1000000)
+{
+    const LSystem sys = parseLSystem(text, "test.l");
+    return formatModules(derive(sys, steps, seed, maxModules));
+}
+
+TEST(LSystem, AlgaeGrowsAsInABOP)
+{
+    // ABOP 1.1: the lengths are Fibonacci numbers.
+    const std::string algae = "Axiom: A\nA --> AB\nB --> A\n";
+    EXPECT_EQ(run(algae, 0), "A");
+    EXPECT_EQ(run(algae, 1), "AB");
+    EXPECT_EQ(run(algae, 4), "ABAABABA");
+    EXPECT_EQ(run(algae, 5), "ABAABABAABAAB");
+    size_t previous = 1, current = 2;  // after 0 and 1 steps
+    for (int n = 2; n <= 15; ++n) {
+        const size_t next = previous + current;
+        EXPECT_EQ(run(algae, n).size(), next) << n;
+        previous = current;
+        current = next;
+    }
+}
+
+TEST(LSystem, KochCurveAndABracketedPlant)
+{
+    // ABOP figure 1.9 (quadratic Koch island, first step) and 1.24a.
+    EXPECT_EQ(run("Axiom: F-F-F-F\nF --> F-F+F+FF-F-F+F\n", 1),
+              "F-F+F+FF-F-F+F-F-F+F+FF-F-F+F-F-F+F+FF-F-F+F-F-F+F+FF-F-F+F");
+    EXPECT_EQ(run("Axiom: F\nF --> F[+F]F[-F]F\n", 1), "F[+F]F[-F]F");
+    EXPECT_EQ(run("Axiom: F\nF --> F[+F]F[-F]F\n", 2),
+              "F[+F]F[-F]F[+F[+F]F[-F]F]F[+F]F[-F]F[-F[+F]F[-F]F]F[+F]F[-F]F");
+}
+
+TEST(LSystem, ParametricProductionsAndConditions)
+{
+    // ABOP 1.10: the example derivation of section 1.10.1.
+    const std::string text = "#define R 1.456\n"
+                             "Axiom: B(2)A(4,4)\n"
+                             "A(x,y) : y <= 3 --> A(x*2,x+y)\n"
+                             "A(x,y) : y > 3 --> B(x)A(x/y,0)\n"
+                             "B(x) : x < 1 --> C\n"
+                             "B(x) : x >= 1 --> B(x-1)\n";
+    EXPECT_EQ(run(text, 1), "B(1)B(4)A(1,0)");
+    EXPECT_EQ(run(text, 2), "B(0)B(3)A(2,1)");
+    EXPECT_EQ(run(text, 3), "CB(2)A(4,3)");
+    EXPECT_EQ(run(text, 4), "CB(1)A(8,7)");
+    // Expressions: precedence, functions (degrees), constants, logic.
+    EXPECT_EQ(run("#define k 3\nAxiom: X(1)\nX(a) --> Y(a+2*k^2, -a^2, sin(90), max(a,k), a<2 && k>2 || 0)\n", 1),
+              "Y(19,-1,1,3,1)");
+}
+
+TEST(LSystem, StochasticChoiceFollowsTheSeed)
+{
+    const std::string text = "Axiom: F\nF --> F[+F]F : 0.33\nF --> F[-F]F : 0.33\nF --> F[+F]F[-F] : 0.34\n";
+    const std::string a = run(text, 5, 7), b = run(text, 5, 7), c = run(text, 5, 8);
+    EXPECT_EQ(a, b);
+    EXPECT_NE(a, c);
+    // The choice follows the probabilities: over many modules, about a third each.
+    const LSystem sys = parseLSystem("Axiom: AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA\nA --> X : 1\nA --> Y : 3\n", "t");
+    size_t x = 0, y = 0;
+    for (uint64_t seed = 0; seed < 100; ++seed)
+        for (const Module& m : derive(sys, 1, seed, 1000)) {
+            x += m.name == 'X';
+            y += m.name == 'Y';
+        }
+    EXPECT_EQ(x + y, 4000u);
+    EXPECT_NEAR(double(y) / double(x + y), 0.75, 0.03);
+}
+
+TEST(LSystem, ContextSensitiveProductionsSeeAcrossBranches)
+{
+    // ABOP 1.8: a signal moving acropetally (from the base) through a
+    // bracketed string: the left context skips lateral branches and ignores + -.
+    const std::string text = "ignore: + -\nAxiom: B[+A]A[-A]A[+A]A\nB < A --> B\n";
+    EXPECT_EQ(run(text, 1), "B[+B]B[-A]A[+A]A");
+    EXPECT_EQ(run(text, 2), "B[+B]B[-B]B[+A]A");
+    EXPECT_EQ(run(text, 3), "B[+B]B[-B]B[+B]B");
+    // Right context skips lateral branches; parameters of contexts bind.
+    EXPECT_EQ(run("Axiom: A(1)[B(5)]C(2)\nA(x) > C(y) --> D(x+y)\n", 1), "D(3)[B(5)]C(2)");
+    EXPECT_EQ(run("Axiom: A(1)[B(5)]C(2)\nA(x) > B(y) --> D(x+y)\n", 1), "A(1)[B(5)]C(2)");
+}
+
+TEST(LSystem, UnknownSymbolsStayAndCutsRemoveTheRestOfTheBranch)
+{
+    EXPECT_EQ(run("Axiom: {A'L}\nA --> A\n", 3), "{A'L}");
+    EXPECT_EQ(run("Axiom: F[FA[F]F]F\nA --> %\n", 1), "F[F]F");
+    EXPECT_EQ(run("Axiom: FAF[F]F\nA --> %\n", 1), "F");
+}
+
+TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
+{
+    const LSystem sys = parseLSystem("Axiom: F\nF --> FF\n", "grow.l");
+    EXPECT_NO_THROW(derive(sys, 10, 1, 1024));
+    try {
+        derive(sys, 11, 1, 1024);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("grow.l: derivation step 11 would make 2048 modules, more than the limit "
+                                             "of 1024"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+TEST(LSystem, ErrorsNameTheLineAndColumn)
+{
+    auto expectError = [](const std::string& text, const std::string& message) {
+        try {
+            parseLSystem(text, "bad.l");
+            ADD_FAILURE() << "no error for: " << text;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+        }
+    };
+    expectError("Axiom: F[+F\n", "bad.l:1:12: 1 '[' without a matching ']'");
+    expectError("Axiom: F]\n", "bad.l:1:9: ']' without a matching '['");
+    expectError("Axiom: A\nA --> B[C\n", "bad.l:2:");
+    expectError("Axiom: A(1)\nA(x) : x < --> A(x)\n", "bad.l:2:");
+    expectError("Axiom: A(1)\nA(x) --> A(y)\n", "bad.l:2:12: 'y' is neither a parameter of the predecessor nor a #define");
+    expectError("Axiom: A(1)\nA(x,y) --> A(x)\n", "bad.l:2:1: module A has 2 parameters here but 1 at line 1");
+    expectError("Axiom: A(1)\nA(x) --> A(foo(x))\n", "unknown function 'foo'");
+    expectError("Axiom: A\nA --> B : -1\n", "a probability must be positive");
+    expectError("Axiom: A\nderivation lenght: 3\n", "bad.l:2:1: unknown line 'derivation lenght: 3'");
+    expectError("A --> B\n", "bad.l: no 'Axiom:' line");
+    expectError("Axiom: F(1,2)\n", "'F' takes at most one parameter");
+}
+
+// --- the turtle ---------------------------------------------------------------
+
+void expectNear(const glm::dvec3& a, const glm::dvec3& b, const char* what)
+{
+    EXPECT_NEAR(a.x, b.x, 1e-12) << what;
+    EXPECT_NEAR(a.y, b.y, 1e-12) << what;
+    EXPECT_NEAR(a.z, b.z, 1e-12) << what;
+}
+
+Skeleton turtle(const std::string& text, int steps = 0)
+{
+    const LSystem sys = parseLSystem(text, "t.l");
+    return interpretTurtle(sys, derive(sys, steps, 1, 100000));
+}
+
+TEST(Turtle, PlanarMovesMatchHandComputedPoints)
+{
+    // Up 1, turn left 90 (towards -x, seen from +z), forward 2, move 1 without
+    // drawing, turn right 45, forward sqrt(2).
+    const Skeleton s = turtle("angle: 90\nAxiom: F+F(2)f-(45)F(1.4142135623730951)\n");
+    ASSERT_EQ(s.internodes.size(), 3u);
+    expectNear(s.internodes[0].p0, {0, 0, 0}, "F0 start");
+    expectNear(s.internodes[0].p1, {0, 1, 0}, "F0 end");
+    expectNear(s.internodes[1].p1, {-2, 1, 0}, "F1 end");
+    expectNear(s.internodes[2].p0, {-3, 1, 0}, "F2 start (after f)");
+    expectNear(s.internodes[2].p1, {-4, 2, 0}, "F2 end");
+    EXPECT_EQ(s.internodes[1].parent, 0);
+    EXPECT_EQ(s.internodes[2].parent, 1);
+}
+
+TEST(Turtle, PitchRollBranchesAndWidth)
+{
+    // & pitches down towards U = -z; \ rolls, after which + turns about the new U.
+    const Skeleton s = turtle("Axiom: !(0.2)F[&(90)F]!(0.1)[\\(90)+(90)F]|F\n");
+    ASSERT_EQ(s.internodes.size(), 4u);
+    expectNear(s.internodes[1].p1 - s.internodes[1].p0, {0, 0, -1}, "pitched down");
+    // Rolled 90 about H: L = +x goes to U = -z, U to -L; + then turns H towards -L_new = ... = +z.
+    expectNear(s.internodes[2].p1 - s.internodes[2].p0, {0, 0, 1}, "rolled then turned");
+    expectNear(s.internodes[3].p1 - s.internodes[3].p0, {0, -1, 0}, "turned around");
+    EXPECT_EQ(s.internodes[1].parent, 0);
+    EXPECT_EQ(s.internodes[2].parent, 0);
+    EXPECT_EQ(s.internodes[3].parent, 0);
+    EXPECT_EQ(s.internodes[0].order, 0);
+    EXPECT_EQ(s.internodes[1].order, 1);
+    EXPECT_EQ(s.internodes[3].order, 0);
+    EXPECT_DOUBLE_EQ(s.internodes[0].r0, 0.1);
+    EXPECT_DOUBLE_EQ(s.internodes[2].r0, 0.05);  // the width set before '[' holds inside it
+    EXPECT_DOUBLE_EQ(s.internodes[1].r0, 0.1);
+    EXPECT_DOUBLE_EQ(s.internodes[3].r1, 0.05);
+}
+
+TEST(Turtle, DollarRollsTheLeftVectorToTheHorizontal)
+{
+    // After pitching and rolling, $ makes L horizontal (L.y = 0) and keeps H;
+    // a following + then turns within the plane of H and the horizontal L.
+    const Skeleton s = turtle("Axiom: &(30)/(40)F$+(90)F\n");
+    ASSERT_EQ(s.internodes.size(), 2u);
+    const glm::dvec3 H = s.internodes[0].p1 - s.internodes[0].p0, turned = s.internodes[1].p1 - s.internodes[1].p0;
+    // + by 90 gives H' = -L: horizontal, and perpendicular to H.
+    EXPECT_NEAR(turned.y, 0.0, 1e-12);
+    EXPECT_NEAR(glm::dot(turned, H), 0.0, 1e-12);
+    // L = V x H / |V x H| with V = +y: H' = -L.
+    expectNear(turned, -glm::normalize(glm::cross(glm::dvec3(0, 1, 0), H)), "H after $+");
+}
+
+TEST(Turtle, TropismBendsTheHeadingByItsDefinition)
+{
+    // ABOP 2.2: after each F, H turns towards T by e |H x T| about H x T.
+    const Skeleton s = turtle("tropism: 1 0 0 0.3\nAxiom: FF\n");
+    ASSERT_EQ(s.internodes.size(), 2u);
+    expectNear(s.internodes[0].p1 - s.internodes[0].p0, {0, 1, 0}, "first F: straight");
+    // |H x T| = 1 for H = +y, T = +x: H turns by 0.3 rad towards +x.
+    expectNear(s.internodes[1].p1 - s.internodes[1].p0, {std::sin(0.3), std::cos(0.3), 0}, "second F");
+}
+
+TEST(Turtle, BadLengthsAndWidthsAreRefused)
+{
+    EXPECT_THROW(turtle("Axiom: F(-1)\n"), InputError);
+    EXPECT_THROW(turtle("Axiom: !(0)F\n"), InputError);
+    EXPECT_THROW(turtle("Axiom: !F\n"), InputError);
+}
+
+}  // namespace
