@@ -287,6 +287,42 @@ TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
     std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
+{
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_lsystem_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const auto algae = dir / "algae.l";
+    {
+        std::ofstream f(algae);
+        f << "Axiom: A\nA --> AB\nB --> A\n";  // cpfg's simplest file, as it is
+    }
+    const Result s = run("lsystem " + algae.string() + " --steps 5 --print-string");
+    ASSERT_EQ(s.status, 0) << s.err;
+    EXPECT_EQ(s.out, "ABAABABAABAAB\n");
+    const std::string honda = kExamples + "lsystems/honda_monopodial.l";
+    const Result sk = run("lsystem " + honda + " --steps 3 --print-skeleton");
+    ASSERT_EQ(sk.status, 0) << sk.err;
+    // The printed skeleton is one cambium bake reads: 7 internodes after 3 steps.
+    const auto txt = dir / "honda.txt";
+    {
+        std::ofstream f(txt);
+        f << sk.out;
+    }
+    const Result info = run("info " + txt.string());
+    ASSERT_EQ(info.status, 0) << info.err;
+    EXPECT_NE(info.out.find("7 primitives"), std::string::npos) << info.out;
+    // An L-system bakes directly.
+    const std::string vdb = (dir / "honda.vdb").string();
+    const Result b = run("bake " + honda + " -o " + vdb + " --voxel-size 0.05");
+    ASSERT_EQ(b.status, 0) << b.err;
+    EXPECT_TRUE(std::filesystem::exists(vdb));
+    expectRefused("lsystem", {
+        {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},
+        {(dir / "missing.l").string(), "cannot open the L-system file"},
+    });
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, UnknownCommandIsAUsageError)
 {
     const Result r = run("frobnicate");

@@ -1,5 +1,6 @@
 // cambium — the bake command's work.
 #include "bake/bake.h"
+#include "model/turtle.h"
 
 #include "bake/cl_runtime.h"
 #include "bake/vdb_io.h"
@@ -62,6 +63,15 @@ BlobTree loadModel(const std::string& path)
 {
     if (endsWith(path, ".json"))
         return loadScene(path);
+    if (endsWith(path, ".l")) {
+        const LSystem sys = loadLSystem(path);
+        const Skeleton sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
+        if (sk.internodes.empty())
+            throw InputError(fmt::format("{}: after {} derivation steps the string draws no internode (no F): "
+                                         "nothing to bake",
+                                         path, sys.derivationLength));
+        return skeletonToBlend(sk);
+    }
     return skeletonToBlend(loadSkeleton(path));
 }
 

@@ -10,8 +10,10 @@
 
 namespace cambium {
 
-/// Reads a model: a JSON scene (.json) or a skeleton text file (anything
-/// else, docs/skeleton-format.md), the latter as a summation blend of cones.
+/// Reads a model: a JSON scene (.json), an L-system (.l, derived for its
+/// derivation length and drawn by the turtle) or a skeleton text file
+/// (anything else, docs/skeleton-format.md), the last two as a summation
+/// blend of one cone per internode.
 BlobTree loadModel(const std::string& path);
 
 struct BakeRequest {

@@ -67,6 +67,9 @@ struct LSystem {
 LSystem parseLSystem(const std::string& text, const std::string& source);
 LSystem loadLSystem(const std::string& path);
 
+/// The module limit of a derivation unless one is given (`--max-modules`).
+constexpr size_t kDefaultMaxModules = 2000000;
+
 /// Derives `steps` steps from the axiom: every module rewritten in parallel
 /// by the first production (in file order) whose predecessor, contexts and
 /// condition match, or by one of them chosen by their probabilities (seeded

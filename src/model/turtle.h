@@ -31,7 +31,7 @@ struct LSystemRequest {
     std::string input;
     int steps = -1;
     long long seed = -1;  ///< < 0: the file's seed:
-    size_t maxModules = 2000000;
+    size_t maxModules = kDefaultMaxModules;
     bool printString = false, printSkeleton = false;
 };
 int runLSystemCommand(const LSystemRequest& request);
