@@ -1,5 +1,6 @@
 // cambium — the bake command's work.
 #include "bake/bake.h"
+#include "model/tree_builder.h"
 #include "model/turtle.h"
 
 #include "bake/cl_runtime.h"
@@ -70,7 +71,7 @@ BlobTree loadModel(const std::string& path)
             throw InputError(fmt::format("{}: after {} derivation steps the string draws no internode (no F): "
                                          "nothing to bake",
                                          path, sys.derivationLength));
-        return skeletonToBlend(sk);
+        return buildTree(sk);
     }
     return skeletonToBlend(loadSkeleton(path));
 }

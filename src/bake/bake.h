@@ -11,9 +11,10 @@
 namespace cambium {
 
 /// Reads a model: a JSON scene (.json), an L-system (.l, derived for its
-/// derivation length and drawn by the turtle) or a skeleton text file
-/// (anything else, docs/skeleton-format.md), the last two as a summation
-/// blend of one cone per internode.
+/// derivation length, drawn by the turtle and built with the papers' junction
+/// rules, model/tree_builder.h) or a skeleton text file (anything else,
+/// docs/skeleton-format.md, as the benchmarks' summation blend of one cone
+/// per internode).
 BlobTree loadModel(const std::string& path);
 
 struct BakeRequest {

@@ -1,0 +1,108 @@
+// cambium — the tree builder.
+#include "model/tree_builder.h"
+
+#include "core/error.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace cambium {
+
+double basalShortening(const TreeBuildOptions& o, double rA, const std::vector<double>& childBaseRadii,
+                       const std::vector<double>& childTipRadii)
+{
+    if (childBaseRadii.empty())
+        return 0.0;
+    if (childBaseRadii.size() == 1 || o.junction == TreeBuildOptions::Junction::Smooth)
+        return 1.75 * *std::max_element(childTipRadii.begin(), childTipRadii.end());  // eq. 3
+    return 2.75 * *std::max_element(childBaseRadii.begin(), childBaseRadii.end()) - rA;  // eq. 7
+}
+
+BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
+{
+    const size_t n = sk.internodes.size();
+    if (n == 0)
+        throw InputError("the skeleton has no internodes");
+    std::unordered_map<long long, size_t> index;
+    for (size_t i = 0; i < n; ++i)
+        index[sk.internodes[i].id] = i;
+    std::vector<std::vector<size_t>> children(n);
+    std::vector<long long> parent(n, -1);
+    for (size_t i = 0; i < n; ++i)
+        if (const auto it = index.find(sk.internodes[i].parent); it != index.end()) {
+            children[it->second].push_back(i);
+            parent[i] = (long long)it->second;
+        }
+
+    // Each internode's skeleton after the junction rules: its tip pulled back
+    // by delta_A, its base moved off a shared branching point by delta_Bi.
+    std::vector<glm::dvec3> p0(n), p1(n);
+    std::vector<double> r0(n), r1(n);
+    for (size_t i = 0; i < n; ++i) {
+        const Internode& a = sk.internodes[i];
+        const double len = glm::length(a.p1 - a.p0);
+        if (!(len > 0.0))
+            throw InputError(fmt::format("internode {}: its two ends coincide", a.id));
+        p0[i] = a.p0;
+        p1[i] = a.p1;
+        r0[i] = a.r0;
+        r1[i] = a.r1;
+    }
+    auto moveEnd = [&](size_t i, double by, bool tip) {
+        // Along the internode's own axis, the radius following its taper.
+        const Internode& a = sk.internodes[i];
+        const glm::dvec3 axis = a.p1 - a.p0;
+        const double len = glm::length(axis);
+        // An internode short for its radii loses at most half its length.
+        const double t = tip ? std::max(1.0 - by / len, 0.5) : std::min(by / len, 0.5);
+        (tip ? p1[i] : p0[i]) = a.p0 + t * axis;
+        (tip ? r1[i] : r0[i]) = a.r0 + t * (a.r1 - a.r0);
+    };
+    for (size_t i = 0; i < n; ++i) {
+        const std::vector<size_t>& c = children[i];
+        if (c.empty())
+            continue;
+        std::vector<double> base, tip;
+        for (size_t k : c) {
+            base.push_back(sk.internodes[k].r0);
+            tip.push_back(sk.internodes[k].r1);
+        }
+        const double rA = sk.internodes[i].r1;
+        moveEnd(i, basalShortening(o, rA, base, tip), true);  // negative: lengthened (eq. 7)
+        if (c.size() > 1 && o.junction == TreeBuildOptions::Junction::Pcm)
+            for (size_t k : c)
+                if (const double d = rA - sk.internodes[k].r0; d > 0.0)
+                    moveEnd(k, d, false);  // eq. 6
+    }
+
+    BlobTree tree;
+    std::vector<int> top;
+    std::unordered_map<size_t, std::vector<int>> groups;  // junction -> its branches' nodes
+    for (size_t i = 0; i < n; ++i) {
+        int node = tree.cone(p0[i], p1[i], r0[i], r1[i]);
+        if (o.bend != 0.0 && parent[i] >= 0) {
+            const Internode& b = sk.internodes[size_t(parent[i])];
+            const glm::dvec3 hA = glm::normalize(b.p1 - b.p0), h = glm::normalize(p1[i] - p0[i]);
+            const glm::dvec3 away = h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
+            if (glm::length(away) > 1e-3)
+                node = tree.bend(p0[i], p1[i], glm::normalize(away), o.bend, node);
+        }
+        const bool branch = parent[i] >= 0 && children[size_t(parent[i])].size() > 1 &&
+                            o.junction == TreeBuildOptions::Junction::Pcm;
+        (branch ? groups[size_t(parent[i])] : top).push_back(node);
+    }
+    Combiner pcm{NodeType::PCM};
+    pcm.width = o.pcmWidth;
+    pcm.attenuation = o.pcmAttenuation;
+    for (size_t i = 0; i < n; ++i)  // in skeleton order: the same tree every time
+        if (const auto it = groups.find(i); it != groups.end())
+            top.push_back(tree.op(pcm, it->second));
+    tree.setRoot(top.size() == 1 ? top[0] : tree.op({NodeType::BLEND}, top));
+    tree.finalize();
+    return tree;
+}
+
+}  // namespace cambium

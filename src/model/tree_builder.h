@@ -1,0 +1,41 @@
+// cambium — a skeleton of internodes to a BlobTree with the papers' junction
+// rules (papers 001 and 003, section 3): cones per internode, basal internodes
+// shortened against bulges, PCM between the branches of a junction, bent
+// internodes.
+#pragma once
+
+#include "blobtree/blobtree.h"
+#include "model/skeleton.h"
+
+namespace cambium {
+
+struct TreeBuildOptions {
+    /// Pcm: F_J = PCM(F_B0, ..., F_Bm-1) + F_A (eq. 4-5), branches moved off
+    /// the branching point by delta_Bi = r_A - r_i (eq. 6) and the basal
+    /// internode shortened by delta_A = 2.75 max(r_i) - r_A (eq. 7): ridges
+    /// between branches, collars on small ones.  Smooth: plain summation, the
+    /// basal internode shortened by delta_A = 1.75 max(r_Bi,top) (eq. 3).
+    /// A single continuation is always summed with delta_A = 1.75 r_B,top.
+    enum class Junction { Pcm, Smooth } junction = Junction::Pcm;
+    double pcmWidth = 0.2;        ///< PCM propagation width (field units)
+    double pcmAttenuation = 2.0;  ///< PCM bulge attenuation exponent
+    /// Endpoint-preserving bend of every internode that leaves its basal
+    /// internode's axis, in their plane, first away from that axis and back
+    /// (paper 003 section 3.6), radians; 0: straight.
+    double bend = 0.0;
+};
+
+/// The BlobTree of a skeleton.  Each internode appears once: in the PCM
+/// group of the junction it branches from when that junction has several
+/// branches, else directly in the top-level summation, so the tree's depth
+/// stays three or four however large the skeleton.  An internode short for
+/// its radii loses at most half its length to the rules.  InputError (naming
+/// the internode) for one whose ends coincide.
+BlobTree buildTree(const Skeleton& skeleton, const TreeBuildOptions& options = {});
+
+/// How much a basal internode is shortened at its tip (eq. 3 and 7), given
+/// its radius at the tip and its children's radii at their bases and tips.
+double basalShortening(const TreeBuildOptions& options, double rA, const std::vector<double>& childBaseRadii,
+                       const std::vector<double>& childTipRadii);
+
+}  // namespace cambium

@@ -1,0 +1,181 @@
+// The tree builder's junction rules (papers 001/003): no bulge where a
+// shortened basal internode meets its continuation, PCM ridges between
+// branches without interpenetration, endpoint-preserving bends, and a
+// bounded tree depth however large the skeleton.
+#include "model/tree_builder.h"
+
+#include "blobtree/evaluator.h"
+#include "core/error.h"
+#include "field/program.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+namespace {
+
+using namespace cambium;
+
+Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0, double r1)
+{
+    Internode n;
+    n.id = id;
+    n.parent = parent;
+    n.p0 = p0;
+    n.p1 = p1;
+    n.r0 = r0;
+    n.r1 = r1;
+    return n;
+}
+
+/// The surface's distance from the axis point c along the unit direction u
+/// (bisection on F = T from inside to far outside).
+double surfaceRadius(const ReferenceEvaluator& ev, double T, const glm::dvec3& c, const glm::dvec3& u, double far)
+{
+    double lo = 0.0, hi = far;
+    if (ev.value(c) < T)
+        return 0.0;
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (ev.value(c + mid * u) >= T ? lo : hi) = mid;
+    }
+    return lo;
+}
+
+/// Largest and smallest radius of the surface around the y axis for y in
+/// [y0, y1] (two collinear internodes along y).
+std::pair<double, double> radiusRange(const BlobTree& tree, double y0, double y1)
+{
+    const ReferenceEvaluator ev(tree);
+    double lo = 1e9, hi = 0.0;
+    for (double y = y0; y <= y1 + 1e-12; y += 0.002) {
+        const double r = surfaceRadius(ev, tree.threshold(), {0, y, 0}, {1, 0, 0}, 1.0);
+        lo = std::min(lo, r);
+        hi = std::max(hi, r);
+    }
+    return {lo, hi};
+}
+
+TEST(TreeBuilder, ShorteningTheBasalInternodeRemovesTheBulge)
+{
+    // Two collinear internodes of equal radius r meeting at y = 1 (paper 001, 3.1).
+    const double r = 0.1;
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r), internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
+    const auto [minWith, maxWith] = radiusRange(buildTree(sk), 0.5, 1.5);
+    const auto [minWithout, maxWithout] = radiusRange(skeletonToBlend(sk), 0.5, 1.5);
+    std::printf("joint of two cones of radius %.2f: with delta_A = 1.75 r the radius stays in [%.4f, %.4f] "
+                "(%+.1f %% / %+.1f %%); without, up to %.4f (%+.1f %%)\n",
+                r, minWith, maxWith, 100.0 * (minWith / r - 1.0), 100.0 * (maxWith / r - 1.0), maxWithout,
+                100.0 * (maxWithout / r - 1.0));
+    EXPECT_LT(maxWith / r - 1.0, 0.05);   // the bulge the papers call practically unnoticeable
+    EXPECT_GT(minWith / r - 1.0, -0.05);  // and no waist in its place
+    EXPECT_GT(maxWithout / r - 1.0, 0.15);  // the plain sum bulges visibly
+}
+
+TEST(TreeBuilder, JunctionRulesFollowEquationsThreeSixAndSeven)
+{
+    TreeBuildOptions pcm, smooth;
+    smooth.junction = TreeBuildOptions::Junction::Smooth;
+    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08}, {0.06}), 1.75 * 0.06);             // eq. 3
+    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08, 0.05}, {0.07, 0.04}), 2.75 * 0.08 - 0.1);  // eq. 7
+    EXPECT_DOUBLE_EQ(basalShortening(smooth, 0.1, {0.08, 0.05}, {0.07, 0.04}), 1.75 * 0.07);
+    // In the PCM tree the branches start delta_Bi = r_A - r_i from the branching point (eq. 6).
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.12, 0.1),
+                     internode(1, 0, {0, 1, 0}, {0, 2, 0}, 0.08, 0.06),
+                     internode(2, 0, {0, 1, 0}, {0.6, 1.8, 0}, 0.05, 0.035)};
+    const BlobTree t = buildTree(sk);
+    int cones = 0, pcms = 0;
+    for (const Node& nd : t.nodes()) {
+        pcms += nd.type == NodeType::PCM;
+        if (nd.type != NodeType::CONE)
+            continue;
+        ++cones;
+        const Primitive& p = nd.prim();
+        if (p.p0 == glm::dvec3(0.0)) {  // A: tip pulled back by 2.75 * 0.08 - 0.1 = 0.12
+            EXPECT_NEAR(p.p1.y, 1.0 - 0.12, 1e-12);
+        } else {
+            const double d = glm::length(p.p0 - glm::dvec3(0, 1, 0));
+            EXPECT_NEAR(d, p.r0 > 0.07 ? 0.1 - 0.08 : 0.1 - 0.05, 1e-3) << "branch base offset";
+        }
+    }
+    EXPECT_EQ(cones, 3);
+    EXPECT_EQ(pcms, 1);
+}
+
+TEST(TreeBuilder, BentInternodesKeepTheirEnds)
+{
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.08),
+                     internode(1, 0, {0, 1, 0}, {0.7, 1.7, 0}, 0.05, 0.04)};
+    TreeBuildOptions o;
+    o.bend = 0.4;
+    const BlobTree bent = buildTree(sk, o), straight = buildTree(sk);
+    int bends = 0;
+    for (const Node& nd : bent.nodes())
+        bends += nd.type == NodeType::BEND;
+    EXPECT_EQ(bends, 1);  // the collinear trunk is not bent
+    const ReferenceEvaluator eb(bent), es(straight);
+    // The lateral's end cap is where it was: the surface beyond its tip.
+    const glm::dvec3 tip(0.7, 1.7, 0), out = glm::normalize(glm::dvec3(0.7, 0.7, 0));
+    const double a = surfaceRadius(eb, 0.5, tip, out, 0.5), b = surfaceRadius(es, 0.5, tip, out, 0.5);
+    EXPECT_NEAR(a, b, 0.004);
+    // Its middle moved off the chord, away from the trunk's axis: it first
+    // grows more directly away from the trunk (towards +x, below the chord).
+    const glm::dvec3 mid(0.35, 1.35, 0), normal = glm::normalize(glm::dvec3(0.7, -0.7, 0));
+    auto offCentre = [&](const ReferenceEvaluator& ev) {
+        double sum = 0.0;
+        int count = 0;
+        for (double t = -0.3; t <= 0.3; t += 0.0005)
+            if (ev.value(mid + t * normal) >= 0.5) {
+                sum += t;
+                ++count;
+            }
+        return count ? sum / count : 1e9;
+    };
+    const double shifted = offCentre(eb), centred = offCentre(es);
+    std::printf("bend 0.4 rad: the internode's middle is %.4f off its chord (straight: %.4f)\n", shifted, centred);
+    EXPECT_NEAR(centred, 0.0, 0.002);
+    EXPECT_GT(shifted, 0.02);
+}
+
+TEST(TreeBuilder, DepthStaysSmallOnLargeSkeletons)
+{
+    // A trunk of 400 internodes with a lateral at each: every internode a junction.
+    Skeleton sk;
+    long long id = 0;
+    for (int i = 0; i < 400; ++i) {
+        const long long trunk = id++;
+        sk.internodes.push_back(internode(trunk, i == 0 ? -1 : trunk - 2, {0, 0.1 * i, 0}, {0, 0.1 * (i + 1), 0},
+                                          0.03, 0.03));
+        sk.internodes.push_back(internode(id++, trunk, {0, 0.1 * (i + 1), 0},
+                                          {0.1 * std::cos(i), 0.1 * (i + 1.5), 0.1 * std::sin(i)}, 0.01, 0.01));
+    }
+    const BlobTree t = buildTree(sk);
+    EXPECT_NO_THROW(FieldProgram::compile(t));  // within the kernels' stack depth
+}
+
+TEST(TreeBuilder, ShortInternodesLoseAtMostHalfAndDegenerateOnesAreNamed)
+{
+    // delta_A = 1.75 * 0.1 exceeds the first internode's length 0.1: half of it stays.
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 0.1, 0}, 0.1, 0.1),
+                     internode(7, 0, {0, 0.1, 0}, {0, 1, 0}, 0.1, 0.1)};
+    const BlobTree t = buildTree(sk);
+    for (const Node& nd : t.nodes()) {
+        if (nd.type == NodeType::CONE && nd.prim().p0 == glm::dvec3(0.0)) {
+            EXPECT_NEAR(nd.prim().p1.y, 0.05, 1e-12);
+        }
+    }
+    sk.internodes = {internode(3, -1, {0, 0, 0}, {0, 0, 0}, 0.1, 0.1)};
+    try {
+        buildTree(sk);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("internode 3: its two ends coincide"), std::string::npos) << e.what();
+    }
+}
+
+}  // namespace
