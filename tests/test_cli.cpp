@@ -316,6 +316,15 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
     const Result b = run("bake " + honda + " -o " + vdb + " --voxel-size 0.05");
     ASSERT_EQ(b.status, 0) << b.err;
     EXPECT_TRUE(std::filesystem::exists(vdb));
+    // Skeletons can be built with the junction rules too.
+    const Result rules = run("info " + txt.string() + " --junctions pcm --bend 10");
+    ASSERT_EQ(rules.status, 0) << rules.err;
+    EXPECT_NE(rules.out.find("pcm"), std::string::npos) << rules.out;
+    expectRefused("bake", {
+        {honda + " -o " + vdb + " --junctions ridge", "--junctions must be pcm, smooth or blend (got 'ridge')"},
+        {honda + " -o " + vdb + " --bend 95", "--bend must be between -90 and 90 degrees"},
+        {honda + " -o " + vdb + " --junctions blend --bend 5", "--bend needs --junctions pcm or smooth"},
+    });
     expectRefused("lsystem", {
         {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},
         {(dir / "missing.l").string(), "cannot open the L-system file"},

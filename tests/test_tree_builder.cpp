@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -103,6 +104,64 @@ TEST(TreeBuilder, JunctionRulesFollowEquationsThreeSixAndSeven)
     }
     EXPECT_EQ(cones, 3);
     EXPECT_EQ(pcms, 1);
+}
+
+/// A Y junction in the xy plane: a vertical basal internode and two
+/// branches 35 degrees either side of it, built by the rules in `mode`.
+BlobTree yJunction(TreeBuildOptions::Junction mode)
+{
+    const double a = 35.0 * 3.14159265358979323846 / 180.0;
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.09),
+                     internode(1, 0, {0, 1, 0}, {std::sin(a), 1 + std::cos(a), 0}, 0.07, 0.06),
+                     internode(2, 0, {0, 1, 0}, {-std::sin(a), 1 + std::cos(a), 0}, 0.07, 0.06)};
+    TreeBuildOptions o;
+    o.junction = mode;
+    return buildTree(sk, o);
+}
+
+/// Where the vertical line at x (z = 0), going up from the branching point
+/// (inside the junction), leaves the surface into the gap between the
+/// branches (the crotch), and the unit outward normal there.
+std::pair<double, glm::dvec3> crotchPoint(const BlobTree& t, double x)
+{
+    const ReferenceEvaluator ev(t);
+    const double T = t.threshold();
+    EXPECT_GE(ev.value({x, 1.0, 0}), T) << "the branching point is inside";
+    double hi = 1.0;
+    while (ev.value({x, hi, 0}) >= T && hi < 2.0)
+        hi += 0.001;
+    double in = hi - 0.001, out = hi;
+    for (int i = 0; i < 50; ++i) {
+        const double m = 0.5 * (in + out);
+        (ev.value({x, m, 0}) >= T ? in : out) = m;
+    }
+    const FieldSample s = ev.sample({x, in, 0});
+    return {in, -glm::normalize(s.gradient)};  // the field grows inwards
+}
+
+TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
+{
+    // Across the crotch line (x = 0), the surface's normals on either side
+    // (x = +-e) turn sharply with PCM (a ridge) and gently with summation
+    // (a fillet); the summation also fills the crotch higher up.
+    const double e = 0.01;
+    double angle[2], height[2];
+    int k = 0;
+    for (const auto mode : {TreeBuildOptions::Junction::Pcm, TreeBuildOptions::Junction::Smooth}) {
+        const BlobTree t = yJunction(mode);
+        const auto [yl, nl] = crotchPoint(t, -e);
+        const auto [yr, nr] = crotchPoint(t, e);
+        angle[k] = std::acos(std::clamp(glm::dot(nl, nr), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
+        height[k] = crotchPoint(t, 0.0).first - 1.0;
+        ++k;
+    }
+    std::printf("crotch between two branches: normals 2x%.2f apart turn %.1f deg with PCM, %.1f deg with summation; "
+                "the crotch is %.3f (PCM) and %.3f (summation) above the branching point\n",
+                e, angle[0], angle[1], height[0], height[1]);
+    EXPECT_GT(angle[0], 3.0 * angle[1]);
+    EXPECT_GT(angle[0], 20.0);
+    EXPECT_GT(height[1], height[0]);  // summation fills the crotch: material reaches higher up
 }
 
 TEST(TreeBuilder, BentInternodesKeepTheirEnds)

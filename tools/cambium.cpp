@@ -17,6 +17,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -47,11 +48,14 @@ int withBenchDirectory(const std::function<void(const std::string&)>& f)
     return 0;
 }
 
-int runInfo(const std::string& scenePath)
+int runInfo(const std::string& scenePath, const ModelOptions& model)
 {
-    const BlobTree tree = loadModel(scenePath);
+    const auto start = std::chrono::steady_clock::now();
+    const BlobTree tree = loadModel(scenePath, model);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const TreeStats s = computeStats(tree);
     fmt::print("scene      {}\n", scenePath);
+    fmt::print("read       {:.3f} s (reading, deriving and building the BlobTree)\n", seconds);
     fmt::print("threshold  {}\n", tree.threshold());
     fmt::print("nodes      {}: {} primitive{}, {} operator{}, {} warp{}\n",
                s.primitives + s.operators + s.warps, s.primitives, s.primitives == 1 ? "" : "s",
@@ -165,9 +169,22 @@ int main(int argc, char** argv)
     std::function<int()> action;
 
     std::string scene;
+    ModelOptions model;
+    auto modelOptions = [&](CLI::App* cmd) {
+        cmd->add_option("--junctions", model.junctions,
+                        "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
+                        "(the rules, summation only) or blend (a cone per internode, summed); default pcm for "
+                        "L-systems, blend for skeleton files");
+        cmd->add_option("--bend", model.bendDegrees,
+                        "Bend lateral internodes by this many degrees, keeping their ends (pcm, smooth)");
+    };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
-    info->add_option("scene", scene, "Scene (JSON, docs/scene-format.md) or skeleton (docs/skeleton-format.md)")->required();
-    info->callback([&] { action = [&] { return runInfo(scene); }; });
+    info->add_option("scene", scene,
+                     "Scene (JSON, docs/scene-format.md), L-system (.l, docs/lsystem-format.md) or skeleton "
+                     "(docs/skeleton-format.md)")
+        ->required();
+    modelOptions(info);
+    info->callback([&] { action = [&] { return runInfo(scene, model); }; });
 
     std::vector<double> point;
     auto* eval = app.add_subcommand("eval", "Evaluate a scene's field, gradient and colour at a point "
@@ -180,7 +197,8 @@ int main(int argc, char** argv)
     double voxelSize = 0.0;
     auto* bakeCmd = app.add_subcommand(
         "bake", "Bake a scene or skeleton into a narrow-band OpenVDB level set (.vdb)");
-    bakeCmd->add_option("input", bake.input, "Scene (.json) or skeleton file")->required();
+    bakeCmd->add_option("input", bake.input, "Scene (.json), L-system (.l) or skeleton file")->required();
+    modelOptions(bakeCmd);
     bakeCmd->add_option("-o,--output", bake.output, "Output .vdb file")->required();
     auto* voxelOpt = bakeCmd->add_option("--voxel-size", voxelSize,
                                          "Voxel size in world units (default: 512 voxels across the "
@@ -194,6 +212,7 @@ int main(int argc, char** argv)
     bakeCmd->callback([&] {
         if (voxelOpt->count())
             bake.voxelSize = voxelSize;
+        bake.model = model;
         action = [&] { return runBakeCommand(bake); };
     });
 

@@ -60,20 +60,40 @@ double peakMemoryBytes()
     return double(r.ru_maxrss) * 1024.0;
 }
 
-BlobTree loadModel(const std::string& path)
+void checkModelOptions(const ModelOptions& o)
 {
+    if (!o.junctions.empty() && o.junctions != "pcm" && o.junctions != "smooth" && o.junctions != "blend")
+        throw InputError(fmt::format("--junctions must be pcm, smooth or blend (got '{}')", o.junctions));
+    if (!(std::abs(o.bendDegrees) < 90.0))
+        throw InputError(fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
+    if (o.bendDegrees != 0.0 && o.junctions == "blend")
+        throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
+}
+
+BlobTree loadModel(const std::string& path, const ModelOptions& o)
+{
+    checkModelOptions(o);
     if (endsWith(path, ".json"))
         return loadScene(path);
-    if (endsWith(path, ".l")) {
+    Skeleton sk;
+    const bool lsystem = endsWith(path, ".l");
+    if (lsystem) {
         const LSystem sys = loadLSystem(path);
-        const Skeleton sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
+        sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
         if (sk.internodes.empty())
             throw InputError(fmt::format("{}: after {} derivation steps the string draws no internode (no F): "
                                          "nothing to bake",
                                          path, sys.derivationLength));
-        return buildTree(sk);
+    } else {
+        sk = loadSkeleton(path);
     }
-    return skeletonToBlend(loadSkeleton(path));
+    const std::string junctions = o.junctions.empty() ? (lsystem ? "pcm" : "blend") : o.junctions;
+    if (junctions == "blend")
+        return skeletonToBlend(sk);
+    TreeBuildOptions t;
+    t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
+    t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
+    return buildTree(sk, t);
 }
 
 BakeReport runBake(const BakeRequest& req)
@@ -81,7 +101,7 @@ BakeReport runBake(const BakeRequest& req)
     BakeReport report;
     if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
         throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
-    const BlobTree tree = loadModel(req.input);
+    const BlobTree tree = loadModel(req.input, req.model);
     const FieldProgram program = FieldProgram::compile(tree);
     const Box bounds = program.positiveBounds();
     if (bounds.empty())

@@ -15,10 +15,21 @@ namespace cambium {
 /// rules, model/tree_builder.h) or a skeleton text file (anything else,
 /// docs/skeleton-format.md, as the benchmarks' summation blend of one cone
 /// per internode).
-BlobTree loadModel(const std::string& path);
+struct ModelOptions {
+    /// How skeletons and L-systems become BlobTrees: "pcm" (the papers'
+    /// junction rules with PCM between branches), "smooth" (the rules with
+    /// summation only), "blend" (one cone per internode, summed, no rules: the
+    /// benchmarks' field); empty: pcm for L-systems, blend for skeleton files.
+    std::string junctions;
+    double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (pcm, smooth)
+};
+/// InputError unless the options are valid (before any work).
+void checkModelOptions(const ModelOptions& options);
+BlobTree loadModel(const std::string& path, const ModelOptions& options = {});
 
 struct BakeRequest {
-    std::string input;                 ///< scene or skeleton file
+    std::string input;                 ///< scene, L-system or skeleton file
+    ModelOptions model;                ///< how L-systems and skeletons are built
     std::string output;                ///< .vdb path
     std::optional<double> voxelSize;   ///< default: 512 voxels across the surface bounds
     double halfWidth = 3.0;            ///< voxels
