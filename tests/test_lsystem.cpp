@@ -100,8 +100,8 @@ TEST(LSystem, ContextSensitiveProductionsSeeAcrossBranches)
 TEST(LSystem, UnknownSymbolsStayAndCutsRemoveTheRestOfTheBranch)
 {
     EXPECT_EQ(run("Axiom: {A'L}\nA --> A\n", 3), "{A'L}");
-    EXPECT_EQ(run("Axiom: F[FA[F]F]F\nA --> %\n", 1), "F[F]F");
-    EXPECT_EQ(run("Axiom: FAF[F]F\nA --> %\n", 1), "F");
+    EXPECT_EQ(run("Axiom: F[FA[F]F]F\nA --> %\n", 1), "F[F%]F");
+    EXPECT_EQ(run("Axiom: FAF[F]F\nA --> %\n", 1), "F%");
 }
 
 TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)

@@ -4,6 +4,10 @@
 // bounded tree depth however large the skeleton.
 #include "model/tree_builder.h"
 
+#include "bake_util.h"
+#include "model/turtle.h"
+#include "use/grid_file.h"
+
 #include "blobtree/evaluator.h"
 #include "core/error.h"
 #include "field/program.h"
@@ -162,6 +166,42 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
     EXPECT_GT(angle[0], 3.0 * angle[1]);
     EXPECT_GT(angle[0], 20.0);
     EXPECT_GT(height[1], height[0]);  // summation fills the crotch: material reaches higher up
+}
+
+/// Largest distance, in voxels, of the baked surface from the plane y = 1
+/// along lines parallel to y through the disc x^2 + z^2 < r^2.
+double cutFaceDeviation(const std::string& lsystem, double r, double h)
+{
+    const LSystem sys = parseLSystem(lsystem, "cut.l");
+    const BakedGrids g = test::bakeTree(buildTree(interpretTurtle(sys, derive(sys, 0, 1, 100))), h);
+    const WorldSampler<openvdb::FloatGrid> at(*g.surface);
+    double worst = 0.0;
+    for (double x = -r; x <= r; x += 0.25 * h)
+        for (double z = -r; z <= r; z += 0.25 * h) {
+            if (x * x + z * z > r * r)
+                continue;
+            double in = 0.8, out = 1.3;  // inside the branch below, outside above
+            EXPECT_LT(at(openvdb::Vec3d(x, in, z)), 0.0f);
+            EXPECT_GT(at(openvdb::Vec3d(x, out, z)), 0.0f);
+            for (int i = 0; i < 40; ++i) {
+                const double m = 0.5 * (in + out);
+                (at(openvdb::Vec3d(x, m, z)) < 0.0f ? in : out) = m;
+            }
+            worst = std::max(worst, std::abs(in - 1.0) / h);
+        }
+    return worst;
+}
+
+TEST(TreeBuilder, ASawCutIsPlanarAfterBaking)
+{
+    // A branch of radius 0.1 pruned at y = 1 (%): over 70 % of the cut face's
+    // radius the baked surface is the plane; the uncut branch's cap is not.
+    const double h = 0.01;
+    const double cut = cutFaceDeviation("Axiom: !(0.2)F(1)%\n", 0.07, h);
+    const double cap = cutFaceDeviation("Axiom: !(0.2)F(1)\n", 0.07, h);
+    std::printf("saw cut: the baked face is within %.3f voxel of its plane (the uncut cap: %.1f voxels)\n", cut, cap);
+    EXPECT_LT(cut, 0.1);
+    EXPECT_GT(cap, 1.0);
 }
 
 TEST(TreeBuilder, BentInternodesKeepTheirEnds)

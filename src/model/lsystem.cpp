@@ -777,16 +777,16 @@ public:
         return cut(out);
     }
 
-    /// Removes each '%' and the rest of its branch (up to the branch's ']').
+    /// Removes the rest of each '%''s branch (up to the branch's ']'); the
+    /// '%' stays, the mark of the cut for the turtle.
     static ModuleString cut(const ModuleString& s)
     {
         ModuleString out;
         out.reserve(s.size());
         for (size_t i = 0; i < s.size(); ++i) {
-            if (s[i].name != '%') {
-                out.push_back(s[i]);
+            out.push_back(s[i]);
+            if (s[i].name != '%')
                 continue;
-            }
             int depth = 0;
             for (++i; i < s.size(); ++i) {
                 if (s[i].name == '[')

@@ -74,8 +74,8 @@ constexpr size_t kDefaultMaxModules = 2000000;
 /// by the first production (in file order) whose predecessor, contexts and
 /// condition match, or by one of them chosen by their probabilities (seeded
 /// by `seed`) when the matching productions are stochastic; modules without
-/// a production stay.  After each step `%` removes itself and the rest of its
-/// branch.  InputError before a step would exceed `maxModules` modules.
+/// a production stay.  After each step `%` removes the rest of its branch
+/// (and stays, marking the cut).  InputError before a step would exceed `maxModules` modules.
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules);
 
 /// The string in the L-system notation: modules without parameters as their

@@ -83,6 +83,15 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     std::unordered_map<size_t, std::vector<int>> groups;  // junction -> its branches' nodes
     for (size_t i = 0; i < n; ++i) {
         int node = tree.cone(p0[i], p1[i], r0[i], r1[i]);
+        if (sk.internodes[i].cut) {
+            // A saw cut through the skeleton's end, across the axis: the
+            // difference with a sphere so large that over the cut face (radius
+            // r) it departs from the plane by r^2 / 2R = r / 2000.
+            const Internode& a = sk.internodes[i];
+            const double R = 1000.0 * std::max(a.r0, a.r1);
+            node = tree.op({NodeType::DIFFERENCE},
+                           {node, tree.sphere(a.p1 + R * glm::normalize(a.p1 - a.p0), R)});
+        }
         if (o.bend != 0.0 && parent[i] >= 0) {
             const Internode& b = sk.internodes[size_t(parent[i])];
             const glm::dvec3 hA = glm::normalize(b.p1 - b.p0), h = glm::normalize(p1[i] - p0[i]);

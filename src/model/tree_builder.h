@@ -25,7 +25,8 @@ struct TreeBuildOptions {
     double bend = 0.0;
 };
 
-/// The BlobTree of a skeleton.  Each internode appears once: in the PCM
+/// The BlobTree of a skeleton.  A pruned internode (`cut`) is cut flat
+/// through its end across its axis (CSG difference).  Each internode appears once: in the PCM
 /// group of the junction it branches from when that junction has several
 /// branches, else directly in the top-level summation, so the tree's depth
 /// stays three or four however large the skeleton.  An internode short for

@@ -17,6 +17,7 @@ struct TurtleState {
     glm::dvec3 pos{0.0}, H{0.0, 1.0, 0.0}, L{1.0, 0.0, 0.0}, U{0.0, 0.0, -1.0};
     double width = 0.1;
     long long last = -1;  ///< the last internode drawn on the way here
+    bool drewInBranch = false;  ///< whether `last` was drawn in the current branch
     int order = 0;
 };
 
@@ -90,6 +91,7 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
                 n.module = (long long)i;
                 out.internodes.push_back(n);
                 t.last = n.id;
+                t.drewInBranch = true;
                 if (e != 0.0) {
                     const glm::dvec3 axis = glm::cross(t.H, T);
                     const double len = glm::length(axis);
@@ -130,6 +132,7 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
         case '[': {
             stack.push_back(t);
             ++t.order;
+            t.drewInBranch = false;
             break;
         }
         case ']':
@@ -139,7 +142,10 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
             stack.pop_back();
             break;
         case '%': {
-            // The rest of the branch is cut: skip to its ']'.
+            // A saw cut: the branch's last internode ends in a flat cut, and
+            // the rest of the branch (if the string still has it) is skipped.
+            if (t.drewInBranch && t.last >= 0)
+                out.internodes[size_t(t.last)].cut = true;
             int depth = 0;
             while (i + 1 < modules.size()) {
                 const char c = modules[i + 1].name;
@@ -167,10 +173,10 @@ int runLSystemCommand(const LSystemRequest& req)
     if (req.printString)
         fmt::print("{}\n", formatModules(s));
     if (req.printSkeleton) {
-        fmt::print("# {} after {} steps: id parent x0 y0 z0 x1 y1 z1 r0 r1  # order module\n", req.input, steps);
+        fmt::print("# {} after {} steps: id parent x0 y0 z0 x1 y1 z1 r0 r1  # order module [cut]\n", req.input, steps);
         for (const Internode& n : sk.internodes)
-            fmt::print("{} {} {} {} {} {} {} {} {} {}  # {} {}\n", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x,
-                       n.p1.y, n.p1.z, n.r0, n.r1, n.order, n.module);
+            fmt::print("{} {} {} {} {} {} {} {} {} {}  # {} {}{}\n", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x,
+                       n.p1.y, n.p1.z, n.r0, n.r1, n.order, n.module, n.cut ? " cut" : "");
     }
     if (!req.printString && !req.printSkeleton) {
         int maxOrder = 0;

@@ -13,7 +13,9 @@ namespace cambium {
 ///   down/up about L, \ / roll left/right about H (default angle: `angle:`);
 ///   | turn around; [ ] push and pop the state; !(w) set the width (a
 ///   diameter; internodes get radius w/2 at both ends); $ roll so that L is
-///   horizontal; % cut the rest of the branch; with `tropism: x y z e`, after
+///   horizontal; % cut: the branch's last internode ends in a saw cut (a
+///   plane through its end, across its axis) and the rest of the branch is
+///   skipped; with `tropism: x y z e`, after
 ///   every F the heading bends towards T by e |H x T|.  Other symbols are
 ///   ignored.  The turtle starts at the origin heading up (+y) with its left
 ///   L = +x and up U = -z, so that seen from +z (x right, y up) `+` turns
