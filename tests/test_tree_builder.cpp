@@ -204,6 +204,43 @@ TEST(TreeBuilder, ASawCutIsPlanarAfterBaking)
     EXPECT_GT(cap, 1.0);
 }
 
+TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
+{
+    // A trunk of radius 0.1 that lost a lateral of radius 0.05 at y = 1,
+    // heading -z: the bark there is pressed in.  The depth (from the trunk's
+    // radius) follows the negative field's weight, and the baked grid has it
+    // within 0.1 voxel of the reference evaluator.
+    const double h = 0.005;
+    const std::string text = "Axiom: !(0.2)F(1)[&(90)!(0.1)%]F(1)\n";
+    const LSystem sys = parseLSystem(text, "scar.l");
+    const Skeleton sk = interpretTurtle(sys, derive(sys, 0, 1, 100));
+    ASSERT_EQ(sk.scars.size(), 1u);
+    EXPECT_NEAR(sk.scars[0].tip.z, -0.1, 1e-12);  // the stub reaches the bark
+    const glm::dvec3 c(0, 1, 0), u(0, 0, -1);
+    double previous = -1.0;
+    for (double w : {-0.5, -1.0, -1.5}) {
+        TreeBuildOptions o;
+        o.scarWeight = w;
+        const BlobTree t = buildTree(sk, o);
+        const double predicted = 0.1 - surfaceRadius(ReferenceEvaluator(t), t.threshold(), c, u, 0.4);
+        const BakedGrids g = test::bakeTree(t, h);
+        const WorldSampler<openvdb::FloatGrid> at(*g.surface);
+        double in = 0.0, out = 0.4;
+        for (int i = 0; i < 40; ++i) {
+            const double m = 0.5 * (in + out);
+            const glm::dvec3 p = c + m * u;
+            (at(openvdb::Vec3d(p.x, p.y, p.z)) < 0.0f ? in : out) = m;
+        }
+        const double baked = 0.1 - in;
+        std::printf("scar with weight %.1f: %.4f deep (evaluator), %.4f (baked), %.3f voxel apart\n", w, predicted,
+                    baked, std::abs(baked - predicted) / h);
+        EXPECT_NEAR(baked, predicted, 0.1 * h) << "weight " << w;
+        EXPECT_GT(predicted, previous) << "a stronger negative field presses deeper";
+        previous = predicted;
+    }
+    EXPECT_GT(previous, 0.01);  // a visible scar: over a tenth of the trunk's radius
+}
+
 TEST(TreeBuilder, BentInternodesKeepTheirEnds)
 {
     Skeleton sk;

@@ -180,14 +180,19 @@ double autoVoxelSize(const FieldProgram& program, double voxels)
 double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
 {
     // Surface area of the primitives (an overestimate where they overlap).
+    // Each is convex, so the part of it inside the surface's bounds has at
+    // most the bounds' area: a huge sphere that cuts (a saw cut) counts so.
+    const glm::dvec3 b = program.positiveBounds().size();
+    const double boundsArea = 2.0 * (b.x * b.y + b.y * b.z + b.z * b.x);
     double area = 0.0;
     const auto& P = program.params();
     for (const Instr& in : program.code()) {
         const double* q = P.data() + in.a;
         if (in.op == CB_SPHERE)
-            area += 4.0 * M_PI * q[3] * q[3];
+            area += std::min(4.0 * M_PI * q[3] * q[3], boundsArea);
         else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_CONVOLUTION_SEGMENT)
-            area += M_PI * (q[7] + q[8]) * q[6] + 2.0 * M_PI * std::max(q[7], q[8]) * std::max(q[7], q[8]);
+            area += std::min(M_PI * (q[7] + q[8]) * q[6] + 2.0 * M_PI * std::max(q[7], q[8]) * std::max(q[7], q[8]),
+                             boundsArea);
     }
     // Band voxels; about three sampled voxels per band voxel, each holding its
     // value (4 bytes), propagation state (8) and a share of the surface points

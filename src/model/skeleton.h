@@ -20,8 +20,18 @@ struct Internode {
     bool cut = false;           ///< pruned: ends in a saw cut through p1, across its axis
 };
 
+/// Where a lateral organ was lost (shed): a stub from `base` (on the parent
+/// axis) towards `tip` (a little beyond the bark) of radius `radius`, with a
+/// negative field at its tip that presses a scar into the bark.
+struct Scar {
+    glm::dvec3 base{0.0}, tip{0.0};
+    double radius = 0.0;
+    long long parent = -1;  ///< the internode it sits on
+};
+
 struct Skeleton {
     std::vector<Internode> internodes;
+    std::vector<Scar> scars;
 };
 
 /// Reads the text format of ../shared/bench/gen_skeleton.py (docs/skeleton-format.md):

@@ -86,11 +86,15 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         if (sk.internodes[i].cut) {
             // A saw cut through the skeleton's end, across the axis: the
             // difference with a sphere so large that over the cut face (radius
-            // r) it departs from the plane by r^2 / 2R = r / 2000.
+            // r) it departs from the plane by r^2 / 2R = r / 2000.  Its field
+            // rises from 0 to 1 within 4 r of its surface (a narrow support),
+            // so that elsewhere it leaves the branch's field as it is.
             const Internode& a = sk.internodes[i];
-            const double R = 1000.0 * std::max(a.r0, a.r1);
+            const double r = std::max(a.r0, a.r1), R = 1000.0 * r;
+            PrimitiveOptions cutter;
+            cutter.support = 4.0 * r / tree.xT();
             node = tree.op({NodeType::DIFFERENCE},
-                           {node, tree.sphere(a.p1 + R * glm::normalize(a.p1 - a.p0), R)});
+                           {node, tree.sphere(a.p1 + R * glm::normalize(a.p1 - a.p0), R, cutter)});
         }
         if (o.bend != 0.0 && parent[i] >= 0) {
             const Internode& b = sk.internodes[size_t(parent[i])];
@@ -102,6 +106,13 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         const bool branch = parent[i] >= 0 && children[size_t(parent[i])].size() > 1 &&
                             o.junction == TreeBuildOptions::Junction::Pcm;
         (branch ? groups[size_t(parent[i])] : top).push_back(node);
+    }
+    for (const Scar& scar : sk.scars) {
+        // The shortened stub, and the negative field that presses the scar in.
+        top.push_back(tree.cone(scar.base, scar.tip, scar.radius, scar.radius));
+        PrimitiveOptions negative;
+        negative.weight = o.scarWeight;
+        top.push_back(tree.sphere(scar.tip, o.scarRadius * scar.radius, negative));
     }
     Combiner pcm{NodeType::PCM};
     pcm.width = o.pcmWidth;

@@ -23,6 +23,10 @@ struct TreeBuildOptions {
     /// internode's axis, in their plane, first away from that axis and back
     /// (paper 003 section 3.6), radians; 0: straight.
     double bend = 0.0;
+    /// Scars of shed organs (paper 001 section 3.4): the weight of the
+    /// negative sphere at the stub's tip and its radius over the stub's.
+    double scarWeight = -1.25;
+    double scarRadius = 1.5;
 };
 
 /// The BlobTree of a skeleton.  A pruned internode (`cut`) is cut flat

@@ -144,8 +144,20 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
         case '%': {
             // A saw cut: the branch's last internode ends in a flat cut, and
             // the rest of the branch (if the string still has it) is skipped.
-            if (t.drewInBranch && t.last >= 0)
+            if (t.drewInBranch && t.last >= 0) {
                 out.internodes[size_t(t.last)].cut = true;
+            } else if (t.last >= 0) {
+                // Cut before it drew anything: the organ was shed at its base,
+                // a scar on the internode it grew from, along its heading.
+                const Internode& parent = out.internodes[size_t(t.last)];
+                const double rp = std::max(parent.r0, parent.r1), rs = 0.5 * t.width;
+                Scar scar;
+                scar.base = t.pos;
+                scar.tip = t.pos + rp * t.H;
+                scar.radius = rs;
+                scar.parent = parent.id;
+                out.scars.push_back(scar);
+            }
             int depth = 0;
             while (i + 1 < modules.size()) {
                 const char c = modules[i + 1].name;

@@ -15,7 +15,10 @@ namespace cambium {
 ///   diameter; internodes get radius w/2 at both ends); $ roll so that L is
 ///   horizontal; % cut: the branch's last internode ends in a saw cut (a
 ///   plane through its end, across its axis) and the rest of the branch is
-///   skipped; with `tropism: x y z e`, after
+///   skipped; % before the branch drew anything: the organ was shed, leaving
+///   a scar (a stub of radius w/2 along the heading, reaching half its radius
+///   beyond the parent's bark, and a negative field at its end); with
+///   `tropism: x y z e`, after
 ///   every F the heading bends towards T by e |H x T|.  Other symbols are
 ///   ignored.  The turtle starts at the origin heading up (+y) with its left
 ///   L = +x and up U = -z, so that seen from +z (x right, y up) `+` turns
