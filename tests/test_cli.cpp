@@ -324,6 +324,7 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
         {honda + " -o " + vdb + " --junctions ridge", "--junctions must be pcm, smooth or blend (got 'ridge')"},
         {honda + " -o " + vdb + " --bend 95", "--bend must be between -90 and 90 degrees"},
         {honda + " -o " + vdb + " --junctions blend --bend 5", "--bend needs --junctions pcm or smooth"},
+        {honda + " -o " + vdb + " --primitives nurbs", "--primitives must be cone, convolution or mixed"},
     });
     expectRefused("lsystem", {
         {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},

@@ -79,6 +79,83 @@ TEST(TreeBuilder, ShorteningTheBasalInternodeRemovesTheBulge)
     EXPECT_GT(maxWithout / r - 1.0, 0.15);  // the plain sum bulges visibly
 }
 
+TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
+{
+    // Paper 002: connected convolution segments are a polyline: no rules needed.
+    const double r = 0.1;
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r), internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
+    TreeBuildOptions o;
+    o.primitives = TreeBuildOptions::Primitives::Convolution;
+    const BlobTree t = buildTree(sk, o);
+    for (const Node& nd : t.nodes())
+        EXPECT_NE(nd.type, NodeType::CONE);
+    // No bulge, and a waist under 2 %: the segments' windowed fields add up
+    // almost to the one long segment's (the window is per segment).
+    BlobTree one;
+    one.setRoot(one.convolutionSegment({0, 0, 0}, {0, 2, 0}, r, r));
+    one.finalize();
+    const ReferenceEvaluator a(t), b(one);
+    double worst = 0.0, lo = 1e9, hi = 0.0;
+    for (double y = 0.6; y <= 1.4; y += 0.002) {
+        const double ra = surfaceRadius(a, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
+        const double rb = surfaceRadius(b, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
+        worst = std::max(worst, std::abs(ra - rb) / r);
+        lo = std::min(lo, ra);
+        hi = std::max(hi, ra);
+    }
+    std::printf("joint of two convolution segments of radius %.2f: the radius stays in [%.4f, %.4f], at most %.2f %% "
+                "from one long segment's\n",
+                r, lo, hi, 100.0 * worst);
+    EXPECT_LT(worst, 0.02);
+    EXPECT_LT(hi / r - 1.0, 0.01);   // no bulge
+    EXPECT_GT(lo / r - 1.0, -0.02);  // a waist of under 2 %
+}
+
+TEST(TreeBuilder, BetterBlendingJoinsConeTrunksAndConvolutionLateralsWithLessBulge)
+{
+    // A cone trunk and a convolution lateral at 60 degrees (mixed primitives):
+    // on the side of the trunk away from the lateral, summation swells the
+    // trunk with the lateral's far field; better blending (eq. 6) keeps it.
+    const double a = 60.0 * 3.14159265358979323846 / 180.0;
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.1), internode(1, 0, {0, 1, 0}, {0, 2, 0}, 0.1, 0.1),
+                     internode(2, 0, {0, 1, 0}, {std::sin(a), 1 + std::cos(a), 0}, 0.07, 0.05)};
+    TreeBuildOptions o;
+    o.primitives = TreeBuildOptions::Primitives::Mixed;
+    const BlobTree mixed = buildTree(sk, o);
+    int better = 0, conv = 0, cones = 0;
+    for (const Node& nd : mixed.nodes()) {
+        better += nd.type == NodeType::BETTER_BLEND;
+        conv += nd.type == NodeType::CONVOLUTION_SEGMENT;
+        cones += nd.type == NodeType::CONE;
+    }
+    EXPECT_EQ(better, 1);
+    EXPECT_EQ(conv, 1);
+    EXPECT_EQ(cones, 2);
+    // The same primitives summed.
+    BlobTree summed;
+    std::vector<int> kids;
+    for (const Node& nd : mixed.nodes())
+        if (nd.type == NodeType::CONE)
+            kids.push_back(summed.cone(nd.prim().p0, nd.prim().p1, nd.prim().r0, nd.prim().r1));
+    kids.push_back(summed.convolutionSegment(sk.internodes[2].p0, sk.internodes[2].p1, 0.07, 0.05));
+    summed.setRoot(summed.op({NodeType::BLEND}, kids));
+    summed.finalize();
+    auto swelling = [](const BlobTree& t) {
+        const ReferenceEvaluator ev(t);
+        double hi = 0.0;
+        for (double y = 0.8; y <= 1.2; y += 0.005)
+            hi = std::max(hi, surfaceRadius(ev, t.threshold(), {0, y, 0}, {-1, 0, 0}, 1.0));
+        return hi / 0.1 - 1.0;
+    };
+    const double b = swelling(mixed), s = swelling(summed);
+    std::printf("trunk opposite a convolution lateral: %+.1f %% with better blending, %+.1f %% summed\n", 100.0 * b,
+                100.0 * s);
+    EXPECT_LT(b, s);
+    EXPECT_LT(b, 0.03);
+}
+
 TEST(TreeBuilder, JunctionRulesFollowEquationsThreeSixAndSeven)
 {
     TreeBuildOptions pcm, smooth;

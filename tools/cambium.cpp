@@ -177,6 +177,10 @@ int main(int argc, char** argv)
                         "L-systems, blend for skeleton files");
         cmd->add_option("--bend", model.bendDegrees,
                         "Bend lateral internodes by this many degrees, keeping their ends (pcm, smooth)");
+        cmd->add_option("--primitives", model.primitives,
+                        "cone (papers 001/003), convolution (segments with linear density, paper 002) or mixed "
+                        "(cone axes, convolution laterals, better blending between)")
+            ->capture_default_str();
     };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     info->add_option("scene", scene,

@@ -68,6 +68,10 @@ void checkModelOptions(const ModelOptions& o)
         throw InputError(fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
     if (o.bendDegrees != 0.0 && o.junctions == "blend")
         throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
+    if (o.primitives != "cone" && o.primitives != "convolution" && o.primitives != "mixed")
+        throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", o.primitives));
+    if (o.primitives != "cone" && o.junctions == "blend")
+        throw InputError("--primitives convolution or mixed needs --junctions pcm or smooth");
 }
 
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
@@ -93,6 +97,9 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     TreeBuildOptions t;
     t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
     t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
+    t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
+                   : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution
+                                                   : TreeBuildOptions::Primitives::Mixed;
     return buildTree(sk, t);
 }
 

@@ -22,6 +22,8 @@ struct ModelOptions {
     /// benchmarks' field); empty: pcm for L-systems, blend for skeleton files.
     std::string junctions;
     double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (pcm, smooth)
+    /// "cone" (papers 001/003), "convolution" or "mixed" (paper 002; pcm and smooth only)
+    std::string primitives = "cone";
 };
 /// InputError unless the options are valid (before any work).
 void checkModelOptions(const ModelOptions& options);

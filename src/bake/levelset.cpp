@@ -190,9 +190,13 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
         const double* q = P.data() + in.a;
         if (in.op == CB_SPHERE)
             area += std::min(4.0 * M_PI * q[3] * q[3], boundsArea);
-        else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_CONVOLUTION_SEGMENT)
+        else if (in.op == CB_SEGMENT || in.op == CB_CONE)
             area += std::min(M_PI * (q[7] + q[8]) * q[6] + 2.0 * M_PI * std::max(q[7], q[8]) * std::max(q[7], q[8]),
                              boundsArea);
+        else if (in.op == CB_CONVOLUTION_SEGMENT) {
+            const double r = q[10] / 3.0;  // its window is three times its largest radius
+            area += std::min(2.0 * M_PI * r * q[6] + 2.0 * M_PI * r * r, boundsArea);
+        }
     }
     // Band voxels; about three sampled voxels per band voxel, each holding its
     // value (4 bytes), propagation state (8) and a share of the surface points

@@ -37,6 +37,26 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             parent[i] = (long long)it->second;
         }
 
+    // The main axis: a root, and each internode's thickest child (the first
+    // of equals); the rest are laterals.
+    std::vector<bool> onAxis(n, false);
+    for (size_t i = 0; i < n; ++i) {
+        if (parent[i] < 0)
+            onAxis[i] = true;
+        const std::vector<size_t>& c = children[i];
+        if (onAxis[i] && !c.empty()) {
+            size_t best = c[0];
+            for (size_t k : c)
+                if (sk.internodes[k].r0 > sk.internodes[best].r0)
+                    best = k;
+            onAxis[best] = true;
+        }
+    }
+    using P = TreeBuildOptions::Primitives;
+    // Internodes that are cones (with the rules) and the children that count
+    // at their junctions (in mixed mode, only cones).
+    auto isCone = [&](size_t i) { return o.primitives == P::Cone || (o.primitives == P::Mixed && onAxis[i]); };
+
     // Each internode's skeleton after the junction rules: its tip pulled back
     // by delta_A, its base moved off a shared branching point by delta_Bi.
     std::vector<glm::dvec3> p0(n), p1(n);
@@ -62,7 +82,12 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         (tip ? r1[i] : r0[i]) = a.r0 + t * (a.r1 - a.r0);
     };
     for (size_t i = 0; i < n; ++i) {
-        const std::vector<size_t>& c = children[i];
+        if (!isCone(i))
+            continue;  // convolution segments join without the rules
+        std::vector<size_t> c;
+        for (size_t k : children[i])
+            if (isCone(k))
+                c.push_back(k);
         if (c.empty())
             continue;
         std::vector<double> base, tip;
@@ -79,10 +104,11 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     }
 
     BlobTree tree;
-    std::vector<int> top;
+    std::vector<int> top, convolution;
     std::unordered_map<size_t, std::vector<int>> groups;  // junction -> its branches' nodes
     for (size_t i = 0; i < n; ++i) {
-        int node = tree.cone(p0[i], p1[i], r0[i], r1[i]);
+        int node = isCone(i) ? tree.cone(p0[i], p1[i], r0[i], r1[i])
+                             : tree.convolutionSegment(p0[i], p1[i], r0[i], r1[i]);
         if (sk.internodes[i].cut) {
             // A saw cut through the skeleton's end, across the axis: the
             // difference with a sphere so large that over the cut face (radius
@@ -103,8 +129,12 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             if (glm::length(away) > 1e-3)
                 node = tree.bend(p0[i], p1[i], glm::normalize(away), o.bend, node);
         }
-        const bool branch = parent[i] >= 0 && children[size_t(parent[i])].size() > 1 &&
-                            o.junction == TreeBuildOptions::Junction::Pcm;
+        if (!isCone(i)) {
+            convolution.push_back(node);
+            continue;
+        }
+        const bool branch = o.primitives == P::Cone && parent[i] >= 0 &&
+                            children[size_t(parent[i])].size() > 1 && o.junction == TreeBuildOptions::Junction::Pcm;
         (branch ? groups[size_t(parent[i])] : top).push_back(node);
     }
     for (const Scar& scar : sk.scars) {
@@ -120,7 +150,18 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     for (size_t i = 0; i < n; ++i)  // in skeleton order: the same tree every time
         if (const auto it = groups.find(i); it != groups.end())
             top.push_back(tree.op(pcm, it->second));
-    tree.setRoot(top.size() == 1 ? top[0] : tree.op({NodeType::BLEND}, top));
+    auto sum = [&](const std::vector<int>& nodes) {
+        return nodes.size() == 1 ? nodes[0] : tree.op({NodeType::BLEND}, nodes);
+    };
+    if (convolution.empty()) {
+        tree.setRoot(sum(top));
+    } else if (top.empty()) {
+        tree.setRoot(sum(convolution));
+    } else {
+        Combiner better{NodeType::BETTER_BLEND};
+        better.k = o.betterBlendK;
+        tree.setRoot(tree.op(better, {sum(top), sum(convolution)}));
+    }
     tree.finalize();
     return tree;
 }

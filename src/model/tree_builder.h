@@ -23,6 +23,14 @@ struct TreeBuildOptions {
     /// internode's axis, in their plane, first away from that axis and back
     /// (paper 003 section 3.6), radians; 0: straight.
     double bend = 0.0;
+    /// Paper 002's primitives.  Cone: papers 001/003.  Convolution: every
+    /// internode a convolution segment with linearly varying density, summed
+    /// without the rules (connected segments blend without bulges: a polyline).
+    /// Mixed: the main axis (each parent's thickest child continues it) in
+    /// cones with the rules, the laterals in convolution segments, the two
+    /// kinds joined by better blending (eq. 6, cut-off `betterBlendK`).
+    enum class Primitives { Cone, Convolution, Mixed } primitives = Primitives::Cone;
+    double betterBlendK = 0.3;
     /// Scars of shed organs (paper 001 section 3.4): the weight of the
     /// negative sphere at the stub's tip and its radius over the stub's.
     double scarWeight = -1.25;
