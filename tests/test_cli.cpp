@@ -325,6 +325,7 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
         {honda + " -o " + vdb + " --bend 95", "--bend must be between -90 and 90 degrees"},
         {honda + " -o " + vdb + " --junctions blend --bend 5", "--bend needs --junctions pcm or smooth"},
         {honda + " -o " + vdb + " --primitives nurbs", "--primitives must be cone, convolution or mixed"},
+        {honda + " -o " + vdb + " --regrowth 3", "--regrowth must be between 0 and 1"},
     });
     expectRefused("lsystem", {
         {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},

@@ -281,6 +281,40 @@ TEST(TreeBuilder, ASawCutIsPlanarAfterBaking)
     EXPECT_GT(cap, 1.0);
 }
 
+TEST(TreeBuilder, RegrowthSwellsAndClosesOverASawCut)
+{
+    // A branch of radius 0.1 cut at y = 1: with regrowth the callus swells the
+    // branch below the cut and rises over the cut face, more as it grows.
+    const LSystem sys = parseLSystem("Axiom: !(0.2)F(1)%\n", "cut.l");
+    const Skeleton sk = interpretTurtle(sys, derive(sys, 0, 1, 100));
+    double lastRise = -1.0, lastSwell = -1.0;
+    for (double g : {0.0, 0.5, 1.0}) {
+        TreeBuildOptions o;
+        o.regrowth = g;
+        const BlobTree t = buildTree(sk, o);
+        const ReferenceEvaluator ev(t);
+        const double rise = surfaceRadius(ev, t.threshold(), {0, 0.9, 0}, {0, 1, 0}, 0.5) - 0.1;  // over y = 1
+        double swell = 0.0;
+        for (double y = 0.8; y <= 1.0; y += 0.002)
+            swell = std::max(swell, surfaceRadius(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
+        std::printf("regrowth %.1f: the surface rises %.4f over the cut, the branch swells %+.1f %% below it\n", g,
+                    rise, 100.0 * swell);
+        if (g == 0.0) {
+            EXPECT_NEAR(rise, 0.0, 1e-3);  // a bare, flat cut
+            EXPECT_LT(swell, 0.005);
+        } else {
+            EXPECT_GT(rise, lastRise + 0.005);
+            EXPECT_GT(swell, lastSwell);
+            EXPECT_LT(swell, 0.3);
+        }
+        lastRise = rise;
+        lastSwell = swell;
+    }
+    TreeBuildOptions bad;
+    bad.regrowth = 2.0;
+    EXPECT_THROW(buildTree(sk, bad), InputError);
+}
+
 TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
 {
     // A trunk of radius 0.1 that lost a lateral of radius 0.05 at y = 1,

@@ -181,6 +181,8 @@ int main(int argc, char** argv)
                         "cone (papers 001/003), convolution (segments with linear density, paper 002) or mixed "
                         "(cone axes, convolution laterals, better blending between)")
             ->capture_default_str();
+        cmd->add_option("--regrowth", model.regrowth,
+                        "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
     };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     info->add_option("scene", scene,

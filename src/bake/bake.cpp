@@ -70,6 +70,8 @@ void checkModelOptions(const ModelOptions& o)
         throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
     if (o.primitives != "cone" && o.primitives != "convolution" && o.primitives != "mixed")
         throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", o.primitives));
+    if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
+        throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
     if (o.primitives != "cone" && o.junctions == "blend")
         throw InputError("--primitives convolution or mixed needs --junctions pcm or smooth");
 }
@@ -97,6 +99,7 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     TreeBuildOptions t;
     t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
     t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
+    t.regrowth = o.regrowth;
     t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
                    : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution
                                                    : TreeBuildOptions::Primitives::Mixed;

@@ -24,6 +24,7 @@ struct ModelOptions {
     double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (pcm, smooth)
     /// "cone" (papers 001/003), "convolution" or "mixed" (paper 002; pcm and smooth only)
     std::string primitives = "cone";
+    double regrowth = 0.0;  ///< callus over saw cuts, 0 to 1 (pcm, smooth)
 };
 /// InputError unless the options are valid (before any work).
 void checkModelOptions(const ModelOptions& options);

@@ -26,6 +26,8 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     const size_t n = sk.internodes.size();
     if (n == 0)
         throw InputError("the skeleton has no internodes");
+    if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
+        throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
     std::unordered_map<long long, size_t> index;
     for (size_t i = 0; i < n; ++i)
         index[sk.internodes[i].id] = i;
@@ -119,8 +121,15 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             const double r = std::max(a.r0, a.r1), R = 1000.0 * r;
             PrimitiveOptions cutter;
             cutter.support = 4.0 * r / tree.xT();
-            node = tree.op({NodeType::DIFFERENCE},
-                           {node, tree.sphere(a.p1 + R * glm::normalize(a.p1 - a.p0), R, cutter)});
+            const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
+            node = tree.op({NodeType::DIFFERENCE}, {node, tree.sphere(a.p1 + R * axis, R, cutter)});
+            if (o.regrowth > 0.0) {
+                // The callus: from 1.5 radii below the cut to a little beyond
+                // it, thicker than the branch at its base, closing at its tip.
+                const double g = o.regrowth, rc = a.r1;
+                top.push_back(tree.convolutionSegment(a.p1 - 1.5 * rc * axis, a.p1 + 0.6 * g * rc * axis,
+                                                      rc * (0.6 + 0.3 * g), rc * (0.3 + 0.5 * g)));
+            }
         }
         if (o.bend != 0.0 && parent[i] >= 0) {
             const Internode& b = sk.internodes[size_t(parent[i])];
