@@ -350,6 +350,12 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
         previous = predicted;
     }
     EXPECT_GT(previous, 0.01);  // a visible scar: over a tenth of the trunk's radius
+    // Bark colour on the bark, darker in the scar.
+    const BlobTree t = buildTree(sk);
+    const ReferenceEvaluator ev(t);
+    const glm::dvec3 bark = ev.sample({0.1, 0.5, 0}).color, scar = ev.sample(c + 0.09 * u).color;
+    EXPECT_NEAR(bark.x, 0.36, 1e-9);
+    EXPECT_LT(scar.x, 0.9 * bark.x);
 }
 
 TEST(TreeBuilder, BentInternodesKeepTheirEnds)

@@ -147,11 +147,16 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         (branch ? groups[size_t(parent[i])] : top).push_back(node);
     }
     for (const Scar& scar : sk.scars) {
-        // The shortened stub, and the negative field that presses the scar in.
-        top.push_back(tree.cone(scar.base, scar.tip, scar.radius, scar.radius));
+        // The shortened stub, and the negative field that presses the scar in;
+        // both the colour of the wood under the bark.
+        const int stub = tree.cone(scar.base, scar.tip, scar.radius, scar.radius);
         PrimitiveOptions negative;
         negative.weight = o.scarWeight;
-        top.push_back(tree.sphere(scar.tip, o.scarRadius * scar.radius, negative));
+        const int press = tree.sphere(scar.tip, o.scarRadius * scar.radius, negative);
+        for (int node : {stub, press}) {
+            tree.setColor(node, 0.5 * o.bark);
+            top.push_back(node);
+        }
     }
     Combiner pcm{NodeType::PCM};
     pcm.width = o.pcmWidth;
@@ -171,6 +176,7 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         better.k = o.betterBlendK;
         tree.setRoot(tree.op(better, {sum(top), sum(convolution)}));
     }
+    tree.setColor(tree.root(), o.bark);
     tree.finalize();
     return tree;
 }

@@ -40,6 +40,9 @@ struct TreeBuildOptions {
     /// a callus that swells the branch below the cut (16 % at 0.5, 24 % at 1)
     /// and rises over the cut face as it grows.  0: a bare cut.
     double regrowth = 0.0;
+    /// Bark colour (linear RGB) of every internode, into the Cd grid; scars
+    /// are darker (the wood under the bark).
+    glm::dvec3 bark{0.36, 0.28, 0.22};
 };
 
 /// The BlobTree of a skeleton.  A pruned internode (`cut`) is cut flat
