@@ -48,8 +48,8 @@
 #define CB_SPHERE_SIZE 9  /* centre(3) r sigma weight rgb(3) */
 #define CB_CONE_SIZE 14   /* p0(3) axis(3) len r0 r1 sigma weight rgb(3) */
 #define CB_CONV_SIZE 15   /* p0(3) axis(3) len q0 q1 s support weight rgb(3) */
-#define CB_OP_SIZE 5      /* type n width attenuation k */
-#define CB_GBB_SIZE 10    /* B1 block, B2 block */
+#define CB_OP_SIZE 6      /* type n width attenuation k darken */
+#define CB_GBB_SIZE 12    /* B1 block, B2 block */
 #define CB_AFFINE_SIZE 12 /* M^-1 as 3x4 row-major */
 #define CB_BEND_SIZE 18   /* p0 u v w (12) len theta rho ch sh lscale */
 #define CB_TWIST_SIZE 7   /* origin axis rate */
@@ -240,6 +240,16 @@ CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_re
             s->gx[i] += s->hx[i] - d * s->gx[i];
             s->gy[i] += s->hy[i] - d * s->gy[i];
             s->gz[i] += s->hz[i] - d * s->gz[i];
+        }
+        if (CB_COLOR) {
+            /* The ridge: where the other children deform the strongest one
+             * (pressing it in at the contact, swelling it around), the colour
+             * darkens by up to op[5], fully where the deformation reaches a
+             * tenth of the propagation width (paper 000 section 3.2). */
+            cb_real k = CB_R(1.0) - op[5] * cb_clamp01(CB_R(10.0) * CB_FABS(s->v2[i] - D) / op[2]);
+            s->cr[i] *= k;
+            s->cg[i] *= k;
+            s->cb[i] *= k;
         }
         s->v[i] += s->v2[i] - D;
     }

@@ -64,6 +64,7 @@ private:
         c.width = uni(0.05, 0.5);
         c.attenuation = uni(1.5, 4.0);
         c.k = uni(0.0, 0.45);
+        c.darken = uni(0.0, 1.0);
         return c;
     }
 

@@ -240,6 +240,15 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
     std::printf("crotch between two branches: normals 2x%.2f apart turn %.1f deg with PCM, %.1f deg with summation; "
                 "the crotch is %.3f (PCM) and %.3f (summation) above the branching point\n",
                 e, angle[0], angle[1], height[0], height[1]);
+    // The ridge is darker than the bark (PCM's darken, paper 000 section 3.2).
+    {
+        const BlobTree t = yJunction(TreeBuildOptions::Junction::Pcm);
+        const ReferenceEvaluator ev(t);
+        const double ridge = ev.sample({0.0, 1.0 + height[0] - 0.002, 0}).color.x;
+        const double bark = ev.sample({0.1, 0.5, 0}).color.x;
+        std::printf("ridge colour %.3f against the bark's %.3f\n", ridge, bark);
+        EXPECT_LT(ridge, 0.9 * bark);
+    }
     EXPECT_GT(angle[0], 3.0 * angle[1]);
     EXPECT_GT(angle[0], 20.0);
     EXPECT_GT(height[1], height[0]);  // summation fills the crotch: material reaches higher up

@@ -233,6 +233,9 @@ void BlobTree::validate(const Combiner& c) const
             throw ParameterError("attenuation",
                                  fmt::format("must be greater than 1 for a C1 bulge (got {})",
                                              c.attenuation));
+        requireFinite(c.darken, "darken");
+        if (!(c.darken >= 0.0 && c.darken <= 1.0))
+            throw ParameterError("darken", fmt::format("must be in [0, 1] (got {})", c.darken));
         return;
     case NodeType::BETTER_BLEND:
         requireFinite(c.k, "k");

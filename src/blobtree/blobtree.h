@@ -42,6 +42,7 @@ struct Combiner {
     double width = 0.25;              ///< pcm propagation width in field units, in (0, T]
     double attenuation = 2.0;         ///< pcm bulge attenuation exponent, > 1
     double k = 0.3;                   ///< better_blend cut-off, in [0, T)
+    double darken = 0.0;              ///< pcm: how much the ridge darkens the colour, in [0, 1] (fully where |deformation| >= width / 10)
 };
 
 /// Parameters of a primitive.  Radii are surface radii of the isolated

@@ -76,7 +76,7 @@ std::vector<std::string> fieldsOf(NodeType t)
     case NodeType::INTERSECTION:
     case NodeType::DIFFERENCE: return {"children"};
     case NodeType::RICCI: return {"children", "n"};
-    case NodeType::PCM: return {"children", "width", "attenuation"};
+    case NodeType::PCM: return {"children", "width", "attenuation", "darken"};
     case NodeType::BETTER_BLEND: return {"children", "k"};
     case NodeType::GBB: return {"children", "bound", "b1", "b2"};
     case NodeType::TRANSFORM: return {"children", "translate", "rotate", "scale", "matrix"};
@@ -204,6 +204,7 @@ private:
         if (c.type == NodeType::PCM) {
             c.width = optNumber(obj, "width", path).value_or(std::min(c.width, T));
             c.attenuation = optNumber(obj, "attenuation", path).value_or(c.attenuation);
+            c.darken = optNumber(obj, "darken", path).value_or(c.darken);
         }
         if (c.type == NodeType::BETTER_BLEND)
             c.k = optNumber(obj, "k", path).value_or(std::min(c.k, 0.6 * T));

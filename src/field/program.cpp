@@ -79,7 +79,7 @@ private:
 
     void pushCombiner(const Combiner& c)
     {
-        P_.insert(P_.end(), {double(c.type), c.n, c.width, c.attenuation, c.k});
+        P_.insert(P_.end(), {double(c.type), c.n, c.width, c.attenuation, c.k, c.darken});
     }
 
     int box(int index)

@@ -161,6 +161,7 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     Combiner pcm{NodeType::PCM};
     pcm.width = o.pcmWidth;
     pcm.attenuation = o.pcmAttenuation;
+    pcm.darken = o.ridgeDarken;
     for (size_t i = 0; i < n; ++i)  // in skeleton order: the same tree every time
         if (const auto it = groups.find(i); it != groups.end())
             top.push_back(tree.op(pcm, it->second));

@@ -19,6 +19,7 @@ struct TreeBuildOptions {
     enum class Junction { Pcm, Smooth } junction = Junction::Pcm;
     double pcmWidth = 0.2;        ///< PCM propagation width (field units)
     double pcmAttenuation = 2.0;  ///< PCM bulge attenuation exponent
+    double ridgeDarken = 0.5;     ///< how much the PCM ridge darkens the bark, in [0, 1]
     /// Endpoint-preserving bend of every internode that leaves its basal
     /// internode's axis, in their plane, first away from that axis and back
     /// (paper 003 section 3.6), radians; 0: straight.
