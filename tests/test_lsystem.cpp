@@ -5,6 +5,7 @@
 #include "model/turtle.h"
 
 #include "core/error.h"
+#include "test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -122,12 +123,7 @@ TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
 TEST(LSystem, ErrorsNameTheLineAndColumn)
 {
     auto expectError = [](const std::string& text, const std::string& message) {
-        try {
-            parseLSystem(text, "bad.l");
-            ADD_FAILURE() << "no error for: " << text;
-        } catch (const InputError& e) {
-            EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
-        }
+        test::expectInputError([&] { parseLSystem(text, "bad.l"); }, message, text);
     };
     expectError("Axiom: F[+F\n", "bad.l:1:12: 1 '[' without a matching ']'");
     expectError("Axiom: F]\n", "bad.l:1:9: ']' without a matching '['");

@@ -5,6 +5,7 @@
 #include "model/tree_builder.h"
 
 #include "bake_util.h"
+#include "test_util.h"
 #include "model/turtle.h"
 #include "use/grid_file.h"
 
@@ -34,20 +35,6 @@ Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1
     return n;
 }
 
-/// The surface's distance from the axis point c along the unit direction u
-/// (bisection on F = T from inside to far outside).
-double surfaceRadius(const ReferenceEvaluator& ev, double T, const glm::dvec3& c, const glm::dvec3& u, double far)
-{
-    double lo = 0.0, hi = far;
-    if (ev.value(c) < T)
-        return 0.0;
-    for (int i = 0; i < 60; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (ev.value(c + mid * u) >= T ? lo : hi) = mid;
-    }
-    return lo;
-}
-
 /// Largest and smallest radius of the surface around the y axis for y in
 /// [y0, y1] (two collinear internodes along y).
 std::pair<double, double> radiusRange(const BlobTree& tree, double y0, double y1)
@@ -55,7 +42,7 @@ std::pair<double, double> radiusRange(const BlobTree& tree, double y0, double y1
     const ReferenceEvaluator ev(tree);
     double lo = 1e9, hi = 0.0;
     for (double y = y0; y <= y1 + 1e-12; y += 0.002) {
-        const double r = surfaceRadius(ev, tree.threshold(), {0, y, 0}, {1, 0, 0}, 1.0);
+        const double r = test::surfaceDistance(ev, tree.threshold(), {0, y, 0}, {1, 0, 0}, 1.0);
         lo = std::min(lo, r);
         hi = std::max(hi, r);
     }
@@ -98,8 +85,8 @@ TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
     const ReferenceEvaluator a(t), b(one);
     double worst = 0.0, lo = 1e9, hi = 0.0;
     for (double y = 0.6; y <= 1.4; y += 0.002) {
-        const double ra = surfaceRadius(a, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
-        const double rb = surfaceRadius(b, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
+        const double ra = test::surfaceDistance(a, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
+        const double rb = test::surfaceDistance(b, 0.5, {0, y, 0}, {1, 0, 0}, 1.0);
         worst = std::max(worst, std::abs(ra - rb) / r);
         lo = std::min(lo, ra);
         hi = std::max(hi, ra);
@@ -146,7 +133,7 @@ TEST(TreeBuilder, BetterBlendingJoinsConeTrunksAndConvolutionLateralsWithLessBul
         const ReferenceEvaluator ev(t);
         double hi = 0.0;
         for (double y = 0.8; y <= 1.2; y += 0.005)
-            hi = std::max(hi, surfaceRadius(ev, t.threshold(), {0, y, 0}, {-1, 0, 0}, 1.0));
+            hi = std::max(hi, test::surfaceDistance(ev, t.threshold(), {0, y, 0}, {-1, 0, 0}, 1.0));
         return hi / 0.1 - 1.0;
     };
     const double b = swelling(mixed), s = swelling(summed);
@@ -323,10 +310,10 @@ TEST(TreeBuilder, RegrowthSwellsAndClosesOverASawCut)
         o.regrowth = g;
         const BlobTree t = buildTree(sk, o);
         const ReferenceEvaluator ev(t);
-        const double rise = surfaceRadius(ev, t.threshold(), {0, 0.9, 0}, {0, 1, 0}, 0.5) - 0.1;  // over y = 1
+        const double rise = test::surfaceDistance(ev, t.threshold(), {0, 0.9, 0}, {0, 1, 0}, 0.5) - 0.1;  // over y = 1
         double swell = 0.0;
         for (double y = 0.8; y <= 1.0; y += 0.002)
-            swell = std::max(swell, surfaceRadius(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
+            swell = std::max(swell, test::surfaceDistance(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
         std::printf("regrowth %.1f: the surface rises %.4f over the cut, the branch swells %+.1f %% below it\n", g,
                     rise, 100.0 * swell);
         if (g == 0.0) {
@@ -363,7 +350,7 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
         TreeBuildOptions o;
         o.scarWeight = w;
         const BlobTree t = buildTree(sk, o);
-        const double predicted = 0.1 - surfaceRadius(ReferenceEvaluator(t), t.threshold(), c, u, 0.4);
+        const double predicted = 0.1 - test::surfaceDistance(ReferenceEvaluator(t), t.threshold(), c, u, 0.4);
         const BakedGrids g = test::bakeTree(t, h);
         const WorldSampler<openvdb::FloatGrid> at(*g.surface);
         double in = 0.0, out = 0.4;
@@ -403,7 +390,7 @@ TEST(TreeBuilder, BentInternodesKeepTheirEnds)
     const ReferenceEvaluator eb(bent), es(straight);
     // The lateral's end cap is where it was: the surface beyond its tip.
     const glm::dvec3 tip(0.7, 1.7, 0), out = glm::normalize(glm::dvec3(0.7, 0.7, 0));
-    const double a = surfaceRadius(eb, 0.5, tip, out, 0.5), b = surfaceRadius(es, 0.5, tip, out, 0.5);
+    const double a = test::surfaceDistance(eb, 0.5, tip, out, 0.5), b = test::surfaceDistance(es, 0.5, tip, out, 0.5);
     EXPECT_NEAR(a, b, 0.004);
     // Its middle moved off the chord, away from the trunk's axis: it first
     // grows more directly away from the trunk (towards +x, below the chord).

@@ -7,8 +7,13 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "core/error.h"
+
+#include <gtest/gtest.h>
+
 #include <functional>
 #include <random>
+#include <string>
 
 namespace cambium::test {
 
@@ -59,6 +64,19 @@ inline GradientCheck checkGradient(const std::function<double(const glm::dvec3&)
         return GradientCheck::NotSmooth;
     return glm::length(g2 - analytic) <= tol * scale ? GradientCheck::Agrees
                                                      : GradientCheck::Disagrees;
+}
+
+/// Runs f, which must throw InputError with `message` in its text
+/// (`what` says which case failed).
+template <class F>
+void expectInputError(F&& f, const std::string& message, const std::string& what)
+{
+    try {
+        f();
+        ADD_FAILURE() << what << ": no error, expected " << message;
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << what << ": " << e.what();
+    }
 }
 
 /// The root of f on [a, b] by bisection (f(a) and f(b) of opposite signs).

@@ -1,0 +1,77 @@
+// Graphically defined functions: through their points, linear or smooth
+// without overshoot and C1, clamped outside [0, 1], refused with their JSON
+// path when malformed.
+#include "model/curve.h"
+
+#include "core/error.h"
+#include "test_util.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+
+namespace {
+
+using namespace cambium;
+using json = nlohmann::json;
+
+TEST(Curve, LinearIsThePolyline)
+{
+    const Curve c = curveFromJson(json::parse("[[0, 0], [0.25, 1], [1, 0.5]]"), "G");
+    EXPECT_DOUBLE_EQ(c(0.0), 0.0);
+    EXPECT_DOUBLE_EQ(c(0.25), 1.0);
+    EXPECT_DOUBLE_EQ(c(1.0), 0.5);
+    EXPECT_DOUBLE_EQ(c(0.125), 0.5);
+    EXPECT_DOUBLE_EQ(c(0.625), 0.75);
+    EXPECT_DOUBLE_EQ(c(-3.0), 0.0);  // clamped to the domain
+    EXPECT_DOUBLE_EQ(c(7.0), 0.5);
+    EXPECT_DOUBLE_EQ(curveFromJson(json(0.3), "G")(0.7), 0.3);  // a number is a constant
+}
+
+TEST(Curve, SmoothPassesThroughItsPointsWithoutOvershootAndIsC1)
+{
+    const json j = json::parse(R"({"points": [[0, 0], [0.2, 0.1], [0.3, 0.9], [0.7, 1.0], [1, 0.2]],
+                                   "interpolation": "smooth"})");
+    const Curve c = curveFromJson(j, "G");
+    for (const auto& [x, y] : c.points())
+        EXPECT_NEAR(c(x), y, 1e-12);
+    const auto& p = c.points();
+    for (size_t i = 0; i + 1 < p.size(); ++i) {
+        const double lo = std::min(p[i].second, p[i + 1].second), hi = std::max(p[i].second, p[i + 1].second);
+        for (int k = 0; k <= 1000; ++k) {
+            const double x = p[i].first + (p[i + 1].first - p[i].first) * k / 1000.0;
+            ASSERT_GE(c(x), lo - 1e-12) << "x " << x;
+            ASSERT_LE(c(x), hi + 1e-12) << "x " << x;
+        }
+    }
+    // C1: one-sided slopes agree at the interior points.
+    const double e = 1e-6;
+    for (size_t i = 1; i + 1 < p.size(); ++i) {
+        const double x = p[i].first;
+        const double left = (c(x) - c(x - e)) / e, right = (c(x + e) - c(x)) / e;
+        EXPECT_NEAR(left, right, 1e-3 * std::max(1.0, std::abs(left))) << "at x " << x;
+    }
+    // The linear curve through the same points has corners there.
+    const Curve lin = curveFromJson(j["points"], "G");
+    EXPECT_GT(std::abs((lin(0.3) - lin(0.3 - e)) / e - (lin(0.3 + e) - lin(0.3)) / e), 1.0);
+}
+
+TEST(Curve, MalformedCurvesAreNamedByTheirPath)
+{
+    auto expectError = [](const char* text, const std::string& message) {
+        test::expectInputError([&] { curveFromJson(json::parse(text), "curves.Gh"); }, message, text);
+    };
+    expectError("[[0, 0]]", "curves.Gh: a curve needs at least two points");
+    expectError("[[0, 0], [0.5, 1], [0.5, 2], [1, 0]]", "curves.Gh: the x of point 2 (0.5) must exceed");
+    expectError("[[0.1, 0], [1, 1]]", "curves.Gh: the points must span x from 0 to 1");
+    expectError("[[0, 0], [1]]", "curves.Gh[1]: expected [x, y]");
+    expectError(R"({"points": [[0, 0], [1, "a"]]})", "curves.Gh.points[1]: expected [x, y]");
+    expectError(R"({"points": [[0, 0], [1, 1]], "interpolation": "cubic"})",
+                "curves.Gh.interpolation: must be \"linear\" or \"smooth\"");
+    expectError(R"({"points": [[0, 0], [1, 1]], "smoothing": 1})", "curves.Gh.smoothing: unknown key");
+    expectError(R"({"interpolation": "smooth"})", "curves.Gh.points: missing");
+    expectError("\"up\"", "curves.Gh: expected a number, an array of [x, y] points");
+}
+
+}  // namespace
