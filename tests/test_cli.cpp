@@ -329,7 +329,7 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
     });
     expectRefused("lsystem", {
         {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},
-        {(dir / "missing.l").string(), "cannot open the L-system file"},
+        {(dir / "missing.l").string(), "cannot read the L-system file"},
     });
     std::filesystem::remove_all(dir);
 }

@@ -1,7 +1,8 @@
 // Graphically defined functions: through their points, linear or smooth
 // without overshoot and C1, clamped outside [0, 1], refused with their JSON
-// path when malformed.
+// path when malformed; the growth parameter files that hold them.
 #include "model/curve.h"
+#include "model/growth_params.h"
 
 #include "core/error.h"
 #include "test_util.h"
@@ -10,6 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <fstream>
+#include <functional>
+#include <sstream>
 
 namespace {
 
@@ -72,6 +76,52 @@ TEST(Curve, MalformedCurvesAreNamedByTheirPath)
     expectError(R"({"points": [[0, 0], [1, 1]], "smoothing": 1})", "curves.Gh.smoothing: unknown key");
     expectError(R"({"interpolation": "smooth"})", "curves.Gh.points: missing");
     expectError("\"up\"", "curves.Gh: expected a number, an array of [x, y] points");
+}
+
+TEST(GrowthParameters, TheBundledPopulusReads)
+{
+    const GrowthParameters p = loadGrowthParameters(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+    EXPECT_EQ(p.years, 27);
+    EXPECT_DOUBLE_EQ(p.phyllotaxis, 137.5);
+    EXPECT_DOUBLE_EQ(p.longestSeparation, 40.0);
+    EXPECT_EQ(p.Gh.interpolation(), Curve::Interpolation::Smooth);
+    EXPECT_NEAR(p.Gh(1.0), 1.0, 1e-12);
+    EXPECT_GT(p.Ga(1.0), p.Ga(0.0));  // long branches live longer
+    EXPECT_LT(p.Go2(0.0), 0.0);       // long branches first bend down: the S curve
+    EXPECT_GT(p.Go2(1.0), 0.0);
+}
+
+TEST(GrowthParameters, MalformedFilesAreNamedByFileAndPath)
+{
+    std::string good;
+    {
+        std::ifstream in(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+        std::stringstream s;
+        s << in.rdbuf();
+        good = s.str();
+    }
+    auto edited = [&](const std::function<void(json&)>& edit) {
+        json j = json::parse(good);
+        edit(j);
+        return j.dump();
+    };
+    auto expectError = [](const std::string& text, const std::string& message) {
+        test::expectInputError([&] { parseGrowthParameters(text, "tree.json"); }, message, message);
+    };
+    expectError("{", "tree.json: not valid JSON");
+    expectError(edited([](json& j) { j["yaers"] = 3; }), "tree.json: yaers: unknown key");
+    expectError(edited([](json& j) { j["years"] = 2.5; }), "tree.json: years: must be a whole number");
+    expectError(edited([](json& j) { j["years"] = 0; }), "tree.json: years: must be between 1 and 1000");
+    expectError(edited([](json& j) { j["tip_radius"] = 1.0; }), "tree.json: tip_radius: must not exceed base_radius");
+    expectError(edited([](json& j) { j["bark"] = json::array({1, 2}); }), "tree.json: bark: must be [r, g, b]");
+    expectError(edited([](json& j) { j["curves"].erase("Gm"); }), "tree.json: curves.Gm: missing");
+    expectError(edited([](json& j) { j["curves"]["Gx"] = 1; }), "tree.json: curves.Gx: unknown curve");
+    expectError(edited([](json& j) { j["curves"]["Gh"] = json::parse("[[0, 0], [1, 2]]"); }),
+                "tree.json: curves.Gh: values must be between 0 and 1");
+    expectError(edited([](json& j) { j["curves"]["Gs1"] = json::parse("[[0, 0], [0.9, 1]]"); }),
+                "tree.json: curves.Gs1: the points must span x from 0 to 1");
+    expectError(edited([](json& j) { j.erase("curves"); }), "tree.json: curves: missing");
+    EXPECT_THROW(loadGrowthParameters("/nonexistent/tree.json"), InputError);
 }
 
 }  // namespace

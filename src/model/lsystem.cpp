@@ -809,15 +809,7 @@ private:
 
 LSystem parseLSystem(const std::string& text, const std::string& source) { return Reader(source).read(text); }
 
-LSystem loadLSystem(const std::string& path)
-{
-    std::ifstream in(path);
-    if (!in)
-        throw InputError(fmt::format("{}: cannot open the L-system file", path));
-    std::ostringstream s;
-    s << in.rdbuf();
-    return parseLSystem(s.str(), path);
-}
+LSystem loadLSystem(const std::string& path) { return parseLSystem(readTextFile(path, "L-system file"), path); }
 
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules)
 {

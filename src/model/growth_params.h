@@ -1,0 +1,57 @@
+// cambium — the parameters of the global-to-local growth model (paper 000
+// section 4): a species' scalars and its graphically defined functions,
+// read from a JSON file (docs/growth-format.md).
+#pragma once
+
+#include "model/curve.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace cambium {
+
+struct GrowthParameters {
+    std::string name;
+    int years = 27;                 ///< y_max: the tree's last year
+    uint64_t seed = 1;              ///< stochastic orientation
+    double trunkLength = 20.0;      ///< the trunk's length at y_max: l_y = trunkLength * Gh(t_y)
+    double minShootLength = 0.05;   ///< l_min (eq. 5, 7)
+    double maxBranchLength = 8.0;   ///< l_max (eq. 8)
+    double maxShootLength = 1.0;    ///< ls_max (eq. 14)
+    double minScale = 0.1;          ///< s_min: no lateral below this scale factor
+    double phyllotaxis = 137.5;     ///< degrees between successive laterals
+    double longestSeparation = 40;  ///< degrees between this and last year's longest laterals
+    double orientationNoise = 5.0;  ///< degrees of random variation of headings
+    double branchingAngle = 45.0;   ///< degrees between a lateral and its parent at its base
+    double baseRadius = 0.25;       ///< trunk radius at its base at y_max
+    double tipRadius = 0.004;       ///< radius of a shoot's tip
+    double thickening = 0.7;        ///< secondary growth: radius exponent of the supported length
+    bool leaves = true;
+    glm::dvec3 bark{0.36, 0.30, 0.24};
+    glm::dvec3 leaf{0.25, 0.45, 0.15};
+
+    // The graphically defined functions of eq. 5-15 and section 4.3.
+    Curve Gh;   ///< trunk length by time t_y, relative to trunkLength
+    Curve Gs1;  ///< young silhouette: order-1 length / parent length by position x_y
+    Curve Gs2;  ///< mature silhouette
+    Curve Go1;  ///< heading (degrees) along a branch of length 0, by position
+    Curve Go2;  ///< heading (degrees) along a branch of length l_max
+    Curve Gbs;  ///< branch scale factor by x_max
+    Curve Ga;   ///< age (years) at which a branch is lost, by its scale factor
+    Curve Gm;   ///< metamers in a shoot by its relative length q = ls / ls_max
+    Curve Gl;   ///< leaf size by position along the shoot
+    Curve Gss;  ///< lateral scale by position along the shoot
+    Curve internodeGrowth;  ///< fraction of its final length an internode has, by time within its year
+    Curve leafGrowth;       ///< fraction of its size a leaf has, by time within its year
+    Curve budGrowth;        ///< fraction of its size a bud has, by time within its year
+};
+
+/// Reads a parameter file (docs/growth-format.md).  InputError naming the
+/// file and the JSON path of anything missing, unknown, of the wrong type
+/// or out of range, before any work.
+GrowthParameters parseGrowthParameters(const std::string& text, const std::string& source);
+GrowthParameters loadGrowthParameters(const std::string& path);
+
+}  // namespace cambium
