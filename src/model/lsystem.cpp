@@ -5,10 +5,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cstring>
 #include <cmath>
-#include <fstream>
 #include <random>
 #include <sstream>
 
@@ -19,8 +19,7 @@ namespace cambium {
 struct Expr {
     enum Op { Const, Var, Neg, Not, Add, Sub, Mul, Div, Pow, Lt, Le, Gt, Ge, Eq, Ne, And, Or, Call } op = Const;
     double value = 0.0;
-    int var = -1;
-    std::string fn;
+    int var = -1;  ///< Var: the formal parameter's index; Call: the function's in kFunctions
     std::vector<std::shared_ptr<const Expr>> kids;
 };
 
@@ -30,6 +29,34 @@ using ExprPtr = std::shared_ptr<const Expr>;
 using Rng = std::mt19937_64;
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+/// The functions expressions may call (trigonometry in degrees, as cpfg);
+/// `ran` (no `f`) draws from the derivation's seeded generator.
+struct Function {
+    const char* name;
+    int arity;
+    double (*f)(double, double);
+};
+const Function kFunctions[] = {
+    {"sin", 1, [](double a, double) { return std::sin(a * kDegree); }},
+    {"cos", 1, [](double a, double) { return std::cos(a * kDegree); }},
+    {"tan", 1, [](double a, double) { return std::tan(a * kDegree); }},
+    {"asin", 1, [](double a, double) { return std::asin(a) / kDegree; }},
+    {"acos", 1, [](double a, double) { return std::acos(a) / kDegree; }},
+    {"atan", 1, [](double a, double) { return std::atan(a) / kDegree; }},
+    {"atan2", 2, [](double a, double b) { return std::atan2(a, b) / kDegree; }},
+    {"sqrt", 1, [](double a, double) { return std::sqrt(a); }},
+    {"exp", 1, [](double a, double) { return std::exp(a); }},
+    {"log", 1, [](double a, double) { return std::log(a); }},
+    {"abs", 1, [](double a, double) { return std::abs(a); }},
+    {"floor", 1, [](double a, double) { return std::floor(a); }},
+    {"ceil", 1, [](double a, double) { return std::ceil(a); }},
+    {"trunc", 1, [](double a, double) { return std::trunc(a); }},
+    {"min", 2, [](double a, double b) { return std::min(a, b); }},
+    {"max", 2, [](double a, double b) { return std::max(a, b); }},
+    {"pow", 2, [](double a, double b) { return std::pow(a, b); }},
+    {"ran", 1, nullptr},  // uniform in [0, x)
+};
 
 double evaluate(const Expr& e, const std::vector<double>& vars, Rng& rng)
 {
@@ -54,36 +81,10 @@ double evaluate(const Expr& e, const std::vector<double>& vars, Rng& rng)
     case Expr::Or: return k(0) != 0.0 || k(1) != 0.0;
     case Expr::Call: break;
     }
-    const std::string& f = e.fn;
-    if (f == "sin") return std::sin(k(0) * kDegree);
-    if (f == "cos") return std::cos(k(0) * kDegree);
-    if (f == "tan") return std::tan(k(0) * kDegree);
-    if (f == "asin") return std::asin(k(0)) / kDegree;
-    if (f == "acos") return std::acos(k(0)) / kDegree;
-    if (f == "atan") return std::atan(k(0)) / kDegree;
-    if (f == "atan2") return std::atan2(k(0), k(1)) / kDegree;
-    if (f == "sqrt") return std::sqrt(k(0));
-    if (f == "exp") return std::exp(k(0));
-    if (f == "log") return std::log(k(0));
-    if (f == "abs") return std::abs(k(0));
-    if (f == "floor") return std::floor(k(0));
-    if (f == "ceil") return std::ceil(k(0));
-    if (f == "trunc") return std::trunc(k(0));
-    if (f == "min") return std::min(k(0), k(1));
-    if (f == "max") return std::max(k(0), k(1));
-    if (f == "pow") return std::pow(k(0), k(1));
-    // ran(x): uniform in [0, x), from the derivation's seeded generator.
-    return std::uniform_real_distribution<double>(0.0, 1.0)(rng) * k(0);
-}
-
-int functionArity(const std::string& f)
-{
-    static const std::map<std::string, int> arity = {
-        {"sin", 1},   {"cos", 1},  {"tan", 1},  {"asin", 1},  {"acos", 1},  {"atan", 1}, {"atan2", 2},
-        {"sqrt", 1},  {"exp", 1},  {"log", 1},  {"abs", 1},   {"floor", 1}, {"ceil", 1}, {"trunc", 1},
-        {"min", 2},   {"max", 2},  {"pow", 2},  {"ran", 1}};
-    const auto it = arity.find(f);
-    return it == arity.end() ? -1 : it->second;
+    const Function& f = kFunctions[e.var];
+    if (!f.f)
+        return std::uniform_real_distribution<double>(0.0, 1.0)(rng) * k(0);
+    return f.f(k(0), f.arity == 2 ? k(1) : 0.0);
 }
 
 /// Where a piece of text came from: messages say file:line:column.
@@ -91,6 +92,8 @@ struct Place {
     const std::string* source;
     int line;
     int column;  ///< of the piece's first character, 1-based
+    /// The place `offset` characters further on the line.
+    Place shifted(size_t offset) const { return {source, line, column + int(offset)}; }
 };
 
 [[noreturn]] void fail(const Place& at, size_t offset, const std::string& what)
@@ -142,72 +145,44 @@ private:
         e->kids = std::move(kids);
         return e;
     }
-    ExprPtr orExpr()
+    static ExprPtr constant(double v)
     {
-        ExprPtr l = andExpr();
-        while (eat("||"))
-            l = node(Expr::Or, {l, andExpr()});
-        return l;
+        auto e = std::make_shared<Expr>();
+        e->value = v;
+        return e;
     }
-    ExprPtr andExpr()
+    /// Left-associative binary operators by precedence, loosest first (a
+    /// two-character token before its one-character prefix).
+    struct Binary {
+        const char* token;
+        Expr::Op op;
+    };
+    static constexpr int kLevels = 6;
+    static const std::vector<Binary>& level(int i)
     {
-        ExprPtr l = equality();
-        while (eat("&&"))
-            l = node(Expr::And, {l, equality()});
-        return l;
+        static const std::vector<Binary> levels[kLevels] = {
+            {{"||", Expr::Or}},
+            {{"&&", Expr::And}},
+            {{"==", Expr::Eq}, {"!=", Expr::Ne}},
+            {{"<=", Expr::Le}, {">=", Expr::Ge}, {"<", Expr::Lt}, {">", Expr::Gt}},
+            {{"+", Expr::Add}, {"-", Expr::Sub}},
+            {{"*", Expr::Mul}, {"/", Expr::Div}}};
+        return levels[i];
     }
-    ExprPtr equality()
+    ExprPtr binary(int i)
     {
-        ExprPtr l = comparison();
+        if (i == kLevels)
+            return unary();
+        ExprPtr l = binary(i + 1);
         for (;;) {
-            if (eat("=="))
-                l = node(Expr::Eq, {l, comparison()});
-            else if (eat("!="))
-                l = node(Expr::Ne, {l, comparison()});
-            else
+            const auto& ops = level(i);
+            const auto it = std::find_if(ops.begin(), ops.end(), [&](const Binary& b) { return eat(b.token); });
+            if (it == ops.end())
                 return l;
+            l = node(it->op, {l, binary(i + 1)});
         }
     }
-    ExprPtr comparison()
-    {
-        ExprPtr l = sum();
-        for (;;) {
-            if (eat("<="))
-                l = node(Expr::Le, {l, sum()});
-            else if (eat(">="))
-                l = node(Expr::Ge, {l, sum()});
-            else if (eat("<"))
-                l = node(Expr::Lt, {l, sum()});
-            else if (eat(">"))
-                l = node(Expr::Gt, {l, sum()});
-            else
-                return l;
-        }
-    }
-    ExprPtr sum()
-    {
-        ExprPtr l = product();
-        for (;;) {
-            if (eat("+"))
-                l = node(Expr::Add, {l, product()});
-            else if (eat("-"))
-                l = node(Expr::Sub, {l, product()});
-            else
-                return l;
-        }
-    }
-    ExprPtr product()
-    {
-        ExprPtr l = unary();
-        for (;;) {
-            if (eat("*"))
-                l = node(Expr::Mul, {l, unary()});
-            else if (eat("/"))
-                l = node(Expr::Div, {l, unary()});
-            else
-                return l;
-        }
-    }
+    ExprPtr orExpr() { return binary(0); }
     ExprPtr unary()
     {
         if (eat("-"))
@@ -243,9 +218,7 @@ private:
             if (end == s_.c_str() + pos_)
                 fail(at_, pos_, fmt::format("bad number in '{}'", s_));
             pos_ = size_t(end - s_.c_str());
-            auto e = std::make_shared<Expr>();
-            e->value = v;
-            return e;
+            return constant(v);
         }
         if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
             const size_t start = pos_;
@@ -253,12 +226,14 @@ private:
                 ++pos_;
             const std::string name = s_.substr(start, pos_ - start);
             if (eat("(")) {
-                const int arity = functionArity(name);
-                if (arity < 0)
+                const auto f = std::find_if(std::begin(kFunctions), std::end(kFunctions),
+                                            [&](const Function& g) { return name == g.name; });
+                if (f == std::end(kFunctions))
                     fail(at_, start, fmt::format("unknown function '{}'", name));
+                const int arity = f->arity;
                 auto e = std::make_shared<Expr>();
                 e->op = Expr::Call;
-                e->fn = name;
+                e->var = int(f - std::begin(kFunctions));
                 if (!eat(")")) {
                     do
                         e->kids.push_back(orExpr());
@@ -278,11 +253,8 @@ private:
                     e->var = int(i);
                     return e;
                 }
-            if (const auto it = defines_.find(name); it != defines_.end()) {
-                auto e = std::make_shared<Expr>();
-                e->value = it->second;
-                return e;
-            }
+            if (const auto it = defines_.find(name); it != defines_.end())
+                return constant(it->second);
             fail(at_, start, fmt::format("'{}' is neither a parameter of the predecessor nor a #define", name));
         }
         fail(at_, pos_, fmt::format("unexpected '{}' in the expression '{}'", c, s_));
@@ -417,7 +389,7 @@ public:
             for (char& ch : key)
                 ch = char(std::tolower(static_cast<unsigned char>(ch)));
             const std::string value = colon == std::string::npos ? "" : t.substr(colon + 1);
-            const Place vat{&system_.source, lineNo, column + int(colon) + 1};
+            const Place vat = at.shifted(colon + 1);
             if (key == "axiom") {
                 system_.axiom = constantModules(value, vat);
                 haveAxiom = true;
@@ -471,11 +443,16 @@ private:
         return out;
     }
 
+    /// The value of an expression of constants (numbers and #defines).
+    double constant(const std::string& text, const Place& at) const
+    {
+        Rng rng(0);
+        return evaluate(*ExprParser(text, at, {}, defines_).parseAll(), {}, rng);
+    }
+
     double number(const std::string& text, const Place& at, double lo, double hi)
     {
-        const ExprPtr e = ExprParser(text, at, {}, defines_).parseAll();
-        Rng rng(0);
-        const double v = evaluate(*e, {}, rng);
+        const double v = constant(text, at);
         if (!(v >= lo && v <= hi))
             fail(at, 0, fmt::format("'{}' is {}: expected a number from {} to {}", trim(text), v, lo, hi));
         return v;
@@ -490,10 +467,7 @@ private:
             fail(at, 0, "#define needs a name and a value");
         std::string rest;
         std::getline(s, rest);
-        const size_t offset = t.find(name, 7) + name.size();
-        const ExprPtr e = ExprParser(rest, Place{at.source, at.line, at.column + int(offset)}, {}, defines_).parseAll();
-        Rng rng(0);
-        defines_[name] = evaluate(*e, {}, rng);
+        defines_[name] = constant(rest, at.shifted(t.find(name, 7) + name.size()));
     }
 
     /// Checks that a module keeps its number of parameters across the file.
@@ -517,11 +491,8 @@ private:
             arity(c, args.size(), at, offset);
             Module m;
             m.name = c;
-            Rng rng(0);
             for (const auto& [a, o] : args)
-                m.params.push_back(evaluate(*ExprParser(a, Place{at.source, at.line, at.column + int(o)}, {}, defines_)
-                                                 .parseAll(),
-                                            {}, rng));
+                m.params.push_back(constant(a, at.shifted(o)));
             out.push_back(m);
         });
         return out;
@@ -557,7 +528,7 @@ private:
         p.line = at.line;
         const size_t arrow = t.find("-->");
         std::string lhs = t.substr(0, arrow), rhs = t.substr(arrow + 3);
-        const Place rat{at.source, at.line, at.column + int(arrow) + 3};
+        const Place rat = at.shifted(arrow + 3);
         // predecessor part : condition
         std::string cond;
         size_t condAt = 0;
@@ -581,28 +552,21 @@ private:
         std::vector<std::string> formals;
         p.left = patterns(left, at, formals);
         const std::vector<ModulePattern> pred =
-            patterns(strict, Place{at.source, at.line, at.column + int(strictAt)}, formals);
+            patterns(strict, at.shifted(strictAt), formals);
         if (pred.size() != 1)
             fail(at, strictAt, fmt::format("a production rewrites one module (the predecessor is '{}')", trim(strict)));
         p.strict = pred[0];
-        p.right = patterns(right, Place{at.source, at.line, at.column + int(rightAt)}, formals);
-        // Formals of the left context come first, then the predecessor's, then the right context's.
-        std::vector<std::string> ordered;
-        for (const std::vector<ModulePattern>* part : std::initializer_list<const std::vector<ModulePattern>*>{&p.left, &pred, &p.right})
-            for (const ModulePattern& m : *part)
-                for (const auto& f : m.formals)
-                    ordered.push_back(f);
+        // `formals` now holds the left context's, then the predecessor's, then
+        // the right context's: the order in which derivation binds them.
+        p.right = patterns(right, at.shifted(rightAt), formals);
         if (!trim(cond).empty())
-            p.condition =
-                ExprParser(cond, Place{at.source, at.line, at.column + int(condAt)}, ordered, defines_).parseAll();
+            p.condition = ExprParser(cond, at.shifted(condAt), formals, defines_).parseAll();
         // successor : probability
         if (const size_t colon = findTopLevel(rhs, ':'); colon != std::string::npos) {
-            const Place pat{at.source, at.line, rat.column + int(colon) + 1};
+            const Place pat = rat.shifted(colon + 1);
             const std::string prob = rhs.substr(colon + 1);
             rhs = rhs.substr(0, colon);
-            const ExprPtr e = ExprParser(prob, pat, {}, defines_).parseAll();
-            Rng rng(0);
-            p.probability = evaluate(*e, {}, rng);
+            p.probability = constant(prob, pat);
             if (!(p.probability > 0.0 && p.probability <= 1e9))
                 fail(pat, 0, fmt::format("a probability must be positive (got {})", p.probability));
         }
@@ -611,8 +575,7 @@ private:
             ModuleTemplate m;
             m.name = c;
             for (const auto& [a, o] : args)
-                m.args.push_back(
-                    ExprParser(a, Place{at.source, at.line, rat.column + int(o)}, ordered, defines_).parseAll());
+                m.args.push_back(ExprParser(a, rat.shifted(o), formals, defines_).parseAll());
             p.successor.push_back(std::move(m));
         });
         system_.productions.push_back(std::move(p));
@@ -785,17 +748,8 @@ public:
         out.reserve(s.size());
         for (size_t i = 0; i < s.size(); ++i) {
             out.push_back(s[i]);
-            if (s[i].name != '%')
-                continue;
-            int depth = 0;
-            for (++i; i < s.size(); ++i) {
-                if (s[i].name == '[')
-                    ++depth;
-                else if (s[i].name == ']' && depth-- == 0) {
-                    out.push_back(s[i]);
-                    break;
-                }
-            }
+            if (s[i].name == '%')
+                i = branchEnd(s, i) - 1;  // the branch's ']' comes next
         }
         return out;
     }
@@ -823,6 +777,18 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
     for (int i = 1; i <= steps; ++i)
         s = d.step(s, i, maxModules);
     return s;
+}
+
+size_t branchEnd(const ModuleString& s, size_t from)
+{
+    int depth = 0;
+    for (size_t i = from + 1; i < s.size(); ++i) {
+        if (s[i].name == '[')
+            ++depth;
+        else if (s[i].name == ']' && depth-- == 0)
+            return i;
+    }
+    return s.size();
 }
 
 std::string formatModules(const ModuleString& s)

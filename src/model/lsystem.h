@@ -78,6 +78,10 @@ constexpr size_t kDefaultMaxModules = 2000000;
 /// (and stays, marking the cut).  InputError before a step would exceed `maxModules` modules.
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules);
 
+/// The index of the ']' that closes the branch holding module `from` (the
+/// string's size at the top level): where a cut at `from` ends.
+size_t branchEnd(const ModuleString& s, size_t from);
+
 /// The string in the L-system notation: modules without parameters as their
 /// symbol, others as `F(1.5,2)`, numbers in their shortest exact form.
 std::string formatModules(const ModuleString& s);

@@ -158,15 +158,7 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
                 scar.parent = parent.id;
                 out.scars.push_back(scar);
             }
-            int depth = 0;
-            while (i + 1 < modules.size()) {
-                const char c = modules[i + 1].name;
-                if (c == ']' && depth == 0)
-                    break;
-                depth += c == '[';
-                depth -= c == ']';
-                ++i;
-            }
+            i = branchEnd(modules, i) - 1;  // the branch's ']' comes next
             break;
         }
         default:
