@@ -60,6 +60,23 @@ double peakMemoryBytes()
     return double(r.ru_maxrss) * 1024.0;
 }
 
+namespace {
+
+/// The tree builder's options for `junctions` "pcm" or "smooth".
+TreeBuildOptions treeOptions(const ModelOptions& o, const std::string& junctions)
+{
+    TreeBuildOptions t;
+    t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
+    t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
+    t.regrowth = o.regrowth;
+    t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
+                   : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution
+                                                   : TreeBuildOptions::Primitives::Mixed;
+    return t;
+}
+
+}  // namespace
+
 void checkModelOptions(const ModelOptions& o)
 {
     if (!o.junctions.empty() && o.junctions != "pcm" && o.junctions != "smooth" && o.junctions != "blend")
@@ -70,10 +87,9 @@ void checkModelOptions(const ModelOptions& o)
         throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
     if (o.primitives != "cone" && o.primitives != "convolution" && o.primitives != "mixed")
         throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", o.primitives));
-    if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
-        throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
     if (o.primitives != "cone" && o.junctions == "blend")
         throw InputError("--primitives convolution or mixed needs --junctions pcm or smooth");
+    checkTreeBuildOptions(treeOptions(o, "pcm"));
 }
 
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
@@ -94,16 +110,7 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
         sk = loadSkeleton(path);
     }
     const std::string junctions = o.junctions.empty() ? (lsystem ? "pcm" : "blend") : o.junctions;
-    if (junctions == "blend")
-        return skeletonToBlend(sk);
-    TreeBuildOptions t;
-    t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
-    t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
-    t.regrowth = o.regrowth;
-    t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
-                   : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution
-                                                   : TreeBuildOptions::Primitives::Mixed;
-    return buildTree(sk, t);
+    return junctions == "blend" ? skeletonToBlend(sk) : buildTree(sk, treeOptions(o, junctions));
 }
 
 BakeReport runBake(const BakeRequest& req)

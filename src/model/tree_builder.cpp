@@ -21,13 +21,18 @@ double basalShortening(const TreeBuildOptions& o, double rA, const std::vector<d
     return 2.75 * *std::max_element(childBaseRadii.begin(), childBaseRadii.end()) - rA;  // eq. 7
 }
 
+void checkTreeBuildOptions(const TreeBuildOptions& o)
+{
+    if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
+        throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
+}
+
 BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
 {
     const size_t n = sk.internodes.size();
     if (n == 0)
         throw InputError("the skeleton has no internodes");
-    if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
-        throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
+    checkTreeBuildOptions(o);
     std::unordered_map<long long, size_t> index;
     for (size_t i = 0; i < n; ++i)
         index[sk.internodes[i].id] = i;
@@ -107,7 +112,7 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
 
     BlobTree tree;
     std::vector<int> top, convolution;
-    std::unordered_map<size_t, std::vector<int>> groups;  // junction -> its branches' nodes
+    std::vector<std::vector<int>> groups(n);  // junction -> its branches' nodes
     for (size_t i = 0; i < n; ++i) {
         int node = isCone(i) ? tree.cone(p0[i], p1[i], r0[i], r1[i])
                              : tree.convolutionSegment(p0[i], p1[i], r0[i], r1[i]);
@@ -162,9 +167,9 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     pcm.width = o.pcmWidth;
     pcm.attenuation = o.pcmAttenuation;
     pcm.darken = o.ridgeDarken;
-    for (size_t i = 0; i < n; ++i)  // in skeleton order: the same tree every time
-        if (const auto it = groups.find(i); it != groups.end())
-            top.push_back(tree.op(pcm, it->second));
+    for (const std::vector<int>& group : groups)  // in skeleton order: the same tree every time
+        if (!group.empty())
+            top.push_back(tree.op(pcm, group));
     auto sum = [&](const std::vector<int>& nodes) {
         return nodes.size() == 1 ? nodes[0] : tree.op({NodeType::BLEND}, nodes);
     };

@@ -55,6 +55,10 @@ struct TreeBuildOptions {
 /// the internode) for one whose ends coincide.
 BlobTree buildTree(const Skeleton& skeleton, const TreeBuildOptions& options = {});
 
+/// InputError unless the options are in range (buildTree checks them; the
+/// CLI calls it before any work).
+void checkTreeBuildOptions(const TreeBuildOptions& options);
+
 /// How much a basal internode is shortened at its tip (eq. 3 and 7), given
 /// its radius at the tip and its children's radii at their bases and tips.
 double basalShortening(const TreeBuildOptions& options, double rA, const std::vector<double>& childBaseRadii,
