@@ -45,6 +45,39 @@ BlobTree smallLSystemTree()
     return skeletonToBlend(interpretTurtle(sys, derive(sys, 5, 1, 100000)));
 }
 
+/// The baked scenes both cross-checks use: a sphere, a capsule and a small
+/// tree of three cones (each cone its own colour when `coloured`).
+const glm::dvec3 kSphereCentre(0.013, -0.021, 0.007);
+BlobTree sphereScene()
+{
+    BlobTree tree;
+    tree.setRoot(tree.sphere(kSphereCentre, 0.5));
+    tree.finalize();
+    return tree;
+}
+BlobTree capsuleScene()
+{
+    BlobTree tree;
+    tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
+    tree.finalize();
+    return tree;
+}
+BlobTree threeConeTree(bool coloured)
+{
+    BlobTree tree;
+    const int trunk = tree.cone({0, 0, 0}, {0, 1.0, 0}, 0.08, 0.05);
+    const int b1 = tree.cone({0, 0.5, 0}, {0.35, 0.85, 0.05}, 0.04, 0.02);
+    const int b2 = tree.cone({0, 0.7, 0}, {-0.3, 1.0, -0.1}, 0.035, 0.015);
+    if (coloured) {
+        tree.setColor(trunk, {0.5, 0.3, 0.2});
+        tree.setColor(b1, {0.2, 0.6, 0.2});
+        tree.setColor(b2, {0.2, 0.2, 0.7});
+    }
+    tree.setRoot(tree.op(Combiner{}, {trunk, b1, b2}));
+    tree.finalize();
+    return tree;
+}
+
 using Renderer = std::function<RenderImage(const openvdb::FloatGrid&, const openvdb::Vec3fGrid*, const Camera&,
                                            int, int, int)>;
 
@@ -234,35 +267,16 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
 TEST(Render, OpenCLMarchAgreesWithTheCpuIntersector)
 {
     {
-        BlobTree tree;
-        const glm::dvec3 c(0.013, -0.021, 0.007);
-        tree.setRoot(tree.sphere(c, 0.5));
-        tree.finalize();
+        const glm::dvec3 c = kSphereCentre;
         const double r = 0.5, h = 0.02;  // sphere() takes the surface's radius
-        expectOpenCLMatchesCpu(tree, h, "sphere", [&](const TraceRay& ray) {
+        expectOpenCLMatchesCpu(sphereScene(), h, "sphere", [&](const TraceRay& ray) {
             const double miss = (glm::length(glm::cross(c - ray.origin, ray.direction)) - r) / h;
             return miss < -1.0 ? raySphere(ray.origin, ray.direction, c, r) : -1.0;
         });
     }
-    {
-        BlobTree tree;
-        tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
-        tree.finalize();
-        expectOpenCLMatchesCpu(tree, 0.01, "capsule");
-    }
-    {
-        // A small tree of two colours: the albedo from Cd on both paths.
-        BlobTree tree;
-        const int trunk = tree.cone({0, 0, 0}, {0, 1.0, 0}, 0.08, 0.05);
-        const int b1 = tree.cone({0, 0.5, 0}, {0.35, 0.85, 0.05}, 0.04, 0.02);
-        const int b2 = tree.cone({0, 0.7, 0}, {-0.3, 1.0, -0.1}, 0.035, 0.015);
-        tree.setColor(trunk, {0.5, 0.3, 0.2});
-        tree.setColor(b1, {0.2, 0.6, 0.2});
-        tree.setColor(b2, {0.2, 0.2, 0.7});
-        tree.setRoot(tree.op(Combiner{}, {trunk, b1, b2}));
-        tree.finalize();
-        expectOpenCLMatchesCpu(tree, 0.005, "small coloured tree");
-    }
+    expectOpenCLMatchesCpu(capsuleScene(), 0.01, "capsule");
+    // A small tree of three colours: the albedo from Cd on both paths.
+    expectOpenCLMatchesCpu(threeConeTree(true), 0.005, "small coloured tree");
     expectOpenCLMatchesCpu(smallLSystemTree(), 0.01, "small L-system tree");
 }
 
@@ -295,37 +309,15 @@ void expectMarchAgreesWithEmbree(const BlobTree& tree, double h, const char* wha
 
 TEST(Render, MarchAndEmbreeOnTheMeshAgree)
 {
-    {
-        BlobTree tree;
-        tree.setRoot(tree.sphere({0.013, -0.021, 0.007}, 0.5));
-        tree.finalize();
-        expectMarchAgreesWithEmbree(tree, 0.02, "sphere");
-    }
-    {
-        BlobTree tree;
-        tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
-        tree.finalize();
-        expectMarchAgreesWithEmbree(tree, 0.01, "capsule");
-    }
-    {
-        // A small tree: a trunk and two branches, blended.
-        BlobTree tree;
-        const int trunk = tree.cone({0, 0, 0}, {0, 1.0, 0}, 0.08, 0.05);
-        const int b1 = tree.cone({0, 0.5, 0}, {0.35, 0.85, 0.05}, 0.04, 0.02);
-        const int b2 = tree.cone({0, 0.7, 0}, {-0.3, 1.0, -0.1}, 0.035, 0.015);
-        tree.setRoot(tree.op(Combiner{}, {trunk, b1, b2}));
-        tree.finalize();
-        expectMarchAgreesWithEmbree(tree, 0.005, "small tree");
-    }
+    expectMarchAgreesWithEmbree(sphereScene(), 0.02, "sphere");
+    expectMarchAgreesWithEmbree(capsuleScene(), 0.01, "capsule");
+    expectMarchAgreesWithEmbree(threeConeTree(false), 0.005, "small tree");
     expectMarchAgreesWithEmbree(smallLSystemTree(), 0.01, "small L-system tree");
 }
 
 TEST(Render, AMeshFileRendersAsTheMeshItWasWrittenFrom)
 {
-    BlobTree tree;
-    tree.setRoot(tree.segment({-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17));
-    tree.finalize();
-    const BakedGrids g = test::bakeTree(tree, 0.02);
+    const BakedGrids g = test::bakeTree(capsuleScene(), 0.02);
     const TriangleMesh mesh = meshLevelSet(*g.surface);
     const auto path = std::filesystem::temp_directory_path() / ("cambium_render_mesh_" + std::to_string(::getpid()) + ".ply");
     writeMesh(mesh, path.string());
