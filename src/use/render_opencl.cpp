@@ -15,7 +15,8 @@ namespace cambium {
 
 struct OpenCLMarcher::Impl {
     OpenCLContext ctx;
-    nanovdb::GridHandle<nanovdb::HostBuffer> surface, color;
+    size_t gridBytes = 0;  ///< of the NanoVDB copies, now on the device only
+    bool hasColor = false;
     cl_program program = nullptr;
     cl_kernel kernel = nullptr;
     DeviceBuffer surfaceBuffer, colorBuffer;
@@ -35,11 +36,16 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
 {
     Impl& m = *impl_;
     // Leaves' extrema let the march step over leaves far from the surface.
-    m.surface = nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
+    // The host copies live only until they are on the device.
+    auto nanoSurface =
+        nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
     m.skip = float(2.0 * surface.voxelSize()[0]);
+    nanovdb::GridHandle<nanovdb::HostBuffer> nanoColor;
     if (color)
-        m.color = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox, nanovdb::ChecksumMode::Disable);
-    for (const auto* h : {&m.surface, &m.color})
+        nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox, nanovdb::ChecksumMode::Disable);
+    m.hasColor = bool(nanoColor);
+    m.gridBytes = nanoSurface.size() + nanoColor.size();
+    for (const auto* h : {&nanoSurface, &nanoColor})
         if (h->size() >= (uint64_t(1) << 32))  // kernels/cb_pnanovdb.h: 32-bit addresses
             throw InputError(fmt::format("the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
                                          "under 4 GB: use --device cpu",
@@ -48,10 +54,10 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
     cl_int err = CL_SUCCESS;
     m.kernel = clCreateKernel(m.program, "march_rays", &err);
     checkCL(err, "clCreateKernel(march_rays)");
-    m.surfaceBuffer.upload(m.ctx, m.surface.data(), m.surface.size(), CL_MEM_READ_ONLY);
+    m.surfaceBuffer.upload(m.ctx, nanoSurface.data(), nanoSurface.size(), CL_MEM_READ_ONLY);
     // Without colour the kernel still needs a buffer argument: the surface's.
-    if (color)
-        m.colorBuffer.upload(m.ctx, m.color.data(), m.color.size(), CL_MEM_READ_ONLY);
+    if (m.hasColor)
+        m.colorBuffer.upload(m.ctx, nanoColor.data(), nanoColor.size(), CL_MEM_READ_ONLY);
     // PoCL compiles a kernel for its work-group size at the first launch:
     // one group of rays now, so that the first image does not pay for it.
     std::vector<TraceHit> hits;
@@ -60,7 +66,7 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
 
 OpenCLMarcher::~OpenCLMarcher() = default;
 
-size_t OpenCLMarcher::gridBytes() const { return impl_->surface.size() + impl_->color.size(); }
+size_t OpenCLMarcher::gridBytes() const { return impl_->gridBytes; }
 
 std::string OpenCLMarcher::deviceName() const
 {
@@ -86,8 +92,8 @@ void OpenCLMarcher::trace(const std::vector<TraceRay>& rays, std::vector<TraceHi
     });
     m.rays.unmap(m.ctx, in);
     const cl_mem surface = m.surfaceBuffer.get();
-    const cl_mem color = m.color ? m.colorBuffer.get() : surface;
-    const cl_int hasColor = m.color ? 1 : 0;
+    const cl_mem color = m.hasColor ? m.colorBuffer.get() : surface;
+    const cl_int hasColor = m.hasColor ? 1 : 0;
     const cl_float4 albedo = {{kBarkAlbedo.x, kBarkAlbedo.y, kBarkAlbedo.z, 0.0f}};
     const cl_mem raysMem = m.rays.get(), hitsMem = m.hits.get();
     const cl_uint count = cl_uint(n);
