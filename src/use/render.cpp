@@ -464,42 +464,41 @@ int runRenderCommand(const RenderRequest& req)
         const auto start = std::chrono::steady_clock::now();
         const double aspect = double(req.width) / double(req.height);
         RenderImage img;
-        auto report = [&](std::chrono::steady_clock::time_point t0, const char* how) {
-            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            size_t covered = 0;
-            for (float a : img.alpha)
-                covered += a > 0.0f;
-            fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, "
-                       "{:.2f} s ({:.3g} M rays/s, {})\n",
-                       in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
-                       100.0 * double(covered) / double(img.alpha.size()), s,
-                       double(req.width) * req.height * req.spp / s * 1e-6, how);
-        };
+        const char* how;
         if (meshFile) {
             const TriangleMesh mesh = readMesh(in);
             img = renderMeshEmbree(mesh, parseCamera(req.camera, meshBounds(mesh), aspect), req.width, req.height,
                                    req.spp);
-            writeImage(img, out);
-            report(start, "Embree on the mesh's triangles, reading included");
-            return;
+            how = "Embree on the mesh's triangles, reading included";
+        } else {
+            const LevelSetFile f = readLevelSet(in, req.grid);
+            const Box bounds = activeWorldBounds(*f.surface);
+            if (bounds.empty())
+                throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
+            const Camera cam = parseCamera(req.camera, bounds, aspect);
+            if (req.viaMesh) {
+                img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
+                how = "Embree on the volumeToMesh triangles, meshing included";
+            } else if (req.device == "cpu") {
+                img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+                how = "OpenVDB's level-set ray intersector";
+            } else {
+                img = withOpenCLHint("render", [&] {
+                    return renderLevelSetOpenCL(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+                });
+                how = "OpenCL NanoVDB march, conversion and kernel build included";
+            }
         }
-        const LevelSetFile f = readLevelSet(in, req.grid);
-        const Box bounds = activeWorldBounds(*f.surface);
-        if (bounds.empty())
-            throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
-        const Camera cam = parseCamera(req.camera, bounds, aspect);
-        if (req.viaMesh)
-            img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
-        else if (req.device == "cpu")
-            img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
-        else
-            img = withOpenCLHint("render", [&] {
-                return renderLevelSetOpenCL(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
-            });
         writeImage(img, out);
-        report(start, req.viaMesh            ? "Embree on the volumeToMesh triangles, meshing included"
-                      : req.device == "cpu" ? "OpenVDB's level-set ray intersector"
-                                            : "OpenCL NanoVDB march, conversion and kernel build included");
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        size_t covered = 0;
+        for (float a : img.alpha)
+            covered += a > 0.0f;
+        fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
+                   "({:.3g} M rays/s, {})\n",
+                   in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
+                   100.0 * double(covered) / double(img.alpha.size()), s,
+                   double(req.width) * req.height * req.spp / s * 1e-6, how);
     });
     return 0;
 }
