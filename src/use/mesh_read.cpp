@@ -103,45 +103,35 @@ TriangleMesh readObj(const std::string& path)
     return m;
 }
 
-/// A PLY scalar type: its size, and a reader to double.
+/// A PLY scalar type: its size in bytes, whether it is a floating-point
+/// type, and its little-endian reader.
 struct PlyType {
     int size = 0;
-    char kind = 0;  // 'i' signed, 'u' unsigned, 'f' float
+    bool real = false;
+    double (*read)(const char*) = nullptr;
 };
+
+template <class T>
+double readAs(const char* p)
+{
+    T v;
+    std::memcpy(&v, p, sizeof(T));
+    return double(v);
+}
 
 PlyType plyType(const std::string& name, const std::string& path, size_t line)
 {
-    if (name == "char" || name == "int8")
-        return {1, 'i'};
-    if (name == "uchar" || name == "uint8")
-        return {1, 'u'};
-    if (name == "short" || name == "int16")
-        return {2, 'i'};
-    if (name == "ushort" || name == "uint16")
-        return {2, 'u'};
-    if (name == "int" || name == "int32")
-        return {4, 'i'};
-    if (name == "uint" || name == "uint32")
-        return {4, 'u'};
-    if (name == "float" || name == "float32")
-        return {4, 'f'};
-    if (name == "double" || name == "float64")
-        return {8, 'f'};
+    static const struct {
+        const char *name, *alias;
+        PlyType type;
+    } types[] = {{"char", "int8", {1, false, readAs<int8_t>}},     {"uchar", "uint8", {1, false, readAs<uint8_t>}},
+                 {"short", "int16", {2, false, readAs<int16_t>}},  {"ushort", "uint16", {2, false, readAs<uint16_t>}},
+                 {"int", "int32", {4, false, readAs<int32_t>}},    {"uint", "uint32", {4, false, readAs<uint32_t>}},
+                 {"float", "float32", {4, true, readAs<float>}}, {"double", "float64", {8, true, readAs<double>}}};
+    for (const auto& t : types)
+        if (name == t.name || name == t.alias)
+            return t.type;
     fail(path, line, fmt::format("unknown PLY type '{}'", name));
-}
-
-double readBinary(const char* p, const PlyType& t)
-{
-    switch (t.size * 4 + (t.kind == 'i' ? 0 : t.kind == 'u' ? 1 : 2)) {
-    case 4: { int8_t v; std::memcpy(&v, p, 1); return v; }
-    case 5: { uint8_t v; std::memcpy(&v, p, 1); return v; }
-    case 8: { int16_t v; std::memcpy(&v, p, 2); return v; }
-    case 9: { uint16_t v; std::memcpy(&v, p, 2); return v; }
-    case 16: { int32_t v; std::memcpy(&v, p, 4); return v; }
-    case 17: { uint32_t v; std::memcpy(&v, p, 4); return v; }
-    case 18: { float v; std::memcpy(&v, p, 4); return v; }
-    default: { double v; std::memcpy(&v, p, 8); return v; }
-    }
 }
 
 struct PlyProperty {
@@ -229,7 +219,7 @@ TriangleMesh readPly(const std::string& path)
         if (e.name == "face" && list < 0)
             fail(path, 0, "the face element has no vertex_indices list");
         const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
-        const double colourScale = colours && e.properties[size_t(r)].type.kind != 'f' ? 1.0 / 255.0 : 1.0;
+        const double colourScale = colours && e.properties[size_t(r)].type.real ? 1.0 : 1.0 / 255.0;
         for (size_t item = 0; item < e.count; ++item) {
             values.assign(e.properties.size(), 0.0);
             poly.clear();
@@ -251,7 +241,7 @@ TriangleMesh readPly(const std::string& path)
                         if (!in.read(buf, t.size))
                             fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
                                                       e.count));
-                        v = readBinary(buf, t);
+                        v = t.read(buf);
                     }
                     return v;
                 };
