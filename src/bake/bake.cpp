@@ -118,6 +118,7 @@ BakeReport runBake(const BakeRequest& req)
     BakeReport report;
     if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
         throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
+    checkDeviceOption(req.device);
     const BlobTree tree = loadModel(req.input, req.model);
     const FieldProgram program = FieldProgram::compile(tree);
     const Box bounds = program.positiveBounds();
@@ -157,7 +158,6 @@ BakeReport runBake(const BakeRequest& req)
         ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
         ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
     }
-    checkDeviceOption(req.device);
     std::unique_ptr<FieldSampler> sampler =
         req.device == "cpu" ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
     report.device = sampler->name();
