@@ -1,6 +1,8 @@
 // cambium — the command-line tool.  A thin table of sub-commands: each parses
 // its arguments and calls the library.
 #include "bake/bake.h"
+#include "bake/sequence.h"
+#include "core/frames.h"
 #include "bench/bake_bench.h"
 #include "bench/use_bench.h"
 #include "blobtree/evaluator.h"
@@ -8,6 +10,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "core/versions.h"
+#include "model/growth.h"
 #include "model/turtle.h"
 #include "use/mesh.h"
 #include "use/render.h"
@@ -132,8 +135,37 @@ std::string count(size_t n)
     return s;
 }
 
+int runSequenceCommand(const BakeRequest& req)
+{
+    const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)", "kept (--resume)",
+                             "empty (nothing a voxel thick yet)"};
+    size_t doneFrames = 0, total = parseFrames(req.frames).size();
+    const SequenceReport r = runBakeSequence(req, [&](const FrameReport& f) {
+        ++doneFrames;
+        fmt::print("[{}/{}] frame {} (year {:.3g}) {}: {}", doneFrames, total, f.frame, f.time, f.path,
+                   outcome[int(f.outcome)]);
+        if (f.outcome == FrameReport::Outcome::Baked)
+            fmt::print(", {} active voxels", count(f.stats.activeVoxels));
+        fmt::print(", {:.2f} s\n", f.seconds);
+        std::fflush(stdout);
+    });
+    size_t baked = 0, reused = 0, kept = 0, empty = 0;
+    for (const FrameReport& f : r.frames)
+        ++(f.outcome == FrameReport::Outcome::Baked    ? baked
+           : f.outcome == FrameReport::Outcome::Reused ? reused
+           : f.outcome == FrameReport::Outcome::Skipped ? kept
+                                                        : empty);
+    fmt::print("sequence {}: {} frames ({} baked, {} reused, {} kept, {} empty) in {:.1f} s, {} at once, voxel size "
+               "{:g}{}, device {}, peak memory {:.0f} MB\n",
+               req.output, r.frames.size(), baked, reused, kept, empty, r.seconds, r.jobs, r.voxelSize,
+               r.autoVoxelSize ? " (auto: 512 voxels across the last frame)" : "", r.device, r.peakMemoryBytes / 1e6);
+    return 0;
+}
+
 int runBakeCommand(BakeRequest req)
 {
+    if (!req.frames.empty())
+        return runSequenceCommand(req);
     ProgressBar bar;
     req.progress = [&](const char* stage, double f) { bar(stage, f); };
     const BakeReport r = cambium::runBake(req);
@@ -215,9 +247,23 @@ int main(int argc, char** argv)
     bakeCmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     bakeCmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
     bakeCmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)");
+    double bakeTime = -1.0;
+    bool bakeNoLeaves = false;
+    auto* timeOpt = bakeCmd->add_option("--time", bakeTime,
+                                        "Growth parameter files: the tree at this time in years (default: the last)");
+    bakeCmd->add_flag("--no-leaves", bakeNoLeaves, "Growth parameter files: leave the leaves out");
+    bakeCmd->add_option("--frames", bake.frames,
+                        "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
+                        "(out/populus.####.vdb), frame f at year f / fps-per-year")
+        ->excludes(timeOpt);
+    bakeCmd->add_option("--fps-per-year", bake.fpsPerYear, "Frames per year of growth")->capture_default_str();
+    bakeCmd->add_flag("--resume", bake.resume, "Keep the frames an interrupted run of the same bake finished");
+    bakeCmd->add_option("--jobs", bake.jobs, "Frames baked at once (default: as many as cores and memory allow)");
     bakeCmd->callback([&] {
         if (voxelOpt->count())
             bake.voxelSize = voxelSize;
+        model.time = bakeTime;
+        model.leaves = !bakeNoLeaves;
         bake.model = model;
         action = [&] { return runBakeCommand(bake); };
     });
@@ -341,6 +387,27 @@ int main(int argc, char** argv)
     lsCmd->add_flag("--print-skeleton", lsys.printSkeleton,
                     "Print the internodes in the skeleton format, which cambium bake reads");
     lsCmd->callback([&] { action = [&] { return runLSystemCommand(lsys); }; });
+
+    GrowthRequest growth;
+    double growthYear = -1.0;
+    bool noLeaves = false;
+    auto* growthCmd = app.add_subcommand("growth", "Grow a tree from a growth parameter file (docs/growth-format.md) "
+                                                    "and print its counts or skeleton at a time");
+    growthCmd->add_option("input", growth.input, "Growth parameter file (.json)")->required();
+    auto* yearOpt = growthCmd->add_option("--year", growthYear, "The end of this year (default: the last)");
+    growthCmd->add_option("--time", growth.time, "Any time in years, e.g. 3.5 (mid-season of year 4)")
+        ->excludes(yearOpt);
+    growthCmd->add_option("--seed", growth.seed, "Seed of the stochastic orientation (default: the file's)");
+    growthCmd->add_flag("--no-leaves", noLeaves, "Leave the leaves out");
+    growthCmd->add_flag("--print-stats", growth.printStats,
+                        "Branches and internodes by order, organs, BlobTree primitives and operators");
+    growthCmd->add_flag("--print-skeleton", growth.printSkeleton, "Print the internodes (skeleton format)");
+    growthCmd->callback([&] {
+        if (yearOpt->count())
+            growth.time = growthYear;
+        growth.leaves = !noLeaves;
+        action = [&] { return runGrowthCommand(growth); };
+    });
 
     auto* ver = app.add_subcommand("version", "Print the versions of cambium, its libraries and the "
                                               "OpenCL devices found");

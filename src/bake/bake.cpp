@@ -1,5 +1,6 @@
 // cambium — the bake command's work.
 #include "bake/bake.h"
+#include "model/growth.h"
 #include "model/tree_builder.h"
 #include "model/turtle.h"
 
@@ -95,6 +96,17 @@ void checkModelOptions(const ModelOptions& o)
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
 {
     checkModelOptions(o);
+    if (isGrowthParameterFile(path)) {
+        const GrowthModel model(loadGrowthParameters(path));
+        const double t = o.time < 0.0 ? double(model.params().years) : o.time;
+        if (!(t >= 0.0 && t <= model.params().years))
+            throw InputError(fmt::format("{}: --time must be between 0 and {} years (got {})", path,
+                                         model.params().years, t));
+        const Skeleton sk = model.skeleton(t, o.leaves);
+        if (sk.internodes.empty())
+            throw InputError(fmt::format("{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
+        return buildTree(sk, model.buildOptions());
+    }
     if (endsWith(path, ".json"))
         return loadScene(path);
     Skeleton sk;
@@ -113,57 +125,80 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     return junctions == "blend" ? skeletonToBlend(sk) : buildTree(sk, treeOptions(o, junctions));
 }
 
-BakeReport runBake(const BakeRequest& req)
+void checkBakeOptions(const BakeRequest& req)
 {
-    BakeReport report;
     if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
         throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
     checkDeviceOption(req.device);
-    const BlobTree tree = loadModel(req.input, req.model);
-    const FieldProgram program = FieldProgram::compile(tree);
+}
+
+VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req, int copies)
+{
+    VoxelPlan plan;
     const Box bounds = program.positiveBounds();
     if (bounds.empty())
         throw InputError(fmt::format("{}: the model has no surface: its field is nowhere above the "
                                      "threshold (empty scene, or only negative fields)",
                                      req.input));
     const glm::dvec3 size = bounds.size();
-    report.extent = std::max({size.x, size.y, size.z});
-    double h;
+    plan.extent = std::max({size.x, size.y, size.z});
     if (req.voxelSize) {
-        h = *req.voxelSize;
-        if (!std::isfinite(h) || !(h > 0.0))
-            throw InputError(fmt::format("--voxel-size must be a positive number (got {})", h));
+        plan.voxelSize = *req.voxelSize;
+        if (!std::isfinite(plan.voxelSize) || !(plan.voxelSize > 0.0))
+            throw InputError(fmt::format("--voxel-size must be a positive number (got {})", plan.voxelSize));
     } else {
-        h = autoVoxelSize(program);
-        report.autoVoxelSize = true;
+        plan.voxelSize = autoVoxelSize(program);
+        plan.automatic = true;
     }
+    const double h = plan.voxelSize;
     // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
     const double span = (std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
                                    std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)}) +
                          req.halfWidth * h) / h;
-    const double need = estimateBakeBytes(program, h, req.halfWidth);
+    plan.bytes = estimateBakeBytes(program, h, req.halfWidth);
     const double have = availableMemoryBytes();
-    if (!(span < 1e9) || need > have)
+    if (!(span < 1e9) || plan.bytes * copies > have)
         throw InputError(fmt::format(
             "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across ({:.3g} "
             "voxels), and this machine has {} available: use a larger --voxel-size",
-            h, bytes(need), report.extent, report.extent / h, bytes(have)));
+            h, bytes(plan.bytes * copies), plan.extent, plan.extent / h, bytes(have)));
+    return plan;
+}
+
+ThreadLimit::ThreadLimit(int threads)
+{
+    if (threads <= 0)
+        return;
+    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    const std::string n = std::to_string(threads);
+    ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
+    ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
+}
+
+ThreadLimit::~ThreadLimit() = default;
+
+std::unique_ptr<FieldSampler> makeSampler(const std::string& device)
+{
+    return device == "cpu" ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
+}
+
+BakeReport runBake(const BakeRequest& req)
+{
+    BakeReport report;
+    checkBakeOptions(req);
+    const BlobTree tree = loadModel(req.input, req.model);
+    const FieldProgram program = FieldProgram::compile(tree);
+    const VoxelPlan plan = planVoxelSize(program, req);
+    report.extent = plan.extent;
+    report.autoVoxelSize = plan.automatic;
     checkWritable(req.output);
 
-    std::unique_ptr<tbb::global_control> threads;
-    if (req.threads > 0) {
-        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                        size_t(req.threads));
-        const std::string n = std::to_string(req.threads);
-        ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
-        ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
-    }
-    std::unique_ptr<FieldSampler> sampler =
-        req.device == "cpu" ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
+    const ThreadLimit threads(req.threads);
+    std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);
     report.device = sampler->name();
 
     BakeOptions opt;
-    opt.voxelSize = h;
+    opt.voxelSize = plan.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
     opt.progress = req.progress;
@@ -171,7 +206,7 @@ BakeReport runBake(const BakeRequest& req)
     if (grids.stats.activeVoxels == 0)
         throw InputError(fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
                                      "nothing to bake (use a smaller --voxel-size)",
-                                     req.input, h));
+                                     req.input, plan.voxelSize));
     VdbFileInfo info;
     info.scene = req.input;
     info.threshold = tree.threshold();

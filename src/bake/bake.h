@@ -3,8 +3,12 @@
 #pragma once
 
 #include "bake/levelset.h"
+#include "blobtree/blobtree.h"
+
+#include <tbb/global_control.h>
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -25,9 +29,15 @@ struct ModelOptions {
     /// "cone" (papers 001/003), "convolution" or "mixed" (paper 002; pcm and smooth only)
     std::string primitives = "cone";
     double regrowth = 0.0;  ///< callus over saw cuts, 0 to 1 (pcm, smooth)
+    /// Growth parameter files: the time in years (< 0: the file's last year)
+    /// and whether to grow leaves.
+    double time = -1.0;
+    bool leaves = true;
 };
 /// InputError unless the options are valid (before any work).
 void checkModelOptions(const ModelOptions& options);
+/// Also reads growth parameter files (a .json with "curves",
+/// docs/growth-format.md): the tree grown to `options.time`.
 BlobTree loadModel(const std::string& path, const ModelOptions& options = {});
 
 struct BakeRequest {
@@ -41,7 +51,42 @@ struct BakeRequest {
     bool half = false;
     int threads = 0;                   ///< 0: all cores
     std::function<void(const char*, double)> progress;
+
+    // Growth sequences (bake/sequence.h): frames FIRST-LAST[:STEP] of a
+    // growth parameter file at `fpsPerYear` frames a year (frame f at year
+    // f / fpsPerYear), written to `output` with a run of '#'.
+    std::string frames;
+    double fpsPerYear = 1.0;
+    bool resume = false;  ///< keep the frames a previous run of the same bake finished
+    int jobs = 0;         ///< frames baked at once; 0: as many as cores and memory allow
 };
+
+/// InputError unless the half-width and device are valid.
+void checkBakeOptions(const BakeRequest& request);
+
+/// The voxel size of a bake: `request.voxelSize` or 512 voxels across the
+/// program's surface bounds.  InputError when the model has no surface, or
+/// when `copies` bakes at once would need more memory than the machine has
+/// or coordinates beyond OpenVDB's index space.
+struct VoxelPlan {
+    double voxelSize = 0.0;
+    bool automatic = false;
+    double extent = 0.0;     ///< largest extent of the surface bounds
+    double bytes = 0.0;      ///< estimated memory of one bake
+};
+VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request, int copies = 1);
+
+/// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
+class ThreadLimit {
+public:
+    explicit ThreadLimit(int threads);
+    ~ThreadLimit();
+private:
+    std::unique_ptr<tbb::global_control> control_;
+};
+
+/// The sampler of `device` ("opencl" names a failure and suggests --device cpu).
+std::unique_ptr<FieldSampler> makeSampler(const std::string& device);
 
 struct BakeReport {
     BakeStats stats;

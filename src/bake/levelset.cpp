@@ -205,16 +205,57 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
     return bandVoxels * (3.0 * (4.0 + 8.0 + 3.0) + 16.0) + 64e6;
 }
 
+namespace {
+
+/// The band's half-width in world units, rounded up so that OpenVDB's checks
+/// see at least halfWidth voxels.
+float bandBackground(double h, double W)
+{
+    float background = float(W * h);
+    while (double(background) / h < W)
+        background = std::nextafter(background, INFINITY);
+    return background;
+}
+
+/// The grids without voxels: names, class, transform.
+void createGrids(BakedGrids& out, double h, float background, const openvdb::Vec3f& colourBackground)
+{
+    out.surface = openvdb::FloatGrid::create(background);
+    out.color = openvdb::Vec3fGrid::create(colourBackground);
+    const auto xform = openvdb::math::Transform::createLinearTransform(h);
+    out.surface->setTransform(xform);
+    out.color->setTransform(xform->copy());
+    out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    out.surface->setName("surface");
+    out.color->setName("Cd");
+    out.color->setVectorType(openvdb::VEC_INVARIANT);
+}
+
+void addFog(BakedGrids& out)
+{
+    out.density = out.surface->deepCopy();
+    openvdb::tools::sdfToFogVolume(*out.density);
+    out.density->setName("density");
+}
+
+}  // namespace
+
+BakedGrids emptyLevelSet(const BakeOptions& opt)
+{
+    BakedGrids out;
+    createGrids(out, opt.voxelSize, bandBackground(opt.voxelSize, opt.halfWidth), openvdb::Vec3f(0.0f));
+    if (opt.fog)
+        addFog(out);
+    out.stats.voxelSize = opt.voxelSize;
+    return out;
+}
+
 BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                         const BakeOptions& opt)
 {
     const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
-    // The background is the band's half-width in world units, rounded up so
-    // that OpenVDB's checks see at least halfWidth voxels.
-    float background = float(W * h);
-    while (double(background) / h < W)
-        background = std::nextafter(background, INFINITY);
+    const float background = bandBackground(h, W);
     BakedGrids out;
     BakeStats& st = out.stats;
     st.voxelSize = h;
@@ -632,16 +673,12 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     edges.reset();
     surface.reset();
     const double tFree = since(tTree);
-    out.surface = openvdb::FloatGrid::create(background);
     // A model of one colour has that colour wherever the surface is: its Cd
     // grid is that colour as the background, without voxels (on the 20k
     // benchmark tree the voxels would take 1.1 GB and a sixth of the time).
-    const openvdb::Vec3f background3 =
-        uniform ? openvdb::Vec3f(float(uniformRgb.x), float(uniformRgb.y), float(uniformRgb.z)) : openvdb::Vec3f(0.0f);
-    out.color = openvdb::Vec3fGrid::create(background3);
-    const auto xform = openvdb::math::Transform::createLinearTransform(h);
-    out.surface->setTransform(xform);
-    out.color->setTransform(xform->copy());
+    createGrids(out, h, background,
+                uniform ? openvdb::Vec3f(float(uniformRgb.x), float(uniformRgb.y), float(uniformRgb.z))
+                        : openvdb::Vec3f(0.0f));
     // Through accessors: consecutive leaves mostly share their internal
     // nodes (depth-first order), which the accessors keep at hand.
     openvdb::FloatGrid::Accessor sAcc = out.surface->getAccessor();
@@ -662,15 +699,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "freeing {:.3f} s, tree {:.3f} s, flood fill {:.3f} s\n", tFree, tAdd - tFree,
                    since(tTree) - tAdd);
-    out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    out.surface->setName("surface");
-    out.color->setName("Cd");
-    out.color->setVectorType(openvdb::VEC_INVARIANT);
-    if (opt.fog) {
-        out.density = out.surface->deepCopy();
-        openvdb::tools::sdfToFogVolume(*out.density);
-        out.density->setName("density");
-    }
+    if (opt.fog)
+        addFog(out);
     st.seconds = since(start);
     st.assemblySeconds = st.seconds - st.topologySeconds - st.samplingSeconds;
     progress("assembly", 1.0);

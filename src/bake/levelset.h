@@ -55,6 +55,10 @@ struct BakedGrids {
 BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                         const BakeOptions& options);
 
+/// The grids of a bake with nothing in its band (background everywhere,
+/// the same names, class and transform): a growth frame with no surface yet.
+BakedGrids emptyLevelSet(const BakeOptions& options);
+
 /// A voxel size that puts about `voxels` voxels across the largest extent of
 /// the surface bounds.
 double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);

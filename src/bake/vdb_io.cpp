@@ -31,12 +31,28 @@ void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInf
     }
     openvdb::MetaMap fileMeta;
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
+    if (!info.sequence.empty())
+        fileMeta.insertMeta("cambium_sequence", openvdb::StringMetadata(info.sequence));
     writeAtomically(path, [&](const std::string& tmp) {
         openvdb::io::File file(tmp);
         file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         file.write(out, fileMeta);
         file.close();
     });
+}
+
+std::string readSequenceKey(const std::string& path)
+{
+    try {
+        openvdb::io::File file(path);
+        file.open(false);
+        const openvdb::MetaMap::Ptr meta = file.getMetadata();
+        file.close();
+        if (const auto key = meta->getMetadata<openvdb::StringMetadata>("cambium_sequence"))
+            return key->value();
+    } catch (const std::exception&) {
+    }
+    return {};
 }
 
 }  // namespace cambium

@@ -15,6 +15,7 @@ struct VdbFileInfo {
     long long frame = 0;    ///< growth frame number (0 for a single bake)
     double time = 0.0;      ///< model time of the frame
     bool half = false;      ///< store floats as 16-bit halves
+    std::string sequence;   ///< a sequence's key (file metadata `cambium_sequence`), empty for a single bake
 };
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
@@ -23,5 +24,9 @@ struct VdbFileInfo {
 /// never leaves a half-written .vdb.  Throws InputError when the path cannot
 /// be written.
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
+
+/// The `cambium_sequence` file metadata of a .vdb; empty when it has none or
+/// cannot be read.
+std::string readSequenceKey(const std::string& path);
 
 }  // namespace cambium

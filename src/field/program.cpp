@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstring>
 #include <deque>
 #include <array>
 #include <cmath>
@@ -422,6 +423,12 @@ double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& 
 
 int FieldProgram::maxStackDepth() { return CB_STACK_DEPTH; }
 int FieldProgram::maxWarpDepth() { return CB_WARP_DEPTH; }
+
+bool FieldProgram::identical(const FieldProgram& other) const
+{
+    return params_ == other.params_ && code_.size() == other.code_.size() &&
+           std::memcmp(code_.data(), other.code_.data(), code_.size() * sizeof(Instr)) == 0;
+}
 
 FieldProgram FieldProgram::compile(const BlobTree& tree)
 {

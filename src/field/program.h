@@ -57,6 +57,10 @@ public:
     /// blends or picks its children's colours).
     const std::optional<glm::dvec3>& uniformColor() const { return uniformColor_; }
 
+    /// Whether `other` computes the same field and colour: the same
+    /// instructions and parameter table, value for value.
+    bool identical(const FieldProgram& other) const;
+
     /// Bounds of the field of `code` over `box`, and (when `out` is given)
     /// `code` specialised to the box appended to *out: children whose field is
     /// zero or provably irrelevant on the box are removed, operators left with

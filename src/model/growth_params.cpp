@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 
 namespace cambium {
@@ -79,6 +80,15 @@ public:
                                      "base_radius",
                                      "tip_radius",
                                      "thickening",
+                                     "growing_season",
+                                     "shoot_spread",
+                                     "bud_radius",
+                                     "scar_ring",
+                                     "scar_years",
+                                     "ridge_years",
+                                     "ridge_radius",
+                                     "leaf_fall",
+                                     "max_internodes",
                                      "leaves",
                                      "bark",
                                      "leaf",
@@ -111,6 +121,15 @@ public:
         if (!(p.tipRadius <= p.baseRadius))
             fail("tip_radius", fmt::format("must not exceed base_radius ({} > {})", p.tipRadius, p.baseRadius));
         p.thickening = number(root, "thickening", p.thickening, 0, 2);
+        p.growingSeason = number(root, "growing_season", p.growingSeason, 0.05, 1);
+        p.shootSpread = number(root, "shoot_spread", p.shootSpread, 0, 0.99);
+        p.budRadius = number(root, "bud_radius", p.budRadius, 0, 1e6);
+        p.scarRing = number(root, "scar_ring", p.scarRing, 0, 2);
+        p.scarYears = number(root, "scar_years", p.scarYears, 0, 1000);
+        p.ridgeYears = number(root, "ridge_years", p.ridgeYears, 0, 1000);
+        p.ridgeRadius = number(root, "ridge_radius", p.ridgeRadius, 0.5, 100);
+        p.leafFall = number(root, "leaf_fall", p.leafFall, 0, 1);
+        p.maxInternodes = number(root, "max_internodes", p.maxInternodes, 1, 1e9);
         if (root.contains("leaves")) {
             if (!root["leaves"].is_boolean())
                 fail("leaves", "must be true or false");
@@ -159,6 +178,15 @@ public:
         within(p.internodeGrowth, "internode_growth", 0, 1);
         within(p.leafGrowth, "leaf_growth", 0, 1);
         within(p.budGrowth, "bud_growth", 0, 1);
+        // An organ starts from nothing and ends its year at its full size:
+        // otherwise it would pop in, or the lengths at year ends would not be
+        // eq. 7's.
+        for (const auto& [c, key] : {std::pair{&p.internodeGrowth, "internode_growth"},
+                                     std::pair{&p.leafGrowth, "leaf_growth"}, std::pair{&p.budGrowth, "bud_growth"}})
+            if (c->points().front().second != 0.0 || c->points().back().second != 1.0)
+                fail(fmt::format("curves.{}", key),
+                     fmt::format("must start at 0 and end at 1 (fraction of full size; it goes from {} to {})",
+                                 c->points().front().second, c->points().back().second));
         return p;
     }
 
@@ -176,6 +204,17 @@ GrowthParameters parseGrowthParameters(const std::string& text, const std::strin
 GrowthParameters loadGrowthParameters(const std::string& path)
 {
     return parseGrowthParameters(readTextFile(path, "growth parameter file"), path);
+}
+
+bool isGrowthParameterFile(const std::string& path)
+{
+    if (path.size() < 5 || path.compare(path.size() - 5, 5, ".json") != 0)
+        return false;
+    std::ifstream in(path);
+    if (!in)
+        return false;
+    const json root = json::parse(in, nullptr, /*allow_exceptions=*/false);
+    return root.is_object() && root.contains("curves");
 }
 
 }  // namespace cambium

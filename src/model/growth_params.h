@@ -28,6 +28,15 @@ struct GrowthParameters {
     double baseRadius = 0.25;       ///< trunk radius at its base at y_max
     double tipRadius = 0.004;       ///< radius of a shoot's tip
     double thickening = 0.7;        ///< secondary growth: radius exponent of the supported length
+    double growingSeason = 0.6;     ///< fraction of each year in which shoots grow and bark ages; dormant after
+    double shootSpread = 0.5;       ///< fraction of the year over which a shoot's metamers start growing, base first
+    double budRadius = 0.008;       ///< a full-grown bud's radius
+    double scarRing = 0.3;          ///< weight of a new bud scale scar ring (0: none)
+    double scarYears = 6.0;         ///< years over which a scar ring fades
+    double ridgeYears = 8.0;        ///< years over which a junction's bark ridge forms (GBB from blend to PCM)
+    double ridgeRadius = 4.0;       ///< the ridge's bounding field reaches this many lateral radii from the junction
+    double leafFall = 0.85;         ///< time of year at which leaves begin to fall (gone 0.1 later)
+    double maxInternodes = 3e6;     ///< refuse parameters that grow more internodes than this
     bool leaves = true;
     glm::dvec3 bark{0.36, 0.30, 0.24};
     glm::dvec3 leaf{0.25, 0.45, 0.15};
@@ -53,5 +62,10 @@ struct GrowthParameters {
 /// or out of range, before any work.
 GrowthParameters parseGrowthParameters(const std::string& text, const std::string& source);
 GrowthParameters loadGrowthParameters(const std::string& path);
+
+/// Whether `path` is a growth parameter file rather than a scene: a .json
+/// whose top-level object has "curves".  False for anything unreadable (the
+/// scene reader then names the problem).
+bool isGrowthParameterFile(const std::string& path);
 
 }  // namespace cambium

@@ -18,6 +18,9 @@ struct Internode {
     int order = 0;              ///< branch order (0: the trunk's axis)
     long long module = -1;      ///< index of the module that made it (L-systems), -1 for none
     bool cut = false;           ///< pruned: ends in a saw cut through p1, across its axis
+    /// Years since it began to grow (growth models); negative when unknown.
+    /// Junction ages drive the bark ridges (TreeBuildOptions::ridgeYears).
+    double age = -1.0;
 };
 
 /// Where a lateral organ was lost (shed): a stub from `base` (on the parent
@@ -27,11 +30,26 @@ struct Scar {
     glm::dvec3 base{0.0}, tip{0.0};
     double radius = 0.0;
     long long parent = -1;  ///< the internode it sits on
+    double weight = 1.0;    ///< fraction of the scar's full depth (0: the stub alone)
+};
+
+/// Organs and marks that are not internodes, each one primitive.
+struct Organ {
+    /// Leaf: a flat ellipsoid from p0 (the blade's base) to p1 (its tip),
+    /// `radius` wide on each side, `thickness` thick on each side, its face
+    /// across `normal`.  Bud: a sphere of `radius` at p0.  Ring: a bud scale
+    /// scar, a band from p0 to p1 of `radius` summed with the branch at
+    /// `weight`.
+    enum class Kind { Leaf, Bud, Ring } kind = Kind::Bud;
+    glm::dvec3 p0{0.0}, p1{0.0}, normal{0.0, 1.0, 0.0};
+    double radius = 0.0, thickness = 0.0, weight = 1.0;
+    glm::dvec3 colour{0.5};
 };
 
 struct Skeleton {
     std::vector<Internode> internodes;
     std::vector<Scar> scars;
+    std::vector<Organ> organs;
 };
 
 /// Reads the text format of ../shared/bench/gen_skeleton.py (docs/skeleton-format.md):

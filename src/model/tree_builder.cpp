@@ -154,22 +154,76 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     for (const Scar& scar : sk.scars) {
         // The shortened stub, and the negative field that presses the scar in;
         // both the colour of the wood under the bark.
-        const int stub = tree.cone(scar.base, scar.tip, scar.radius, scar.radius);
+        std::vector<int> nodes{tree.cone(scar.base, scar.tip, scar.radius, scar.radius)};
         PrimitiveOptions negative;
-        negative.weight = o.scarWeight;
-        const int press = tree.sphere(scar.tip, o.scarRadius * scar.radius, negative);
-        for (int node : {stub, press}) {
+        negative.weight = o.scarWeight * scar.weight;
+        if (std::abs(negative.weight) > 1e-6)
+            nodes.push_back(tree.sphere(scar.tip, o.scarRadius * scar.radius, negative));
+        for (int node : nodes) {
             tree.setColor(node, 0.5 * o.bark);
             top.push_back(node);
         }
+    }
+    for (const Organ& organ : sk.organs) {
+        int node = -1;
+        switch (organ.kind) {
+        case Organ::Kind::Bud:
+            node = tree.sphere(organ.p0, organ.radius);
+            break;
+        case Organ::Kind::Ring: {
+            PrimitiveOptions ring;
+            ring.weight = organ.weight;
+            node = tree.cone(organ.p0, organ.p1, organ.radius, organ.radius, ring);
+            break;
+        }
+        case Organ::Kind::Leaf: {
+            // The unit sphere mapped onto the blade's ellipsoid.
+            const glm::dvec3 a = 0.5 * (organ.p1 - organ.p0);
+            const glm::dvec3 along = glm::normalize(a);
+            const glm::dvec3 normal = glm::normalize(organ.normal - along * glm::dot(organ.normal, along));
+            const glm::dvec3 wide = glm::cross(normal, along);
+            glm::dmat4 m(1.0);
+            m[0] = glm::dvec4(a, 0.0);
+            m[1] = glm::dvec4(organ.radius * wide, 0.0);
+            m[2] = glm::dvec4(organ.thickness * normal, 0.0);
+            m[3] = glm::dvec4(organ.p0 + a, 1.0);
+            node = tree.transform(m, tree.sphere(glm::dvec3(0.0), 1.0));
+            break;
+        }
+        }
+        tree.setColor(node, organ.colour);
+        top.push_back(node);
     }
     Combiner pcm{NodeType::PCM};
     pcm.width = o.pcmWidth;
     pcm.attenuation = o.pcmAttenuation;
     pcm.darken = o.ridgeDarken;
-    for (const std::vector<int>& group : groups)  // in skeleton order: the same tree every time
-        if (!group.empty())
+    for (size_t i = 0; i < n; ++i) {  // in skeleton order: the same tree every time
+        const std::vector<int>& group = groups[i];
+        if (group.empty())
+            continue;
+        // The junction's age and thinnest branch (ridges over time).
+        double age = 1e300, thinnest = 1e300;
+        for (size_t k : children[i])
+            if (isCone(k)) {
+                age = std::min(age, sk.internodes[k].age);
+                thinnest = std::min(thinnest, sk.internodes[k].r0);
+            }
+        if (o.ridgeYears <= 0.0 || age < 0.0) {
             top.push_back(tree.op(pcm, group));
+            continue;
+        }
+        const double a = std::clamp(age / o.ridgeYears, 0.0, 1.0), grown = a * a * (3.0 - 2.0 * a);
+        const double support = grown * o.ridgeRadius * thinnest;
+        if (support < 1e-6 * thinnest) {
+            top.insert(top.end(), group.begin(), group.end());  // a new junction: the summation alone
+            continue;
+        }
+        PrimitiveOptions bound;
+        bound.support = support;
+        const int fb = tree.sphere(sk.internodes[i].p1, 0.5 * support, bound);
+        top.push_back(tree.gbb(fb, group, pcm, {NodeType::BLEND}));
+    }
     auto sum = [&](const std::vector<int>& nodes) {
         return nodes.size() == 1 ? nodes[0] : tree.op({NodeType::BLEND}, nodes);
     };

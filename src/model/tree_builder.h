@@ -41,6 +41,15 @@ struct TreeBuildOptions {
     /// a callus that swells the branch below the cut (16 % at 0.5, 24 % at 1)
     /// and rises over the cut face as it grows.  0: a bare cut.
     double regrowth = 0.0;
+    /// Bark ridges over time (paper 000 section 3.2): with ridgeYears > 0
+    /// and internode ages known, a junction's branches combine by generalized
+    /// bounded blending, Fg = Fb PCM + (1 - Fb) blend, where the bounding field
+    /// Fb is a Wyvill sphere at the branching point whose support grows from 0
+    /// to `ridgeRadius` times the thinnest branch's radius as the junction's
+    /// youngest branch ages from 0 to ridgeYears (smoothly): a young junction
+    /// blends, an old one has its PCM ridge, darkened by Fb.  0: PCM at once.
+    double ridgeYears = 0.0;
+    double ridgeRadius = 4.0;
     /// Bark colour (linear RGB) of every internode, into the Cd grid; scars
     /// are darker (the wood under the bark).
     glm::dvec3 bark{0.36, 0.28, 0.22};

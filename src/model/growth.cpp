@@ -1,0 +1,533 @@
+// cambium — the global-to-local growth model.
+#include "model/growth.h"
+
+#include "blobtree/stats.h"
+#include "core/error.h"
+
+#include <fmt/format.h>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace cambium {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+double radians(double deg) { return deg * kPi / 180.0; }
+
+double smoothstep(double e0, double e1, double x)
+{
+    if (!(e1 > e0))
+        return x >= e1 ? 1.0 : 0.0;
+    const double u = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
+    return u * u * (3.0 - 2.0 * u);
+}
+
+/// Angular distance in degrees, in [0, 180].
+double angularDistance(double deg)
+{
+    const double a = std::fmod(std::abs(deg), 360.0);
+    return std::min(a, 360.0 - a);
+}
+
+/// SplitMix64: a seeded, platform-independent stream for the stochastic parts.
+uint64_t splitmix(uint64_t& s)
+{
+    uint64_t z = (s += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+double uniform(uint64_t& s) { return double(splitmix(s) >> 11) * 0x1.0p-53; }
+
+/// Rodrigues: v rotated about the unit axis a by `angle` radians.
+glm::dvec3 rotate(const glm::dvec3& v, const glm::dvec3& a, double angle)
+{
+    const double c = std::cos(angle), s = std::sin(angle);
+    return v * c + glm::cross(a, v) * s + a * glm::dot(a, v) * (1.0 - c);
+}
+
+glm::dvec3 anyPerpendicular(const glm::dvec3& v)
+{
+    const glm::dvec3 a = std::abs(v.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    return glm::normalize(glm::cross(v, a));
+}
+
+}  // namespace
+
+double GrowthBranch::lengthAt(int year) const
+{
+    const int k = year - (birth - 1);
+    if (k <= 0)
+        return 0.0;
+    return k >= int(length.size()) ? length.back() : length[size_t(k)];
+}
+
+GrowthModel::GrowthModel(GrowthParameters params) : p_(std::move(params))
+{
+    grow();
+    // The trunk base's supported length at the end: the radius scale.
+    double total = 0.0;
+    for (size_t b = 0; b < branches_.size(); ++b)
+        total += grownLength(int(b), double(p_.years));
+    supportRef_ = std::max(total, 1e-12);
+}
+
+bool GrowthModel::separationHolds(int first, int m, int previous) const
+{
+    if (previous < 0)
+        return true;
+    const int last = first + m - 1;
+    if (angularDistance((last - previous) * p_.phyllotaxis) < p_.longestSeparation)
+        return false;
+    return m < 2 || angularDistance((last - 1 - previous) * p_.phyllotaxis) >= p_.longestSeparation;
+}
+
+void GrowthModel::grow()
+{
+    const int Y = p_.years;
+    uint64_t rng = p_.seed * 0x2545f4914f6cdd1dull + 17;
+    GrowthBranch trunk;
+    trunk.order = 0;
+    trunk.birth = 1;
+    trunk.lost = Y + 1;
+    trunk.length.push_back(0.0);
+    for (int y = 1; y <= Y; ++y)  // Gh, with eq. 5
+        trunk.length.push_back(
+            std::max(p_.trunkLength * p_.Gh(double(y) / Y), trunk.length.back() + p_.minShootLength));
+    branches_.push_back(std::move(trunk));
+
+    long long internodes = 0;
+    for (size_t bi = 0; bi < branches_.size(); ++bi) {
+        {
+            GrowthBranch& b = branches_[bi];
+            b.azimuth0 = 2.0 * kPi * uniform(rng);
+            for (double& ph : b.phase)
+                ph = 2.0 * kPi * uniform(rng);
+            // Shoots: m = Gm(l_s / l_s,max) metamers (eq. 14), the nearest
+            // count for which the 40 degree rule holds.
+            int first = 0, previous = -1;
+            for (int y = b.birth; y <= b.lastYear(); ++y) {
+                GrowthShoot s;
+                s.year = y;
+                s.firstMetamer = first;
+                s.start = b.lengthAt(y - 1);
+                s.length = b.lengthAt(y) - s.start;
+                const int m0 = std::max(1, int(std::lround(p_.Gm(s.length / p_.maxShootLength))));
+                s.metamers = m0;
+                for (int d = 0; d <= 16; ++d) {
+                    if (separationHolds(first, m0 + d, previous)) {
+                        s.metamers = m0 + d;
+                        break;
+                    }
+                    if (m0 - d >= 1 && separationHolds(first, m0 - d, previous)) {
+                        s.metamers = m0 - d;
+                        break;
+                    }
+                }
+                previous = first + s.metamers - 1;
+                first += s.metamers;
+                internodes += s.metamers;
+                if (double(internodes) > p_.maxInternodes)
+                    throw InputError(fmt::format(
+                        "{}: the parameters grow more than {:.0f} internodes (max_internodes) — reached at a "
+                        "branch of order {} in year {}: raise min_scale, lower Gss or Gm, or raise max_internodes",
+                        p_.name.empty() ? "growth parameters" : p_.name, p_.maxInternodes, b.order, y));
+                b.shoots.push_back(s);
+            }
+        }
+        // Laterals, from the buds of each shoot, the year after it grew.
+        const GrowthBranch b = branches_[bi];  // a copy: branches_ grows below
+        const double finalLength = b.length.back();
+        std::vector<int> laterals;
+        for (const GrowthShoot& s : b.shoots)
+            for (int k = 0; k < s.metamers; ++k) {
+                const int birth = s.year + 1;
+                if (birth > Y || birth >= b.lost)
+                    continue;
+                const double xs = double(k + 1) / s.metamers;
+                const double x = s.start + xs * s.length;
+                const double sb = p_.Gss(xs) * b.scale * p_.Gbs(x / finalLength);  // eq. 15
+                if (sb < p_.minScale)
+                    continue;
+                GrowthBranch c;
+                c.order = b.order + 1;
+                c.parent = int(bi);
+                c.node = s.firstMetamer + k;
+                c.position = x;
+                c.azimuth = radians(c.node * p_.phyllotaxis) + b.azimuth0;
+                c.scale = sb;
+                c.birth = birth;
+                c.lost = std::min(birth + std::max(1, int(std::lround(p_.Ga(sb)))), b.lost);  // eq. 11
+                c.length.push_back(0.0);
+                for (int y = birth; y < c.lost && y <= Y; ++y) {
+                    const double lp = b.lengthAt(y), xy = std::min(1.0, x / lp), ty = double(y) / Y;
+                    double ld = lp * ((1.0 - ty) * p_.Gs1(xy) + ty * p_.Gs2(xy)) * sb;  // eq. 6, scaled by s_b
+                    if (c.order >= 2)
+                        ld /= 0.5 * c.order + 1.0;  // eq. 12
+                    c.length.push_back(std::max(ld, c.length.back() + p_.minShootLength));  // eq. 7
+                }
+                laterals.push_back(int(branches_.size()));
+                branches_.push_back(std::move(c));
+            }
+        branches_[bi].laterals = std::move(laterals);
+    }
+}
+
+double GrowthModel::metamerLength(const GrowthBranch&, const GrowthShoot& s, int k, double t) const
+{
+    const double li = s.length / s.metamers;
+    const double u = t - (s.year - 1);
+    if (u <= 0.0)
+        return 0.0;
+    if (u >= 1.0)
+        return li;
+    const double start = s.metamers > 1 ? p_.shootSpread * k / (s.metamers - 1) : 0.0;
+    return li * p_.internodeGrowth(std::clamp((u - start) / (1.0 - p_.shootSpread), 0.0, 1.0));
+}
+
+double GrowthModel::grownLength(int bi, double t) const
+{
+    const GrowthBranch& b = branches_[size_t(bi)];
+    if (t <= b.birth - 1)
+        return 0.0;
+    const int y = int(std::ceil(t));
+    if (y > b.lastYear())
+        return b.length.back();
+    const GrowthShoot& s = b.shoots[size_t(y - b.birth)];
+    double l = s.start;
+    for (int k = 0; k < s.metamers; ++k)
+        l += metamerLength(b, s, k, t);
+    return l;
+}
+
+TreeBuildOptions GrowthModel::buildOptions() const
+{
+    TreeBuildOptions o;
+    o.junction = TreeBuildOptions::Junction::Pcm;
+    o.bark = p_.bark;
+    o.ridgeYears = p_.ridgeYears;
+    o.ridgeRadius = p_.ridgeRadius;
+    return o;
+}
+
+BlobTree GrowthModel::tree(double t, bool leaves) const { return buildTree(skeleton(t, leaves), buildOptions()); }
+
+double GrowthModel::growthTime(double time) const
+{
+    const int y = std::max(1, int(std::ceil(time)));
+    return (y - 1) + std::min(1.0, (time - (y - 1)) / p_.growingSeason);
+}
+
+Skeleton GrowthModel::skeleton(double time, bool leaves) const
+{
+    // Growth, ageing and dying back run on the growth clock, which stands
+    // still after each growing season; only the leaves fall on the calendar.
+    const double t = growthTime(time);
+    const size_t n = branches_.size();
+    const double minLength = 1e-3 * p_.tipRadius;
+
+    // Supported length: each branch's grown length plus its laterals'
+    // (lost ones at the length they had: the wood they made stays).
+    std::vector<double> support(n, 0.0);
+    for (size_t b = n; b-- > 0;) {
+        support[b] += grownLength(int(b), t);
+        if (branches_[b].parent >= 0)
+            support[size_t(branches_[b].parent)] += support[b];
+    }
+    auto radius = [&](double s) {
+        return p_.tipRadius + (p_.baseRadius - p_.tipRadius) * std::pow(std::max(s, 0.0) / supportRef_, p_.thickening);
+    };
+
+    struct NodeFrame {
+        glm::dvec3 p, h, u;  ///< the metamer's tip, heading, reference across it
+        double r = 0.0;      ///< radius at the tip
+        long long id = -1;   ///< its internode
+    };
+    std::vector<std::vector<NodeFrame>> nodes(n);
+    std::vector<double> visible(n, 0.0), grown(n, 0.0);
+    const double alpha = radians(p_.branchingAngle);
+    const double wave1 = 1.7 * p_.maxShootLength, wave2 = 0.61 * p_.maxShootLength;
+    const double noise = radians(p_.orientationNoise);
+    const int year = std::max(1, int(std::ceil(t)));
+    const double u = t - (year - 1);  // growth time within the current year
+    const double fall = smoothstep(p_.leafFall, std::min(1.0, p_.leafFall + 0.1), time - (year - 1));
+    const glm::dvec3 barkDark = 0.55 * p_.bark;
+
+    Skeleton sk;
+    for (size_t bi = 0; bi < n; ++bi) {
+        const GrowthBranch& b = branches_[bi];
+        if (t <= b.birth - 1)
+            continue;
+        const GrowthBranch* parent = b.parent >= 0 ? &branches_[size_t(b.parent)] : nullptr;
+        // Where it starts, and its frame there.
+        glm::dvec3 base{0.0}, h0{0.0, 1.0, 0.0}, axis{1.0, 0.0, 0.0};
+        long long parentId = -1;
+        double parentRadius = 0.0;
+        if (parent) {
+            const std::vector<NodeFrame>& pn = nodes[size_t(b.parent)];
+            if (size_t(b.node) >= pn.size())
+                continue;  // the parent died back past it, or is gone
+            const NodeFrame& at = pn[size_t(b.node)];
+            base = at.p;
+            parentId = at.id;
+            parentRadius = at.r;
+            const glm::dvec3 across = std::cos(b.azimuth) * at.u + std::sin(b.azimuth) * glm::cross(at.h, at.u);
+            h0 = glm::normalize(std::cos(alpha) * at.h + std::sin(alpha) * across);
+            const glm::dvec3 c = glm::cross(h0, at.h);
+            axis = glm::length(c) > 1e-9 ? glm::normalize(c) : anyPerpendicular(h0);
+        }
+        grown[bi] = grownLength(int(bi), t);
+        if (t >= b.lost) {
+            // Lost: a stub and a scar on the parent, fading as the bark grows over it.
+            const double since = t - b.lost;
+            const double fade = 1.0 - smoothstep(0.0, 2.0 * p_.scarYears, since);
+            if (parent && fade > 0.0) {
+                Scar s;
+                s.radius = radius(support[bi]);
+                s.base = base;
+                s.tip = base + h0 * (parentRadius + 0.3 * s.radius * fade);
+                s.parent = parentId;
+                s.weight = smoothstep(0.0, 0.5, since) * fade;
+                sk.scars.push_back(s);
+            }
+            continue;
+        }
+        // Dying back over the year it is lost; carried off with a dying parent.
+        double v = b.lost == year ? 1.0 - smoothstep(0.0, 1.0, u) : 1.0;
+        if (parent && b.parent >= 0 && visible[size_t(b.parent)] < grown[size_t(b.parent)]) {
+            const double lp = grown[size_t(b.parent)];
+            v = std::min(v, std::clamp((visible[size_t(b.parent)] - b.position) / (lp - b.position), 0.0, 1.0));
+        }
+        const double L = grown[bi];
+        visible[bi] = L * v;
+        if (visible[bi] < minLength)
+            continue;
+        const double sTheta = std::min(1.0, L / p_.maxBranchLength);  // eq. 8
+
+        // Support beyond each node: the branch's own metamers and laterals.
+        const int m = b.metamers();
+        std::vector<double> lengths(size_t(m), 0.0), lateralSupport(size_t(m), 0.0);
+        for (const GrowthShoot& s : b.shoots)
+            for (int k = 0; k < s.metamers; ++k)
+                lengths[size_t(s.firstMetamer + k)] = metamerLength(b, s, k, t);
+        for (int c : b.laterals)
+            lateralSupport[size_t(branches_[size_t(c)].node)] += support[size_t(c)];
+        std::vector<double> beyond(size_t(m) + 1, 0.0);  // beyond[j]: the support of metamer j's base
+        for (int j = m - 1; j >= 0; --j)
+            beyond[size_t(j)] = beyond[size_t(j) + 1] + lengths[size_t(j)] + lateralSupport[size_t(j)];
+
+        // Nodes where a lateral grows now: the skeleton's internodes end there.
+        std::vector<bool> junction(size_t(m), false);
+        for (int c : b.laterals) {
+            const GrowthBranch& lb = branches_[size_t(c)];
+            if (t > lb.birth - 1 && t < lb.lost)
+                junction[size_t(lb.node)] = true;
+        }
+
+        std::vector<NodeFrame>& out = nodes[bi];
+        glm::dvec3 p = base;
+        double drawn = 0.0;
+        long long previous = parentId;
+        const bool growing = b.lastYear() >= year && b.lost > year;
+        // Metamers short for their radius (old, thick wood) are drawn as one
+        // internode up to the next junction, at least four radii long and
+        // straight within 10 degrees: cones much shorter than thick would
+        // lose most of their length to the junction rules (eq. 3) and leave
+        // waists.  `pending` is the internode being gathered.
+        Internode pending;
+        size_t pendingFrom = 0;
+        bool open = false;
+        auto flush = [&] {
+            if (!open)
+                return;
+            pending.id = (long long)sk.internodes.size();
+            pending.parent = previous;
+            sk.internodes.push_back(pending);
+            previous = pending.id;
+            for (size_t k = pendingFrom; k < out.size(); ++k)
+                out[k].id = pending.id;
+            open = false;
+        };
+        for (const GrowthShoot& s : b.shoots) {
+            const double li = s.length / s.metamers;
+            for (int k = 0; k < s.metamers; ++k) {
+                const int j = s.firstMetamer + k;
+                double len = std::min(lengths[size_t(j)], visible[bi] - drawn);
+                if (len < minLength)
+                    break;
+                // Heading (eq. 9) towards the parent's direction, and the seeded variation.
+                const double sNominal = s.start + (k + 0.5) * li;
+                const double x = std::clamp(sNominal / L, 0.0, 1.0);
+                const double theta =
+                    parent ? radians((1.0 - sTheta) * p_.Go1(x) + sTheta * p_.Go2(x)) : 0.0;
+                const double n1 = noise * (0.6 * std::sin(2 * kPi * sNominal / wave1 + b.phase[0]) +
+                                           0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[1]));
+                const double n2 = noise * (0.6 * std::sin(2 * kPi * sNominal / wave1 + b.phase[2]) +
+                                           0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[3]));
+                glm::dvec3 h = rotate(h0, axis, theta + n1), across = axis;
+                const glm::dvec3 yawAxis = glm::normalize(glm::cross(h, axis));
+                h = glm::normalize(rotate(h, yawAxis, n2));
+                across = glm::normalize(rotate(across, yawAxis, n2));
+
+                Internode in;
+                in.p0 = p;
+                in.p1 = p + len * h;
+                in.r0 = radius(beyond[size_t(j)]);
+                in.r1 = radius(beyond[size_t(j) + 1]);
+                in.order = b.order;
+                in.age = t - (s.year - 1);
+                if (open && glm::dot(glm::normalize(in.p1 - pending.p0), glm::normalize(pending.p1 - pending.p0)) <
+                                std::cos(radians(10.0)))
+                    flush();
+                if (!open) {
+                    pending = in;
+                    pendingFrom = out.size();
+                    open = true;
+                } else {
+                    pending.p1 = in.p1;
+                    pending.r1 = in.r1;
+                }
+                drawn += len;
+                out.push_back({in.p1, h, across, in.r1, -1});
+                if (junction[size_t(j)] || glm::length(pending.p1 - pending.p0) >= 4.0 * pending.r0)
+                    flush();
+
+                // A bud scale scar ring at the base of each shoot but the seedling's first.
+                if (k == 0 && (parent || s.year > b.birth) && p_.scarRing > 0.0) {
+                    const double w = p_.scarRing * (1.0 - in.age / std::max(p_.scarYears, 1e-9));
+                    if (w > 1e-3) {
+                        Organ ring;
+                        ring.kind = Organ::Kind::Ring;
+                        ring.p0 = in.p0;
+                        ring.p1 = in.p0 + std::min(len, in.r0) * h;
+                        ring.radius = in.r0;
+                        ring.weight = w;
+                        ring.colour = barkDark;
+                        sk.organs.push_back(ring);
+                    }
+                }
+                // This year's organs at the node: a leaf and a lateral bud
+                // growing; last year's buds that did not break fade.
+                const double az = b.azimuth0 + radians(j * p_.phyllotaxis);
+                const glm::dvec3 side = std::cos(az) * across + std::sin(az) * glm::cross(h, across);
+                const double tau = s.metamers > 1 ? p_.shootSpread * k / (s.metamers - 1) : 0.0;
+                const double organTime = std::clamp((u - tau) / (1.0 - p_.shootSpread), 0.0, 1.0);
+                const bool branched = std::any_of(b.laterals.begin(), b.laterals.end(), [&](int c) {
+                    return branches_[size_t(c)].node == j && t > branches_[size_t(c)].birth - 1;
+                });
+                double bud = 0.0;
+                if (s.year == year && growing)
+                    bud = p_.budRadius * p_.budGrowth(organTime);
+                else if (s.year == year - 1 && !branched && b.lost > year)
+                    bud = p_.budRadius * (1.0 - u);
+                if (bud > 1e-3 * p_.budRadius) {
+                    Organ o;
+                    o.kind = Organ::Kind::Bud;
+                    o.p0 = in.p1 + side * (in.r1 + 0.5 * bud);
+                    o.radius = bud;
+                    o.colour = p_.bark;
+                    sk.organs.push_back(o);
+                }
+                if (leaves && p_.leaves && s.year == year && growing) {
+                    const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(organTime) *
+                                        (1.0 - fall);
+                    if (size > 1e-3 * p_.tipRadius) {
+                        const glm::dvec3 d = glm::normalize(side + 0.5 * h);
+                        glm::dvec3 up = glm::dvec3(0, 1, 0) - d * d.y;
+                        Organ o;
+                        o.kind = Organ::Kind::Leaf;
+                        o.p0 = in.p1 + d * in.r1;
+                        o.p1 = o.p0 + d * size;
+                        o.radius = 0.35 * size;
+                        o.thickness = 0.12 * size;
+                        o.normal = glm::length(up) > 1e-6 ? glm::normalize(up) : across;
+                        o.colour = p_.leaf;
+                        sk.organs.push_back(o);
+                    }
+                }
+                p = in.p1;
+            }
+        }
+        flush();
+        if (growing && p_.budRadius > 0.0 && !out.empty()) {  // the apical bud
+            Organ o;
+            o.kind = Organ::Kind::Bud;
+            o.p0 = p + out.back().h * (0.5 * p_.budRadius);
+            o.radius = p_.budRadius;
+            o.colour = p_.bark;
+            sk.organs.push_back(o);
+        }
+    }
+    return sk;
+}
+
+GrowthStats GrowthModel::stats(double t, bool leaves) const
+{
+    GrowthStats s;
+    s.time = t;
+    const Skeleton sk = skeleton(t, leaves);
+    t = growthTime(t);
+    for (const Internode& in : sk.internodes)
+        ++s.internodesByOrder[in.order];
+    for (const GrowthBranch& b : branches_) {
+        if (t <= b.birth - 1)
+            continue;
+        if (t >= b.lost)
+            ++s.lostBranches;
+        else
+            ++s.branchesByOrder[b.order];
+    }
+    for (const Organ& o : sk.organs)
+        ++(o.kind == Organ::Kind::Leaf ? s.leaves : o.kind == Organ::Kind::Bud ? s.buds : s.rings);
+    s.height = grownLength(0, t);
+    return s;
+}
+
+int runGrowthCommand(const GrowthRequest& req)
+{
+    GrowthParameters p = loadGrowthParameters(req.input);
+    if (req.seed >= 0)
+        p.seed = uint64_t(req.seed);
+    const double t = req.time < 0.0 ? double(p.years) : req.time;
+    if (!(t >= 0.0 && t <= p.years))
+        throw InputError(fmt::format("--year/--time must be between 0 and {} (the file's years; got {})", p.years, t));
+    const GrowthModel model(p);
+    const Skeleton sk = model.skeleton(t, req.leaves);
+    if (req.printSkeleton) {
+        fmt::print("# {} at t = {}: id parent x0 y0 z0 x1 y1 z1 r0 r1  # order age\n", req.input, t);
+        for (const Internode& n : sk.internodes)
+            fmt::print("{} {} {} {} {} {} {} {} {} {}  # {} {:.4g}\n", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x,
+                       n.p1.y, n.p1.z, n.r0, n.r1, n.order, n.age);
+    }
+    if (!req.printStats && req.printSkeleton)
+        return 0;
+    const GrowthStats s = model.stats(t, req.leaves);
+    fmt::print("{} at t = {:g} (year {} of {}): height {:.3f}, {} branches grown in all ({} lost so far)\n",
+               req.input, t, std::max(1, int(std::ceil(t))), p.years, s.height, model.branches().size(),
+               s.lostBranches);
+    if (!req.printStats)
+        return 0;
+    fmt::print("order  branches  internodes\n");
+    long long branches = 0, internodes = 0;
+    for (const auto& [order, count] : s.branchesByOrder) {
+        const auto it = s.internodesByOrder.find(order);
+        const long long in = it == s.internodesByOrder.end() ? 0 : it->second;
+        fmt::print("{:>5}  {:>8}  {:>10}\n", order, count, in);
+        branches += count;
+        internodes += in;
+    }
+    fmt::print("  all  {:>8}  {:>10}\n", branches, internodes);
+    fmt::print("organs: {} leaves, {} buds, {} bud scale scar rings, {} scars\n", s.leaves, s.buds, s.rings,
+               sk.scars.size());
+    const TreeStats ts = computeStats(buildTree(sk, model.buildOptions()));
+    fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives, ts.operators, ts.warps,
+               ts.depth);
+    for (const auto& [type, count] : ts.countByType)
+        fmt::print("  {:<14} {}\n", typeName(type), count);
+    return 0;
+}
+
+}  // namespace cambium
