@@ -93,10 +93,19 @@ void checkModelOptions(const ModelOptions& o)
     checkTreeBuildOptions(treeOptions(o, "pcm"));
 }
 
+void checkGrowthOptions(const std::string& path, const ModelOptions& o)
+{
+    if (!o.junctions.empty() || o.bendDegrees != 0.0 || o.primitives != "cone" || o.regrowth != 0.0)
+        throw InputError(fmt::format("{}: --junctions, --bend, --primitives and --regrowth are for L-systems and "
+                                     "skeletons; a growth parameter file sets its own (docs/growth-format.md)",
+                                     path));
+}
+
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
 {
     checkModelOptions(o);
     if (isGrowthParameterFile(path)) {
+        checkGrowthOptions(path, o);
         const GrowthModel model(loadGrowthParameters(path));
         const double t = o.time < 0.0 ? double(model.params().years) : o.time;
         if (!(t >= 0.0 && t <= model.params().years))

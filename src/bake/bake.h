@@ -36,6 +36,9 @@ struct ModelOptions {
 };
 /// InputError unless the options are valid (before any work).
 void checkModelOptions(const ModelOptions& options);
+/// InputError when options for L-systems and skeletons are given with a
+/// growth parameter file.
+void checkGrowthOptions(const std::string& path, const ModelOptions& options);
 /// Also reads growth parameter files (a .json with "curves",
 /// docs/growth-format.md): the tree grown to `options.time`.
 BlobTree loadModel(const std::string& path, const ModelOptions& options = {});

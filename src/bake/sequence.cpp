@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -68,6 +69,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
         throw InputError(fmt::format("{}: --frames needs a growth parameter file (a .json with \"curves\", "
                                      "docs/growth-format.md)",
                                      req.input));
+    checkGrowthOptions(req.input, req.model);
     if (!(std::isfinite(req.fpsPerYear) && req.fpsPerYear > 0.0 && req.fpsPerYear <= 1e6))
         throw InputError(fmt::format("--fps-per-year must be a positive number (got {})", req.fpsPerYear));
     if (!isFramePattern(req.output))
@@ -124,13 +126,20 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
     const ThreadLimit threads(req.threads);
     report.frames.resize(frames.size());
     const std::vector<std::vector<size_t>> runs = yearRuns(times);
+    // One sampler per worker, made here one after the other (making OpenCL
+    // contexts from several threads at once fails in the ICD loader).
+    std::vector<std::unique_ptr<FieldSampler>> samplers;
+    if (std::find(finished.begin(), finished.end(), false) != finished.end())
+        for (int k = 0; k < report.jobs; ++k)
+            samplers.push_back(makeSampler(req.device));
+    report.device = samplers.empty() ? req.device : samplers.front()->name();
     std::atomic<size_t> next{0};
     std::atomic<bool> failed{false};
     std::exception_ptr error;
     std::mutex mutex;
-    auto worker = [&] {
+    auto worker = [&](int w) {
         try {
-            std::unique_ptr<FieldSampler> sampler;
+            FieldSampler* sampler = samplers.empty() ? nullptr : samplers[size_t(w)].get();
             for (size_t r; !failed && (r = next++) < runs.size();) {
                 std::optional<FieldProgram> previous;  // the last frame baked in this run
                 BakedGrids grids;
@@ -160,8 +169,6 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                             if (previous && previous->identical(program)) {
                                 fr.outcome = FrameReport::Outcome::Reused;
                             } else {
-                                if (!sampler)
-                                    sampler = makeSampler(req.device);
                                 grids = bakeLevelSet(program, *sampler, opt);
                                 fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked
                                                                       : FrameReport::Outcome::Empty;
@@ -182,8 +189,6 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                     fr.seconds = since(t0);
                     if (done) {
                         std::lock_guard<std::mutex> lock(mutex);
-                        if (report.device.empty() && sampler)
-                            report.device = sampler->name();
                         done(fr);
                     }
                 }
@@ -197,16 +202,14 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
     };
     std::vector<std::thread> pool;
     for (int k = 1; k < report.jobs; ++k)
-        pool.emplace_back(worker);
-    worker();
+        pool.emplace_back(worker, k);
+    worker(0);
     for (std::thread& th : pool)
         th.join();
     if (error)
         std::rethrow_exception(error);
     report.seconds = since(start);
     report.peakMemoryBytes = peakMemoryBytes();
-    if (report.device.empty())
-        report.device = req.device;
     return report;
 }
 

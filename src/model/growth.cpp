@@ -196,11 +196,13 @@ double GrowthModel::grownLength(int bi, double t) const
     const int y = int(std::ceil(t));
     if (y > b.lastYear())
         return b.length.back();
+    if (t == y)
+        return b.lengthAt(y);  // exactly l_y (a sum of the metamers could differ in the last bit)
     const GrowthShoot& s = b.shoots[size_t(y - b.birth)];
     double l = s.start;
     for (int k = 0; k < s.metamers; ++k)
         l += metamerLength(b, s, k, t);
-    return l;
+    return std::min(l, b.lengthAt(y));  // (rounding could put the sum a bit past l_y)
 }
 
 TreeBuildOptions GrowthModel::buildOptions() const
@@ -378,6 +380,7 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                 in.r0 = radius(beyond[size_t(j)]);
                 in.r1 = radius(beyond[size_t(j) + 1]);
                 in.order = b.order;
+                in.module = (long long)bi;
                 in.age = t - (s.year - 1);
                 if (open && glm::dot(glm::normalize(in.p1 - pending.p0), glm::normalize(pending.p1 - pending.p0)) <
                                 std::cos(radians(10.0)))
