@@ -204,10 +204,14 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             continue;
         // The junction's age and thinnest branch (ridges over time).
         double age = 1e300, thinnest = 1e300;
+        glm::dvec3 lateral{0.0};
         for (size_t k : children[i])
             if (isCone(k)) {
                 age = std::min(age, sk.internodes[k].age);
-                thinnest = std::min(thinnest, sk.internodes[k].r0);
+                if (sk.internodes[k].r0 < thinnest) {
+                    thinnest = sk.internodes[k].r0;
+                    lateral = glm::normalize(sk.internodes[k].p1 - sk.internodes[k].p0);
+                }
             }
         if (o.ridgeYears <= 0.0 || age < 0.0) {
             top.push_back(tree.op(pcm, group));
@@ -219,9 +223,12 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             top.insert(top.end(), group.begin(), group.end());  // a new junction: the summation alone
             continue;
         }
+        // Fb = 1 along the thinnest branch's axis through the bark of its
+        // parent, falling to 0 `support` away: the collar where the ridge forms.
         PrimitiveOptions bound;
         bound.support = support;
-        const int fb = tree.sphere(sk.internodes[i].p1, 0.5 * support, bound);
+        const glm::dvec3 at = sk.internodes[i].p1;
+        const int fb = tree.segment(at, at + (sk.internodes[i].r1 + 2.0 * thinnest) * lateral, 0.5 * support, bound);
         top.push_back(tree.gbb(fb, group, pcm, {NodeType::BLEND}));
     }
     auto sum = [&](const std::vector<int>& nodes) {

@@ -44,10 +44,12 @@ struct TreeBuildOptions {
     /// Bark ridges over time (paper 000 section 3.2): with ridgeYears > 0
     /// and internode ages known, a junction's branches combine by generalized
     /// bounded blending, Fg = Fb PCM + (1 - Fb) blend, where the bounding field
-    /// Fb is a Wyvill sphere at the branching point whose support grows from 0
-    /// to `ridgeRadius` times the thinnest branch's radius as the junction's
-    /// youngest branch ages from 0 to ridgeYears (smoothly): a young junction
-    /// blends, an old one has its PCM ridge, darkened by Fb.  0: PCM at once.
+    /// Fb is a Wyvill segment along the thinnest branch's axis from the
+    /// branching point through its parent's bark (Fb = 1 on that axis), whose
+    /// support grows from 0 to `ridgeRadius` times the thinnest branch's radius
+    /// as the junction's youngest branch ages from 0 to ridgeYears (smoothly):
+    /// a young junction blends, an old one has its PCM ridge, darkened by Fb.
+    /// 0: PCM at once.
     double ridgeYears = 0.0;
     double ridgeRadius = 4.0;
     /// Bark colour (linear RGB) of every internode, into the Cd grid; scars

@@ -1,0 +1,305 @@
+// Growth sequences: one .vdb per frame with consistent names, transforms and
+// metadata; --resume; dormant frames reused and identical to a full bake;
+// determinism; a volume that changes smoothly from frame to frame; bark
+// ridges that form continuously with a junction's age.
+#include "bake/sequence.h"
+#include "bake/vdb_io.h"
+#include "blobtree/evaluator.h"
+#include "blobtree/stats.h"
+#include "core/error.h"
+#include "model/growth.h"
+#include "test_util.h"
+
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/tools/LevelSetMeasure.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace {
+
+using namespace cambium;
+using cambium::test::expectInputError;
+namespace fs = std::filesystem;
+
+const std::string kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+
+struct TempDir {
+    fs::path path;
+    TempDir()
+    {
+        char tmpl[] = "/tmp/cambium-seq-XXXXXX";
+        path = ::mkdtemp(tmpl);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    std::string operator/(const std::string& name) const { return (path / name).string(); }
+};
+
+BakeRequest sequence(const std::string& out, const std::string& frames, double fps, double h = 0.04)
+{
+    openvdb::initialize();
+    BakeRequest r;
+    r.input = kPopulus;
+    r.output = out;
+    r.frames = frames;
+    r.fpsPerYear = fps;
+    r.voxelSize = h;
+    r.device = "cpu";
+    return r;
+}
+
+openvdb::GridPtrVecPtr readGrids(const std::string& path)
+{
+    openvdb::io::File f(path);
+    f.open();
+    openvdb::GridPtrVecPtr g = f.getGrids();
+    f.close();
+    return g;
+}
+
+openvdb::FloatGrid::Ptr surface(const std::string& path)
+{
+    if (!fs::exists(path))
+        ADD_FAILURE() << path << " is missing";
+    const openvdb::GridPtrVecPtr grids = readGrids(path);  // (held: the loop must not outlive it)
+    for (const auto& g : *grids)
+        if (g->getName() == "surface")
+            return openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+    return nullptr;
+}
+
+/// Same active voxels, same values, bit for bit.
+void expectIdentical(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b, const std::string& what)
+{
+    ASSERT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
+    ASSERT_EQ(a.tree().leafCount(), b.tree().leafCount()) << what;
+    size_t differ = 0;
+    for (auto it = a.cbeginValueOn(); it; ++it)
+        if (!b.tree().isValueOn(it.getCoord()) || b.tree().getValue(it.getCoord()) != *it)
+            ++differ;
+    EXPECT_EQ(differ, 0u) << what;
+}
+
+TEST(Sequence, FilesAreNamedPaddedAndConsistent)
+{
+    TempDir dir;
+    const SequenceReport r = runBakeSequence(sequence(dir / "tree.####.vdb", "8-12:2", 1.0));
+    ASSERT_EQ(r.frames.size(), 3u);
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir.path))
+        names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    EXPECT_EQ(names, (std::vector<std::string>{"tree.0008.vdb", "tree.0010.vdb", "tree.0012.vdb"}));  // no temporaries
+    for (const FrameReport& f : r.frames) {
+        EXPECT_EQ(f.outcome, FrameReport::Outcome::Baked);
+        const openvdb::GridPtrVecPtr grids = readGrids(f.path);
+        std::vector<std::string> gridNames;
+        for (const auto& g : *grids) {
+            gridNames.push_back(g->getName());
+            EXPECT_TRUE(g->transform() == *openvdb::math::Transform::createLinearTransform(0.04)) << f.path;
+            EXPECT_EQ(g->metaValue<int64_t>("cambium_frame"), f.frame);
+            EXPECT_DOUBLE_EQ(g->metaValue<double>("cambium_time"), double(f.frame));
+        }
+        std::sort(gridNames.begin(), gridNames.end());
+        EXPECT_EQ(gridNames, (std::vector<std::string>{"Cd", "surface"}));
+        EXPECT_EQ(readSequenceKey(f.path), sequenceKey(sequence("", "", 1.0), readTextFile(kPopulus, "t"), 0.04));
+    }
+    // The tree grows: more voxels every frame.
+    EXPECT_LT(r.frames[0].stats.activeVoxels, r.frames[1].stats.activeVoxels);
+    EXPECT_LT(r.frames[1].stats.activeVoxels, r.frames[2].stats.activeVoxels);
+}
+
+TEST(Sequence, ResumeKeepsFinishedFramesAndRefusesOthers)
+{
+    TempDir dir;
+    const std::string pattern = dir / "p.##.vdb";
+    runBakeSequence(sequence(pattern, "4-7", 1.0));
+    fs::remove(dir / "p.06.vdb");
+    const auto stamp = fs::last_write_time(dir / "p.05.vdb");
+    BakeRequest again = sequence(pattern, "4-7", 1.0);
+    again.resume = true;
+    const SequenceReport r = runBakeSequence(again);
+    ASSERT_EQ(r.frames.size(), 4u);
+    for (const FrameReport& f : r.frames)
+        EXPECT_EQ(f.outcome, f.frame == 6 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped) << f.frame;
+    EXPECT_EQ(fs::last_write_time(dir / "p.05.vdb"), stamp);
+    EXPECT_TRUE(fs::exists(dir / "p.06.vdb"));
+    // Files from another bake (here another voxel size) are not taken for finished.
+    BakeRequest other = sequence(pattern, "4-7", 1.0, 0.05);
+    other.resume = true;
+    expectInputError([&] { runBakeSequence(other); }, "p.04.vdb exists from another bake", "other key");
+}
+
+TEST(Sequence, DormantFramesReuseGridsIdenticalToAFullBake)
+{
+    TempDir dir;
+    // Year 4 at 10 frames a year: growth until 3.6, dormant after.
+    BakeRequest req = sequence(dir / "d.####.vdb", "35-40", 10.0);
+    req.model.leaves = false;
+    const SequenceReport r = runBakeSequence(req);
+    size_t reused = 0;
+    for (const FrameReport& f : r.frames) {
+        reused += f.outcome == FrameReport::Outcome::Reused;
+        if (f.frame >= 38) {
+            EXPECT_EQ(f.outcome, FrameReport::Outcome::Reused) << f.frame;
+        }
+    }
+    EXPECT_GE(reused, 3u);
+    // The reused frame against a bake of that frame alone.
+    TempDir single;
+    BakeRequest one = sequence(single / "s.####.vdb", "39", 10.0);
+    one.model.leaves = false;
+    runBakeSequence(one);
+    const auto reusedGrid = surface(dir / "d.0039.vdb"), fullGrid = surface(single / "s.0039.vdb");
+    ASSERT_TRUE(reusedGrid && fullGrid);
+    expectIdentical(*reusedGrid, *fullGrid, "reused vs full bake");
+}
+
+TEST(Sequence, SameSeedSameGridsOtherSeedOtherGrids)
+{
+    TempDir a, b;
+    runBakeSequence(sequence(a / "t.#.vdb", "6", 1.0));
+    runBakeSequence(sequence(b / "t.#.vdb", "6", 1.0));
+    expectIdentical(*surface(a / "t.6.vdb"), *surface(b / "t.6.vdb"), "same seed");
+    // Another seed: the same parameters otherwise.
+    std::string text = readTextFile(kPopulus, "test");
+    text.replace(text.find("\"seed\": 1"), 9, "\"seed\": 7");
+    const std::string other = a / "other.json";
+    {
+        std::ofstream(other) << text;
+    }
+    BakeRequest req = sequence(b / "u.#.vdb", "6", 1.0);
+    req.input = other;
+    runBakeSequence(req);
+    const auto s1 = surface(a / "t.6.vdb"), s2 = surface(b / "u.6.vdb");
+    size_t differ = 0;
+    for (auto it = s1->cbeginValueOn(); it; ++it)
+        differ += s2->tree().getValue(it.getCoord()) != *it;
+    EXPECT_GT(differ, s1->activeVoxelCount() / 10);
+}
+
+TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
+{
+    // Years 9-13 at ten frames a year: branches appear by growing from their
+    // buds and are shed by dying back, so that no frame's change of volume
+    // exceeds a few times the median change of the growing frames.  (Without
+    // leaves: they fall within a tenth of a year, one frame at this rate.)
+    TempDir dir;
+    BakeRequest req = sequence(dir / "v.####.vdb", "81-130", 10.0, 0.03);
+    req.model.leaves = false;
+    const SequenceReport r = runBakeSequence(req);
+    std::vector<double> volume;
+    for (const FrameReport& f : r.frames)
+        volume.push_back(openvdb::tools::levelSetVolume(*surface(f.path)));
+    std::vector<double> change;
+    for (size_t i = 1; i < volume.size(); ++i) {
+        change.push_back(std::abs(volume[i] - volume[i - 1]));
+        if (std::getenv("CAMBIUM_VERBOSE"))
+            std::fprintf(stderr, "frame %lld volume %.4f change %+.4f\n", r.frames[i].frame, volume[i],
+                         volume[i] - volume[i - 1]);
+    }
+    std::vector<double> growing;
+    for (double c : change)
+        if (c > 0.0)
+            growing.push_back(c);
+    ASSERT_GT(growing.size(), 20u);
+    std::nth_element(growing.begin(), growing.begin() + long(growing.size() / 2), growing.end());
+    const double median = growing[growing.size() / 2];
+    const double largest = *std::max_element(change.begin(), change.end());
+    EXPECT_LT(largest, 6.0 * median) << "largest change " << largest << ", median " << median;
+    // And it grows overall.
+    EXPECT_GT(volume.back(), 1.3 * volume.front());
+}
+
+TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)
+{
+    TempDir dir;
+    expectInputError([&] { runBakeSequence(sequence(dir / "a.####.vdb", "1-300", 10.0)); },
+                     "frame 271 is year 27.1 at 10 frames a year", "past the last year");
+    expectInputError([&] { runBakeSequence(sequence(dir / "a.vdb", "1-3", 1.0)); }, "a run of '#'", "no #");
+    expectInputError([&] { runBakeSequence(sequence(dir / "a.#.vdb", "1-3", 0.0)); }, "--fps-per-year", "fps");
+    BakeRequest scene = sequence(dir / "a.#.vdb", "1-3", 1.0);
+    scene.input = CAMBIUM_SOURCE_DIR "/examples/lsystems/sympodial.l";
+    expectInputError([&] { runBakeSequence(scene); }, "--frames needs a growth parameter file", "not growth");
+    BakeRequest junctions = sequence(dir / "a.#.vdb", "1-3", 1.0);
+    junctions.model.junctions = "blend";
+    expectInputError([&] { runBakeSequence(junctions); }, "a growth parameter file sets its own", "junctions");
+    EXPECT_TRUE(fs::is_empty(dir.path));
+}
+
+// ---- Bark ridges over time: generalized bounded blending by junction age.
+
+/// A trunk internode with a continuation and a lateral at its tip, all of
+/// the given age.
+Skeleton junction(double age)
+{
+    Skeleton sk;
+    auto add = [&](long long id, long long parent, glm::dvec3 a, glm::dvec3 b, double r0, double r1) {
+        Internode in;
+        in.id = id;
+        in.parent = parent;
+        in.p0 = a;
+        in.p1 = b;
+        in.r0 = r0;
+        in.r1 = r1;
+        in.age = age;
+        sk.internodes.push_back(in);
+    };
+    add(0, -1, {0, 0, 0}, {0, 2, 0}, 0.3, 0.28);
+    add(1, 0, {0, 2, 0}, {0, 4, 0}, 0.28, 0.25);
+    add(2, 0, {0, 2, 0}, glm::dvec3(0, 2, 0) + 2.0 * glm::normalize(glm::dvec3(1, 1, 0)), 0.15, 0.12);
+    return sk;
+}
+
+/// Where the surface crosses the line from inside the upper crotch outwards
+/// (between the continuation and the lateral).
+double crotchSurface(const BlobTree& tree)
+{
+    const ReferenceEvaluator e(tree);
+    const glm::dvec3 from(0.1, 2.2, 0.0), dir = glm::normalize(glm::dvec3(0.52, 0.855, 0.0));
+    return cambium::test::bisect([&](double s) { return e.sample(from + s * dir).value - 0.5; }, 0.0, 0.8);
+}
+
+size_t gbbNodes(const BlobTree& tree)
+{
+    const TreeStats s = computeStats(tree);
+    const auto it = s.countByType.find(NodeType::GBB);
+    return it == s.countByType.end() ? 0 : it->second;
+}
+
+TEST(Ridges, TheCrotchMovesContinuouslyFromBlendToPcmAsTheJunctionAges)
+{
+    TreeBuildOptions o;
+    o.ridgeYears = 8.0;
+    o.ridgeRadius = 4.0;
+    TreeBuildOptions pcm = o;
+    pcm.ridgeYears = 0.0;  // PCM at once: the ridge
+    const double young = crotchSurface(buildTree(junction(0.0), o));
+    // At age 0 the junction is the summation.
+    const BlobTree summed = buildTree(junction(0.0), o);
+    EXPECT_EQ(gbbNodes(summed), 0u);
+    const double ridge = crotchSurface(buildTree(junction(-1.0), pcm));  // unknown age: PCM
+    ASSERT_GT(std::abs(young - ridge), 0.01) << "the blend and PCM crotches must differ for the test to mean anything";
+    double last = young, largestStep = 0.0;
+    for (double age = 0.25; age <= 12.0; age += 0.25) {
+        const BlobTree tree = buildTree(junction(age), o);
+        EXPECT_EQ(gbbNodes(tree), 1u);
+        const double s = crotchSurface(tree);
+        // Monotone from the blend's surface towards the ridge's.
+        EXPECT_GE((s - last) * (ridge - young), -1e-12) << "age " << age;
+        largestStep = std::max(largestStep, std::abs(s - last));
+        last = s;
+    }
+    EXPECT_LT(largestStep, 0.15 * std::abs(ridge - young));  // no jump
+    // Fully formed, the crotch is most of the way to PCM's (the bounding
+    // field is 1 on the lateral's axis, about 0.8 at the crotch: measured 76 %).
+    EXPECT_GT((last - young) / (ridge - young), 0.7);
+    // Nothing changes once formed.
+    EXPECT_EQ(crotchSurface(buildTree(junction(20.0), o)), last);
+}
+
+}  // namespace
