@@ -37,11 +37,15 @@ cmake --build "$build" -j"$(nproc)"
 
 case "$mode" in
   run)
-    "$build/cambium" info "$root/examples/branch_junction.json"
+    # The default example: a Populus deltoides grown for 27 years (paper 000),
+    # baked at one frame a year, the last frame meshed and rendered.
+    populus="$root/examples/populus/populus.json"
+    "$build/cambium" growth "$populus" --year 27 --print-stats
     mkdir -p "$root/out"
-    "$build/cambium" bake "$root/examples/branch_junction.json" -o "$root/out/branch_junction.vdb"
-    "$build/cambium" mesh "$root/out/branch_junction.vdb" -o "$root/out/branch_junction.ply"
-    "$build/cambium" render "$root/out/branch_junction.vdb" -o "$root/out/branch_junction.png" --spp 4
+    "$build/cambium" bake "$populus" --frames 1-27 --fps-per-year 1 --voxel-size 0.02 \
+      -o "$root/out/populus.####.vdb"
+    "$build/cambium" mesh "$root/out/populus.0027.vdb" -o "$root/out/populus.0027.ply"
+    "$build/cambium" render "$root/out/populus.0027.vdb" -o "$root/out/populus.0027.png" --spp 4
     ;;
   test)
     ctest --test-dir "$build" --output-on-failure -j"$(nproc)"
