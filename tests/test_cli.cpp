@@ -334,6 +334,48 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
     std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, GrowthPrintsStatsAndBakesASequence)
+{
+    const std::string populus = kExamples + "populus/populus.json";
+    const Result st = run("growth " + populus + " --year 10 --print-stats");
+    ASSERT_EQ(st.status, 0) << st.err;
+    for (const char* part : {"at t = 10 (year 10 of 27)", "order  branches  internodes", "    0         1", "  all ",
+                             "bud scale scar rings", "BlobTree: ", " operators", "gbb"})
+        EXPECT_NE(st.out.find(part), std::string::npos) << part << "\n" << st.out;
+    const Result sk = run("growth " + populus + " --year 2 --print-skeleton");
+    ASSERT_EQ(sk.status, 0) << sk.err;
+    EXPECT_NE(sk.out.find("# order age"), std::string::npos);
+
+    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_growth_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string pattern = (dir / "p.###.vdb").string();
+    const Result b = run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu -o " + pattern);
+    ASSERT_EQ(b.status, 0) << b.err;
+    for (const char* f : {"p.003.vdb", "p.004.vdb", "p.005.vdb"})
+        EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+    EXPECT_NE(b.out.find("3 frames (3 baked, 0 reused, 0 kept, 0 empty)"), std::string::npos) << b.out;
+    const Result again = run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu --resume -o " + pattern);
+    ASSERT_EQ(again.status, 0) << again.err;
+    EXPECT_NE(again.out.find("3 frames (0 baked, 0 reused, 3 kept, 0 empty)"), std::string::npos) << again.out;
+    // One tree, at a time of its life.
+    const std::string one = (dir / "one.vdb").string();
+    const Result single = run("bake " + populus + " --time 4.5 --no-leaves --voxel-size 0.04 -o " + one);
+    ASSERT_EQ(single.status, 0) << single.err;
+    EXPECT_TRUE(std::filesystem::exists(one));
+    expectRefused("bake", {
+        {populus + " --frames 1-40 -o " + pattern, "frame 28 is year 28 at 1 frames a year, outside the tree's 0 to 27"},
+        {populus + " --frames 1-3 -o " + (dir / "x.vdb").string(), "a run of '#'"},
+        {populus + " --time 30 -o " + one, "--time must be between 0 and 27"},
+        {populus + " --junctions blend -o " + one, "a growth parameter file sets its own"},
+        {kExamples + "sphere_and_cone.json --frames 1-3 -o " + pattern, "--frames needs a growth parameter file"},
+    });
+    expectRefused("growth", {
+        {populus + " --year 28", "--year/--time must be between 0 and 27"},
+        {kExamples + "sphere_and_cone.json", "curves: missing"},
+    });
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, UnknownCommandIsAUsageError)
 {
     const Result r = run("frobnicate");

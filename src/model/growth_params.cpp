@@ -93,6 +93,9 @@ public:
                                      "bark",
                                      "leaf",
                                      "curves"};
+        if (!root.contains("curves") || !root["curves"].is_object())
+            fail("curves", "missing: an object with the graphically defined functions (is this a growth "
+                           "parameter file? docs/growth-format.md)");
         for (const auto& [key, value] : root.items())
             if (std::find(std::begin(keys), std::end(keys), key) == std::end(keys))
                 fail(key, "unknown key (docs/growth-format.md lists them)");
@@ -138,8 +141,6 @@ public:
         p.bark = colour(root, "bark", p.bark);
         p.leaf = colour(root, "leaf", p.leaf);
 
-        if (!root.contains("curves") || !root["curves"].is_object())
-            fail("curves", "missing: an object with the graphically defined functions");
         const json& curves = root["curves"];
         const std::map<std::string, Curve*> named = {
             {"Gh", &p.Gh},   {"Gs1", &p.Gs1}, {"Gs2", &p.Gs2}, {"Go1", &p.Go1},
