@@ -4,6 +4,7 @@
 #include "bake/sequence.h"
 #include "core/frames.h"
 #include "bench/bake_bench.h"
+#include "bench/growth_bench.h"
 #include "bench/use_bench.h"
 #include "blobtree/evaluator.h"
 #include "blobtree/scene_io.h"
@@ -373,6 +374,23 @@ int main(int argc, char** argv)
                 runRenderBench(s, l, useVoxel, benchWidth, benchHeight, repeats);
             });
         };
+    });
+
+    GrowthBenchRequest growthBench;
+    growthBench.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    auto* benchGrowth = bench->add_subcommand(
+        "growth", "The growth model's tree by year (internodes, primitives, operators, bake time and memory) and a "
+                  "whole sequence, against paper 000's year 27");
+    benchGrowth->add_option("--parameters", growthBench.parameters, "Growth parameter file")->capture_default_str();
+    benchGrowth->add_option("--years", growthBench.years, "Years to measure")->capture_default_str()->delimiter(',');
+    benchGrowth->add_option("--voxel-size", growthBench.voxelSize, "Voxel size")->capture_default_str();
+    benchGrowth->add_option("--fps-per-year", growthBench.fpsPerYear,
+                            "Frame rate of the whole sequence (0: leave it out)")
+        ->capture_default_str();
+    benchGrowth->add_option("--device", growthBench.device, "opencl or cpu")->capture_default_str();
+    benchGrowth->add_flag("--leaves", growthBench.leaves, "Grow leaves (frames at year ends have none)");
+    benchGrowth->callback([&] {
+        action = [&] { return withBenchDirectory([&](const std::string& dir) { runGrowthBench(growthBench, dir); }); };
     });
 
     LSystemRequest lsys;
