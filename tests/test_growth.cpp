@@ -2,6 +2,7 @@
 // properties on the bundled Populus and on parameter sets made to show one
 // thing each; the skeleton's geometry (phyllotaxis, headings); continuity in
 // time; bud scale scars and bark ridges over time.
+#include "bake/levelset.h"
 #include "blobtree/evaluator.h"
 #include "core/error.h"
 #include "model/growth.h"
@@ -320,6 +321,17 @@ TEST(Growth, LeavesGrowAndFallWithinTheYear)
         return s / double(n);
     };
     EXPECT_LT(meanSize(5.15), meanSize(5.5));
+}
+
+TEST(Growth, TheMemoryEstimateCountsLeavesAsLeaves)
+{
+    // A leaf is a unit sphere under a transform: its area must be counted in
+    // world space (counted as a unit sphere, mid-summer of year 10 needed
+    // 43 GB at voxel size 0.01; it bakes in 0.33 GB).
+    const FieldProgram program = FieldProgram::compile(populusModel().tree(9.5, true));
+    const double estimate = estimateBakeBytes(program, 0.01, 3.0);
+    EXPECT_LT(estimate, 2e9);
+    EXPECT_GT(estimate, estimateBakeBytes(FieldProgram::compile(populusModel().tree(9.5, false)), 0.01, 3.0));
 }
 
 TEST(Growth, DormantSeasonsChangeNothing)

@@ -180,23 +180,35 @@ double autoVoxelSize(const FieldProgram& program, double voxels)
 double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
 {
     // Surface area of the primitives (an overestimate where they overlap).
-    // Each is convex, so the part of it inside the surface's bounds has at
-    // most the bounds' area: a huge sphere that cuts (a saw cut) counts so.
-    const glm::dvec3 b = program.positiveBounds().size();
-    const double boundsArea = 2.0 * (b.x * b.y + b.y * b.z + b.z * b.x);
+    // Each is convex, so the part of it inside a box has at most the box's
+    // area: the surface's bounds (a huge sphere that cuts, a saw cut, counts
+    // so) and its support box in world space — its own, or under warps the
+    // outermost warp's (a unit sphere mapped onto a leaf counts as the leaf).
+    auto boxArea = [](const Box& box) {
+        const glm::dvec3 b = box.size();
+        return 2.0 * (b.x * b.y + b.y * b.z + b.z * b.x);
+    };
+    const double boundsArea = boxArea(program.positiveBounds());
     double area = 0.0;
     const auto& P = program.params();
+    std::vector<const Box*> warps;
     for (const Instr& in : program.code()) {
+        if (in.op == CB_I_WARP)
+            warps.push_back(&program.supportOf(in));
+        else if (in.op == CB_I_UNWARP)
+            warps.pop_back();
         const double* q = P.data() + in.a;
+        double a = -1.0;
         if (in.op == CB_SPHERE)
-            area += std::min(4.0 * M_PI * q[3] * q[3], boundsArea);
+            a = 4.0 * M_PI * q[3] * q[3];
         else if (in.op == CB_SEGMENT || in.op == CB_CONE)
-            area += std::min(M_PI * (q[7] + q[8]) * q[6] + 2.0 * M_PI * std::max(q[7], q[8]) * std::max(q[7], q[8]),
-                             boundsArea);
+            a = M_PI * (q[7] + q[8]) * q[6] + 2.0 * M_PI * std::max(q[7], q[8]) * std::max(q[7], q[8]);
         else if (in.op == CB_CONVOLUTION_SEGMENT) {
             const double r = q[10] / 3.0;  // its window is three times its largest radius
-            area += std::min(2.0 * M_PI * r * q[6] + 2.0 * M_PI * r * r, boundsArea);
+            a = 2.0 * M_PI * r * q[6] + 2.0 * M_PI * r * r;
         }
+        if (a >= 0.0)
+            area += std::min({a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
     }
     // Band voxels; about three sampled voxels per band voxel, each holding its
     // value (4 bytes), propagation state (8) and a share of the surface points

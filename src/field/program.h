@@ -50,6 +50,10 @@ public:
     const Box& positiveBounds() const { return positive_; }
     /// Where the root's field can be nonzero.
     const Box& supportBounds() const { return support_; }
+    /// Where the field of the primitive or subtree that `in` heads can be
+    /// nonzero, in the space of the nearest warp above it (world space when
+    /// there is none).
+    const Box& supportOf(const Instr& in) const { return subtreeSupport_[size_t(in.c)]; }
     /// Number of primitives in the whole program.
     size_t primitiveCount() const { return primitives_; }
     /// The colour of every primitive when they all have the same: then the

@@ -116,7 +116,7 @@ void GrowthModel::grow()
                 s.start = b.lengthAt(y - 1);
                 s.length = b.lengthAt(y) - s.start;
                 const int m0 = std::max(1, int(std::lround(p_.Gm(s.length / p_.maxShootLength))));
-                s.metamers = m0;
+                s.metamers = s.planned = m0;
                 for (int d = 0; d <= 16; ++d) {
                     if (separationHolds(first, m0 + d, previous)) {
                         s.metamers = m0 + d;
@@ -482,6 +482,11 @@ GrowthStats GrowthModel::stats(double t, bool leaves) const
             ++s.lostBranches;
         else
             ++s.branchesByOrder[b.order];
+        for (const GrowthShoot& sh : b.shoots)
+            if (t > sh.year - 1) {
+                ++s.shoots;
+                s.shootsAdjusted += sh.metamers != sh.planned;
+            }
     }
     for (const Organ& o : sk.organs)
         ++(o.kind == Organ::Kind::Leaf ? s.leaves : o.kind == Organ::Kind::Bud ? s.buds : s.rings);
@@ -525,6 +530,8 @@ int runGrowthCommand(const GrowthRequest& req)
     fmt::print("  all  {:>8}  {:>10}\n", branches, internodes);
     fmt::print("organs: {} leaves, {} buds, {} bud scale scar rings, {} scars\n", s.leaves, s.buds, s.rings,
                sk.scars.size());
+    fmt::print("shoots: {} grown, {} with their metamer count moved by the {:g} degree rule\n", s.shoots,
+               s.shootsAdjusted, p.longestSeparation);
     const TreeStats ts = computeStats(buildTree(sk, model.buildOptions()));
     fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives, ts.operators, ts.warps,
                ts.depth);

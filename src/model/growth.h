@@ -29,6 +29,7 @@ struct GrowthShoot {
     int year = 0;          ///< grown over (year - 1, year]
     int firstMetamer = 0;  ///< index of its first metamer along the branch
     int metamers = 0;      ///< m (eq. 14, adjusted by the 40 degree rule)
+    int planned = 0;       ///< round(Gm(q)) before the 40 degree rule
     double start = 0.0;    ///< the branch's length before it, l_{y-1}
     double length = 0.0;   ///< l_s = l_y - l_{y-1}
 };
@@ -64,6 +65,7 @@ struct GrowthStats {
     std::map<int, long long> internodesByOrder;
     long long lostBranches = 0;  ///< shed so far (scars)
     long long leaves = 0, buds = 0, rings = 0;
+    long long shoots = 0, shootsAdjusted = 0;  ///< grown by then; of them, moved by the 40 degree rule
     double height = 0.0;         ///< the trunk's length
 };
 
