@@ -357,6 +357,18 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
     const Result again = run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu --resume -o " + pattern);
     ASSERT_EQ(again.status, 0) << again.err;
     EXPECT_NE(again.out.find("3 frames (0 baked, 0 reused, 3 kept, 0 empty)"), std::string::npos) << again.out;
+    // Rendering the sequence: one camera for all frames, framed on the last,
+    // so the young tree covers less of the picture than the older one.
+    const Result r = run("render " + pattern + " --frames 3-5 --width 96 --height 96 -o " + (dir / "p.###.png").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    std::vector<double> covered;
+    for (size_t at = 0; (at = r.out.find(" % of pixels", at)) != std::string::npos; ++at) {
+        const size_t from = r.out.rfind(", ", at);
+        covered.push_back(std::stod(r.out.substr(from + 2, at - from - 2)));
+    }
+    ASSERT_EQ(covered.size(), 3u) << r.out;
+    EXPECT_LT(covered[0], 0.75 * covered[2]) << r.out;
+    EXPECT_NE(r.out.find("conversion included"), std::string::npos) << "later frames reuse the kernel";
     // One tree, at a time of its life.
     const std::string one = (dir / "one.vdb").string();
     const Result single = run("bake " + populus + " --time 4.5 --no-leaves --voxel-size 0.04 -o " + one);

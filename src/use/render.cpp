@@ -3,6 +3,7 @@
 
 #include "bake/cl_runtime.h"
 #include "core/error.h"
+#include "core/frames.h"
 #include "core/files.h"
 #include "use/grid_file.h"
 
@@ -15,6 +16,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <optional>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -460,6 +463,16 @@ int runRenderCommand(const RenderRequest& req)
     if (req.mesh.empty() && req.input.empty())
         throw InputError("nothing to render: give a .vdb file (or --mesh MESH.obj|ply)");
     const bool meshFile = !req.mesh.empty();
+    // A sequence keeps one camera, framed on its last frame (a growing tree
+    // grows into the picture instead of the camera backing away), and one
+    // OpenCL marcher (its context and kernel built once, new grids each frame).
+    std::optional<Box> sequenceBounds;
+    std::unique_ptr<OpenCLMarcher> marcher;
+    if (!req.frames.empty() && !meshFile && isFramePattern(req.input)) {
+        const std::string last = framePath(req.input, parseFrames(req.frames).back());
+        if (std::filesystem::exists(last))
+            sequenceBounds = activeWorldBounds(*readLevelSet(last, req.grid).surface);
+    }
     forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
         const auto start = std::chrono::steady_clock::now();
         const double aspect = double(req.width) / double(req.height);
@@ -475,7 +488,8 @@ int runRenderCommand(const RenderRequest& req)
             const Box bounds = activeWorldBounds(*f.surface);
             if (bounds.empty())
                 throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
-            const Camera cam = parseCamera(req.camera, bounds, aspect);
+            const Camera cam =
+                parseCamera(req.camera, sequenceBounds && !sequenceBounds->empty() ? *sequenceBounds : bounds, aspect);
             if (req.viaMesh) {
                 img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
                 how = "Embree on the volumeToMesh triangles, meshing included";
@@ -483,10 +497,15 @@ int runRenderCommand(const RenderRequest& req)
                 img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
                 how = "OpenVDB's level-set ray intersector";
             } else {
+                how = marcher ? "OpenCL NanoVDB march, conversion included"
+                              : "OpenCL NanoVDB march, conversion and kernel build included";
                 img = withOpenCLHint("render", [&] {
-                    return renderLevelSetOpenCL(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
+                    if (marcher)
+                        marcher->load(*f.surface, f.color.get());
+                    else
+                        marcher = std::make_unique<OpenCLMarcher>(*f.surface, f.color.get());
+                    return marcher->render(cam, req.width, req.height, req.spp);
                 });
-                how = "OpenCL NanoVDB march, conversion and kernel build included";
             }
         }
         writeImage(img, out);

@@ -116,6 +116,9 @@ public:
     ~OpenCLMarcher();
     OpenCLMarcher(const OpenCLMarcher&) = delete;
     OpenCLMarcher& operator=(const OpenCLMarcher&) = delete;
+    /// Replaces the grids, keeping the context and the built kernel (the
+    /// next frame of a sequence).
+    void load(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color);
     /// hits[i] for rays[i] (world space, unit directions).
     void trace(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) const;
     RenderImage render(const Camera& camera, int width, int height, int spp) const;

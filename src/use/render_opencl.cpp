@@ -35,33 +35,39 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
     : impl_(std::make_unique<Impl>())
 {
     Impl& m = *impl_;
+    m.program = m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
+    cl_int err = CL_SUCCESS;
+    m.kernel = clCreateKernel(m.program, "march_rays", &err);
+    checkCL(err, "clCreateKernel(march_rays)");
+    load(surface, color);
+    // PoCL compiles a kernel for its work-group size at the first launch:
+    // one group of rays now, so that the first image does not pay for it.
+    std::vector<TraceHit> hits;
+    trace(std::vector<TraceRay>(64, TraceRay{glm::dvec3(0.0), glm::dvec3(0.0, 0.0, 1.0)}), hits);
+}
+
+void OpenCLMarcher::load(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
+{
+    Impl& m = *impl_;
     // Leaves' extrema let the march step over leaves far from the surface.
     // The host copies live only until they are on the device.
     auto nanoSurface =
         nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
-    m.skip = float(2.0 * surface.voxelSize()[0]);
     nanovdb::GridHandle<nanovdb::HostBuffer> nanoColor;
     if (color)
         nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox, nanovdb::ChecksumMode::Disable);
-    m.hasColor = bool(nanoColor);
-    m.gridBytes = nanoSurface.size() + nanoColor.size();
     for (const auto* h : {&nanoSurface, &nanoColor})
         if (h->size() >= (uint64_t(1) << 32))  // kernels/cb_pnanovdb.h: 32-bit addresses
             throw InputError(fmt::format("the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
                                          "under 4 GB: use --device cpu",
                                          double(h->size()) * 1e-9));
-    m.program = m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
-    cl_int err = CL_SUCCESS;
-    m.kernel = clCreateKernel(m.program, "march_rays", &err);
-    checkCL(err, "clCreateKernel(march_rays)");
+    m.skip = float(2.0 * surface.voxelSize()[0]);
+    m.hasColor = bool(nanoColor);
+    m.gridBytes = nanoSurface.size() + nanoColor.size();
     m.surfaceBuffer.upload(m.ctx, nanoSurface.data(), nanoSurface.size(), CL_MEM_READ_ONLY);
     // Without colour the kernel still needs a buffer argument: the surface's.
     if (m.hasColor)
         m.colorBuffer.upload(m.ctx, nanoColor.data(), nanoColor.size(), CL_MEM_READ_ONLY);
-    // PoCL compiles a kernel for its work-group size at the first launch:
-    // one group of rays now, so that the first image does not pay for it.
-    std::vector<TraceHit> hits;
-    trace(std::vector<TraceRay>(64, TraceRay{glm::dvec3(0.0), glm::dvec3(0.0, 0.0, 1.0)}), hits);
 }
 
 OpenCLMarcher::~OpenCLMarcher() = default;
