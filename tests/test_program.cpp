@@ -119,6 +119,38 @@ TEST(FieldProgram, ALeafNearOneTwigEvaluatesOnlyThatTwig)
     EXPECT_EQ(spec[0].op, CB_I_CONST);
 }
 
+TEST(FieldProgram, CanonicalFormsAreEqualExactlyForTheSameLocalField)
+{
+    // Two trees: the second has an extra cone first (every parameter offset
+    // moves) and one cone moved.  Near an unchanged cone the specialised
+    // programs' canonical forms are equal; near the moved one they differ.
+    auto build = [](bool extra, double shift) {
+        BlobTree tree;
+        std::vector<int> cones;
+        if (extra)
+            cones.push_back(tree.cone({9, 9, 9}, {9, 10, 9}, 0.05, 0.03));
+        for (int i = 0; i < 10; ++i) {
+            const glm::dvec3 a(0.5 * i + (i == 3 ? shift : 0.0), 0.0, 0.0);
+            cones.push_back(tree.cone(a, a + glm::dvec3(0, 1, 0), 0.05, 0.03));
+        }
+        tree.setRoot(tree.op({NodeType::BLEND}, cones));
+        tree.finalize();
+        return FieldProgram::compile(tree);
+    };
+    const FieldProgram a = build(false, 0.0), b = build(true, 0.001);
+    auto canonicalNear = [](const FieldProgram& p, double x) {
+        std::vector<Instr> spec;
+        p.specialize(p.code(), Box({x - 0.05, 0.4, -0.05}, {x + 0.05, 0.5, 0.05}), &spec);
+        std::vector<double> out;
+        p.canonical(spec, out);
+        return out;
+    };
+    EXPECT_NE(a.params().size(), b.params().size());
+    EXPECT_EQ(canonicalNear(a, 1.0), canonicalNear(b, 1.0));  // cone 2: unchanged
+    EXPECT_NE(canonicalNear(a, 1.5), canonicalNear(b, 1.5));  // cone 3: moved by 0.001
+    EXPECT_NE(canonicalNear(a, 1.0), canonicalNear(a, 2.0));  // other cones
+}
+
 TEST(FieldProgram, FoldsEveryOperatorCorrectly)
 {
     // Per operator: two children, one far away.  The far child's field is 0

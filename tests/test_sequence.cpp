@@ -72,8 +72,18 @@ openvdb::FloatGrid::Ptr surface(const std::string& path)
     return nullptr;
 }
 
+openvdb::Vec3fGrid::Ptr colour(const std::string& path)
+{
+    const openvdb::GridPtrVecPtr grids = readGrids(path);
+    for (const auto& g : *grids)
+        if (g->getName() == "Cd")
+            return openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
+    return nullptr;
+}
+
 /// Same active voxels, same values, bit for bit.
-void expectIdentical(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b, const std::string& what)
+template <class Grid>
+void expectIdentical(const Grid& a, const Grid& b, const std::string& what)
 {
     ASSERT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
     ASSERT_EQ(a.tree().leafCount(), b.tree().leafCount()) << what;
@@ -157,6 +167,34 @@ TEST(Sequence, DormantFramesReuseGridsIdenticalToAFullBake)
     const auto reusedGrid = surface(dir / "d.0039.vdb"), fullGrid = surface(single / "s.0039.vdb");
     ASSERT_TRUE(reusedGrid && fullGrid);
     expectIdentical(*reusedGrid, *fullGrid, "reused vs full bake");
+}
+
+TEST(Sequence, UnchangedLeavesAreReusedAndTheFrameIsAFullBakes)
+{
+    // Around a year's end with leaves: the leaves fall (frames 89, 90), the
+    // next year begins (91); a worker reuses the values of the 8^3 leaves
+    // whose specialised program did not change since its last baked frame.
+    TempDir dir;
+    BakeRequest req = sequence(dir / "r.####.vdb", "86-91", 10.0, 0.03);
+    req.jobs = 1;
+    const SequenceReport r = runBakeSequence(req);
+    size_t reusedLeaves = 0;
+    for (const FrameReport& f : r.frames)
+        if (f.outcome == FrameReport::Outcome::Baked && f.frame > 86) {
+            EXPECT_GT(f.stats.reusedLeaves, 0u) << f.frame;
+            EXPECT_LT(f.stats.reusedLeaves, f.stats.candidateLeaves) << f.frame;
+            reusedLeaves += f.stats.reusedLeaves;
+        }
+    EXPECT_GT(reusedLeaves, 1000u);
+    for (const char* frame : {"89", "90", "91"}) {
+        TempDir single;
+        runBakeSequence(sequence(single / "s.####.vdb", frame, 10.0, 0.03));
+        const std::string name = std::string("00") + frame + ".vdb";
+        expectIdentical(*surface(dir / ("r." + name)), *surface(single / ("s." + name)),
+                        std::string("frame ") + frame + " with reuse vs alone");
+        expectIdentical(*colour(dir / ("r." + name)), *colour(single / ("s." + name)),
+                        std::string("Cd of frame ") + frame);
+    }
 }
 
 TEST(Sequence, SameSeedSameGridsOtherSeedOtherGrids)

@@ -145,8 +145,12 @@ int runSequenceCommand(const BakeRequest& req)
         ++doneFrames;
         fmt::print("[{}/{}] frame {} (year {:.3g}) {}: {}", doneFrames, total, f.frame, f.time, f.path,
                    outcome[int(f.outcome)]);
-        if (f.outcome == FrameReport::Outcome::Baked)
+        if (f.outcome == FrameReport::Outcome::Baked) {
             fmt::print(", {} active voxels", count(f.stats.activeVoxels));
+            if (f.stats.reusedLeaves)
+                fmt::print(" ({} of {} leaves unchanged, not sampled)", count(f.stats.reusedLeaves),
+                           count(f.stats.candidateLeaves));
+        }
         fmt::print(", {:.2f} s\n", f.seconds);
         std::fflush(stdout);
     });

@@ -262,6 +262,65 @@ BakedGrids emptyLevelSet(const BakeOptions& opt)
     return out;
 }
 
+namespace {
+
+uint64_t packOrigin(const int32_t* o)
+{
+    return (uint64_t(uint32_t(o[0] >> 3) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(o[1] >> 3) & 0x1FFFFF) << 21) |
+           uint64_t(uint32_t(o[2] >> 3) & 0x1FFFFF);
+}
+
+/// Step 2 with a cache: leaves whose canonical program the cache holds for
+/// their origin get its values, the rest are sampled; the cache then holds
+/// this bake's leaves.
+template <class Progress>
+void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo, double h,
+                     LeafValueCache& cache, uint16_t* value, size_t& reused, const Progress& progress)
+{
+    const size_t n = topo.leaves.size();
+    std::vector<std::vector<double>> keys(n);
+    std::vector<uint8_t> have(n, 0);
+    const bool usable = cache.voxelSize == h;
+    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+        const LeafJob& job = topo.leaves[l];
+        program.canonical(Code(topo.pool.data() + job.codeOffset, size_t(job.codeLength)), keys[l]);
+        if (!usable)
+            return;
+        const auto it = cache.slot.find(packOrigin(job.origin));
+        if (it != cache.slot.end() && cache.programs[it->second] == keys[l]) {
+            std::memcpy(value + l * kLeafVoxels, cache.values.data() + it->second * kLeafVoxels,
+                        kLeafVoxels * sizeof(uint16_t));
+            have[l] = 1;
+        }
+    });
+    std::vector<LeafJob> todo;
+    std::vector<size_t> where;
+    for (size_t l = 0; l < n; ++l)
+        if (!have[l]) {
+            todo.push_back(topo.leaves[l]);
+            where.push_back(l);
+        }
+    reused = n - todo.size();
+    std::vector<uint16_t> batch(kBatchLeaves * kLeafVoxels);
+    for (size_t b0 = 0; b0 < todo.size(); b0 += kBatchLeaves) {
+        const size_t b1 = std::min(todo.size(), b0 + kBatchLeaves);
+        sampler.sampleValues(todo, b0, b1, h, batch.data());
+        for (size_t k = b0; k < b1; ++k)
+            std::memcpy(value + where[k] * kLeafVoxels, batch.data() + (k - b0) * kLeafVoxels,
+                        kLeafVoxels * sizeof(uint16_t));
+        progress("sampling", 0.8 * double(b1) / double(todo.size()));
+    }
+    cache.voxelSize = h;
+    cache.slot.clear();
+    cache.slot.reserve(n);
+    for (size_t l = 0; l < n; ++l)
+        cache.slot[packOrigin(topo.leaves[l].origin)] = l;
+    cache.programs = std::move(keys);
+    cache.values.assign(value, value + n * kLeafVoxels);
+}
+
+}  // namespace
+
 BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
                         const BakeOptions& opt)
 {
@@ -290,10 +349,14 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     auto value = parallelArray<uint16_t>(n * kLeafVoxels);  // F - T
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
-    for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
-        const size_t b1 = std::min(n, b0 + kBatchLeaves);
-        sampler.sampleValues(topo.leaves, b0, b1, h, value.get() + b0 * kLeafVoxels);
-        progress("sampling", 0.8 * double(b1) / double(n));
+    if (opt.reuse) {
+        sampleWithReuse(program, sampler, topo, h, *opt.reuse, value.get(), st.reusedLeaves, progress);
+    } else {
+        for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
+            const size_t b1 = std::min(n, b0 + kBatchLeaves);
+            sampler.sampleValues(topo.leaves, b0, b1, h, value.get() + b0 * kLeafVoxels);
+            progress("sampling", 0.8 * double(b1) / double(n));
+        }
     }
     const double valueSeconds = since(t);
     const auto tEdges = Clock::now();

@@ -8,13 +8,29 @@
 
 #include <functional>
 #include <string>
+#include <unordered_map>
+#include <vector>
 
 namespace cambium {
+
+/// The sampled values of a bake's leaves, keyed by each leaf's origin and
+/// its specialised program in canonical form (FieldProgram::canonical): a
+/// later bake at the same voxel size given the cache samples only the leaves
+/// whose program changed and copies the others' values — the same values a
+/// full bake computes, since the same program gives the same samples.  It
+/// then holds that bake's leaves.
+struct LeafValueCache {
+    double voxelSize = 0.0;
+    std::unordered_map<uint64_t, size_t> slot;  ///< packed leaf origin -> entry
+    std::vector<std::vector<double>> programs;  ///< canonical leaf programs
+    std::vector<uint16_t> values;               ///< 512 per entry
+};
 
 struct BakeOptions {
     double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
     double halfWidth = 3.0;  ///< narrow-band half-width in voxels
     bool fog = false;        ///< also make a `density` fog volume
+    LeafValueCache* reuse = nullptr;  ///< values of unchanged leaves from an earlier bake (sequences)
     /// Called with a stage name and the fraction done; may be called from
     /// several threads at once.
     std::function<void(const char* stage, double fraction)> progress;
@@ -25,6 +41,7 @@ struct BakeStats {
     size_t boxesTested = 0;      ///< interval tests during the topology search
     size_t candidateLeaves = 0;  ///< leaves sampled
     size_t activeLeaves = 0;     ///< leaves holding band voxels
+    size_t reusedLeaves = 0;     ///< sampled leaves whose values came from BakeOptions::reuse
     size_t activeVoxels = 0;     ///< voxels in the band
     size_t surfacePoints = 0;    ///< voxels next to a sign change (the first layer)
     double meanProgramLength = 0.0;  ///< instructions per leaf program

@@ -140,6 +140,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
     auto worker = [&](int w) {
         try {
             FieldSampler* sampler = samplers.empty() ? nullptr : samplers[size_t(w)].get();
+            LeafValueCache cache;  // the last baked frame's leaves: unchanged ones are not sampled again
             for (size_t r; !failed && (r = next++) < runs.size();) {
                 std::optional<FieldProgram> previous;  // the last frame baked in this run
                 BakedGrids grids;
@@ -160,6 +161,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                         opt.voxelSize = plan.voxelSize;
                         opt.halfWidth = req.halfWidth;
                         opt.fog = req.fog;
+                        opt.reuse = &cache;
                         if (sk.internodes.empty()) {
                             grids = emptyLevelSet(opt);
                             fr.outcome = FrameReport::Outcome::Empty;

@@ -33,6 +33,10 @@ struct SequenceReport {
     std::string device;
 };
 
+/// Within a worker, a baked frame also reuses the sampled values of the
+/// 8^3 leaves whose specialised program is unchanged since the frame it baked
+/// before (LeafValueCache): identical to a full bake of the frame.
+///
 /// Validates everything first (parameters, frames and their times, output
 /// pattern, voxel size and memory at the last frame, resumable files) and
 /// throws InputError naming the problem before any output; then bakes the

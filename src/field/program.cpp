@@ -424,6 +424,37 @@ double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& 
 int FieldProgram::maxStackDepth() { return CB_STACK_DEPTH; }
 int FieldProgram::maxWarpDepth() { return CB_WARP_DEPTH; }
 
+void FieldProgram::canonical(Code code, std::vector<double>& out) const
+{
+    out.push_back(params_[CB_P_T]);
+    out.push_back(params_[CB_P_XT]);
+    for (size_t i = 0; i < code.size; ++i) {
+        const Instr& in = code.data[i];
+        size_t size = 0;
+        switch (in.op) {
+        case CB_SPHERE: size = CB_SPHERE_SIZE; break;
+        case CB_SEGMENT:
+        case CB_CONE: size = CB_CONE_SIZE; break;
+        case CB_CONVOLUTION_SEGMENT: size = CB_CONV_SIZE; break;
+        case CB_I_CONST: size = 1; break;
+        case CB_I_OPEN:
+        case CB_I_ACC:
+        case CB_I_CLOSE: size = in.b == CB_GBB ? CB_GBB_SIZE : CB_OP_SIZE; break;
+        case CB_I_WARP:
+            size = in.b == CB_TRANSFORM ? CB_AFFINE_SIZE
+                   : in.b == CB_BEND    ? CB_BEND_SIZE
+                   : in.b == CB_TWIST   ? CB_TWIST_SIZE
+                                        : CB_TAPER_SIZE;
+            break;
+        default: break;  // UNWARP reads no parameters
+        }
+        out.push_back(in.op);
+        out.push_back(in.b);
+        out.push_back(in.op == CB_I_ACC ? in.c : 0);  // (c is a host-side box index elsewhere)
+        out.insert(out.end(), params_.begin() + in.a, params_.begin() + in.a + long(size));
+    }
+}
+
 bool FieldProgram::identical(const FieldProgram& other) const
 {
     return params_ == other.params_ && code_.size() == other.code_.size() &&

@@ -65,6 +65,12 @@ public:
     /// instructions and parameter table, value for value.
     bool identical(const FieldProgram& other) const;
 
+    /// `code` written out as the kernels read it — each instruction's op and
+    /// the fields they use, its parameter block's values inlined — after the
+    /// threshold: two programs (of this or another FieldProgram) compute the
+    /// same values and colours wherever their canonical forms are equal.
+    void canonical(Code code, std::vector<double>& out) const;
+
     /// Bounds of the field of `code` over `box`, and (when `out` is given)
     /// `code` specialised to the box appended to *out: children whose field is
     /// zero or provably irrelevant on the box are removed, operators left with
