@@ -338,6 +338,17 @@ TEST(Ridges, TheCrotchMovesContinuouslyFromBlendToPcmAsTheJunctionAges)
     EXPECT_GT((last - young) / (ridge - young), 0.7);
     // Nothing changes once formed.
     EXPECT_EQ(crotchSurface(buildTree(junction(20.0), o)), last);
+    // The ridge darkens the bark where it forms (PCM's darkening, weighted by
+    // the bounding field), not elsewhere.
+    auto colourAt = [&](double age, const glm::dvec3& p) {
+        const BlobTree tree = buildTree(junction(age), o);
+        return ReferenceEvaluator(tree).sample(p).color;
+    };
+    const glm::dvec3 crotch = glm::dvec3(0.1, 2.2, 0.0) + last * glm::normalize(glm::dvec3(0.52, 0.855, 0.0));
+    const glm::dvec3 youngColour = colourAt(0.0, crotch), oldColour = colourAt(12.0, crotch);
+    EXPECT_LT(oldColour.r, 0.9 * youngColour.r);
+    const glm::dvec3 far(0.3, 0.8, 0.0);  // the trunk's side, far below the junction
+    EXPECT_EQ(colourAt(0.0, far), colourAt(12.0, far));
 }
 
 }  // namespace

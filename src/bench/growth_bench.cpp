@@ -79,15 +79,20 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir)
     seq.device = req.device;
     seq.model.leaves = req.leaves;
     const SequenceReport r = runBakeSequence(seq);
-    size_t reused = 0;
+    size_t reused = 0, leaves = 0, reusedLeaves = 0;
     double bytes = 0.0;
     for (const FrameReport& f : r.frames) {
         reused += f.outcome == FrameReport::Outcome::Reused;
+        if (f.outcome == FrameReport::Outcome::Baked) {
+            leaves += f.stats.candidateLeaves;
+            reusedLeaves += f.stats.reusedLeaves;
+        }
         bytes += double(std::filesystem::file_size(f.path));
     }
-    fmt::print("\nwhole sequence: {} frames ({:g} a year, {} reused) in {:.1f} s, {} at once, {:.0f} MB of files, peak "
-               "memory {:.0f} MB\n",
-               r.frames.size(), req.fpsPerYear, reused, r.seconds, r.jobs, bytes / 1e6, r.peakMemoryBytes / 1e6);
+    fmt::print("\nwhole sequence: {} frames ({:g} a year, {} reused whole; of the baked frames' {} leaves {:.0f} % "
+               "unchanged, not sampled) in {:.1f} s, {} at once, {:.0f} MB of files, peak memory {:.0f} MB\n",
+               r.frames.size(), req.fpsPerYear, reused, leaves, 100.0 * double(reusedLeaves) / double(std::max<size_t>(leaves, 1)),
+               r.seconds, r.jobs, bytes / 1e6, r.peakMemoryBytes / 1e6);
 }
 
 }  // namespace cambium
