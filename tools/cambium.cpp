@@ -15,6 +15,7 @@
 #include "model/turtle.h"
 #include "use/mesh.h"
 #include "use/render.h"
+#include "core/clock.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -54,9 +55,9 @@ int withBenchDirectory(const std::function<void(const std::string&)>& f)
 
 int runInfo(const std::string& scenePath, const ModelOptions& model)
 {
-    const auto start = std::chrono::steady_clock::now();
+    const auto start = Clock::now();
     const BlobTree tree = loadModel(scenePath, model);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = secondsSince(start);
     const TreeStats s = computeStats(tree);
     fmt::print("scene      {}\n", scenePath);
     fmt::print("read       {:.3f} s (reading, deriving and building the BlobTree)\n", seconds);

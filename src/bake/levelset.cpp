@@ -2,6 +2,7 @@
 #include "bake/levelset.h"
 
 #include "bake/topology.h"
+#include "core/clock.h"
 #include "core/memory.h"
 
 #include "cb_program.h"
@@ -25,9 +26,6 @@
 namespace cambium {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 constexpr int kBatchLeaves = 4096;
 
@@ -338,7 +336,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // 1. Topology.
     auto t = Clock::now();
     BandTopology topo = findBandLeaves(program, h, W, [&](double f) { progress("topology", f); });
-    st.topologySeconds = since(t);
+    st.topologySeconds = secondsSince(t);
     st.boxesTested = topo.boxesTested;
     const size_t n = topo.leaves.size();
     st.candidateLeaves = n;
@@ -358,7 +356,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             progress("sampling", 0.8 * double(b1) / double(n));
         }
     }
-    const double valueSeconds = since(t);
+    const double valueSeconds = secondsSince(t);
     const auto tEdges = Clock::now();
 
     // 3. Neighbours, the voxels next to a sign change of F - T, their
@@ -431,7 +429,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         float t;
         float f;  // F - T at the voxel, kept so that making the point reads no values
     };
-    const double tNb = since(tEdges);
+    const double tNb = secondsSince(tEdges);
     // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
     std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
@@ -443,7 +441,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             insideBits[l][size_t(z)] = m;
         }
     });
-    const double tBits = since(tEdges);
+    const double tBits = secondsSince(tEdges);
     // The voxels of leaf l with a face neighbour on the other side of the
     // surface, per plane z and direction (the order of dirs), by shifting the
     // inside bits; a missing neighbour leaf (no surface within a voxel of it)
@@ -533,7 +531,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         }
         // Voxels come out plane by plane in x + 8 y order: voxel order.
     });
-    const double tEd = since(tEdges);
+    const double tEd = secondsSince(tEdges);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "neighbours {:.3f} s, inside bits {:.3f} s, sign changes and queries {:.3f} s\n", tNb,
                    tBits - tNb, tEd - tBits);
@@ -541,9 +539,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     auto surface = parallelArray<SurfaceSample>(np);
     sampler.sampleSurface(topo.leaves, queries.get(), np, h, surface.get());
     queries.reset();
-    st.samplingSeconds = valueSeconds + since(t);
+    st.samplingSeconds = valueSeconds + secondsSince(t);
     if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "sampling: values {:.3f} s, surface {:.3f} s ({} points)\n", valueSeconds, since(t), np);
+        fmt::print(stderr, "sampling: values {:.3f} s, surface {:.3f} s ({} points)\n", valueSeconds, secondsSince(t), np);
     progress("sampling", 1.0);
     topo.pool = {};
 
@@ -680,9 +678,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             const int axis = pass % 3;
             const auto ta = Clock::now();
             sweepAxis(S.rows[axis], local, axis, S.src.data(), pos, limit2, S.turned);
-            axisNs[axis] += size_t(since(ta) * 1e9);
+            axisNs[axis] += size_t(secondsSince(ta) * 1e9);
         }
-        sweepNs += size_t(since(tSweep) * 1e9);
+        sweepNs += size_t(secondsSince(tSweep) * 1e9);
         const auto tLeaves = Clock::now();
         // The tile's grid leaves, written straight into their buffers.
         for (size_t k = 0; k < t1 - t0; ++k) {
@@ -731,7 +729,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
             sLeaves[l] = sl;
             cLeaves[l] = cl;
         }
-        leavesNs += size_t(since(tLeaves) * 1e9);
+        leavesNs += size_t(secondsSince(tLeaves) * 1e9);
         progress("assembly", double(++tilesDone) / double(tileStart.size() - 1));
     });
     const auto tTree = Clock::now();
@@ -739,7 +737,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         fmt::print(stderr,
                    "propagation and leaves {:.3f} s (thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s "
                    "(x {:.3f}, y {:.3f}, z {:.3f}), leaves {:.3f} s)\n",
-                   since(t), haloNs * 1e-9, pointsNs * 1e-9, sweepNs * 1e-9, axisNs[0] * 1e-9, axisNs[1] * 1e-9,
+                   secondsSince(t), haloNs * 1e-9, pointsNs * 1e-9, sweepNs * 1e-9, axisNs[0] * 1e-9, axisNs[1] * 1e-9,
                    axisNs[2] * 1e-9, leavesNs * 1e-9);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
@@ -747,7 +745,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     value.reset();
     edges.reset();
     surface.reset();
-    const double tFree = since(tTree);
+    const double tFree = secondsSince(tTree);
     // A model of one colour has that colour wherever the surface is: its Cd
     // grid is that colour as the background, without voxels (on the 20k
     // benchmark tree the voxels would take 1.1 GB and a sixth of the time).
@@ -769,14 +767,14 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // The leaves' inactive voxels already hold +-background by the field's
     // sign: only the tiles above them need the flood fill (minLevel 1; at the
     // leaf level it would replace those signs by a scan-line guess).
-    const double tAdd = since(tTree);
+    const double tAdd = secondsSince(tTree);
     openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, 1);
     if (std::getenv("CAMBIUM_TIMING"))
         fmt::print(stderr, "freeing {:.3f} s, tree {:.3f} s, flood fill {:.3f} s\n", tFree, tAdd - tFree,
-                   since(tTree) - tAdd);
+                   secondsSince(tTree) - tAdd);
     if (opt.fog)
         addFog(out);
-    st.seconds = since(start);
+    st.seconds = secondsSince(start);
     st.assemblySeconds = st.seconds - st.topologySeconds - st.samplingSeconds;
     progress("assembly", 1.0);
     return out;

@@ -6,6 +6,7 @@
 #include "core/files.h"
 #include "core/frames.h"
 #include "model/growth.h"
+#include "core/clock.h"
 
 #include <fmt/format.h>
 
@@ -22,8 +23,6 @@ namespace cambium {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 uint64_t fnv1a(const std::string& s, uint64_t h = 0xcbf29ce484222325ull)
 {
@@ -188,7 +187,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                         info.sequence = key;
                         writeVdb(grids, paths[i], info);
                     }
-                    fr.seconds = since(t0);
+                    fr.seconds = secondsSince(t0);
                     if (done) {
                         std::lock_guard<std::mutex> lock(mutex);
                         done(fr);
@@ -210,7 +209,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
         th.join();
     if (error)
         std::rethrow_exception(error);
-    report.seconds = since(start);
+    report.seconds = secondsSince(start);
     report.peakMemoryBytes = peakMemoryBytes();
     return report;
 }

@@ -8,6 +8,7 @@
 #include "model/skeleton.h"
 
 #include "cb_primitives.h"
+#include "core/clock.h"
 
 #include <fmt/format.h>
 #include <openvdb/tools/ParticlesToLevelSet.h>
@@ -24,7 +25,6 @@ namespace cambium {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 
 double residentBytes()
 {
@@ -50,7 +50,7 @@ double timed(F&& f, double& peakBytes)
     });
     const auto t0 = Clock::now();
     f();
-    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    const double s = secondsSince(t0);
     done = true;
     watch.join();
     peakBytes = std::max(peak.load(), residentBytes());
@@ -95,7 +95,7 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
         }
         out[v] = float(f);
     });
-    const double t = std::chrono::duration<double>(Clock::now() - t0).count();
+    const double t = secondsSince(t0);
     return t * voxels / double(patch);
 }
 

@@ -8,6 +8,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "model/growth.h"
+#include "core/clock.h"
 
 #include <fmt/format.h>
 
@@ -17,13 +18,6 @@
 
 namespace cambium {
 
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-}  // namespace
-
 void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir)
 {
     checkDeviceOption(req.device);
@@ -31,7 +25,7 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir)
     std::sort(years.begin(), years.end());
     auto t0 = Clock::now();
     const GrowthModel model(loadGrowthParameters(req.parameters));
-    const double global = since(t0);
+    const double global = secondsSince(t0);
     for (int y : years)
         if (y < 1 || y > model.params().years)
             throw InputError(fmt::format("--years: {} is outside the tree's 1 to {} years", y, model.params().years));
@@ -46,20 +40,20 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir)
         const Skeleton sk = model.skeleton(y, req.leaves);
         const BlobTree tree = buildTree(sk, model.buildOptions());
         const FieldProgram program = FieldProgram::compile(tree);
-        const double modelSeconds = since(t0);
+        const double modelSeconds = secondsSince(t0);
         const TreeStats ts = computeStats(tree);
         BakeOptions opt;
         opt.voxelSize = req.voxelSize;
         t0 = Clock::now();
         const BakedGrids grids = bakeLevelSet(program, *sampler, opt);
-        const double bakeSeconds = since(t0);
+        const double bakeSeconds = secondsSince(t0);
         const std::string path = fmt::format("{}/year{}.vdb", dir, y);
         VdbFileInfo info;
         info.scene = req.parameters;
         info.time = y;
         t0 = Clock::now();
         writeVdb(grids, path, info);
-        const double writeSeconds = since(t0);
+        const double writeSeconds = secondsSince(t0);
         fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | {:.0f} |\n", y, sk.internodes.size(),
                    ts.primitives, ts.operators, modelSeconds, bakeSeconds, writeSeconds, grids.stats.activeVoxels,
                    double(std::filesystem::file_size(path)) / 1e6, peakMemoryBytes() / 1e6);

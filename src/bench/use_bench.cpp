@@ -8,6 +8,7 @@
 #include "field/program.h"
 #include "use/mesh.h"
 #include "use/render.h"
+#include "core/clock.h"
 
 #include <fmt/format.h>
 
@@ -19,9 +20,6 @@ namespace cambium {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 BakedGrids bakeSkeleton(const std::string& skeleton, double h)
 {

@@ -3,6 +3,7 @@
 
 #include "blobtree/stats.h"
 #include "core/error.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -16,14 +17,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 double radians(double deg) { return deg * kPi / 180.0; }
-
-double smoothstep(double e0, double e1, double x)
-{
-    if (!(e1 > e0))
-        return x >= e1 ? 1.0 : 0.0;
-    const double u = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
-    return u * u * (3.0 - 2.0 * u);
-}
 
 /// Angular distance in degrees, in [0, 180].
 double angularDistance(double deg)

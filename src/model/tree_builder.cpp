@@ -2,6 +2,7 @@
 #include "model/tree_builder.h"
 
 #include "core/error.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 
@@ -217,8 +218,7 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             top.push_back(tree.op(pcm, group));
             continue;
         }
-        const double a = std::clamp(age / o.ridgeYears, 0.0, 1.0), grown = a * a * (3.0 - 2.0 * a);
-        const double support = grown * o.ridgeRadius * thinnest;
+        const double support = smoothstep(0.0, o.ridgeYears, age) * o.ridgeRadius * thinnest;
         if (support < 1e-6 * thinnest) {
             top.insert(top.end(), group.begin(), group.end());  // a new junction: the summation alone
             continue;

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "use/grid_file.h"
+#include "core/clock.h"
 
 #include <fmt/format.h>
 #include <openvdb/tools/VolumeToMesh.h>
@@ -159,11 +160,11 @@ int runMeshCommand(const MeshRequest& req)
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
         throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
     forEachFile(req.input, req.output, req.frames, checkMeshOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = std::chrono::steady_clock::now();
+        const auto start = Clock::now();
         const LevelSetFile f = readLevelSet(in, req.grid);
         const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
         writeMesh(mesh, out);
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double s = secondsSince(start);
         fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
                    "volume {:.6g}\n",
                    in, out, mesh.points.size(), mesh.triangles.size(), f.color ? ", colours from Cd" : "", s,

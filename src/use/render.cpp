@@ -6,6 +6,7 @@
 #include "core/frames.h"
 #include "core/files.h"
 #include "use/grid_file.h"
+#include "core/clock.h"
 
 #include <OpenImageIO/imageio.h>
 #include <embree3/rtcore.h>
@@ -474,7 +475,7 @@ int runRenderCommand(const RenderRequest& req)
             sequenceBounds = activeWorldBounds(*readLevelSet(last, req.grid).surface);
     }
     forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = std::chrono::steady_clock::now();
+        const auto start = Clock::now();
         const double aspect = double(req.width) / double(req.height);
         RenderImage img;
         const char* how;
@@ -509,7 +510,7 @@ int runRenderCommand(const RenderRequest& req)
             }
         }
         writeImage(img, out);
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double s = secondsSince(start);
         size_t covered = 0;
         for (float a : img.alpha)
             covered += a > 0.0f;
