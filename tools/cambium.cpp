@@ -208,6 +208,7 @@ int main(int argc, char** argv)
 
     std::string scene;
     ModelOptions model;
+    bool noLeaves = false;
     auto modelOptions = [&](CLI::App* cmd) {
         cmd->add_option("--junctions", model.junctions,
                         "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
@@ -221,6 +222,9 @@ int main(int argc, char** argv)
             ->capture_default_str();
         cmd->add_option("--regrowth", model.regrowth,
                         "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
+        cmd->add_flag("--no-leaves", noLeaves, "Growth parameter files: leave the leaves out");
+        return cmd->add_option("--time", model.time,
+                               "Growth parameter files: the tree at this time in years (default: the last)");
     };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     info->add_option("scene", scene,
@@ -228,7 +232,10 @@ int main(int argc, char** argv)
                      "(docs/skeleton-format.md)")
         ->required();
     modelOptions(info);
-    info->callback([&] { action = [&] { return runInfo(scene, model); }; });
+    info->callback([&] {
+        model.leaves = !noLeaves;
+        action = [&] { return runInfo(scene, model); };
+    });
 
     std::vector<double> point;
     auto* eval = app.add_subcommand("eval", "Evaluate a scene's field, gradient and colour at a point "
@@ -242,7 +249,7 @@ int main(int argc, char** argv)
     auto* bakeCmd = app.add_subcommand(
         "bake", "Bake a scene or skeleton into a narrow-band OpenVDB level set (.vdb)");
     bakeCmd->add_option("input", bake.input, "Scene (.json), L-system (.l) or skeleton file")->required();
-    modelOptions(bakeCmd);
+    CLI::Option* timeOpt = modelOptions(bakeCmd);
     bakeCmd->add_option("-o,--output", bake.output, "Output .vdb file")->required();
     auto* voxelOpt = bakeCmd->add_option("--voxel-size", voxelSize,
                                          "Voxel size in world units (default: 512 voxels across the "
@@ -253,11 +260,6 @@ int main(int argc, char** argv)
     bakeCmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     bakeCmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
     bakeCmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)");
-    double bakeTime = -1.0;
-    bool bakeNoLeaves = false;
-    auto* timeOpt = bakeCmd->add_option("--time", bakeTime,
-                                        "Growth parameter files: the tree at this time in years (default: the last)");
-    bakeCmd->add_flag("--no-leaves", bakeNoLeaves, "Growth parameter files: leave the leaves out");
     bakeCmd->add_option("--frames", bake.frames,
                         "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
                         "(out/populus.####.vdb), frame f at year f / fps-per-year")
@@ -268,8 +270,7 @@ int main(int argc, char** argv)
     bakeCmd->callback([&] {
         if (voxelOpt->count())
             bake.voxelSize = voxelSize;
-        model.time = bakeTime;
-        model.leaves = !bakeNoLeaves;
+        model.leaves = !noLeaves;
         bake.model = model;
         action = [&] { return runBakeCommand(bake); };
     });
@@ -413,7 +414,6 @@ int main(int argc, char** argv)
 
     GrowthRequest growth;
     double growthYear = -1.0;
-    bool noLeaves = false;
     auto* growthCmd = app.add_subcommand("growth", "Grow a tree from a growth parameter file (docs/growth-format.md) "
                                                     "and print its counts or skeleton at a time");
     growthCmd->add_option("input", growth.input, "Growth parameter file (.json)")->required();
