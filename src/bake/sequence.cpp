@@ -100,7 +100,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                                      "to bake",
                                      req.input, times.back()));
     const FieldProgram lastProgram = FieldProgram::compile(buildTree(last, build));
-    const VoxelPlan plan = planVoxelSize(lastProgram, req, std::max(1, req.jobs));
+    const VoxelPlan plan = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped below
     report.voxelSize = plan.voxelSize;
     report.autoVoxelSize = plan.automatic;
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
