@@ -100,7 +100,21 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                                      "to bake",
                                      req.input, times.back()));
     const FieldProgram lastProgram = FieldProgram::compile(buildTree(last, build));
-    const VoxelPlan plan = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped below
+    VoxelPlan plan = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped below
+    if (req.model.leaves) {
+        // Wood only grows, but leaves come and go within a year: the last
+        // year's frames in leaf may need more than the last frame.
+        BakeRequest fixed = req;
+        fixed.voxelSize = plan.voxelSize;
+        const int lastYear = std::max(1, int(std::ceil(times.back())));
+        for (size_t i = 0; i + 1 < times.size(); ++i)
+            if (std::max(1, int(std::ceil(times[i]))) == lastYear) {
+                const Skeleton sk = model.skeleton(times[i], true);
+                if (!sk.internodes.empty())
+                    plan.bytes = std::max(plan.bytes,
+                                          planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
+            }
+    }
     report.voxelSize = plan.voxelSize;
     report.autoVoxelSize = plan.automatic;
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));

@@ -38,7 +38,8 @@ struct SequenceReport {
 /// before (LeafValueCache): identical to a full bake of the frame.
 ///
 /// Validates everything first (parameters, frames and their times, output
-/// pattern, voxel size and memory at the last frame, resumable files) and
+/// pattern, voxel size at the last frame, memory at the last year's frames,
+/// resumable files) and
 /// throws InputError naming the problem before any output; then bakes the
 /// frames, `jobs` at once (each year's frames in order by one worker, so a
 /// frame whose BlobTree equals the previous one reuses its grids), and calls
