@@ -266,6 +266,8 @@ TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)
     BakeRequest junctions = sequence(dir / "a.#.vdb", "1-3", 1.0);
     junctions.model.junctions = "blend";
     expectInputError([&] { runBakeSequence(junctions); }, "a growth parameter file sets its own", "junctions");
+    expectInputError([&] { runBakeSequence(sequence(dir / "a.#.vdb", "20-27", 1.0, 1e-5)); }, "would need about",
+                     "a voxel size needing terabytes");
     EXPECT_TRUE(fs::is_empty(dir.path));
 }
 
