@@ -216,7 +216,7 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
         {"-o " + png, "nothing to render"},
         {"--mesh " + (dir / "m.stl").string() + " -o " + png, "unknown mesh format '.stl'"},
         {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
-        {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto or turntable:ANGLE"},
+        {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto, turntable:ANGLE (degrees) or look:"},
         {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},
         {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
         {vdb + " -o " + png + " --device gpu", "--device must be opencl or cpu (got 'gpu')"},

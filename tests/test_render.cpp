@@ -357,6 +357,23 @@ TEST(Render, TheDefaultCameraFramesTheBounds)
     EXPECT_THROW(parseCamera("turntable:x", b, 1.0), InputError);
 }
 
+TEST(Render, ALookCameraIsWhereItIsToldAndTheTargetIsInTheMiddle)
+{
+    const Box b(glm::dvec3(0.0), glm::dvec3(1.0));
+    const Camera cam = parseCamera("look:1,2,3:0.5,0.25,-1:20", b, 1.5);
+    EXPECT_EQ(cam.eye, glm::dvec3(1, 2, 3));
+    EXPECT_EQ(cam.target, glm::dvec3(0.5, 0.25, -1));
+    EXPECT_EQ(cam.fovY, 20.0);
+    // The target projects to the image's centre.
+    glm::dvec3 o, d;
+    cameraRay(cam, 300, 200, 150.0, 100.0, o, d);
+    EXPECT_NEAR(glm::length(glm::cross(d, glm::normalize(cam.target - cam.eye))), 0.0, 1e-12);
+    EXPECT_EQ(parseCamera("look:1,2,3:0,0,0", b, 1.0).fovY, 35.0);
+    for (const char* bad : {"look:1,2,3", "look:1,2,3:1,2,3", "look:0,5,0:0,0,0", "look:1,2,3:0,0,0:200",
+                            "look:1,2,x:0,0,0", "look:1,2,3:0,0,0:20:1"})
+        EXPECT_THROW(parseCamera(bad, b, 1.0), InputError) << bad;
+}
+
 TEST(Render, ImagesReadBackWithTheirChannels)
 {
     BlobTree tree;

@@ -299,7 +299,7 @@ int main(int argc, char** argv)
     renderCmd->add_option("--width", render.width, "Image width in pixels")->capture_default_str();
     renderCmd->add_option("--height", render.height, "Image height in pixels")->capture_default_str();
     renderCmd->add_option("--spp", render.spp, "Samples per pixel (anti-aliasing)")->capture_default_str();
-    renderCmd->add_option("--camera", render.camera, "auto (a three-quarter view) or turntable:ANGLE")
+    renderCmd->add_option("--camera", render.camera, "auto (a three-quarter view), turntable:ANGLE or look:EX,EY,EZ:TX,TY,TZ[:FOV]")
         ->capture_default_str();
     renderCmd->add_option("--device", render.device,
                           "opencl (NanoVDB's HDDA in an OpenCL kernel) or cpu (OpenVDB's level-set ray intersector)")

@@ -19,6 +19,7 @@
 #include <chrono>
 #include <filesystem>
 #include <optional>
+#include <sstream>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -82,7 +83,40 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
         if (!angle.empty() && end && *end == '\0' && std::isfinite(a))
             return framingCamera(bounds, aspect, 35.0 + a);
     }
-    throw InputError(fmt::format("--camera {}: expected auto or turntable:ANGLE (degrees)", spec));
+    // look:EX,EY,EZ:TX,TY,TZ[:FOV] — an eye, a target and a vertical field of view.
+    const std::string look = "look:";
+    if (spec.rfind(look, 0) == 0) {
+        std::vector<double> v;
+        std::string rest = spec.substr(look.size());
+        bool ok = true;
+        for (char& c : rest)
+            if (c == ':')
+                c = ',';
+        std::istringstream in(rest);
+        for (std::string item; ok && std::getline(in, item, ',');) {
+            char* end = nullptr;
+            const double x = std::strtod(item.c_str(), &end);
+            ok = !item.empty() && end && *end == '\0' && std::isfinite(x);
+            v.push_back(x);
+        }
+        if (ok && (v.size() == 6 || v.size() == 7)) {
+            Camera cam;
+            cam.eye = {v[0], v[1], v[2]};
+            cam.target = {v[3], v[4], v[5]};
+            if (v.size() == 7)
+                cam.fovY = v[6];
+            const glm::dvec3 w = cam.target - cam.eye;
+            if (glm::length(w) > 0.0 && glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6 && cam.fovY > 0.0 &&
+                cam.fovY < 180.0)
+                return cam;
+            throw InputError(fmt::format("--camera {}: the eye must differ from the target, the view must not be "
+                                         "vertical, and the field of view must be between 0 and 180 degrees",
+                                         spec));
+        }
+    }
+    throw InputError(fmt::format("--camera {}: expected auto, turntable:ANGLE (degrees) or "
+                                 "look:EX,EY,EZ:TX,TY,TZ[:FOV]",
+                                 spec));
 }
 
 CameraFrame::CameraFrame(const Camera& cam, int w_, int h_)
