@@ -66,6 +66,23 @@ TEST(TreeBuilder, ShorteningTheBasalInternodeRemovesTheBulge)
     EXPECT_GT(maxWithout / r - 1.0, 0.15);  // the plain sum bulges visibly
 }
 
+TEST(TreeBuilder, AChainOfShortThickInternodesStaysFlat)
+{
+    // Old wood: internodes two radii long, shorter than twice delta_A. The
+    // basal one gives half its length and its continuation the rest of delta_A
+    // from its base: the chain's radius stays within a few percent (with the
+    // basal shortening alone it bulged at every joint).
+    const double r = 0.1, len = 0.2;
+    Skeleton sk;
+    for (int i = 0; i < 8; ++i)
+        sk.internodes.push_back(internode(i, i - 1, {0, len * i, 0}, {0, len * (i + 1), 0}, r, r));
+    const auto [lo, hi] = radiusRange(buildTree(sk), 2 * len, 6 * len);
+    std::printf("chain of internodes two radii long: radius in [%.4f, %.4f] (%+.1f %% / %+.1f %%)\n", lo, hi,
+                100.0 * (lo / r - 1.0), 100.0 * (hi / r - 1.0));
+    EXPECT_LT(hi / r - 1.0, 0.05);
+    EXPECT_GT(lo / r - 1.0, -0.05);
+}
+
 TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
 {
     // Paper 002: connected convolution segments are a polyline: no rules needed.

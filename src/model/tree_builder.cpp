@@ -79,15 +79,15 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         r0[i] = a.r0;
         r1[i] = a.r1;
     }
-    auto moveEnd = [&](size_t i, double by, bool tip) {
+    std::vector<double> baseShift(n, 0.0);  // how far each internode's base moves along its axis
+    auto moveTip = [&](size_t i, double by) {
         // Along the internode's own axis, the radius following its taper.
         const Internode& a = sk.internodes[i];
         const glm::dvec3 axis = a.p1 - a.p0;
-        const double len = glm::length(axis);
         // An internode short for its radii loses at most half its length.
-        const double t = tip ? std::max(1.0 - by / len, 0.5) : std::min(by / len, 0.5);
-        (tip ? p1[i] : p0[i]) = a.p0 + t * axis;
-        (tip ? r1[i] : r0[i]) = a.r0 + t * (a.r1 - a.r0);
+        const double t = std::max(1.0 - by / glm::length(axis), 0.5);
+        p1[i] = a.p0 + t * axis;
+        r1[i] = a.r0 + t * (a.r1 - a.r0);
     };
     for (size_t i = 0; i < n; ++i) {
         if (!isCone(i))
@@ -104,12 +104,35 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             tip.push_back(sk.internodes[k].r1);
         }
         const double rA = sk.internodes[i].r1;
-        moveEnd(i, basalShortening(o, rA, base, tip), true);  // negative: lengthened (eq. 7)
+        const double deltaA = basalShortening(o, rA, base, tip);  // negative: lengthened (eq. 7)
+        moveTip(i, deltaA);
         if (c.size() > 1 && o.junction == TreeBuildOptions::Junction::Pcm)
             for (size_t k : c)
                 if (const double d = rA - sk.internodes[k].r0; d > 0.0)
-                    moveEnd(k, d, false);  // eq. 6
+                    baseShift[k] += d;  // eq. 6
+        // A basal internode shorter than twice delta_A gives only half its
+        // length; the continuation (the thickest child) gives the rest from
+        // its base, so that the gap between them is still delta_A and their
+        // joint stays flat (short thick internodes of old wood).
+        const double half = 0.5 * glm::length(sk.internodes[i].p1 - sk.internodes[i].p0);
+        if (deltaA > half) {
+            size_t thickest = c[0];
+            for (size_t k : c)
+                if (sk.internodes[k].r0 > sk.internodes[thickest].r0)
+                    thickest = k;
+            baseShift[thickest] += deltaA - half;
+        }
     }
+    for (size_t k = 0; k < n; ++k)
+        if (baseShift[k] > 0.0) {
+            // At most half its length, and a tenth must stay after its own tip moved.
+            const Internode& a = sk.internodes[k];
+            const glm::dvec3 axis = a.p1 - a.p0;
+            const double tipAt = glm::dot(p1[k] - a.p0, axis) / glm::dot(axis, axis);
+            const double t = std::min({baseShift[k] / glm::length(axis), 0.5, tipAt - 0.1});
+            p0[k] = a.p0 + t * axis;
+            r0[k] = a.r0 + t * (a.r1 - a.r0);
+        }
 
     BlobTree tree;
     std::vector<int> top, convolution;
