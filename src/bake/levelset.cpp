@@ -268,6 +268,25 @@ uint64_t packOrigin(const int32_t* o)
            uint64_t(uint32_t(o[2] >> 3) & 0x1FFFFF);
 }
 
+/// Two independent 64-bit hashes of a sequence of doubles' bits (each word
+/// mixed with SplitMix64's finaliser into two differently seeded lanes).
+std::array<uint64_t, 2> hash128(const std::vector<double>& v)
+{
+    auto mix = [](uint64_t z) {
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        return z ^ (z >> 31);
+    };
+    uint64_t a = 0x243f6a8885a308d3ull ^ v.size(), b = 0x13198a2e03707344ull + v.size();
+    for (double d : v) {
+        uint64_t x;
+        std::memcpy(&x, &d, 8);
+        a = mix(a ^ x) + 0x9e3779b97f4a7c15ull;
+        b = mix(b + x * 0xd6e8feb86659fd93ull) ^ 0xa0761d6478bd642full;
+    }
+    return {a, b};
+}
+
 /// Step 2 with a cache: leaves whose canonical program the cache holds for
 /// their origin get its values, the rest are sampled; the cache then holds
 /// this bake's leaves.
@@ -276,12 +295,16 @@ void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const B
                      LeafValueCache& cache, uint16_t* value, size_t& reused, const Progress& progress)
 {
     const size_t n = topo.leaves.size();
-    std::vector<std::vector<double>> keys(n);
+    std::vector<std::array<uint64_t, 2>> keys(n);
     std::vector<uint8_t> have(n, 0);
     const bool usable = cache.voxelSize == h;
+    tbb::enumerable_thread_specific<std::vector<double>> scratch;
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
         const LeafJob& job = topo.leaves[l];
-        program.canonical(Code(topo.pool.data() + job.codeOffset, size_t(job.codeLength)), keys[l]);
+        std::vector<double>& canonical = scratch.local();
+        canonical.clear();
+        program.canonical(Code(topo.pool.data() + job.codeOffset, size_t(job.codeLength)), canonical);
+        keys[l] = hash128(canonical);
         if (!usable)
             return;
         const auto it = cache.slot.find(packOrigin(job.origin));

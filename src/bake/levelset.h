@@ -7,23 +7,25 @@
 #include <openvdb/openvdb.h>
 
 #include <functional>
+#include <array>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 namespace cambium {
 
-/// The sampled values of a bake's leaves, keyed by each leaf's origin and
-/// its specialised program in canonical form (FieldProgram::canonical): a
-/// later bake at the same voxel size given the cache samples only the leaves
-/// whose program changed and copies the others' values — the same values a
-/// full bake computes, since the same program gives the same samples.  It
-/// then holds that bake's leaves.
+/// The sampled values of a bake's leaves, keyed by each leaf's origin and a
+/// 128-bit hash of its specialised program in canonical form
+/// (FieldProgram::canonical): a later bake at the same voxel size given the
+/// cache samples only the leaves whose program changed and copies the others'
+/// values — the same values a full bake computes, since the same program
+/// gives the same samples.  It then holds that bake's leaves (about 1 KB
+/// each: the values; the hash instead of the ~0.8 KB canonical program).
 struct LeafValueCache {
     double voxelSize = 0.0;
-    std::unordered_map<uint64_t, size_t> slot;  ///< packed leaf origin -> entry
-    std::vector<std::vector<double>> programs;  ///< canonical leaf programs
-    std::vector<uint16_t> values;               ///< 512 per entry
+    std::unordered_map<uint64_t, size_t> slot;    ///< packed leaf origin -> entry
+    std::vector<std::array<uint64_t, 2>> programs;  ///< hashes of the canonical leaf programs
+    std::vector<uint16_t> values;                 ///< 512 per entry
 };
 
 struct BakeOptions {
