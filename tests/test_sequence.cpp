@@ -9,10 +9,10 @@
 #include "core/error.h"
 #include "model/growth.h"
 #include "test_util.h"
+#include "use/mesh.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
-#include <openvdb/tools/LevelSetMeasure.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -224,15 +224,18 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
 {
     // Years 9-13 at ten frames a year: branches appear by growing from their
     // buds and are shed by dying back, so that no frame's change of volume
-    // exceeds a few times the median change of the growing frames.  (Without
+    // exceeds four times the median change of the growing frames.  (Without
     // leaves: they fall within a tenth of a year, one frame at this rate.)
     TempDir dir;
     BakeRequest req = sequence(dir / "v.####.vdb", "81-130", 10.0, 0.03);
     req.model.leaves = false;
     const SequenceReport r = runBakeSequence(req);
+    // Volumes of the level sets' meshes (OpenVDB's levelSetVolume, a band
+    // integral, jumps by several times the change between frames here, on
+    // twigs thinner than the band).
     std::vector<double> volume;
     for (const FrameReport& f : r.frames)
-        volume.push_back(openvdb::tools::levelSetVolume(*surface(f.path)));
+        volume.push_back(meshVolume(meshLevelSet(*surface(f.path))));
     std::vector<double> change;
     for (size_t i = 1; i < volume.size(); ++i) {
         change.push_back(std::abs(volume[i] - volume[i - 1]));
@@ -248,7 +251,7 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     std::nth_element(growing.begin(), growing.begin() + long(growing.size() / 2), growing.end());
     const double median = growing[growing.size() / 2];
     const double largest = *std::max_element(change.begin(), change.end());
-    EXPECT_LT(largest, 6.0 * median) << "largest change " << largest << ", median " << median;
+    EXPECT_LT(largest, 4.0 * median) << "largest change " << largest << ", median " << median;  // measured 2.9
     // And it grows overall.
     EXPECT_GT(volume.back(), 1.3 * volume.front());
 }

@@ -62,10 +62,55 @@ GrowthModel::GrowthModel(GrowthParameters params) : p_(std::move(params))
 {
     grow();
     // The trunk base's supported length at the end: the radius scale.
-    double total = 0.0;
-    for (size_t b = 0; b < branches_.size(); ++b)
-        total += grownLength(int(b), double(p_.years));
-    supportRef_ = std::max(total, 1e-12);
+    const std::vector<double> support = branchSupports(double(p_.years));
+    supportRef_ = std::max(support[0], 1e-12);
+    // Each metamer's radius at the end (or when its branch was lost: its
+    // support stays), which groups short thick metamers into chords.
+    for (size_t b = 0; b < branches_.size(); ++b) {
+        std::vector<double> lengths;
+        const std::vector<double> beyond = metamerSupports(b, double(p_.years), support, lengths);
+        GrowthBranch& br = branches_[b];
+        br.finalRadius.resize(lengths.size());
+        for (size_t j = 0; j < lengths.size(); ++j)
+            br.finalRadius[j] = radiusOf(beyond[j]);
+    }
+}
+
+std::vector<double> GrowthModel::branchSupports(double t) const
+{
+    // Each branch's grown length plus its laterals' (lost ones at the length
+    // they had: the wood they made stays).
+    std::vector<double> support(branches_.size(), 0.0);
+    for (size_t b = branches_.size(); b-- > 0;) {
+        support[b] += grownLength(int(b), t);
+        if (branches_[b].parent >= 0)
+            support[size_t(branches_[b].parent)] += support[b];
+    }
+    return support;
+}
+
+std::vector<double> GrowthModel::metamerSupports(size_t bi, double t, const std::vector<double>& support,
+                                                 std::vector<double>& lengths) const
+{
+    const GrowthBranch& b = branches_[bi];
+    const int m = b.metamers();
+    lengths.assign(size_t(m), 0.0);
+    std::vector<double> lateralSupport(size_t(m), 0.0);
+    for (const GrowthShoot& s : b.shoots)
+        for (int k = 0; k < s.metamers; ++k)
+            lengths[size_t(s.firstMetamer + k)] = metamerLength(b, s, k, t);
+    for (int c : b.laterals)
+        lateralSupport[size_t(branches_[size_t(c)].node)] += support[size_t(c)];
+    std::vector<double> beyond(size_t(m) + 1, 0.0);  // beyond[j]: the support of metamer j's base
+    for (int j = m - 1; j >= 0; --j)
+        beyond[size_t(j)] = beyond[size_t(j) + 1] + lengths[size_t(j)] + lateralSupport[size_t(j)];
+    return beyond;
+}
+
+double GrowthModel::radiusOf(double support) const
+{
+    return p_.tipRadius +
+           (p_.baseRadius - p_.tipRadius) * std::pow(std::max(support, 0.0) / supportRef_, p_.thickening);
 }
 
 bool GrowthModel::separationHolds(int first, int m, int previous) const
@@ -224,17 +269,8 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
     const size_t n = branches_.size();
     const double minLength = 1e-3 * p_.tipRadius;
 
-    // Supported length: each branch's grown length plus its laterals'
-    // (lost ones at the length they had: the wood they made stays).
-    std::vector<double> support(n, 0.0);
-    for (size_t b = n; b-- > 0;) {
-        support[b] += grownLength(int(b), t);
-        if (branches_[b].parent >= 0)
-            support[size_t(branches_[b].parent)] += support[b];
-    }
-    auto radius = [&](double s) {
-        return p_.tipRadius + (p_.baseRadius - p_.tipRadius) * std::pow(std::max(s, 0.0) / supportRef_, p_.thickening);
-    };
+    const std::vector<double> support = branchSupports(t);
+    auto radius = [&](double s) { return radiusOf(s); };
 
     struct NodeFrame {
         glm::dvec3 p, h, u;  ///< the metamer's tip, heading, reference across it
@@ -302,17 +338,9 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
             continue;
         const double sTheta = std::min(1.0, L / p_.maxBranchLength);  // eq. 8
 
-        // Support beyond each node: the branch's own metamers and laterals.
         const int m = b.metamers();
-        std::vector<double> lengths(size_t(m), 0.0), lateralSupport(size_t(m), 0.0);
-        for (const GrowthShoot& s : b.shoots)
-            for (int k = 0; k < s.metamers; ++k)
-                lengths[size_t(s.firstMetamer + k)] = metamerLength(b, s, k, t);
-        for (int c : b.laterals)
-            lateralSupport[size_t(branches_[size_t(c)].node)] += support[size_t(c)];
-        std::vector<double> beyond(size_t(m) + 1, 0.0);  // beyond[j]: the support of metamer j's base
-        for (int j = m - 1; j >= 0; --j)
-            beyond[size_t(j)] = beyond[size_t(j) + 1] + lengths[size_t(j)] + lateralSupport[size_t(j)];
+        std::vector<double> lengths;
+        const std::vector<double> beyond = metamerSupports(bi, t, support, lengths);
 
         // Nodes where a lateral grows now: the skeleton's internodes end there.
         std::vector<bool> junction(size_t(m), false);
@@ -328,13 +356,16 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
         long long previous = parentId;
         const bool growing = b.lastYear() >= year && b.lost > year;
         // Metamers short for their radius (old, thick wood) are drawn as one
-        // internode up to the next junction, at least four radii long and
-        // straight within 10 degrees: cones much shorter than thick would
-        // lose most of their length to the junction rules (eq. 3) and leave
-        // waists.  `pending` is the internode being gathered.
+        // internode up to the next junction, at least four of its final radii
+        // long: cones much shorter than thick would lose most of their length
+        // to the junction rules (eq. 3) and leave waists.  The grouping
+        // depends on final lengths and radii only (and on which laterals
+        // live), so that it does not change from frame to frame.  `pending`
+        // is the internode being gathered, `gathered` its final length.
         Internode pending;
         size_t pendingFrom = 0;
         bool open = false;
+        double gathered = 0.0, pendingFinalRadius = 0.0;
         auto flush = [&] {
             if (!open)
                 return;
@@ -375,20 +406,20 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                 in.order = b.order;
                 in.module = (long long)bi;
                 in.age = t - (s.year - 1);
-                if (open && glm::dot(glm::normalize(in.p1 - pending.p0), glm::normalize(pending.p1 - pending.p0)) <
-                                std::cos(radians(10.0)))
-                    flush();
                 if (!open) {
                     pending = in;
                     pendingFrom = out.size();
                     open = true;
+                    gathered = 0.0;
+                    pendingFinalRadius = b.finalRadius[size_t(j)];
                 } else {
                     pending.p1 = in.p1;
                     pending.r1 = in.r1;
                 }
+                gathered += li;
                 drawn += len;
                 out.push_back({in.p1, h, across, in.r1, -1});
-                if (junction[size_t(j)] || glm::length(pending.p1 - pending.p0) >= 4.0 * pending.r0)
+                if (junction[size_t(j)] || gathered >= 4.0 * pendingFinalRadius)
                     flush();
 
                 // A bud scale scar ring at the base of each shoot but the seedling's first.

@@ -50,6 +50,7 @@ struct GrowthBranch {
     std::vector<GrowthShoot> shoots;    ///< one per year it grows, in order
     std::vector<int> laterals;          ///< branch indices of its laterals, by node
     double phase[4] = {0, 0, 0, 0};     ///< stochastic orientation (seeded)
+    std::vector<double> finalRadius;    ///< each metamer's base radius at the end (or at its loss)
 
     /// The last year it grows.
     int lastYear() const { return birth - 1 + int(length.size()) - 1; }
@@ -102,6 +103,15 @@ public:
 
 private:
     void grow();
+    /// Each branch's supported length at growth time t (its own and its
+    /// laterals', lost ones at the length they had).
+    std::vector<double> branchSupports(double t) const;
+    /// The support at each metamer's base of branch bi (index m: 0), and each
+    /// metamer's length at t into `lengths`.
+    std::vector<double> metamerSupports(size_t bi, double t, const std::vector<double>& support,
+                                        std::vector<double>& lengths) const;
+    /// Radius from supported length: tip_radius + (base_radius - tip_radius) (S / S_ref)^thickening.
+    double radiusOf(double support) const;
     double metamerLength(const GrowthBranch& b, const GrowthShoot& s, int k, double t) const;
 
     GrowthParameters p_;
