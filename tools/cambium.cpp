@@ -228,8 +228,8 @@ int main(int argc, char** argv)
     };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     info->add_option("scene", scene,
-                     "Scene (JSON, docs/scene-format.md), L-system (.l, docs/lsystem-format.md) or skeleton "
-                     "(docs/skeleton-format.md)")
+                     "Scene (JSON, docs/scene-format.md), growth parameters (docs/growth-format.md), L-system (.l, "
+                     "docs/lsystem-format.md) or skeleton (docs/skeleton-format.md)")
         ->required();
     modelOptions(info);
     info->callback([&] {
@@ -247,8 +247,11 @@ int main(int argc, char** argv)
     BakeRequest bake;
     double voxelSize = 0.0;
     auto* bakeCmd = app.add_subcommand(
-        "bake", "Bake a scene or skeleton into a narrow-band OpenVDB level set (.vdb)");
-    bakeCmd->add_option("input", bake.input, "Scene (.json), L-system (.l) or skeleton file")->required();
+        "bake", "Bake a scene, L-system, skeleton or grown tree into a narrow-band OpenVDB level set (.vdb), or a "
+                "growing tree into a sequence of them");
+    bakeCmd->add_option("input", bake.input,
+                        "Scene (.json), growth parameters (.json with \"curves\"), L-system (.l) or skeleton file")
+        ->required();
     CLI::Option* timeOpt = modelOptions(bakeCmd);
     bakeCmd->add_option("-o,--output", bake.output, "Output .vdb file")->required();
     auto* voxelOpt = bakeCmd->add_option("--voxel-size", voxelSize,
