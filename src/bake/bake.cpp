@@ -8,6 +8,7 @@
 #include "bake/vdb_io.h"
 #include "blobtree/scene_io.h"
 #include "core/error.h"
+#include "core/math.h"
 #include "model/skeleton.h"
 
 #include <fmt/format.h>
@@ -68,7 +69,7 @@ TreeBuildOptions treeOptions(const ModelOptions& o, const std::string& junctions
 {
     TreeBuildOptions t;
     t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
-    t.bend = o.bendDegrees * 3.14159265358979323846 / 180.0;
+    t.bend = o.bendDegrees * kDegree;
     t.regrowth = o.regrowth;
     t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
                    : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution

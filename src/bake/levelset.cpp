@@ -3,6 +3,7 @@
 
 #include "bake/topology.h"
 #include "core/clock.h"
+#include "core/math.h"
 #include "core/memory.h"
 
 #include "cb_program.h"
@@ -272,17 +273,12 @@ uint64_t packOrigin(const int32_t* o)
 /// mixed with SplitMix64's finaliser into two differently seeded lanes).
 std::array<uint64_t, 2> hash128(const std::vector<double>& v)
 {
-    auto mix = [](uint64_t z) {
-        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-        return z ^ (z >> 31);
-    };
     uint64_t a = 0x243f6a8885a308d3ull ^ v.size(), b = 0x13198a2e03707344ull + v.size();
     for (double d : v) {
         uint64_t x;
         std::memcpy(&x, &d, 8);
-        a = mix(a ^ x) + 0x9e3779b97f4a7c15ull;
-        b = mix(b + x * 0xd6e8feb86659fd93ull) ^ 0xa0761d6478bd642full;
+        a = mix64(a ^ x) + 0x9e3779b97f4a7c15ull;
+        b = mix64(b + x * 0xd6e8feb86659fd93ull) ^ 0xa0761d6478bd642full;
     }
     return {a, b};
 }

@@ -1,9 +1,16 @@
-// cambium — small scalar functions shared by the models.
+// cambium — small math shared by the models and the bake.
 #pragma once
 
+#include <glm/glm.hpp>
+
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 
 namespace cambium {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180.0;  ///< radians per degree
 
 /// 0 below e0, 1 above e1, the cubic 3u^2 - 2u^3 of u = (x - e0) / (e1 - e0)
 /// between (C1, flat at both ends); a step at e1 when e1 <= e0.
@@ -13,6 +20,21 @@ inline double smoothstep(double e0, double e1, double x)
         return x >= e1 ? 1.0 : 0.0;
     const double u = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
     return u * u * (3.0 - 2.0 * u);
+}
+
+/// v rotated by `angle` radians about the unit `axis` (Rodrigues).
+inline glm::dvec3 rotateAbout(const glm::dvec3& v, const glm::dvec3& axis, double angle)
+{
+    const double c = std::cos(angle), s = std::sin(angle);
+    return v * c + glm::cross(axis, v) * s + axis * glm::dot(axis, v) * (1.0 - c);
+}
+
+/// SplitMix64's finaliser: a bijective 64-bit mix (seeded streams, hashes).
+inline uint64_t mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
 }
 
 }  // namespace cambium

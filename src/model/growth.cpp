@@ -15,8 +15,7 @@ namespace cambium {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-double radians(double deg) { return deg * kPi / 180.0; }
+double radians(double deg) { return deg * kDegree; }
 
 /// Angular distance in degrees, in [0, 180].
 double angularDistance(double deg)
@@ -26,21 +25,7 @@ double angularDistance(double deg)
 }
 
 /// SplitMix64: a seeded, platform-independent stream for the stochastic parts.
-uint64_t splitmix(uint64_t& s)
-{
-    uint64_t z = (s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-double uniform(uint64_t& s) { return double(splitmix(s) >> 11) * 0x1.0p-53; }
-
-/// Rodrigues: v rotated about the unit axis a by `angle` radians.
-glm::dvec3 rotate(const glm::dvec3& v, const glm::dvec3& a, double angle)
-{
-    const double c = std::cos(angle), s = std::sin(angle);
-    return v * c + glm::cross(a, v) * s + a * glm::dot(a, v) * (1.0 - c);
-}
+double uniform(uint64_t& s) { return double(mix64(s += 0x9e3779b97f4a7c15ull) >> 11) * 0x1.0p-53; }
 
 glm::dvec3 anyPerpendicular(const glm::dvec3& v)
 {
@@ -393,10 +378,10 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                                            0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[1]));
                 const double n2 = noise * (0.6 * std::sin(2 * kPi * sNominal / wave1 + b.phase[2]) +
                                            0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[3]));
-                glm::dvec3 h = rotate(h0, axis, theta + n1), across = axis;
+                glm::dvec3 h = rotateAbout(h0, axis, theta + n1), across = axis;
                 const glm::dvec3 yawAxis = glm::normalize(glm::cross(h, axis));
-                h = glm::normalize(rotate(h, yawAxis, n2));
-                across = glm::normalize(rotate(across, yawAxis, n2));
+                h = glm::normalize(rotateAbout(h, yawAxis, n2));
+                across = glm::normalize(rotateAbout(across, yawAxis, n2));
 
                 Internode in;
                 in.p0 = p;

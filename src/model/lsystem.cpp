@@ -2,6 +2,7 @@
 #include "model/lsystem.h"
 
 #include "core/error.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 
@@ -28,7 +29,6 @@ namespace {
 using ExprPtr = std::shared_ptr<const Expr>;
 using Rng = std::mt19937_64;
 
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
 /// The functions expressions may call (trigonometry in degrees, as cpfg);
 /// `ran` (no `f`) draws from the derivation's seeded generator.

@@ -2,6 +2,7 @@
 #include "model/turtle.h"
 
 #include "core/error.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +12,6 @@ namespace cambium {
 
 namespace {
 
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
 struct TurtleState {
     glm::dvec3 pos{0.0}, H{0.0, 1.0, 0.0}, L{1.0, 0.0, 0.0}, U{0.0, 0.0, -1.0};
@@ -43,13 +43,6 @@ void roll(TurtleState& t, double deg)
     const glm::dvec3 L = t.L * c + t.U * s, U = -t.L * s + t.U * c;
     t.L = L;
     t.U = U;
-}
-
-/// v rotated by `angle` radians about the unit `axis` (Rodrigues).
-glm::dvec3 rotate(const glm::dvec3& v, const glm::dvec3& axis, double angle)
-{
-    const double c = std::cos(angle), s = std::sin(angle);
-    return v * c + glm::cross(axis, v) * s + axis * glm::dot(axis, v) * (1.0 - c);
 }
 
 }  // namespace
@@ -98,8 +91,8 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
                     if (len > 1e-12) {
                         const glm::dvec3 a = axis / len;
                         const double angle = e * len;
-                        t.H = glm::normalize(rotate(t.H, a, angle));
-                        t.L = glm::normalize(rotate(t.L, a, angle));
+                        t.H = glm::normalize(rotateAbout(t.H, a, angle));
+                        t.L = glm::normalize(rotateAbout(t.L, a, angle));
                         t.U = glm::cross(t.H, t.L);
                     }
                 }
