@@ -40,7 +40,7 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
     std::vector<std::vector<size_t>> runs;
     int year = -1;
     for (size_t i = 0; i < times.size(); ++i) {
-        const int y = std::max(1, int(std::ceil(times[i])));
+        const int y = growthYear(times[i]);
         if (runs.empty() || y != year)
             runs.emplace_back();
         runs.back().push_back(i);
@@ -106,9 +106,9 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
         // year's frames in leaf may need more than the last frame.
         BakeRequest fixed = req;
         fixed.voxelSize = plan.voxelSize;
-        const int lastYear = std::max(1, int(std::ceil(times.back())));
+        const int lastYear = growthYear(times.back());
         for (size_t i = 0; i + 1 < times.size(); ++i)
-            if (std::max(1, int(std::ceil(times[i]))) == lastYear) {
+            if (growthYear(times[i]) == lastYear) {
                 const Skeleton sk = model.skeleton(times[i], true);
                 if (!sk.internodes.empty())
                     plan.bytes = std::max(plan.bytes,

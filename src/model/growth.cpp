@@ -83,7 +83,7 @@ std::vector<double> GrowthModel::metamerSupports(size_t bi, double t, const std:
     std::vector<double> lateralSupport(size_t(m), 0.0);
     for (const GrowthShoot& s : b.shoots)
         for (int k = 0; k < s.metamers; ++k)
-            lengths[size_t(s.firstMetamer + k)] = metamerLength(b, s, k, t);
+            lengths[size_t(s.firstMetamer + k)] = metamerLength(s, k, t);
     for (int c : b.laterals)
         lateralSupport[size_t(branches_[size_t(c)].node)] += support[size_t(c)];
     std::vector<double> beyond(size_t(m) + 1, 0.0);  // beyond[j]: the support of metamer j's base
@@ -199,7 +199,13 @@ void GrowthModel::grow()
     }
 }
 
-double GrowthModel::metamerLength(const GrowthBranch&, const GrowthShoot& s, int k, double t) const
+double GrowthModel::organTime(const GrowthShoot& s, int k, double t) const
+{
+    const double start = s.metamers > 1 ? p_.shootSpread * k / (s.metamers - 1) : 0.0;
+    return std::clamp((t - (s.year - 1) - start) / (1.0 - p_.shootSpread), 0.0, 1.0);
+}
+
+double GrowthModel::metamerLength(const GrowthShoot& s, int k, double t) const
 {
     const double li = s.length / s.metamers;
     const double u = t - (s.year - 1);
@@ -207,8 +213,7 @@ double GrowthModel::metamerLength(const GrowthBranch&, const GrowthShoot& s, int
         return 0.0;
     if (u >= 1.0)
         return li;
-    const double start = s.metamers > 1 ? p_.shootSpread * k / (s.metamers - 1) : 0.0;
-    return li * p_.internodeGrowth(std::clamp((u - start) / (1.0 - p_.shootSpread), 0.0, 1.0));
+    return li * p_.internodeGrowth(organTime(s, k, t));
 }
 
 double GrowthModel::grownLength(int bi, double t) const
@@ -216,7 +221,7 @@ double GrowthModel::grownLength(int bi, double t) const
     const GrowthBranch& b = branches_[size_t(bi)];
     if (t <= b.birth - 1)
         return 0.0;
-    const int y = int(std::ceil(t));
+    const int y = growthYear(t);
     if (y > b.lastYear())
         return b.length.back();
     if (t == y)
@@ -224,7 +229,7 @@ double GrowthModel::grownLength(int bi, double t) const
     const GrowthShoot& s = b.shoots[size_t(y - b.birth)];
     double l = s.start;
     for (int k = 0; k < s.metamers; ++k)
-        l += metamerLength(b, s, k, t);
+        l += metamerLength(s, k, t);
     return std::min(l, b.lengthAt(y));  // (rounding could put the sum a bit past l_y)
 }
 
@@ -240,9 +245,11 @@ TreeBuildOptions GrowthModel::buildOptions() const
 
 BlobTree GrowthModel::tree(double t, bool leaves) const { return buildTree(skeleton(t, leaves), buildOptions()); }
 
+int growthYear(double t) { return std::max(1, int(std::ceil(t))); }
+
 double GrowthModel::growthTime(double time) const
 {
-    const int y = std::max(1, int(std::ceil(time)));
+    const int y = growthYear(time);
     return (y - 1) + std::min(1.0, (time - (y - 1)) / p_.growingSeason);
 }
 
@@ -255,7 +262,6 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
     const double minLength = 1e-3 * p_.tipRadius;
 
     const std::vector<double> support = branchSupports(t);
-    auto radius = [&](double s) { return radiusOf(s); };
 
     struct NodeFrame {
         glm::dvec3 p, h, u;  ///< the metamer's tip, heading, reference across it
@@ -267,7 +273,7 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
     const double alpha = radians(p_.branchingAngle);
     const double wave1 = 1.7 * p_.maxShootLength, wave2 = 0.61 * p_.maxShootLength;
     const double noise = radians(p_.orientationNoise);
-    const int year = std::max(1, int(std::ceil(t)));
+    const int year = growthYear(t);
     const double u = t - (year - 1);  // growth time within the current year
     const double fall = smoothstep(p_.leafFall, std::min(1.0, p_.leafFall + 0.1), time - (year - 1));
     const glm::dvec3 barkDark = 0.55 * p_.bark;
@@ -302,7 +308,7 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
             const double fade = 1.0 - smoothstep(0.0, 2.0 * p_.scarYears, since);
             if (parent && fade > 0.0) {
                 Scar s;
-                s.radius = radius(support[bi]);
+                s.radius = radiusOf(support[bi]);
                 s.base = base;
                 s.tip = base + h0 * (parentRadius + 0.3 * s.radius * fade);
                 s.parent = parentId;
@@ -313,7 +319,7 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
         }
         // Dying back over the year it is lost; carried off with a dying parent.
         double v = b.lost == year ? 1.0 - smoothstep(0.0, 1.0, u) : 1.0;
-        if (parent && b.parent >= 0 && visible[size_t(b.parent)] < grown[size_t(b.parent)]) {
+        if (parent && visible[size_t(b.parent)] < grown[size_t(b.parent)]) {
             const double lp = grown[size_t(b.parent)];
             v = std::min(v, std::clamp((visible[size_t(b.parent)] - b.position) / (lp - b.position), 0.0, 1.0));
         }
@@ -327,12 +333,13 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
         std::vector<double> lengths;
         const std::vector<double> beyond = metamerSupports(bi, t, support, lengths);
 
-        // Nodes where a lateral grows now: the skeleton's internodes end there.
-        std::vector<bool> junction(size_t(m), false);
+        // Nodes whose bud has broken into a lateral, and those where it
+        // still lives: the skeleton's internodes end there.
+        std::vector<bool> broken(size_t(m), false), junction(size_t(m), false);
         for (int c : b.laterals) {
             const GrowthBranch& lb = branches_[size_t(c)];
-            if (t > lb.birth - 1 && t < lb.lost)
-                junction[size_t(lb.node)] = true;
+            broken[size_t(lb.node)] = broken[size_t(lb.node)] || t > lb.birth - 1;
+            junction[size_t(lb.node)] = junction[size_t(lb.node)] || (t > lb.birth - 1 && t < lb.lost);
         }
 
         std::vector<NodeFrame>& out = nodes[bi];
@@ -386,8 +393,8 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                 Internode in;
                 in.p0 = p;
                 in.p1 = p + len * h;
-                in.r0 = radius(beyond[size_t(j)]);
-                in.r1 = radius(beyond[size_t(j) + 1]);
+                in.r0 = radiusOf(beyond[size_t(j)]);
+                in.r1 = radiusOf(beyond[size_t(j) + 1]);
                 in.order = b.order;
                 in.module = (long long)bi;
                 in.age = t - (s.year - 1);
@@ -425,15 +432,11 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                 // growing; last year's buds that did not break fade.
                 const double az = b.azimuth0 + radians(j * p_.phyllotaxis);
                 const glm::dvec3 side = std::cos(az) * across + std::sin(az) * glm::cross(h, across);
-                const double tau = s.metamers > 1 ? p_.shootSpread * k / (s.metamers - 1) : 0.0;
-                const double organTime = std::clamp((u - tau) / (1.0 - p_.shootSpread), 0.0, 1.0);
-                const bool branched = std::any_of(b.laterals.begin(), b.laterals.end(), [&](int c) {
-                    return branches_[size_t(c)].node == j && t > branches_[size_t(c)].birth - 1;
-                });
+                const double grownFor = organTime(s, k, t);
                 double bud = 0.0;
                 if (s.year == year && growing)
-                    bud = p_.budRadius * p_.budGrowth(organTime);
-                else if (s.year == year - 1 && !branched && b.lost > year)
+                    bud = p_.budRadius * p_.budGrowth(grownFor);
+                else if (s.year == year - 1 && !broken[size_t(j)] && b.lost > year)
                     bud = p_.budRadius * (1.0 - u);
                 if (bud > 1e-3 * p_.budRadius) {
                     Organ o;
@@ -444,7 +447,7 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
                     sk.organs.push_back(o);
                 }
                 if (leaves && p_.leaves && s.year == year && growing) {
-                    const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(organTime) *
+                    const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(grownFor) *
                                         (1.0 - fall);
                     if (size > 1e-3 * p_.tipRadius) {
                         const glm::dvec3 d = glm::normalize(side + 0.5 * h);
@@ -476,11 +479,12 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
     return sk;
 }
 
-GrowthStats GrowthModel::stats(double t, bool leaves) const
+GrowthStats GrowthModel::stats(double t, bool leaves) const { return stats(t, skeleton(t, leaves)); }
+
+GrowthStats GrowthModel::stats(double t, const Skeleton& sk) const
 {
     GrowthStats s;
     s.time = t;
-    const Skeleton sk = skeleton(t, leaves);
     t = growthTime(t);
     for (const Internode& in : sk.internodes)
         ++s.internodesByOrder[in.order];
@@ -521,9 +525,9 @@ int runGrowthCommand(const GrowthRequest& req)
     }
     if (!req.printStats && req.printSkeleton)
         return 0;
-    const GrowthStats s = model.stats(t, req.leaves);
+    const GrowthStats s = model.stats(t, sk);
     fmt::print("{} at t = {:g} (year {} of {}): height {:.3f}, {} branches grown in all ({} lost so far)\n",
-               req.input, t, std::max(1, int(std::ceil(t))), p.years, s.height, model.branches().size(),
+               req.input, t, growthYear(t), p.years, s.height, model.branches().size(),
                s.lostBranches);
     if (!req.printStats)
         return 0;

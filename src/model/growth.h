@@ -59,6 +59,9 @@ struct GrowthBranch {
     int metamers() const { return shoots.empty() ? 0 : shoots.back().firstMetamer + shoots.back().metamers; }
 };
 
+/// The year a time falls in: year y is (y - 1, y], and t = 0 is in year 1.
+int growthYear(double t);
+
 /// Counts for `cambium growth --print-stats`.
 struct GrowthStats {
     double time = 0.0;
@@ -84,6 +87,8 @@ public:
     /// rings and (when `leaves`) leaves.
     Skeleton skeleton(double t, bool leaves) const;
     GrowthStats stats(double t, bool leaves) const;
+    /// The counts of skeleton(t, ...), already drawn.
+    GrowthStats stats(double t, const Skeleton& skeleton) const;
 
     /// How the tree builder builds this species (ridges over ridge_years).
     TreeBuildOptions buildOptions() const;
@@ -112,7 +117,11 @@ private:
                                         std::vector<double>& lengths) const;
     /// Radius from supported length: tip_radius + (base_radius - tip_radius) (S / S_ref)^thickening.
     double radiusOf(double support) const;
-    double metamerLength(const GrowthBranch& b, const GrowthShoot& s, int k, double t) const;
+    /// How far metamer k of shoot s is through its own growth at growth
+    /// time t, in [0, 1]: the metamers start one after the other, base
+    /// first, over `shoot_spread` of the season (section 4.3, figure 12).
+    double organTime(const GrowthShoot& s, int k, double t) const;
+    double metamerLength(const GrowthShoot& s, int k, double t) const;
 
     GrowthParameters p_;
     std::vector<GrowthBranch> branches_;
