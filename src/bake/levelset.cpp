@@ -263,11 +263,15 @@ BakedGrids emptyLevelSet(const BakeOptions& opt)
 
 namespace {
 
-uint64_t packOrigin(const int32_t* o)
+/// One key for the node of size 2^log2 holding voxel (x, y, z): its
+/// coordinates, 21 bits each.
+uint64_t nodeKey(int x, int y, int z, int log2)
 {
-    return (uint64_t(uint32_t(o[0] >> 3) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(o[1] >> 3) & 0x1FFFFF) << 21) |
-           uint64_t(uint32_t(o[2] >> 3) & 0x1FFFFF);
+    return (uint64_t(uint32_t(x >> log2) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> log2) & 0x1FFFFF) << 21) |
+           uint64_t(uint32_t(z >> log2) & 0x1FFFFF);
 }
+
+uint64_t packOrigin(const int32_t* o) { return nodeKey(o[0], o[1], o[2], 3); }
 
 /// Two independent 64-bit hashes of a sequence of doubles' bits (each word
 /// mixed with SplitMix64's finaliser into two differently seeded lanes).
@@ -387,10 +391,7 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         // table, the tiles in a small hash.
         const std::vector<size_t> tileFirst = cubeRuns(topo.leaves, 7);
         const size_t tiles = tileFirst.size() - 1;
-        auto tileKey = [](int x, int y, int z) {  // of a voxel
-            return (uint64_t(uint32_t(x >> 7) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> 7) & 0x1FFFFF) << 21) |
-                   uint64_t(uint32_t(z >> 7) & 0x1FFFFF);
-        };
+        auto tileKey = [](int x, int y, int z) { return nodeKey(x, y, z, 7); };  // of a voxel
         size_t cap = 1;
         while (cap < 2 * tiles + 2)
             cap <<= 1;
