@@ -280,21 +280,12 @@ TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)
 /// the given age.
 Skeleton junction(double age)
 {
+    using test::internode;
     Skeleton sk;
-    auto add = [&](long long id, long long parent, glm::dvec3 a, glm::dvec3 b, double r0, double r1) {
-        Internode in;
-        in.id = id;
-        in.parent = parent;
-        in.p0 = a;
-        in.p1 = b;
-        in.r0 = r0;
-        in.r1 = r1;
-        in.age = age;
-        sk.internodes.push_back(in);
-    };
-    add(0, -1, {0, 0, 0}, {0, 2, 0}, 0.3, 0.28);
-    add(1, 0, {0, 2, 0}, {0, 4, 0}, 0.28, 0.25);
-    add(2, 0, {0, 2, 0}, glm::dvec3(0, 2, 0) + 2.0 * glm::normalize(glm::dvec3(1, 1, 0)), 0.15, 0.12);
+    sk.internodes = {
+        internode(0, -1, {0, 0, 0}, {0, 2, 0}, 0.3, 0.28, age),
+        internode(1, 0, {0, 2, 0}, {0, 4, 0}, 0.28, 0.25, age),
+        internode(2, 0, {0, 2, 0}, glm::dvec3(0, 2, 0) + 2.0 * glm::normalize(glm::dvec3(1, 1, 0)), 0.15, 0.12, age)};
     return sk;
 }
 

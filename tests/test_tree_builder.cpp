@@ -23,17 +23,7 @@ namespace {
 
 using namespace cambium;
 
-Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0, double r1)
-{
-    Internode n;
-    n.id = id;
-    n.parent = parent;
-    n.p0 = p0;
-    n.p1 = p1;
-    n.r0 = r0;
-    n.r1 = r1;
-    return n;
-}
+using test::internode;
 
 /// Largest and smallest radius of the surface around the y axis for y in
 /// [y0, y1] (two collinear internodes along y).

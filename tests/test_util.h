@@ -3,6 +3,7 @@
 
 #include "blobtree/blobtree.h"
 #include "blobtree/evaluator.h"
+#include "model/skeleton.h"
 
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -16,6 +17,21 @@
 #include <string>
 
 namespace cambium::test {
+
+/// An internode of a hand-made skeleton (age: years since it began, or unknown).
+inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0, double r1,
+                           double age = -1.0)
+{
+    Internode n;
+    n.id = id;
+    n.parent = parent;
+    n.p0 = p0;
+    n.p1 = p1;
+    n.r0 = r0;
+    n.r1 = r1;
+    n.age = age;
+    return n;
+}
 
 inline glm::dvec3 randomUnit(std::mt19937& rng)
 {
