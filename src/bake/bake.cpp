@@ -108,10 +108,7 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     if (isGrowthParameterFile(path)) {
         checkGrowthOptions(path, o);
         const GrowthModel model(loadGrowthParameters(path));
-        const double t = o.time < 0.0 ? double(model.params().years) : o.time;
-        if (!(t >= 0.0 && t <= model.params().years))
-            throw InputError(fmt::format("{}: --time must be between 0 and {} years (got {})", path,
-                                         model.params().years, t));
+        const double t = timeOfLife(model.params(), o.time, path, "--time");
         const Skeleton sk = model.skeleton(t, o.leaves);
         if (sk.internodes.empty())
             throw InputError(fmt::format("{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
@@ -142,7 +139,7 @@ void checkBakeOptions(const BakeRequest& req)
     checkDeviceOption(req.device);
 }
 
-VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req, int copies)
+VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
 {
     VoxelPlan plan;
     const Box bounds = program.positiveBounds();
@@ -167,11 +164,11 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req, int
                          req.halfWidth * h) / h;
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth);
     const double have = availableMemoryBytes();
-    if (!(span < 1e9) || plan.bytes * copies > have)
+    if (!(span < 1e9) || plan.bytes > have)
         throw InputError(fmt::format(
             "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across ({:.3g} "
             "voxels), and this machine has {} available: use a larger --voxel-size",
-            h, bytes(plan.bytes * copies), plan.extent, plan.extent / h, bytes(have)));
+            h, bytes(plan.bytes), plan.extent, plan.extent / h, bytes(have)));
     return plan;
 }
 

@@ -69,15 +69,15 @@ void checkBakeOptions(const BakeRequest& request);
 
 /// The voxel size of a bake: `request.voxelSize` or 512 voxels across the
 /// program's surface bounds.  InputError when the model has no surface, or
-/// when `copies` bakes at once would need more memory than the machine has
-/// or coordinates beyond OpenVDB's index space.
+/// when the bake would need more memory than the machine has or coordinates
+/// beyond OpenVDB's index space.
 struct VoxelPlan {
     double voxelSize = 0.0;
     bool automatic = false;
     double extent = 0.0;     ///< largest extent of the surface bounds
     double bytes = 0.0;      ///< estimated memory of one bake
 };
-VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request, int copies = 1);
+VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
 /// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
 class ThreadLimit {

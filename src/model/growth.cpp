@@ -512,9 +512,7 @@ int runGrowthCommand(const GrowthRequest& req)
     GrowthParameters p = loadGrowthParameters(req.input);
     if (req.seed >= 0)
         p.seed = uint64_t(req.seed);
-    const double t = req.time < 0.0 ? double(p.years) : req.time;
-    if (!(t >= 0.0 && t <= p.years))
-        throw InputError(fmt::format("--year/--time must be between 0 and {} (the file's years; got {})", p.years, t));
+    const double t = timeOfLife(p, req.time, req.input, "--year/--time");
     const GrowthModel model(p);
     const Skeleton sk = model.skeleton(t, req.leaves);
     if (req.printSkeleton) {

@@ -207,6 +207,16 @@ GrowthParameters loadGrowthParameters(const std::string& path)
     return parseGrowthParameters(readTextFile(path, "growth parameter file"), path);
 }
 
+double timeOfLife(const GrowthParameters& p, double t, const std::string& source, const std::string& option)
+{
+    if (t < 0.0)
+        return double(p.years);
+    if (!(t <= p.years))
+        throw InputError(fmt::format("{}: {} must be between 0 and {} years, the tree's life (got {})", source, option,
+                                     p.years, t));
+    return t;
+}
+
 bool isGrowthParameterFile(const std::string& path)
 {
     if (path.size() < 5 || path.compare(path.size() - 5, 5, ".json") != 0)
