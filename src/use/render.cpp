@@ -11,6 +11,7 @@
 #include <OpenImageIO/imageio.h>
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
+#include <openvdb/io/File.h>
 #include <openvdb/math/Ray.h>
 #include <openvdb/tools/RayIntersector.h>
 #include <tbb/parallel_for.h>
@@ -474,15 +475,41 @@ Box meshBounds(const TriangleMesh& mesh)
     return b;
 }
 
-Box activeWorldBounds(const openvdb::GridBase& grid)
+namespace {
+
+/// An index-space box of a grid in world space.
+Box worldBox(const openvdb::GridBase& grid, const openvdb::CoordBBox& b)
 {
-    const openvdb::CoordBBox b = grid.evalActiveVoxelBoundingBox();
     if (b.empty())
         return Box();
     const openvdb::Vec3d lo = grid.indexToWorld(b.min().asVec3d()), hi = grid.indexToWorld(b.max().asVec3d());
     return Box(glm::dvec3(std::min(lo.x(), hi.x()), std::min(lo.y(), hi.y()), std::min(lo.z(), hi.z())),
                glm::dvec3(std::max(lo.x(), hi.x()), std::max(lo.y(), hi.y()), std::max(lo.z(), hi.z())));
 }
+
+/// The active bounds of a file's level set from the statistics metadata
+/// written with it (file_bbox_min/max: no voxels read), else from the grid
+/// read whole.
+Box storedActiveBounds(const std::string& path, const std::string& grid)
+{
+    try {
+        openvdb::io::File file(path);
+        file.open(false);
+        const openvdb::GridBase::Ptr g = file.readGridMetadata(grid);
+        file.close();
+        const auto lo = g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
+        const auto hi = g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
+        if (lo && hi)
+            return worldBox(*g, openvdb::CoordBBox(openvdb::Coord(lo->value()), openvdb::Coord(hi->value())));
+    } catch (const std::exception&) {
+        // (readLevelSet below names what is wrong with the file)
+    }
+    return activeWorldBounds(*readLevelSet(path, grid).surface);
+}
+
+}  // namespace
+
+Box activeWorldBounds(const openvdb::GridBase& grid) { return worldBox(grid, grid.evalActiveVoxelBoundingBox()); }
 
 int runRenderCommand(const RenderRequest& req)
 {
@@ -506,7 +533,7 @@ int runRenderCommand(const RenderRequest& req)
     if (!req.frames.empty() && !meshFile && isFramePattern(req.input)) {
         const std::string last = framePath(req.input, parseFrames(req.frames).back());
         if (std::filesystem::exists(last))
-            sequenceBounds = activeWorldBounds(*readLevelSet(last, req.grid).surface);
+            sequenceBounds = storedActiveBounds(last, req.grid);
     }
     forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
         const auto start = Clock::now();
