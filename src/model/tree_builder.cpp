@@ -45,20 +45,20 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             parent[i] = (long long)it->second;
         }
 
-    // The main axis: a root, and each internode's thickest child (the first
-    // of equals); the rest are laterals.
+    // Each internode's thickest child (the first of equals), -1 for none.
+    std::vector<long long> thickest(n, -1);
+    for (size_t i = 0; i < n; ++i)
+        for (size_t k : children[i])
+            if (thickest[i] < 0 || sk.internodes[k].r0 > sk.internodes[size_t(thickest[i])].r0)
+                thickest[i] = (long long)k;
+    // The main axis: a root, and the thickest child of each internode on it;
+    // the rest are laterals.
     std::vector<bool> onAxis(n, false);
     for (size_t i = 0; i < n; ++i) {
         if (parent[i] < 0)
             onAxis[i] = true;
-        const std::vector<size_t>& c = children[i];
-        if (onAxis[i] && !c.empty()) {
-            size_t best = c[0];
-            for (size_t k : c)
-                if (sk.internodes[k].r0 > sk.internodes[best].r0)
-                    best = k;
-            onAxis[best] = true;
-        }
+        if (onAxis[i] && thickest[i] >= 0)
+            onAxis[size_t(thickest[i])] = true;
     }
     using P = TreeBuildOptions::Primitives;
     // Internodes that are cones (with the rules) and the children that count
@@ -111,17 +111,13 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
                 if (const double d = rA - sk.internodes[k].r0; d > 0.0)
                     baseShift[k] += d;  // eq. 6
         // A basal internode shorter than twice delta_A gives only half its
-        // length; the continuation (the thickest child) gives the rest from
-        // its base, so that the gap between them is still delta_A and their
-        // joint stays flat (short thick internodes of old wood).
+        // length; the continuation (the thickest child, a cone whenever this
+        // one is) gives the rest from its base, so that the gap between them
+        // is still delta_A and their joint stays flat (short thick internodes
+        // of old wood).
         const double half = 0.5 * glm::length(sk.internodes[i].p1 - sk.internodes[i].p0);
-        if (deltaA > half) {
-            size_t thickest = c[0];
-            for (size_t k : c)
-                if (sk.internodes[k].r0 > sk.internodes[thickest].r0)
-                    thickest = k;
-            baseShift[thickest] += deltaA - half;
-        }
+        if (deltaA > half)
+            baseShift[size_t(thickest[i])] += deltaA - half;
     }
     for (size_t k = 0; k < n; ++k)
         if (baseShift[k] > 0.0) {
