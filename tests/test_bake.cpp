@@ -383,6 +383,13 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
         info.half = half;
         writeVdb(g, path, info);
         EXPECT_FALSE(std::filesystem::exists(temporaryPathFor(path)));
+        // The structure check walks the file as OpenVDB wrote it: three
+        // grids, the last ending where the file ends.
+        const VdbSummary summary = inspectVdb(path);
+        ASSERT_EQ(summary.grids.size(), 3u);
+        EXPECT_EQ(summary.grids[0].name, "surface");
+        EXPECT_EQ(uint64_t(summary.grids.back().end), std::filesystem::file_size(path));
+        EXPECT_EQ(summary.strings.at("creator").rfind("cambium", 0), 0u);
         openvdb::io::File file(path);
         file.open();
         auto names = file.getGrids();

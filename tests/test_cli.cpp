@@ -154,7 +154,7 @@ TEST(Cli, MeshWritesAMeshOfABakedGrid)
     EXPECT_NE(r.out.find(" triangles"), std::string::npos) << r.out;
     EXPECT_TRUE(std::filesystem::file_size(ply) > 1000);
     expectRefused("mesh", {
-        {(dir / "missing.vdb").string() + " -o " + ply, "cannot read it as a .vdb file"},
+        {(dir / "missing.vdb").string() + " -o " + ply, "cannot read the .vdb file: No such file"},
         {vdb + " -o " + ply + " --grid density", "no grid named 'density' (it holds: Cd, surface)"},
         {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
         {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
@@ -221,7 +221,7 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
         {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
         {vdb + " -o " + png + " --device gpu", "--device must be opencl or cpu (got 'gpu')"},
         {vdb + " -o " + png + " --grid Cd", "grid 'Cd' is a vec3s"},
-        {(dir / "missing.vdb").string() + " -o " + png, "cannot read it as a .vdb file"},
+        {(dir / "missing.vdb").string() + " -o " + png, "cannot read the .vdb file: No such file"},
     });
     std::filesystem::remove_all(dir);
 }

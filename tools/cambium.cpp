@@ -10,6 +10,7 @@
 #include "blobtree/scene_io.h"
 #include "blobtree/stats.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/versions.h"
 #include "model/growth.h"
 #include "model/turtle.h"
@@ -137,8 +138,12 @@ std::string count(size_t n)
     return s;
 }
 
-int runSequenceCommand(const BakeRequest& req)
+int runSequenceCommand(BakeRequest req)
 {
+    req.notice = [](const std::string& line) {
+        fmt::print("note: {}\n", line);
+        std::fflush(stdout);
+    };
     const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)", "kept (--resume)",
                              "empty (nothing a voxel thick yet)"};
     size_t doneFrames = 0, total = parseFrames(req.frames).size();
@@ -439,10 +444,13 @@ int main(int argc, char** argv)
                                               "OpenCL devices found");
     ver->callback([&] { action = [&] { return runVersion(); }; });
 
+    // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
+    // any work (a farm must not retry); 1 a failure during the work.
+    cambium::installCleanupOnSignals();
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        return app.exit(e) == 0 ? 0 : 2;  // --help and --version are not errors
     }
     openvdb::initialize();
     try {
@@ -450,6 +458,9 @@ int main(int argc, char** argv)
     } catch (const cambium::InputError& e) {
         fmt::print(stderr, "cambium: error: {}\n", e.what());
         return 2;
+    } catch (const std::bad_alloc&) {
+        fmt::print(stderr, "cambium: failed: out of memory\n");
+        return 1;
     } catch (const std::exception& e) {
         fmt::print(stderr, "cambium: failed: {}\n", e.what());
         return 1;

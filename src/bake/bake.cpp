@@ -8,6 +8,7 @@
 #include "bake/vdb_io.h"
 #include "blobtree/scene_io.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/math.h"
 #include "model/skeleton.h"
 
@@ -198,7 +199,7 @@ BakeReport runBake(const BakeRequest& req)
     const VoxelPlan plan = planVoxelSize(program, req);
     report.extent = plan.extent;
     report.autoVoxelSize = plan.automatic;
-    checkWritable(req.output);
+    checkOutputPath(req.output);
 
     const ThreadLimit threads(req.threads);
     std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);

@@ -54,6 +54,9 @@ struct BakeRequest {
     bool half = false;
     int threads = 0;                   ///< 0: all cores
     std::function<void(const char*, double)> progress;
+    /// Things a user should know that are not errors (stale temporaries
+    /// removed, damaged frames baked again), one line each.
+    std::function<void(const std::string&)> notice;
 
     // Growth sequences (bake/sequence.h): frames FIRST-LAST[:STEP] of a
     // growth parameter file at `fpsPerYear` frames a year (frame f at year

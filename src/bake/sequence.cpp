@@ -120,16 +120,36 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const int byMemory = int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytes, 1.0))));
     report.jobs = std::max(1, std::min({req.jobs > 0 ? req.jobs : cores, byMemory, int(frames.size())}));
-    checkWritable(paths.front());
+    for (const std::string& p : paths)
+        checkOutputPath(p);
+    auto notice = [&](const std::string& line) {
+        if (req.notice)
+            req.notice(line);
+    };
 
-    // Resuming: a finished frame is a file with this bake's key (files appear
-    // whole or not at all); one from another bake is not overwritten silently.
+    // One run at a time writes a pattern; temporaries that killed runs left
+    // (files appear by rename, so these were never frames) are removed.
+    const OutputLock outputLock(req.output);
+    for (const std::string& tmp : staleTemporaries(req.output))
+        if (std::filesystem::remove(tmp))
+            notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
+
+    // Resuming: a finished frame is a whole file with this bake's key; one
+    // from another bake is not overwritten silently, a damaged one is baked
+    // again.
     const std::string key = sequenceKey(req, text, plan.voxelSize);
     std::vector<bool> finished(frames.size(), false);
     if (req.resume)
         for (size_t i = 0; i < frames.size(); ++i)
             if (std::filesystem::exists(paths[i])) {
-                if (readSequenceKey(paths[i]) != key)
+                std::string found;
+                try {
+                    found = readSequenceKey(paths[i]);
+                } catch (const InputError& e) {
+                    notice(fmt::format("{} (baking it again)", e.what()));
+                    continue;
+                }
+                if (found != key)
                     throw InputError(fmt::format("{} exists from another bake (other parameters or options): remove "
                                                  "it, or bake without --resume to overwrite it",
                                                  paths[i]));

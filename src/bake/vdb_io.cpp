@@ -1,18 +1,38 @@
-// cambium — .vdb output.
+// cambium — .vdb output, and the structure check of .vdb input.
 #include "bake/vdb_io.h"
 
 #include "core/error.h"
 #include "core/versions.h"
 
 #include <fmt/format.h>
-#include <openvdb/io/File.h>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/io.h>
 
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sys/stat.h>
 
 namespace cambium {
 
+namespace {
+
+/// OpenVDB's archive writer on a stream of our own: what io::File::write
+/// does (a seekable stream, so that readers find every grid by its offsets),
+/// but on the checked writer's stream instead of an unchecked std::ofstream.
+class StreamArchive : public openvdb::io::Archive {
+public:
+    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const
+    {
+        write(os, grids, /*seekable=*/true, meta);
+    }
+};
+
+}  // namespace
+
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
-    openvdb::GridPtrVec out;
+    openvdb::GridCPtrVec out;
     for (openvdb::GridBase::Ptr g : {openvdb::GridBase::Ptr(grids.surface),
                                      openvdb::GridBase::Ptr(grids.color),
                                      openvdb::GridBase::Ptr(grids.density)}) {
@@ -33,26 +53,153 @@ void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInf
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
     if (!info.sequence.empty())
         fileMeta.insertMeta("cambium_sequence", openvdb::StringMetadata(info.sequence));
-    writeAtomically(path, [&](const std::string& tmp) {
-        openvdb::io::File file(tmp);
-        file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
-        file.write(out, fileMeta);
-        file.close();
+    writeFile(path, [&](std::ostream& os) {
+        StreamArchive archive;
+        archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+        archive.writeTo(os, out, fileMeta);
     });
+}
+
+namespace {
+
+/// Bounded reads of a .vdb's framing: every length is checked against what
+/// is left of the file before anything is read or allocated.
+class VdbReader {
+public:
+    VdbReader(const std::string& path, uint64_t size) : path_(path), size_(size), in_(path, std::ios::binary)
+    {
+        if (!in_)
+            throw InputError(fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
+    }
+    uint64_t at() const { return at_; }
+    uint64_t left() const { return size_ - at_; }
+
+    template <class T>
+    T value(const char* what)
+    {
+        T v;
+        bytes(reinterpret_cast<char*>(&v), sizeof v, what);
+        return v;
+    }
+    void bytes(char* out, uint64_t n, const char* what)
+    {
+        need(n, what);
+        in_.read(out, std::streamsize(n));
+        if (!in_)
+            throw InputError(fmt::format("{}: cannot read the .vdb file at byte {} ({})", path_, at_, what));
+        at_ += n;
+    }
+    /// A length-prefixed string of at most `limit` bytes.
+    std::string string(const char* what, uint32_t limit)
+    {
+        const uint32_t n = value<uint32_t>(what);
+        if (n > limit)
+            damaged(fmt::format("{} of {} bytes at byte {}", what, n, at_ - 4));
+        std::string s(n, '\0');
+        bytes(s.data(), n, what);
+        return s;
+    }
+    void skip(uint64_t n, const char* what)
+    {
+        need(n, what);
+        seek(at_ + n);
+    }
+    void seek(uint64_t to)
+    {
+        in_.seekg(std::streamoff(to));
+        at_ = to;
+    }
+    [[noreturn]] void damaged(const std::string& why) const
+    {
+        throw InputError(fmt::format("{}: a damaged .vdb file: {}", path_, why));
+    }
+
+private:
+    void need(uint64_t n, const char* what) const
+    {
+        if (n > left())
+            throw InputError(fmt::format("{}: a truncated .vdb file: {} at byte {} needs {} bytes, the file has {} "
+                                         "in all",
+                                         path_, what, at_, n, size_));
+    }
+
+    std::string path_;
+    uint64_t size_, at_ = 0;
+    std::ifstream in_;
+};
+
+}  // namespace
+
+VdbSummary inspectVdb(const std::string& path)
+{
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0)
+        throw InputError(fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
+    if (S_ISDIR(st.st_mode))
+        throw InputError(fmt::format("{}: is a directory, not a .vdb file", path));
+    if (!S_ISREG(st.st_mode))
+        throw InputError(fmt::format("{}: is not a regular file, not a .vdb file", path));
+    VdbSummary s;
+    s.bytes = uint64_t(st.st_size);
+    VdbReader r(path, s.bytes);
+    constexpr int64_t kMagic = 0x56444220;
+    if (s.bytes < 8 || r.value<int64_t>("magic number") != kMagic)
+        throw InputError(fmt::format("{}: not a .vdb file (it does not begin with OpenVDB's magic number)", path));
+    s.fileVersion = r.value<uint32_t>("file version");
+    if (s.fileVersion < 222 || s.fileVersion > 1000)
+        r.damaged(fmt::format("file format version {} (cambium reads 222 and later)", s.fileVersion));
+    r.skip(8, "library version");
+    if (r.value<char>("grid offsets flag") != 1)
+        throw InputError(fmt::format("{}: a .vdb stream without grid offsets: cambium reads .vdb files written "
+                                     "to disk (with io::File)",
+                                     path));
+    r.skip(36, "UUID");
+
+    constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
+    const int32_t metas = r.value<int32_t>("metadata count");
+    if (metas < 0 || uint64_t(metas) > r.left() / 12)
+        r.damaged(fmt::format("{} metadata entries", metas));
+    for (int32_t i = 0; i < metas; ++i) {
+        const std::string name = r.string("metadata name", kNameLimit);
+        const std::string type = r.string("metadata type", kNameLimit);
+        const uint32_t n = r.value<uint32_t>("metadata size");
+        if (type == "string" && n <= kValueLimit) {
+            std::string v(n, '\0');
+            r.bytes(v.data(), n, "metadata value");
+            s.strings[name] = v;
+        } else {
+            r.skip(n, "metadata value");
+        }
+    }
+    const int32_t grids = r.value<int32_t>("grid count");
+    if (grids < 0 || uint64_t(grids) > r.left() / 36)
+        r.damaged(fmt::format("{} grids", grids));
+    for (int32_t i = 0; i < grids; ++i) {
+        VdbSummary::Grid g;
+        g.name = r.string("grid name", kNameLimit);
+        g.type = r.string("grid type", kNameLimit);
+        r.string("instance parent", kNameLimit);
+        g.begin = r.value<int64_t>("grid offset");
+        const int64_t block = r.value<int64_t>("grid block offset");
+        g.end = r.value<int64_t>("grid end offset");
+        if (g.begin != int64_t(r.at()) || block < g.begin || g.end < block)
+            r.damaged(fmt::format("grid '{}' has offsets {}, {}, {} that do not follow its descriptor at byte {}",
+                                  g.name, g.begin, block, g.end, r.at()));
+        if (uint64_t(g.end) > s.bytes)
+            throw InputError(fmt::format("{}: a truncated .vdb file: grid '{}' ends at byte {}, the file has {} "
+                                         "bytes",
+                                         path, g.name, g.end, s.bytes));
+        r.seek(uint64_t(g.end));
+        s.grids.push_back(std::move(g));
+    }
+    return s;
 }
 
 std::string readSequenceKey(const std::string& path)
 {
-    try {
-        openvdb::io::File file(path);
-        file.open(false);
-        const openvdb::MetaMap::Ptr meta = file.getMetadata();
-        file.close();
-        if (const auto key = meta->getMetadata<openvdb::StringMetadata>("cambium_sequence"))
-            return key->value();
-    } catch (const std::exception&) {
-    }
-    return {};
+    const VdbSummary s = inspectVdb(path);
+    const auto key = s.strings.find("cambium_sequence");
+    return key == s.strings.end() ? std::string() : key->second;
 }
 
 }  // namespace cambium

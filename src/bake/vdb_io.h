@@ -1,10 +1,14 @@
-// cambium — writing baked grids to .vdb files that other software opens.
+// cambium — writing baked grids to .vdb files that other software opens, and
+// checking a .vdb file's structure before anything reads it.
 #pragma once
 
 #include "bake/levelset.h"
 #include "core/files.h"
 
+#include <cstdint>
+#include <map>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -19,14 +23,33 @@ struct VdbFileInfo {
 };
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
-/// metadata and cambium's own metadata, Blosc-compressed, to a temporary
-/// file beside `path` that is renamed over it only when complete: a crash
-/// never leaves a half-written .vdb.  Throws InputError when the path cannot
-/// be written.
+/// metadata and cambium's own metadata, Blosc-compressed, through the checked
+/// writer (core/files.h): the file appears whole or not at all.  WriteError
+/// when writing fails (a full disk), InputError for a path that cannot be an
+/// output.
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
 
-/// The `cambium_sequence` file metadata of a .vdb; empty when it has none or
-/// cannot be read.
+/// What the structure of a .vdb file says, read without reading any grid.
+struct VdbSummary {
+    uint64_t bytes = 0;                           ///< file size
+    uint32_t fileVersion = 0;
+    std::map<std::string, std::string> strings;   ///< the file's string metadata
+    struct Grid {
+        std::string name, type;
+        int64_t begin = 0, end = 0;               ///< byte range in the file
+    };
+    std::vector<Grid> grids;
+};
+
+/// Checks that `path` is a whole .vdb file with grid offsets, in a few reads
+/// and bounded memory whatever the file holds: header, file metadata, every
+/// grid descriptor, and each grid's end within the file.  InputError naming
+/// the file and the first problem (not a regular file, not a .vdb, truncated,
+/// damaged) in one line.
+VdbSummary inspectVdb(const std::string& path);
+
+/// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
+/// when the file is damaged.
 std::string readSequenceKey(const std::string& path);
 
 }  // namespace cambium

@@ -6,28 +6,405 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cctype>
 #include <cerrno>
+#include <climits>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <dirent.h>
 #include <fcntl.h>
+#include <fstream>
+#include <ostream>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <thread>
 #include <unistd.h>
+#include <vector>
 
 namespace cambium {
+
+namespace {
+
+// ---- files to remove when a signal ends the process ------------------------
+//
+// A fixed table that a signal handler can walk without locks or allocation:
+// a slot is Free, being Filled, Live (its path to be removed on a signal) or
+// Taken by the handler (the process is ending).
+constexpr int kSlots = 64;
+enum SlotState : int { Free, Filling, Live, Taken };
+struct CleanupSlot {
+    std::atomic<int> state{Free};
+    char path[PATH_MAX];
+};
+CleanupSlot gSlots[kSlots];
+
+extern "C" void removeOnSignal(int sig)
+{
+    for (CleanupSlot& s : gSlots) {
+        int live = Live;
+        if (s.state.compare_exchange_strong(live, Taken))
+            ::unlink(s.path);
+    }
+    ::signal(sig, SIG_DFL);
+    ::raise(sig);
+}
+
+// ---- a stream buffer whose every write is checked --------------------------
+
+/// A seekable output buffer over a file descriptor.  The first failed write
+/// or seek records errno and fails every later operation, so the stream goes
+/// bad (and, with exceptions on badbit, throws at once).
+class CheckedFileBuf : public std::streambuf {
+public:
+    explicit CheckedFileBuf(int fd) : fd_(fd), buffer_(size_t(1) << 18) { resetBuffer(); }
+    int error() const { return error_; }
+    bool flush() { return flushBuffer(); }
+
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (!flushBuffer())
+            return traits_type::eof();
+        if (!traits_type::eq_int_type(c, traits_type::eof())) {
+            *pptr() = traits_type::to_char_type(c);
+            pbump(1);
+        }
+        return traits_type::not_eof(c);
+    }
+
+    std::streamsize xsputn(const char* s, std::streamsize n) override
+    {
+        if (n <= epptr() - pptr()) {
+            std::memcpy(pptr(), s, size_t(n));
+            pbump(int(n));
+            return n;
+        }
+        if (!flushBuffer())
+            return 0;
+        if (n < epptr() - pptr()) {
+            std::memcpy(pptr(), s, size_t(n));
+            pbump(int(n));
+            return n;
+        }
+        return writeAll(s, size_t(n)) ? n : 0;
+    }
+
+    int sync() override { return flushBuffer() ? 0 : -1; }
+
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override
+    {
+        if (!(which & std::ios_base::out) || !flushBuffer())
+            return pos_type(off_type(-1));
+        const int whence = dir == std::ios_base::beg ? SEEK_SET : dir == std::ios_base::cur ? SEEK_CUR : SEEK_END;
+        const off_t at = ::lseek(fd_, off_t(off), whence);
+        if (at < 0) {
+            error_ = errno;
+            return pos_type(off_type(-1));
+        }
+        return pos_type(off_type(at));
+    }
+
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+
+private:
+    void resetBuffer() { setp(buffer_.data(), buffer_.data() + buffer_.size()); }
+
+    bool flushBuffer()
+    {
+        if (error_)
+            return false;
+        const size_t n = size_t(pptr() - pbase());
+        if (n && !writeAll(pbase(), n))
+            return false;
+        resetBuffer();
+        return true;
+    }
+
+    bool writeAll(const char* p, size_t n)
+    {
+        while (n > 0) {
+            const ssize_t w = ::write(fd_, p, n);
+            if (w < 0 && errno == EINTR)
+                continue;
+            if (w <= 0) {
+                error_ = w < 0 ? errno : EIO;
+                return false;
+            }
+            p += w;
+            n -= size_t(w);
+        }
+        return true;
+    }
+
+    int fd_;
+    std::vector<char> buffer_;
+    int error_ = 0;
+};
+
+std::string directoryOf(const std::string& path)
+{
+    const size_t slash = path.rfind('/');
+    return slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+}
+
+std::string fileKind(mode_t mode)
+{
+    return S_ISCHR(mode)    ? "character device"
+           : S_ISBLK(mode)  ? "block device"
+           : S_ISFIFO(mode) ? "FIFO"
+           : S_ISSOCK(mode) ? "socket"
+                            : "special file";
+}
+
+[[noreturn]] void failWrite(const std::string& path, const std::string& why)
+{
+    throw WriteError(fmt::format("{}: cannot write the output: {}", path, why));
+}
+
+}  // namespace
+
+RemoveOnSignal::RemoveOnSignal(const std::string& path)
+{
+    if (path.size() >= PATH_MAX)
+        return;
+    for (int i = 0; i < kSlots; ++i) {
+        int free = Free;
+        if (gSlots[i].state.compare_exchange_strong(free, Filling)) {
+            std::memcpy(gSlots[i].path, path.c_str(), path.size() + 1);
+            gSlots[i].state.store(Live);
+            slot_ = i;
+            return;
+        }
+    }
+}
+
+void RemoveOnSignal::release()
+{
+    if (slot_ < 0)
+        return;
+    int live = Live;
+    while (!gSlots[slot_].state.compare_exchange_weak(live, Free)) {
+        if (live == Taken)  // a signal handler is ending the process
+            for (;;)
+                std::this_thread::sleep_for(std::chrono::seconds(1));
+        live = Live;
+    }
+    slot_ = -1;
+}
 
 std::string temporaryPathFor(const std::string& path)
 {
     return fmt::format("{}.tmp-{}", path, ::getpid());
 }
 
-void checkWritable(const std::string& path)
+std::string checkOutputPath(const std::string& path)
 {
-    const std::string tmp = temporaryPathFor(path);
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+    if (path.empty())
+        throw InputError("-o: the output path is empty");
+    if (path.back() == '/')
+        throw InputError(fmt::format("{}: names a directory, not an output file", path));
+    std::string target = path;
+    struct stat st;
+    if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) {
+        // Written through: the link stays, its target gets the new file.
+        char* real = ::realpath(path.c_str(), nullptr);
+        if (!real)
+            throw InputError(fmt::format("{}: a symbolic link whose target cannot be followed ({}): cambium writes "
+                                         "through a link to an existing file only",
+                                         path, std::strerror(errno)));
+        target = real;
+        std::free(real);
+    }
+    if (::stat(target.c_str(), &st) == 0) {
+        if (S_ISDIR(st.st_mode))
+            throw InputError(fmt::format("{}: is a directory, not an output file", path));
+        if (!S_ISREG(st.st_mode))
+            throw InputError(fmt::format("{}: is a {}, not a regular file: cambium writes only regular files",
+                                         path, fileKind(st.st_mode)));
+    } else if (errno != ENOENT) {
+        throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
+    }
+    const std::string probe = temporaryPathFor(target);
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd < 0)
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     ::close(fd);
-    ::unlink(tmp.c_str());
+    ::unlink(probe.c_str());
+    return target;
+}
+
+void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write)
+{
+    const std::string target = checkOutputPath(path);
+    struct stat old;
+    const bool replacing = ::stat(target.c_str(), &old) == 0;
+    const std::string tmp = temporaryPathFor(target);
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0)
+        failWrite(path, std::strerror(errno));
+    RemoveOnSignal guard(tmp);
+    int open = fd;
+    auto abandon = [&] {
+        if (open >= 0)
+            ::close(open);
+        ::unlink(tmp.c_str());
+        guard.release();
+    };
+    CheckedFileBuf buf(fd);
+    try {
+        std::ostream out(&buf);
+        out.exceptions(std::ios::badbit | std::ios::failbit);
+        write(out);
+        out.flush();
+    } catch (const InputError&) {
+        abandon();
+        throw;
+    } catch (const std::exception& e) {
+        abandon();
+        failWrite(path, buf.error() ? std::strerror(buf.error()) : e.what());
+    }
+    if (!buf.flush()) {
+        abandon();
+        failWrite(path, std::strerror(buf.error()));
+    }
+    if (replacing)
+        ::fchmod(fd, old.st_mode & 07777);  // the new file keeps the old one's permissions
+    if (::fsync(fd) != 0) {
+        const int e = errno;
+        abandon();
+        failWrite(path, std::strerror(e));
+    }
+    open = -1;
+    if (::close(fd) != 0) {
+        const int e = errno;
+        abandon();
+        failWrite(path, std::strerror(e));
+    }
+    if (std::rename(tmp.c_str(), target.c_str()) != 0) {
+        const int e = errno;
+        abandon();
+        failWrite(path, std::strerror(e));
+    }
+    guard.release();
+    // The rename itself reaches the disk with its directory.
+    const int dir = ::open(directoryOf(target).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dir >= 0) {
+        const int r = ::fsync(dir), e = errno;
+        ::close(dir);
+        if (r != 0 && e != EINVAL && e != EROFS)
+            failWrite(path, std::strerror(e));
+    }
+}
+
+void writeFile(const std::string& path, const void* data, size_t size)
+{
+    writeFile(path, [&](std::ostream& out) { out.write(static_cast<const char*>(data), std::streamsize(size)); });
+}
+
+void installCleanupOnSignals()
+{
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+        struct sigaction old;
+        if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN)
+            continue;  // e.g. nohup: keep ignoring it
+        struct sigaction sa;
+        std::memset(&sa, 0, sizeof sa);
+        sa.sa_handler = removeOnSignal;
+        sigemptyset(&sa.sa_mask);
+        ::sigaction(sig, &sa, nullptr);
+    }
+}
+
+std::vector<std::string> staleTemporaries(const std::string& pattern)
+{
+    const std::string dir = directoryOf(pattern);
+    const std::string name = pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
+    const size_t first = name.find('#');
+    if (first == std::string::npos)
+        return {};
+    const size_t last = name.find_first_not_of('#', first);
+    const size_t hashes = (last == std::string::npos ? name.size() : last) - first;
+    const std::string prefix = name.substr(0, first), suffix = name.substr(first + hashes) + ".tmp-";
+    std::vector<std::string> found;
+    DIR* d = ::opendir(dir.c_str());
+    if (!d)
+        return found;
+    auto digits = [](const std::string& s, size_t from, size_t to) {
+        return to > from && std::all_of(s.begin() + long(from), s.begin() + long(to),
+                                        [](unsigned char c) { return std::isdigit(c); });
+    };
+    while (const dirent* e = ::readdir(d)) {
+        const std::string f = e->d_name;
+        if (f.size() < prefix.size() + hashes + suffix.size() + 1 || f.compare(0, prefix.size(), prefix) != 0)
+            continue;
+        const size_t tmp = f.rfind(suffix);
+        if (tmp == std::string::npos || tmp < prefix.size() + hashes || !digits(f, prefix.size(), tmp) ||
+            !digits(f, tmp + suffix.size(), f.size()))
+            continue;
+        // A process that is still running and is a cambium may still be writing it.
+        const std::string pid = f.substr(tmp + suffix.size());
+        std::ifstream comm("/proc/" + pid + "/comm");
+        std::string command;
+        if (pid.size() < 10 && std::stoll(pid) != ::getpid() && comm >> command && command == "cambium")
+            continue;
+        found.push_back(dir + "/" + f);
+    }
+    ::closedir(d);
+    std::sort(found.begin(), found.end());
+    return found;
+}
+
+OutputLock::OutputLock(const std::string& pattern) : path_(pattern + ".lock")
+{
+    for (;;) {
+        fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd_ < 0)
+            throw InputError(fmt::format("{}: cannot create the lock file: {}", path_, std::strerror(errno)));
+        if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+            const int e = errno;
+            char text[32] = {};
+            const ssize_t n = ::pread(fd_, text, sizeof text - 1, 0);
+            ::close(fd_);
+            fd_ = -1;
+            if (e != EWOULDBLOCK)
+                throw InputError(fmt::format("{}: cannot lock: {}", path_, std::strerror(e)));
+            const std::string holder = n > 0 ? std::string(text, size_t(n)) : "";
+            throw InputError(fmt::format("{}: another cambium{} is writing this sequence (lock {}): wait for it "
+                                         "to end, or stop it",
+                                         pattern,
+                                         holder.find_first_not_of("0123456789\n") == std::string::npos &&
+                                                 !holder.empty()
+                                             ? fmt::format(" (pid {})", holder.substr(0, holder.find('\n')))
+                                             : "",
+                                         path_));
+        }
+        // The holder before us may have removed the file after we opened it:
+        // then our lock is on a file nobody else sees.  Try again.
+        struct stat mine, named;
+        if (::fstat(fd_, &mine) == 0 && ::stat(path_.c_str(), &named) == 0 && mine.st_ino == named.st_ino &&
+            mine.st_dev == named.st_dev)
+            break;
+        ::close(fd_);
+    }
+    const std::string pid = fmt::format("{}\n", ::getpid());
+    if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != ssize_t(pid.size())) {
+        // The lock holds without the pid; only the message naming it suffers.
+    }
+    guard_ = std::make_unique<RemoveOnSignal>(path_);
+}
+
+OutputLock::~OutputLock()
+{
+    guard_.reset();
+    ::unlink(path_.c_str());  // while still holding the lock
+    ::close(fd_);
 }
 
 std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind)
@@ -41,22 +418,6 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
     for (size_t i = 0; i < allowed.size(); ++i)
         list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
     throw InputError(fmt::format("{}: unknown {} format '.{}' (use {})", path, kind, ext, list));
-}
-
-void writeAtomically(const std::string& path, const std::function<void(const std::string& tmp)>& write)
-{
-    const std::string tmp = temporaryPathFor(path);
-    try {
-        write(tmp);
-    } catch (const std::exception& e) {
-        ::unlink(tmp.c_str());
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, e.what()));
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        ::unlink(tmp.c_str());
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, why));
-    }
 }
 
 }  // namespace cambium

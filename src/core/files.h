@@ -1,27 +1,93 @@
-// cambium — output files that appear whole or not at all.
+// cambium — output files that appear whole or not at all, through one checked
+// writer; the lock that keeps two runs out of one sequence.
 #pragma once
 
 #include <functional>
+#include <iosfwd>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace cambium {
 
-/// The name of the temporary file that writeAtomically writes before renaming.
+/// A failure while writing an output (a full disk, an I/O error): the work
+/// failed, the request was fine (the CLI exits 1; a farm may retry).
+class WriteError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// Checks an output path before any work and returns where the file will
+/// really be written: `path` itself, or the target of the symbolic link it
+/// names (a symlink is written through, the link kept).  InputError naming
+/// the path when it is empty, names a directory, a device, a FIFO, a socket
+/// or a dangling link, or when its directory does not exist or cannot be
+/// written (tried by creating and removing a temporary file beside it).
+std::string checkOutputPath(const std::string& path);
+
+/// The temporary file the writer fills beside the real target `path`
+/// ("PATH.tmp-PID") before renaming it.
 std::string temporaryPathFor(const std::string& path);
 
-/// Fails early, before any work, when `path` cannot be created (missing
-/// directory, no permission): creates and removes a temporary file beside it.
-void checkWritable(const std::string& path);
+/// The one writer of every output file.  `write` fills a seekable stream
+/// whose every write is checked; the data go to a temporary file beside the
+/// target (checkOutputPath), which is flushed, fsync'ed, closed and renamed
+/// over the target, and the directory fsync'ed.  On any failure (a full disk,
+/// an exception from `write`) the temporary is removed, an existing file is
+/// left as it was, and WriteError "PATH: cannot write the output: REASON"
+/// (InputError when `write` threw one) is thrown.  While the temporary exists
+/// a SIGINT, SIGTERM or SIGHUP removes it before the process ends
+/// (installCleanupOnSignals).
+void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write);
+/// writeFile for bytes already in memory.
+void writeFile(const std::string& path, const void* data, size_t size);
+
+/// Installs handlers that, on SIGINT, SIGTERM or SIGHUP, remove the
+/// temporaries and lock files this process has open, then end it by the same
+/// signal.  Call once at the start of main.
+void installCleanupOnSignals();
+
+/// Temporaries that an earlier, killed process left for the frames of
+/// `pattern` (a path with a run of '#'): files "PREFIX<digits>SUFFIX.tmp-<pid>"
+/// in its directory, with as many digits as the pattern has '#' or more, and
+/// nothing else.
+std::vector<std::string> staleTemporaries(const std::string& pattern);
+
+/// Registers a path to be removed if a signal ends the process while the
+/// guard lives (installCleanupOnSignals); release() when it is no longer ours.
+class RemoveOnSignal {
+public:
+    explicit RemoveOnSignal(const std::string& path);
+    ~RemoveOnSignal() { release(); }
+    RemoveOnSignal(const RemoveOnSignal&) = delete;
+    RemoveOnSignal& operator=(const RemoveOnSignal&) = delete;
+    void release();
+
+private:
+    int slot_ = -1;
+};
+
+/// An exclusive lock on the outputs of `pattern` (flock on "PATTERN.lock"
+/// beside it, holding the pid): held while it lives, released and the lock
+/// file removed at its end.  InputError naming the holder's pid when another
+/// process holds it.
+class OutputLock {
+public:
+    explicit OutputLock(const std::string& pattern);
+    ~OutputLock();
+    OutputLock(const OutputLock&) = delete;
+    OutputLock& operator=(const OutputLock&) = delete;
+    const std::string& path() const { return path_; }
+
+private:
+    std::string path_;
+    int fd_ = -1;
+    std::unique_ptr<RemoveOnSignal> guard_;
+};
 
 /// The lower-case extension of `path` (without the dot) when it is one of
 /// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (use .A or .B)".
 std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind);
-
-/// Calls write(tmp) to write the file to a temporary name beside `path`, then
-/// renames it over `path`: a crash or an error never leaves a half-written
-/// file.  An exception from `write` removes the temporary file and is
-/// reported as an InputError naming `path`.
-void writeAtomically(const std::string& path, const std::function<void(const std::string& tmp)>& write);
 
 }  // namespace cambium

@@ -1,6 +1,7 @@
 // cambium — reading baked level sets back.
 #include "use/grid_file.h"
 
+#include "bake/vdb_io.h"
 #include "core/error.h"
 #include "core/frames.h"
 
@@ -13,10 +14,11 @@ namespace cambium {
 
 LevelSetFile readLevelSet(const std::string& path, const std::string& grid)
 {
+    inspectVdb(path);  // a damaged file is named here, before OpenVDB reads it
     openvdb::GridPtrVecPtr grids;
     try {
         openvdb::io::File file(path);
-        file.open();
+        file.open(false);  // read whole now: no private copy of the file for delayed loading
         grids = file.getGrids();
         file.close();
     } catch (const std::exception& e) {

@@ -17,7 +17,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <cstdio>
-#include <fstream>
+#include <iterator>
+#include <ostream>
 #include <memory>
 
 namespace cambium {
@@ -78,35 +79,40 @@ namespace {
 
 uint8_t toByte(float v) { return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
 
-void writeObj(const TriangleMesh& m, const std::string& path)
+void writeObj(const TriangleMesh& m, std::ostream& out)
 {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f)
-        throw std::runtime_error(std::strerror(errno));
-    std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
-    std::fprintf(f, "# cambium mesh: %zu vertices, %zu triangles\n", m.points.size(), m.triangles.size());
+    fmt::memory_buffer buf;
+    auto drain = [&](bool last) {
+        if (last || buf.size() > (size_t(1) << 20)) {
+            out.write(buf.data(), std::streamsize(buf.size()));
+            buf.clear();
+        }
+    };
+    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} triangles\n", m.points.size(),
+                   m.triangles.size());
     for (size_t i = 0; i < m.points.size(); ++i) {
         const auto& p = m.points[i];
         if (m.colors.empty())
-            std::fprintf(f, "v %.7g %.7g %.7g\n", p[0], p[1], p[2]);
+            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g}\n", p[0], p[1], p[2]);
         else
-            std::fprintf(f, "v %.7g %.7g %.7g %.4g %.4g %.4g\n", p[0], p[1], p[2], m.colors[i][0], m.colors[i][1],
-                         m.colors[i][2]);
+            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g} {:.4g} {:.4g} {:.4g}\n", p[0], p[1], p[2],
+                           m.colors[i][0], m.colors[i][1], m.colors[i][2]);
+        drain(false);
     }
-    for (const auto& nrm : m.normals)
-        std::fprintf(f, "vn %.5g %.5g %.5g\n", nrm[0], nrm[1], nrm[2]);
-    for (const auto& t : m.triangles)  // OBJ counts from 1
-        std::fprintf(f, "f %u//%u %u//%u %u//%u\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
-    if (std::ferror(f))
-        throw std::runtime_error("write error");
-    guard.reset();
+    for (const auto& nrm : m.normals) {
+        fmt::format_to(std::back_inserter(buf), "vn {:.5g} {:.5g} {:.5g}\n", nrm[0], nrm[1], nrm[2]);
+        drain(false);
+    }
+    for (const auto& t : m.triangles) {  // OBJ counts from 1
+        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1,
+                       t[2] + 1, t[2] + 1);
+        drain(false);
+    }
+    drain(true);
 }
 
-void writePly(const TriangleMesh& m, const std::string& path)
+void writePly(const TriangleMesh& m, std::ostream& out)
 {
-    std::ofstream out(path, std::ios::binary);
-    if (!out)
-        throw std::runtime_error(std::strerror(errno));
     const bool rgb = !m.colors.empty();
     out << "ply\nformat binary_little_endian 1.0\ncomment cambium mesh\n"
         << "element vertex " << m.points.size() << "\n"
@@ -136,9 +142,6 @@ void writePly(const TriangleMesh& m, const std::string& path)
         std::memcpy(o + 1, m.triangles[i].data(), 12);
     }
     out.write(buf.data(), std::streamsize(buf.size()));
-    out.close();
-    if (!out)
-        throw std::runtime_error("write error");
 }
 
 }  // namespace
@@ -146,13 +149,13 @@ void writePly(const TriangleMesh& m, const std::string& path)
 void checkMeshOutput(const std::string& path)
 {
     fileFormat(path, {"obj", "ply"}, "mesh");
-    checkWritable(path);
+    checkOutputPath(path);
 }
 
 void writeMesh(const TriangleMesh& mesh, const std::string& path)
 {
     const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
-    writeAtomically(path, [&](const std::string& tmp) { ext == "obj" ? writeObj(mesh, tmp) : writePly(mesh, tmp); });
+    writeFile(path, [&](std::ostream& out) { ext == "obj" ? writeObj(mesh, out) : writePly(mesh, out); });
 }
 
 int runMeshCommand(const MeshRequest& req)

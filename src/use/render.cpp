@@ -8,6 +8,7 @@
 #include "use/grid_file.h"
 #include "core/clock.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
@@ -424,16 +425,19 @@ RenderImage EmbreeMesh::render(const Camera& camera, int width, int height, int 
 void checkImageOutput(const std::string& path)
 {
     fileFormat(path, {"png", "exr"}, "image");
-    checkWritable(path);
+    checkOutputPath(path);
 }
 
 void writeImage(const RenderImage& img, const std::string& path)
 {
     const std::string ext = fileFormat(path, {"png", "exr"}, "image");
-    writeAtomically(path, [&](const std::string& tmp) {
-        auto out = OIIO::ImageOutput::create(path);  // the plugin by the real name's extension
-        if (!out)
-            throw std::runtime_error(OIIO::geterror());
+    // OpenImageIO encodes into memory; the checked writer writes the bytes.
+    std::vector<unsigned char> bytes;
+    {
+        auto out = OIIO::ImageOutput::create(path);  // the plugin by the name's extension
+        if (!out || !out->supports("ioproxy"))
+            throw std::runtime_error(out ? "OpenImageIO cannot encode ." + ext + " into memory" : OIIO::geterror());
+        OIIO::Filesystem::IOVecOutput memory(bytes);
         const size_t n = size_t(img.width) * size_t(img.height);
         std::vector<float> px;
         OIIO::ImageSpec spec;
@@ -462,9 +466,11 @@ void writeImage(const RenderImage& img, const std::string& path)
             }
         }
         spec.attribute("Software", "cambium");
-        if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
+        if (!out->set_ioproxy(&memory) || !out->open(path, spec) ||
+            !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
             throw std::runtime_error(out->geterror());
-    });
+    }
+    writeFile(path, bytes.data(), bytes.size());
 }
 
 Box meshBounds(const TriangleMesh& mesh)

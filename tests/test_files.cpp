@@ -1,0 +1,183 @@
+// The one checked writer: files appear whole or not at all, a failed write
+// fails and keeps the old file, non-regular outputs are refused, symlinks are
+// written through, stale temporaries are found by their pattern only, and the
+// output lock keeps a second writer out.
+#include "core/error.h"
+#include "core/files.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <ostream>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+namespace {
+
+using namespace cambium;
+namespace fs = std::filesystem;
+
+fs::path freshDir(const std::string& name)
+{
+    const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+std::string contents(const fs::path& p)
+{
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// The files in a directory, by name.
+std::vector<std::string> listing(const fs::path& dir)
+{
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir))
+        names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+TEST(Files, WritesWholeFilesWithSeeksAndNoTemporaryLeft)
+{
+    const fs::path dir = freshDir("cambium_files_write");
+    const std::string path = (dir / "a.bin").string();
+    writeFile(path, [](std::ostream& out) {
+        out << "0123456789";
+        EXPECT_EQ(out.tellp(), std::streampos(10));
+        out.seekp(2);
+        out << "ab";  // overwrite in place, as OpenVDB does with grid offsets
+        out.seekp(0, std::ios::end);
+        out << std::string(1 << 20, 'x');  // larger than the buffer
+    });
+    const std::string s = contents(path);
+    ASSERT_EQ(s.size(), 10u + (1u << 20));
+    EXPECT_EQ(s.substr(0, 10), "01ab456789");
+    EXPECT_EQ(listing(dir), std::vector<std::string>{"a.bin"});
+}
+
+TEST(Files, AFailureInsideTheWriteKeepsTheOldFileAndRemovesTheTemporary)
+{
+    const fs::path dir = freshDir("cambium_files_fail");
+    const std::string path = (dir / "a.bin").string();
+    writeFile(path, "old", 3);
+    ::chmod(path.c_str(), 0600);
+    EXPECT_THROW(writeFile(path,
+                           [](std::ostream& out) {
+                               out << std::string(1 << 20, 'n');
+                               throw std::runtime_error("injected failure half-way");
+                           }),
+                 WriteError);
+    EXPECT_EQ(contents(path), "old");
+    EXPECT_EQ(listing(dir), std::vector<std::string>{"a.bin"});
+    // A write that succeeds keeps the file's permissions.
+    writeFile(path, "new", 3);
+    struct stat st;
+    ASSERT_EQ(::stat(path.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0600u);
+    EXPECT_EQ(contents(path), "new");
+}
+
+TEST(Files, AFullDeviceFailsTheWriteWithItsReason)
+{
+    // A small tmpfs, when this process may mount one (the tests run as root).
+    const fs::path dir = freshDir("cambium_files_full");
+    if (::geteuid() != 0 || std::system(("mount -t tmpfs -o size=64k tmpfs " + dir.string() + " 2>/dev/null").c_str()) != 0)
+        GTEST_SKIP() << "cannot mount a tmpfs here (not root, or no mount permission)";
+    const std::string path = (dir / "a.bin").string();
+    writeFile(path, "old", 3);
+    try {
+        writeFile(path, [](std::ostream& out) { out << std::string(1 << 20, 'n'); });
+        ADD_FAILURE() << "a 1 MB write into 64 KB succeeded";
+    } catch (const WriteError& e) {
+        EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(contents(path), "old");
+    EXPECT_EQ(listing(dir), std::vector<std::string>{"a.bin"});
+    std::system(("umount " + dir.string()).c_str());
+}
+
+TEST(Files, OutputsThatAreNotRegularFilesAreRefused)
+{
+    const fs::path dir = freshDir("cambium_files_kinds");
+    EXPECT_THROW(checkOutputPath(""), InputError);
+    EXPECT_THROW(checkOutputPath(dir.string()), InputError);
+    EXPECT_THROW(checkOutputPath(dir.string() + "/"), InputError);
+    EXPECT_THROW(checkOutputPath("/dev/null"), InputError);
+    EXPECT_THROW(checkOutputPath("/dev/full"), InputError);
+    const std::string fifo = (dir / "fifo.vdb").string();
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+    try {
+        checkOutputPath(fifo);
+        ADD_FAILURE() << "a FIFO was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("FIFO"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(writeFile(fifo, "x", 1), InputError);
+    EXPECT_THROW(checkOutputPath((dir / "no/such/dir/a.vdb").string()), InputError);
+    // A link to a device is refused like the device.
+    fs::create_symlink("/dev/null", dir / "null.vdb");
+    EXPECT_THROW(checkOutputPath((dir / "null.vdb").string()), InputError);
+    // A dangling link is refused.
+    fs::create_symlink(dir / "nowhere.vdb", dir / "dangling.vdb");
+    EXPECT_THROW(checkOutputPath((dir / "dangling.vdb").string()), InputError);
+}
+
+TEST(Files, ASymlinkIsWrittenThroughAndKept)
+{
+    const fs::path dir = freshDir("cambium_files_link");
+    fs::create_directories(dir / "real");
+    const std::string target = (dir / "real" / "a.vdb").string();
+    writeFile(target, "old", 3);
+    fs::create_symlink(target, dir / "link.vdb");
+    EXPECT_EQ(checkOutputPath((dir / "link.vdb").string()), fs::canonical(target).string());
+    writeFile((dir / "link.vdb").string(), "new", 3);
+    EXPECT_TRUE(fs::is_symlink(dir / "link.vdb"));
+    EXPECT_EQ(contents(target), "new");
+    EXPECT_EQ(listing(dir / "real"), std::vector<std::string>{"a.vdb"});
+}
+
+TEST(Files, StaleTemporariesAreThoseOfThePatternOnly)
+{
+    const fs::path dir = freshDir("cambium_files_stale");
+    for (const char* name : {"tree.0001.vdb.tmp-99999999", "tree.0012.vdb.tmp-4", "tree.12345.vdb.tmp-7",
+                             // not ours: other patterns, other names, a frame itself
+                             "tree.0001.vdb", "tree.001.vdb.tmp-5", "tree.0001.vdb.tmp-", "tree.0001.vdb.tmp-5x",
+                             "bush.0001.vdb.tmp-5", "tree.0001.exr.tmp-5", "tree.00a1.vdb.tmp-5", "notes.txt"})
+        std::ofstream(dir / name) << "x";
+    const std::vector<std::string> found = staleTemporaries((dir / "tree.####.vdb").string());
+    std::vector<std::string> names;
+    for (const std::string& f : found)
+        names.push_back(fs::path(f).filename().string());
+    EXPECT_EQ(names, (std::vector<std::string>{"tree.0001.vdb.tmp-99999999", "tree.0012.vdb.tmp-4",
+                                               "tree.12345.vdb.tmp-7"}));
+}
+
+TEST(Files, TheOutputLockKeepsASecondWriterOutAndNamesTheHolder)
+{
+    const fs::path dir = freshDir("cambium_files_lock");
+    const std::string pattern = (dir / "tree.####.vdb").string();
+    {
+        const OutputLock first(pattern);
+        EXPECT_TRUE(fs::exists(first.path()));
+        try {
+            const OutputLock second(pattern);
+            ADD_FAILURE() << "two locks on one pattern";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("pid " + std::to_string(::getpid())), std::string::npos)
+                << e.what();
+        }
+    }
+    EXPECT_TRUE(listing(dir).empty());  // the lock file goes with the lock
+    const OutputLock again(pattern);     // and can be taken again
+}
+
+}  // namespace
