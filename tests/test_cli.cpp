@@ -1,5 +1,7 @@
 // The cambium binary end to end: `info` on the bundled examples, clear errors
 // and a non-zero exit for malformed scenes.
+#include "cli_util.h"
+
 #include <gtest/gtest.h>
 
 #include <array>
@@ -12,29 +14,8 @@
 
 namespace {
 
-struct Result {
-    int status = -1;
-    std::string out, err;
-};
-
-Result run(const std::string& args)
-{
-    const auto errFile = std::filesystem::temp_directory_path() /
-                         ("cambium_test_err_" + std::to_string(::getpid()));
-    const std::string cmd = std::string(CAMBIUM_EXE) + " " + args + " 2>" + errFile.string();
-    Result r;
-    FILE* p = ::popen(cmd.c_str(), "r");
-    std::array<char, 4096> buf{};
-    size_t n;
-    while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0)
-        r.out.append(buf.data(), n);
-    const int raw = ::pclose(p);
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    std::ifstream e(errFile);
-    r.err.assign(std::istreambuf_iterator<char>(e), {});
-    std::filesystem::remove(errFile);
-    return r;
-}
+using cambium::test::Result;
+using cambium::test::run;
 
 const std::string kExamples = CAMBIUM_SOURCE_DIR "/examples/";
 

@@ -456,13 +456,13 @@ int main(int argc, char** argv)
     try {
         return action ? action() : 0;
     } catch (const cambium::InputError& e) {
-        fmt::print(stderr, "cambium: error: {}\n", e.what());
+        std::fprintf(stderr, "cambium: error: %s\n", e.what());  // never throws, whatever stderr is
         return 2;
     } catch (const std::bad_alloc&) {
-        fmt::print(stderr, "cambium: failed: out of memory\n");
+        std::fprintf(stderr, "cambium: failed: out of memory\n");
         return 1;
     } catch (const std::exception& e) {
-        fmt::print(stderr, "cambium: failed: {}\n", e.what());
+        std::fprintf(stderr, "cambium: failed: %s\n", e.what());
         return 1;
     }
 }

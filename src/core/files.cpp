@@ -231,7 +231,7 @@ std::string checkOutputPath(const std::string& path)
     } else if (errno != ENOENT) {
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     }
-    const std::string probe = temporaryPathFor(target);
+    const std::string probe = fmt::format("{}.probe-{}", target, ::getpid());
     const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd < 0)
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
