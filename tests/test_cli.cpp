@@ -222,9 +222,9 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
     };
     const Case cases[] = {
         {kExamples + "sphere_and_cone.json -o /nonexistent/dir/out.vdb", "/nonexistent/dir/out.vdb: cannot write the output"},
-        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size 1e-7",
-         "a voxel size of 1e-07 would need about"},
-        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2", "--voxel-size must be a positive number"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size 1e-4",
+         "a voxel size of 0.0001 would need about"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2", "--voxel-size must be a number from 0.0001 to 1e9 (got -2)"},
         {empty.string() + " -o " + out, "the model has no surface"},
         {kExamples + "sphere_and_cone.json -o " + out + " --device gpu", "--device must be opencl or cpu"},
         {kExamples + "sphere_and_cone.json -o " + out + " --half-width 0.5", "--half-width must be between 1 and 64"},

@@ -108,7 +108,8 @@ TEST(GrowthParameters, MalformedFilesAreNamedByFileAndPath)
     auto expectError = [](const std::string& text, const std::string& message) {
         test::expectInputError([&] { parseGrowthParameters(text, "tree.json"); }, message, message);
     };
-    expectError("{", "tree.json: not valid JSON");
+    expectError("{", "tree.json: JSON syntax error: parse error at line 1, column 2");
+    expectError("{\"years\": 3, \"years\": 4}", "tree.json: duplicate key 'years'");
     expectError(edited([](json& j) { j["yaers"] = 3; }), "tree.json: yaers: unknown key");
     expectError(edited([](json& j) { j["years"] = 2.5; }), "tree.json: years: must be a whole number");
     expectError(edited([](json& j) { j["years"] = 0; }), "tree.json: years: must be between 1 and 1000");

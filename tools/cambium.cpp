@@ -24,6 +24,7 @@
 #include <openvdb/openvdb.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -81,9 +82,11 @@ int runInfo(const std::string& scenePath, const ModelOptions& model)
 
 int runEval(const std::string& scenePath, const std::vector<double>& xyz)
 {
+    const glm::dvec3 p(xyz[0], xyz[1], xyz[2]);
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+        throw InputError(fmt::format("eval: the point {} must have finite coordinates", vec(p)));
     const BlobTree tree = loadModel(scenePath);
     const ReferenceEvaluator eval(tree);
-    const glm::dvec3 p(xyz[0], xyz[1], xyz[2]);
     const FieldSample s = eval.sample(p);
     fmt::print("point     {}\n", vec(p));
     fmt::print("field     {:.9g}  ({} at threshold {})\n", s.value,
@@ -179,6 +182,10 @@ int runBakeCommand(BakeRequest req)
         return runSequenceCommand(req);
     ProgressBar bar;
     req.progress = [&](const char* stage, double f) { bar(stage, f); };
+    req.notice = [&](const std::string& line) {
+        bar.clear();
+        fmt::print("note: {}\n", line);
+    };
     const BakeReport r = cambium::runBake(req);
     bar.clear();
     const BakeStats& s = r.stats;
@@ -214,6 +221,7 @@ int main(int argc, char** argv)
     std::string scene;
     ModelOptions model;
     bool noLeaves = false;
+    double modelTime = 0.0;
     auto modelOptions = [&](CLI::App* cmd) {
         cmd->add_option("--junctions", model.junctions,
                         "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
@@ -228,7 +236,7 @@ int main(int argc, char** argv)
         cmd->add_option("--regrowth", model.regrowth,
                         "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
         cmd->add_flag("--no-leaves", noLeaves, "Growth parameter files: leave the leaves out");
-        return cmd->add_option("--time", model.time,
+        return cmd->add_option("--time", modelTime,
                                "Growth parameter files: the tree at this time in years (default: the last)");
     };
     auto* info = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
@@ -236,9 +244,11 @@ int main(int argc, char** argv)
                      "Scene (JSON, docs/scene-format.md), growth parameters (docs/growth-format.md), L-system (.l, "
                      "docs/lsystem-format.md) or skeleton (docs/skeleton-format.md)")
         ->required();
-    modelOptions(info);
+    CLI::Option* infoTime = modelOptions(info);
     info->callback([&] {
         model.leaves = !noLeaves;
+        if (infoTime->count())
+            model.time = modelTime;
         action = [&] { return runInfo(scene, model); };
     });
 
@@ -267,18 +277,21 @@ int main(int argc, char** argv)
     bakeCmd->add_option("--device", bake.device, "opencl or cpu")->capture_default_str();
     bakeCmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     bakeCmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
-    bakeCmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)");
+    bakeCmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
     bakeCmd->add_option("--frames", bake.frames,
                         "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
                         "(out/populus.####.vdb), frame f at year f / fps-per-year")
         ->excludes(timeOpt);
     bakeCmd->add_option("--fps-per-year", bake.fpsPerYear, "Frames per year of growth")->capture_default_str();
     bakeCmd->add_flag("--resume", bake.resume, "Keep the frames an interrupted run of the same bake finished");
-    bakeCmd->add_option("--jobs", bake.jobs, "Frames baked at once (default: as many as cores and memory allow)");
+    bakeCmd->add_option("--jobs", bake.jobs, "Frames baked at once (default: as many as cores and memory allow)")
+        ->check(CLI::Range(1, 4096));
     bakeCmd->callback([&] {
         if (voxelOpt->count())
             bake.voxelSize = voxelSize;
         model.leaves = !noLeaves;
+        if (timeOpt->count())
+            model.time = modelTime;
         bake.model = model;
         action = [&] { return runBakeCommand(bake); };
     });
@@ -411,24 +424,28 @@ int main(int argc, char** argv)
     auto* lsCmd = app.add_subcommand("lsystem", "Derive an L-system (docs/lsystem-format.md) and print the string, "
                                                 "its skeleton or a summary");
     lsCmd->add_option("input", lsys.input, "L-system file")->required();
-    lsCmd->add_option("--steps", lsys.steps, "Derivation steps (default: the file's derivation length)");
-    lsCmd->add_option("--seed", lsys.seed, "Seed of stochastic productions (default: the file's seed:)");
+    lsCmd->add_option("--steps", lsys.steps, "Derivation steps (default: the file's derivation length)")
+        ->check(CLI::Range(0, kMaxSteps));
+    lsCmd->add_option("--seed", lsys.seed, "Seed of stochastic productions (default: the file's seed:)")
+        ->check(CLI::NonNegativeNumber);
     lsCmd->add_option("--max-modules", lsys.maxModules, "Refuse a derivation that makes more modules")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(size_t(1), kMaxModulesLimit));
     lsCmd->add_flag("--print-string", lsys.printString, "Print the derived string (one line, ABOP notation)");
     lsCmd->add_flag("--print-skeleton", lsys.printSkeleton,
                     "Print the internodes in the skeleton format, which cambium bake reads");
     lsCmd->callback([&] { action = [&] { return runLSystemCommand(lsys); }; });
 
     GrowthRequest growth;
-    double growthYear = -1.0;
+    double growthYear = 0.0, growthTime = 0.0;
     auto* growthCmd = app.add_subcommand("growth", "Grow a tree from a growth parameter file (docs/growth-format.md) "
                                                     "and print its counts or skeleton at a time");
     growthCmd->add_option("input", growth.input, "Growth parameter file (.json)")->required();
     auto* yearOpt = growthCmd->add_option("--year", growthYear, "The end of this year (default: the last)");
-    growthCmd->add_option("--time", growth.time, "Any time in years, e.g. 3.5 (mid-season of year 4)")
+    auto* growthTimeOpt = growthCmd->add_option("--time", growthTime, "Any time in years, e.g. 3.5 (mid-season of year 4)")
         ->excludes(yearOpt);
-    growthCmd->add_option("--seed", growth.seed, "Seed of the stochastic orientation (default: the file's)");
+    growthCmd->add_option("--seed", growth.seed, "Seed of the stochastic orientation (default: the file's)")
+        ->check(CLI::NonNegativeNumber);
     growthCmd->add_flag("--no-leaves", noLeaves, "Leave the leaves out");
     growthCmd->add_flag("--print-stats", growth.printStats,
                         "Branches and internodes by order, organs, BlobTree primitives and operators");
@@ -436,6 +453,8 @@ int main(int argc, char** argv)
     growthCmd->callback([&] {
         if (yearOpt->count())
             growth.time = growthYear;
+        if (growthTimeOpt->count())
+            growth.time = growthTime;
         growth.leaves = !noLeaves;
         action = [&] { return runGrowthCommand(growth); };
     });

@@ -9,6 +9,7 @@
 #include "blobtree/scene_io.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/system.h"
 #include "core/math.h"
 #include "model/skeleton.h"
 
@@ -18,6 +19,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -30,40 +32,6 @@ bool endsWith(const std::string& s, const std::string& suffix)
 {
     return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
-
-std::string bytes(double b)
-{
-    const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
-    int u = 0;
-    while (b >= 1000.0 && u < 6) {
-        b /= 1000.0;
-        ++u;
-    }
-    return fmt::format("{:.3g} {}", b, units[u]);
-}
-
-}  // namespace
-
-double availableMemoryBytes()
-{
-    std::ifstream in("/proc/meminfo");
-    std::string key;
-    double kb;
-    std::string unit;
-    while (in >> key >> kb >> unit)
-        if (key == "MemAvailable:")
-            return kb * 1024.0;
-    return double(::sysconf(_SC_AVPHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
-}
-
-double peakMemoryBytes()
-{
-    struct rusage r;
-    ::getrusage(RUSAGE_SELF, &r);
-    return double(r.ru_maxrss) * 1024.0;
-}
-
-namespace {
 
 /// The tree builder's options for `junctions` "pcm" or "smooth".
 TreeBuildOptions treeOptions(const ModelOptions& o, const std::string& junctions)
@@ -150,26 +118,40 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                                      req.input));
     const glm::dvec3 size = bounds.size();
     plan.extent = std::max({size.x, size.y, size.z});
+    const double far = std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
+                                 std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
+    if (!std::isfinite(plan.extent) || !std::isfinite(far) || far > 1e15)
+        throw InputError(fmt::format("{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
+                                     "cannot be baked",
+                                     req.input, far));
     if (req.voxelSize) {
         plan.voxelSize = *req.voxelSize;
-        if (!std::isfinite(plan.voxelSize) || !(plan.voxelSize > 0.0))
-            throw InputError(fmt::format("--voxel-size must be a positive number (got {})", plan.voxelSize));
+        if (!(plan.voxelSize >= kMinVoxelSize && plan.voxelSize <= 1e9))
+            throw InputError(fmt::format("--voxel-size must be a number from {:g} to 1e9 (got {})", kMinVoxelSize,
+                                         plan.voxelSize));
     } else {
         plan.voxelSize = autoVoxelSize(program);
         plan.automatic = true;
+        if (!(plan.voxelSize >= kMinVoxelSize))
+            throw InputError(fmt::format("{}: the surface is only {:.3g} across: 512 voxels across it would be "
+                                         "smaller than {:g}; scale the model up",
+                                         req.input, plan.extent, kMinVoxelSize));
     }
     const double h = plan.voxelSize;
     // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
-    const double span = (std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
-                                   std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)}) +
-                         req.halfWidth * h) / h;
+    const double span = (far + req.halfWidth * h) / h;
+    if (!(span < 1e9))
+        throw InputError(fmt::format("{}: the surface reaches {:.4g} from the origin, {:.3g} voxels of {:g}: beyond "
+                                     "OpenVDB's index space (about 2e9 voxels each way); move the model nearer the "
+                                     "origin or use a larger --voxel-size",
+                                     req.input, far, span, h));
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth);
     const double have = availableMemoryBytes();
-    if (!(span < 1e9) || plan.bytes > have)
+    if (!(plan.bytes <= have))
         throw InputError(fmt::format(
             "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across ({:.3g} "
             "voxels), and this machine has {} available: use a larger --voxel-size",
-            h, bytes(plan.bytes), plan.extent, plan.extent / h, bytes(have)));
+            h, formatBytes(plan.bytes), plan.extent, plan.extent / h, formatBytes(have)));
     return plan;
 }
 
@@ -194,12 +176,27 @@ BakeReport runBake(const BakeRequest& req)
 {
     BakeReport report;
     checkBakeOptions(req);
+    checkOutputPath(req.output);
     const BlobTree tree = loadModel(req.input, req.model);
     const FieldProgram program = FieldProgram::compile(tree);
     const VoxelPlan plan = planVoxelSize(program, req);
     report.extent = plan.extent;
     report.autoVoxelSize = plan.automatic;
-    checkOutputPath(req.output);
+    // Primitives thinner than a voxel bake as voxel-sized blocks or vanish:
+    // say so rather than leave a user puzzling over a cube.
+    size_t thin = 0, solid = 0;
+    double thinnest = std::numeric_limits<double>::infinity();
+    for (const Node& n : tree.nodes())
+        if (kindOf(n.type) == NodeKind::Primitive && n.prim().weight > 0.0) {
+            ++solid;
+            const double r = std::max(n.prim().r0, n.prim().r1);
+            thinnest = std::min(thinnest, r);
+            thin += 2.0 * r < plan.voxelSize;
+        }
+    if (thin && req.notice)
+        req.notice(fmt::format("{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
+                               "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
+                               thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
 
     const ThreadLimit threads(req.threads);
     std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);

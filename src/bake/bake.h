@@ -4,6 +4,7 @@
 
 #include "bake/levelset.h"
 #include "blobtree/blobtree.h"
+#include "core/system.h"
 
 #include <tbb/global_control.h>
 
@@ -31,7 +32,7 @@ struct ModelOptions {
     double regrowth = 0.0;  ///< callus over saw cuts, 0 to 1 (pcm, smooth)
     /// Growth parameter files: the time in years (< 0: the file's last year)
     /// and whether to grow leaves.
-    double time = -1.0;
+    std::optional<double> time;
     bool leaves = true;
 };
 /// InputError unless the options are valid (before any work).
@@ -80,6 +81,9 @@ struct VoxelPlan {
     double extent = 0.0;     ///< largest extent of the surface bounds
     double bytes = 0.0;      ///< estimated memory of one bake
 };
+/// The smallest voxel size baked: OpenVDB's transforms refuse a voxel whose
+/// volume is below 3e-15 (h < 1.44e-5).
+constexpr double kMinVoxelSize = 1e-4;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
 /// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
@@ -107,10 +111,5 @@ struct BakeReport {
 /// bakes and writes.  An OpenCL failure names the problem and suggests
 /// --device cpu.
 BakeReport runBake(const BakeRequest& request);
-
-/// Bytes of memory available to this process (MemAvailable).
-double availableMemoryBytes();
-/// Peak resident memory of this process so far.
-double peakMemoryBytes();
 
 }  // namespace cambium

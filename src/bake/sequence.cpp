@@ -89,6 +89,7 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                                          f, t, req.fpsPerYear, years, req.input));
         times.push_back(t);
         paths.push_back(framePath(req.output, f));
+        checkOutputPath(paths.back(), paths.size() == 1);
     }
 
     // The last frame's tree (the largest) sets the voxel size, the same for
@@ -120,8 +121,6 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
     const int byMemory = int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytes, 1.0))));
     report.jobs = std::max(1, std::min({req.jobs > 0 ? req.jobs : cores, byMemory, int(frames.size())}));
-    for (const std::string& p : paths)
-        checkOutputPath(p);
     auto notice = [&](const std::string& line) {
         if (req.notice)
             req.notice(line);

@@ -2,6 +2,7 @@
 #include "blobtree/scene_io.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <fmt/format.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -412,29 +413,7 @@ private:
 
 BlobTree parseScene(const std::string& text, const std::string& source)
 {
-    json doc;
-    try {
-        doc = json::parse(text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
-    } catch (const json::exception& e) {
-        // e.what() reads "[json.exception.parse_error.101] parse error at line L, column C: ..."
-        std::string what = e.what();
-        const auto bracket = what.find("] ");
-        if (bracket != std::string::npos)
-            what = what.substr(bracket + 2);
-        // A number too large for a double ("number overflow parsing '1e999'")
-        // comes without a position: find the literal in the text.
-        const auto q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
-        if (what.find(" at line ") == std::string::npos && q1 != std::string::npos) {
-            const auto at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
-            if (at != std::string::npos) {
-                const size_t line = size_t(std::count(text.begin(), text.begin() + long(at), '\n')) + 1;
-                const auto lineStart = text.rfind('\n', at);
-                const size_t column = at - (lineStart == std::string::npos ? 0 : lineStart + 1) + 1;
-                what += fmt::format(" at line {}, column {}", line, column);
-            }
-        }
-        throw InputError(fmt::format("{}: JSON syntax error: {}", source, what));
-    }
+    const json doc = parseJson(text, source);
     return SceneReader(source).read(doc);
 }
 

@@ -1,6 +1,7 @@
 // cambium — error types.
 #pragma once
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -29,7 +30,17 @@ private:
     std::string field_;
 };
 
-/// The whole text of a file; InputError "<path>: cannot read the <what>: <reason>".
+/// Checks that `path` names a regular file that can be read, and returns its
+/// size: InputError "PATH: cannot read the WHAT: REASON", "PATH: is a
+/// directory, not a WHAT" or "PATH: is a device, FIFO or socket, not a WHAT".
+uint64_t checkInputFile(const std::string& path, const char* what);
+
+/// The largest text input read (a scene, L-system, skeleton or parameter file).
+constexpr uint64_t kMaxTextFileBytes = uint64_t(1) << 30;
+
+/// The whole text of a file (checkInputFile, at most kMaxTextFileBytes);
+/// a binary file is refused by name ("PATH: is a .vdb file (a baked level
+/// set), not a WHAT", "PATH: a binary file, not a WHAT").
 std::string readTextFile(const std::string& path, const char* what);
 
 }  // namespace cambium

@@ -204,7 +204,7 @@ std::string temporaryPathFor(const std::string& path)
     return fmt::format("{}.tmp-{}", path, ::getpid());
 }
 
-std::string checkOutputPath(const std::string& path)
+std::string checkOutputPath(const std::string& path, bool probe)
 {
     if (path.empty())
         throw InputError("-o: the output path is empty");
@@ -231,12 +231,14 @@ std::string checkOutputPath(const std::string& path)
     } else if (errno != ENOENT) {
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     }
-    const std::string probe = fmt::format("{}.probe-{}", target, ::getpid());
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (!probe)
+        return target;
+    const std::string test = fmt::format("{}.probe-{}", target, ::getpid());
+    const int fd = ::open(test.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd < 0)
         throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     ::close(fd);
-    ::unlink(probe.c_str());
+    ::unlink(test.c_str());
     return target;
 }
 

@@ -23,8 +23,8 @@ public:
 /// names (a symlink is written through, the link kept).  InputError naming
 /// the path when it is empty, names a directory, a device, a FIFO, a socket
 /// or a dangling link, or when its directory does not exist or cannot be
-/// written (tried by creating and removing a temporary file beside it).
-std::string checkOutputPath(const std::string& path);
+/// written (tried, when `probe`, by creating and removing a file beside it).
+std::string checkOutputPath(const std::string& path, bool probe = true);
 
 /// The temporary file the writer fills beside the real target `path`
 /// ("PATH.tmp-PID") before renaming it.

@@ -28,7 +28,7 @@ std::string framePath(const std::string& pattern, long long frame)
 
 std::vector<long long> parseFrames(const std::string& range, const std::string& option)
 {
-    static const std::regex form(R"(\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*(?::\s*(\d+)\s*)?)?)");
+    static const std::regex form(R"(\s*(-?\d{1,15})\s*(?:-\s*(-?\d{1,15})\s*(?::\s*(\d{1,15})\s*)?)?)");
     std::smatch m;
     if (!std::regex_match(range, m, form))
         throw InputError(fmt::format("{} {}: expected FRAME, FIRST-LAST or FIRST-LAST:STEP", option, range));
@@ -39,8 +39,9 @@ std::vector<long long> parseFrames(const std::string& range, const std::string& 
         throw InputError(fmt::format("{} {}: the last frame must not come before the first, and the step must be "
                                      "at least 1",
                                      option, range));
-    if ((last - first) / step > 10'000'000)
-        throw InputError(fmt::format("{} {}: more than ten million frames", option, range));
+    if ((last - first) / step >= kMaxFrames)
+        throw InputError(fmt::format("{} {}: {} frames, more than cambium plans at once ({}); split the range", option,
+                                     range, (last - first) / step + 1, kMaxFrames));
     std::vector<long long> frames;
     for (long long f = first; f <= last; f += step)
         frames.push_back(f);

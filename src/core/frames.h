@@ -14,6 +14,9 @@ bool isFramePattern(const std::string& pattern);
 /// InputError when the pattern has more than one run of `#` or none.
 std::string framePath(const std::string& pattern, long long frame);
 
+/// The most frames one range may hold.
+constexpr long long kMaxFrames = 1'000'000;
+
 /// The frames of a range "A", "A-B" or "A-B:STEP" (A <= B, STEP >= 1), in
 /// order.  Throws InputError naming `option` for anything else.
 std::vector<long long> parseFrames(const std::string& range, const std::string& option = "--frames");

@@ -20,6 +20,7 @@
 #include "model/tree_builder.h"
 
 #include <map>
+#include <optional>
 #include <vector>
 
 namespace cambium {
@@ -131,7 +132,7 @@ private:
 /// `cambium growth`: the model at a year (or any time), as counts or a skeleton.
 struct GrowthRequest {
     std::string input;
-    double time = -1.0;  ///< < 0: the last year
+    std::optional<double> time;  ///< default: the last year
     long long seed = -1; ///< < 0: the file's
     bool leaves = true;
     bool printStats = false, printSkeleton = false;

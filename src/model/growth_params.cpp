@@ -2,6 +2,7 @@
 #include "model/growth_params.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -57,12 +58,7 @@ public:
 
     GrowthParameters read(const std::string& text)
     {
-        json root;
-        try {
-            root = json::parse(text);
-        } catch (const json::parse_error& e) {
-            throw InputError(fmt::format("{}: not valid JSON ({})", source_, e.what()));
-        }
+        const json root = parseJson(text, source_);
         if (!root.is_object())
             throw InputError(fmt::format("{}: expected a JSON object", source_));
         static const char* keys[] = {"name",
@@ -207,14 +203,15 @@ GrowthParameters loadGrowthParameters(const std::string& path)
     return parseGrowthParameters(readTextFile(path, "growth parameter file"), path);
 }
 
-double timeOfLife(const GrowthParameters& p, double t, const std::string& source, const std::string& option)
+double timeOfLife(const GrowthParameters& p, std::optional<double> t, const std::string& source,
+                  const std::string& option)
 {
-    if (t < 0.0)
+    if (!t)
         return double(p.years);
-    if (!(t <= p.years))
+    if (!(*t >= 0.0 && *t <= p.years))
         throw InputError(fmt::format("{}: {} must be between 0 and {} years, the tree's life (got {})", source, option,
-                                     p.years, t));
-    return t;
+                                     p.years, *t));
+    return *t;
 }
 
 bool isGrowthParameterFile(const std::string& path)

@@ -8,6 +8,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace cambium {
@@ -63,9 +64,10 @@ struct GrowthParameters {
 GrowthParameters parseGrowthParameters(const std::string& text, const std::string& source);
 GrowthParameters loadGrowthParameters(const std::string& path);
 
-/// `t`, or the last year when t < 0.  InputError naming `source` and
-/// `option` unless it lies in [0, years].
-double timeOfLife(const GrowthParameters& params, double t, const std::string& source, const std::string& option);
+/// `t`, or the last year when it is not given.  InputError naming `source`
+/// and `option` unless it lies in [0, years].
+double timeOfLife(const GrowthParameters& params, std::optional<double> t, const std::string& source,
+                  const std::string& option);
 
 /// Whether `path` is a growth parameter file rather than a scene: a .json
 /// whose top-level object has "curves".  False for anything unreadable (the

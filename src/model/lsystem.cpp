@@ -767,15 +767,26 @@ LSystem loadLSystem(const std::string& path) { return parseLSystem(readTextFile(
 
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules)
 {
-    if (steps < 0)
-        throw InputError(fmt::format("--steps must not be negative (got {})", steps));
+    if (steps < 0 || steps > kMaxSteps)
+        throw InputError(fmt::format("{}: {} derivation steps (--steps or the file's derivation length): must be "
+                                     "from 0 to {}",
+                                     system.source, steps, kMaxSteps));
+    if (maxModules < 1 || maxModules > kMaxModulesLimit)
+        throw InputError(fmt::format("--max-modules must be from 1 to {} (got {})", kMaxModulesLimit, maxModules));
     if (system.axiom.size() > maxModules)
         throw InputError(fmt::format("{}: the axiom has {} modules, more than the limit of {}", system.source,
                                      system.axiom.size(), maxModules));
     Deriver d(system, seed);
     ModuleString s = Deriver::cut(system.axiom);
-    for (int i = 1; i <= steps; ++i)
+    double rewrites = 0.0;
+    for (int i = 1; i <= steps; ++i) {
+        rewrites += double(s.size());
+        if (rewrites > kMaxRewrites)
+            throw InputError(fmt::format("{}: {} steps would rewrite more than {:g} modules in all (hours of "
+                                         "work): fewer --steps",
+                                         system.source, steps, kMaxRewrites));
         s = d.step(s, i, maxModules);
+    }
     return s;
 }
 

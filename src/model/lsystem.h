@@ -67,8 +67,14 @@ struct LSystem {
 LSystem parseLSystem(const std::string& text, const std::string& source);
 LSystem loadLSystem(const std::string& path);
 
-/// The module limit of a derivation unless one is given (`--max-modules`).
-constexpr size_t kDefaultMaxModules = 2000000;
+/// The module limit of a derivation unless one is given (`--max-modules`),
+/// the largest limit that may be given (a module takes about 100 bytes while
+/// a step is made), the most derivation steps, and the most module rewrites
+/// of a whole derivation (its time: about 10^8 a second).
+constexpr size_t kDefaultMaxModules = 2'000'000;
+constexpr size_t kMaxModulesLimit = 50'000'000;
+constexpr int kMaxSteps = 100'000;
+constexpr double kMaxRewrites = 2e10;
 
 /// Derives `steps` steps from the axiom: every module rewritten in parallel
 /// by the first production (in file order) whose predecessor, contexts and

@@ -294,6 +294,7 @@ std::vector<openvdb::Vec3s> vertexNormals(const TriangleMesh& m)
 TriangleMesh readMesh(const std::string& path)
 {
     const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
+    checkInputFile(path, "mesh file");
     TriangleMesh m = ext == "obj" ? readObj(path) : readPly(path);
     if (m.triangles.empty())
         fail(path, 0, "the mesh has no faces");

@@ -1,0 +1,44 @@
+// cambium — memory available and used.
+#include "core/system.h"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <sys/resource.h>
+#include <unistd.h>
+
+namespace cambium {
+
+double availableMemoryBytes()
+{
+    std::ifstream in("/proc/meminfo");
+    std::string key;
+    double kb;
+    std::string unit;
+    while (in >> key >> kb >> unit)
+        if (key == "MemAvailable:")
+            return kb * 1024.0;
+    return double(::sysconf(_SC_AVPHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+}
+
+double peakMemoryBytes()
+{
+    struct rusage r;
+    ::getrusage(RUSAGE_SELF, &r);
+    return double(r.ru_maxrss) * 1024.0;
+}
+
+std::string formatBytes(double b)
+{
+    if (!(b >= 0.0) || b > 1e30)
+        return "an unbounded amount";
+    const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
+    int u = 0;
+    while (b >= 1000.0 && u < 6) {
+        b /= 1000.0;
+        ++u;
+    }
+    return fmt::format("{:.3g} {}", b, units[u]);
+}
+
+}  // namespace cambium
