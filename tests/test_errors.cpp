@@ -230,3 +230,218 @@ TEST(NothingIsLost, ResumeRemovesStaleTemporariesAndBakesDamagedFramesAgain)
 }
 
 }  // namespace
+
+namespace {
+
+/// The table of bad inputs: every input kind and option, each refused with
+/// exit status 2 and a message naming the file or option, before any output
+/// changes.  A new input kind or option adds its rows here.
+struct BadInput {
+    std::string args;      ///< IN: the inputs' directory, OUT: the outputs' directory, VDB: a good .vdb
+    std::string expected;  ///< in the message: the file, option or place, and the problem
+};
+
+std::string substitute(std::string s, const std::vector<std::pair<std::string, std::string>>& vars)
+{
+    for (const auto& [key, value] : vars)
+        for (size_t at; (at = s.find(key)) != std::string::npos;)
+            s.replace(at, key.size(), value);
+    return s;
+}
+
+void writeText(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+
+TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
+{
+    const fs::path in = freshDir("cambium_bad_in"), out = freshDir("cambium_bad_out");
+    const std::string vdb = fixtureVdb(), good = fileContents(vdb);
+    // Inputs.
+    std::string deep;
+    for (int i = 0; i < 20000; ++i)
+        deep += R"({"type": "blend", "children": [)";
+    deep += R"({"type": "sphere", "center": [0,0,0], "radius": 1})";
+    for (int i = 0; i < 20000; ++i)
+        deep += "]}";
+    writeText(in / "deep.json", R"({"root": )" + deep + "}");
+    writeText(in / "dup.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "radius": 2}})");
+    writeText(in / "nan.json", R"({"root": {"type": "sphere", "center": [0,NaN,0], "radius": 1}})");
+    writeText(in / "neg.json", R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
+    writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
+    writeText(in / "far.json", R"({"root": {"type": "sphere", "center": [1e300,0,0], "radius": 1}})");
+    writeText(in / "tiny.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e-6}})");
+    writeText(in / "empty.json", "");
+    writeText(in / "binary.json", std::string("{\0\1\2", 4));
+    fs::create_directories(in / "dir.json");
+    writeText(in / "bad.l", "Axiom: A\nA --> B(\n");
+    writeText(in / "explode.l", "derivation length: 60\nAxiom: A\nA --> AA\n");
+    writeText(in / "unbalanced.l", "Axiom: F[F\n");
+    writeText(in / "cycle.txt", "1 2 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0 2 0 0.1 0.1\n");
+    writeText(in / "self.txt", "1 1 0 0 0 0 1 0 0.1 0.1\n");
+    writeText(in / "nine.txt", "1 -1 0 0 0 0 1 0 0.1\n");
+    writeText(in / "nanr.txt", "1 -1 0 0 0 0 1 0 nan 0.1\n");
+    writeText(in / "negr.txt", "1 -1 0 0 0 0 1 0 -0.1 0.1\n");
+    writeText(in / "twice.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n1 -1 0 0 0 0 1 0 0.1 0.1\n");
+    writeText(in / "orphan.txt", "1 7 0 0 0 0 1 0 0.1 0.1\n");
+    std::string growth = fileContents(kPopulus);
+    writeText(in / "growth_dup.json", "{\"years\": 3, " + growth.substr(growth.find('{') + 1));
+    writeText(in / "trunc100.vdb", good.substr(0, 100));
+    writeText(in / "trunc90.vdb", good.substr(0, good.size() * 9 / 10));
+    writeText(in / "text.vdb", "not a vdb at all\n");
+    writeText(in / "zeros.vdb", std::string(4096, '\0'));
+    writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    writeText(in / "noface.obj", "v 0 0 0\n");
+    writeText(in / "bad.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
+    // Outputs that must survive every refusal.
+    for (const char* name : {"out.vdb", "out.ply", "out.obj", "out.png", "out.exr", "seq.0001.vdb"})
+        writeText(out / name, std::string("a good ") + name);
+    const auto before = snapshot(out);
+    const auto inputsBefore = snapshot(in);
+
+    const std::string S = kScene, P = kPopulus, L = kExamples + "lsystems/sympodial.l";
+    const std::vector<BadInput> cases = {
+        // scenes and models
+        {"bake IN/deep.json -o OUT/out.vdb", "deep.json: root.children[0]"},
+        {"info IN/deep.json", "nested more than 512 levels deep"},
+        {"bake IN/dup.json -o OUT/out.vdb", "dup.json: root: duplicate key 'radius'"},
+        {"bake IN/nan.json -o OUT/out.vdb", "nan.json: JSON syntax error: parse error at line 1"},
+        {"bake IN/neg.json -o OUT/out.vdb", "neg.json: root.r0: must be greater than 0"},
+        {"bake IN/type.json -o OUT/out.vdb", "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
+        {"bake IN/far.json -o OUT/out.vdb", "far.json: the model reaches 1e+300 from the origin"},
+        {"bake IN/tiny.json -o OUT/out.vdb", "tiny.json: the surface is only 4e-06 across"},
+        {"bake IN/empty.json -o OUT/out.vdb", "empty.json: JSON syntax error"},
+        {"bake IN/binary.json -o OUT/out.vdb", "binary.json: a binary file, not a scene file"},
+        {"bake IN/dir.json -o OUT/out.vdb", "dir.json: is a directory, not a scene file"},
+        {"bake VDB -o OUT/out.vdb", ": is a .vdb file (a baked level set), not a skeleton file"},
+        {"bake /dev/zero -o OUT/out.vdb", "/dev/zero: is a device, FIFO or socket"},
+        {"bake IN/missing.json -o OUT/out.vdb", "missing.json: cannot read the scene file: No such file"},
+        {"eval IN/dup.json -- 0 0 0", "duplicate key 'radius'"},
+        {"eval " + S + " -- nan 0 0", "eval: the point (nan, 0, 0) must have finite coordinates"},
+        {"eval " + S + " -- 0 0", "point"},
+        // L-systems
+        {"bake IN/bad.l -o OUT/out.vdb", "bad.l:2"},
+        {"bake IN/explode.l -o OUT/out.vdb", "explode.l: derivation step"},
+        {"bake IN/unbalanced.l -o OUT/out.vdb", "unbalanced.l"},
+        {"lsystem " + L + " --steps -1", "--steps: Value -1 not in range"},
+        {"lsystem " + L + " --steps 1000000000", "--steps: Value 1000000000 not in range"},
+        {"lsystem " + L + " --max-modules 0", "--max-modules: Value 0 not in range"},
+        {"lsystem " + L + " --max-modules 1e11", "--max-modules"},
+        {"lsystem " + L + " --seed -3", "--seed"},
+        {"lsystem IN/missing.l", "missing.l: cannot read the L-system file"},
+        // skeletons
+        {"bake IN/cycle.txt -o OUT/out.vdb", "cycle.txt:1: internode 1 is its own ancestor"},
+        {"bake IN/self.txt -o OUT/out.vdb", "self.txt:1: internode 1 is its own ancestor (parents in a cycle: 1 -> 1)"},
+        {"bake IN/nine.txt -o OUT/out.vdb", "nine.txt:1: expected 10 fields"},
+        {"bake IN/nanr.txt -o OUT/out.vdb", "nanr.txt:1: r0 is not a finite number"},
+        {"bake IN/negr.txt -o OUT/out.vdb", "negr.txt:1: r0 must be greater than 0"},
+        {"bake IN/twice.txt -o OUT/out.vdb", "twice.txt:2: id 1 appears twice"},
+        {"bake IN/orphan.txt -o OUT/out.vdb", "orphan.txt:1: internode 1 has parent 7, which is not in the file"},
+        // growth parameter files and their options
+        {"bake IN/growth_dup.json -o OUT/out.vdb", "growth_dup.json: duplicate key 'years'"},
+        {"bake " + P + " --time -1 -o OUT/out.vdb", "--time must be between 0 and 27 years"},
+        {"bake " + P + " --time 99 -o OUT/out.vdb", "--time must be between 0 and 27 years"},
+        {"growth " + P + " --year -3 --print-stats", "--year/--time must be between 0 and 27"},
+        {"growth " + P + " --seed -1 --print-stats", "--seed"},
+        {"bake " + P + " --junctions pcm -o OUT/out.vdb", "a growth parameter file sets its own"},
+        // sequences
+        {"bake " + P + " --frames 1-3 -o OUT/seq.vdb", "-o OUT/seq.vdb: a sequence needs a run of '#'"},
+        {"bake " + P + " --frames 5-1 -o OUT/seq.####.vdb", "--frames 5-1: the last frame must not come before"},
+        {"bake " + P + " --frames 1-99999999999 -o OUT/seq.####.vdb", "--frames 1-99999999999: 99999999999 frames"},
+        {"bake " + P + " --frames x -o OUT/seq.####.vdb", "--frames x: expected FRAME"},
+        {"bake " + P + " --frames 1-3 --fps-per-year 0 -o OUT/seq.####.vdb", "--fps-per-year must be a positive"},
+        {"bake " + P + " --frames 1-300 -o OUT/seq.####.vdb", "frame 28 is year 28"},
+        {"bake " + P + " --frames 1-3 --jobs 0 -o OUT/seq.####.vdb", "--jobs: Value 0 not in range"},
+        {"bake " + S + " --frames 1-3 -o OUT/seq.####.vdb", "--frames needs a growth parameter file"},
+        // bake options and outputs
+        {"bake " + S + " --voxel-size 0 -o OUT/out.vdb", "--voxel-size must be a number from 0.0001"},
+        {"bake " + S + " --voxel-size nan -o OUT/out.vdb", "--voxel-size must be a number from 0.0001"},
+        {"bake " + S + " --voxel-size 1e-4 -o OUT/out.vdb", "a voxel size of 0.0001 would need about"},
+        {"bake " + S + " --half-width 0 -o OUT/out.vdb", "--half-width must be between 1 and 64"},
+        {"bake " + S + " --device gpu -o OUT/out.vdb", "--device"},
+        {"bake " + S + " --threads 0 -o OUT/out.vdb", "--threads: Value 0 not in range"},
+        {"bake " + S + " --junctions knot -o OUT/out.vdb", "--junctions must be pcm, smooth or blend"},
+        {"bake " + S + " --bend 100 -o OUT/out.vdb", "--bend must be between -90 and 90"},
+        {"bake " + S + " --primitives cubes -o OUT/out.vdb", "--primitives must be cone, convolution or mixed"},
+        {"bake " + S + " -o OUT", "OUT: is a directory, not an output file"},
+        {"bake " + S + " -o ''", "-o: the output path is empty"},
+        {"bake " + S + " -o /dev/null", "/dev/null: is a character device"},
+        {"bake " + S + " -o OUT/no/such/dir/out.vdb", "out.vdb: cannot write the output: No such file"},
+        {"bake " + S, "--output is required"},
+        {"bake " + S + " -o OUT/out.vdb --no-such-option", "--no-such-option"},
+        // reading .vdb files
+        {"mesh IN/trunc100.vdb -o OUT/out.ply", "trunc100.vdb: a truncated .vdb file"},
+        {"mesh IN/trunc90.vdb -o OUT/out.ply", "trunc90.vdb: a truncated .vdb file: grid"},
+        {"render IN/trunc90.vdb -o OUT/out.png", "trunc90.vdb: a truncated .vdb file"},
+        {"mesh IN/text.vdb -o OUT/out.ply", "text.vdb: not a .vdb file"},
+        {"mesh IN/zeros.vdb -o OUT/out.ply", "zeros.vdb: not a .vdb file"},
+        {"mesh IN -o OUT/out.ply", ": is a directory, not a .vdb file"},
+        {"mesh IN/missing.vdb -o OUT/out.ply", "missing.vdb: cannot read the .vdb file: No such file"},
+        {"mesh VDB -o OUT/out.ply --grid nope", "no grid named 'nope'"},
+        {"mesh VDB -o OUT/out.ply --adaptivity 2", "--adaptivity must be between 0 and 1"},
+        {"mesh VDB -o OUT/out.stl", "out.stl: unknown mesh format '.stl'"},
+        {"mesh VDB -o OUT/out.ply --frames 1-3", "a sequence needs an input and an output with a run of '#'"},
+        // rendering
+        {"render VDB -o OUT/out.png --width 0", "--width and --height must be between 1 and 16384"},
+        {"render VDB -o OUT/out.png --width 16384 --height 16384", "a picture this large needs about"},
+        {"render VDB -o OUT/out.png --spp 0", "--spp must be between 1 and 4096"},
+        {"render VDB -o OUT/out.png --camera sideways", "--camera sideways: expected auto"},
+        {"render VDB -o OUT/out.png --device gpu", "--device"},
+        {"render VDB -o OUT/out.tif", "out.tif: unknown image format '.tif'"},
+        {"render -o OUT/out.png", "nothing to render"},
+        {"render --mesh IN/index.obj -o OUT/out.png", "index.obj:4: vertex index 9 out of range"},
+        {"render --mesh IN/noface.obj -o OUT/out.png", "noface.obj: the mesh has no faces"},
+        {"render --mesh IN/bad.ply -o OUT/out.png", "bad.ply:2: PLY format 'binary_big_endian' is not read"},
+        {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
+        // the command line itself
+        {"", "A subcommand is required"},
+        {"bogus", "unknown command 'bogus' (the commands: info, eval, bake"},
+        {"bench", "A subcommand is required"},
+    };
+    ASSERT_GE(cases.size(), 60u);
+    for (const BadInput& c : cases) {
+        const std::vector<std::pair<std::string, std::string>> vars = {
+            {"IN", in.string()}, {"OUT", out.string()}, {"VDB", vdb}};
+        const std::string args = substitute(c.args, vars);
+        const Result r = run(args);
+        EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+        EXPECT_NE(r.err.find(substitute(c.expected, vars)), std::string::npos) << args << "\n" << r.err;
+        EXPECT_LT(r.err.size(), 600u) << args << ": one short message";
+        EXPECT_EQ(r.out, "") << args << ": refused before any work";
+        EXPECT_EQ(snapshot(out), before) << args;
+    }
+    EXPECT_EQ(snapshot(in), inputsBefore);
+}
+
+}  // namespace
+
+namespace {
+
+/// A .vdb's bytes without its header's UUID (36 characters after the magic
+/// number, three version numbers and the grid-offsets flag: bytes 21-56),
+/// which OpenVDB makes anew for every file.
+std::string withoutUuid(const fs::path& p)
+{
+    std::string s = fileContents(p);
+    EXPECT_GT(s.size(), 57u);
+    return s.size() > 57 ? s.erase(21, 36) : s;
+}
+
+TEST(Determinism, TwoBakesAndTwoSequencesGiveTheSameFilesApartFromTheUuid)
+{
+    const fs::path dir = freshDir("cambium_determinism");
+    for (const char* name : {"a.vdb", "b.vdb"})
+        ASSERT_EQ(run("bake " + kExamples + "branch_junction.json --voxel-size 0.02 -o " + (dir / name).string()).status,
+                  0);
+    EXPECT_EQ(withoutUuid(dir / "a.vdb"), withoutUuid(dir / "b.vdb"));
+    EXPECT_NE(fileContents(dir / "a.vdb"), fileContents(dir / "b.vdb"));  // the UUIDs differ: the test sees them
+    for (const char* jobs : {"1", "2"})
+        ASSERT_EQ(run("bake " + kPopulus + " --frames 3-5 --voxel-size 0.04 --jobs " + jobs + " -o " +
+                      (dir / (std::string("j") + jobs + ".####.vdb")).string())
+                      .status,
+                  0);
+    for (const char* frame : {"0003", "0004", "0005"})
+        EXPECT_EQ(withoutUuid(dir / (std::string("j1.") + frame + ".vdb")),
+                  withoutUuid(dir / (std::string("j2.") + frame + ".vdb")))
+            << frame;
+}
+
+}  // namespace

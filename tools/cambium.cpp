@@ -466,6 +466,16 @@ int main(int argc, char** argv)
     // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
     // any work (a farm must not retry); 1 a failure during the work.
     cambium::installCleanupOnSignals();
+    std::string names;
+    bool known = false;
+    for (const CLI::App* c : app.get_subcommands({})) {
+        names += (names.empty() ? "" : ", ") + c->get_name();
+        known = known || (argc >= 2 && c->get_name() == argv[1]);
+    }
+    if (argc >= 2 && argv[1][0] != '-' && !known) {
+        std::fprintf(stderr, "cambium: error: unknown command '%s' (the commands: %s)\n", argv[1], names.c_str());
+        return 2;
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

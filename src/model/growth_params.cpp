@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <sys/stat.h>
 #include <map>
 
 namespace cambium {
@@ -218,6 +219,9 @@ bool isGrowthParameterFile(const std::string& path)
 {
     if (path.size() < 5 || path.compare(path.size() - 5, 5, ".json") != 0)
         return false;
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
+        return false;  // the model reader names what it is
     std::ifstream in(path);
     if (!in)
         return false;
