@@ -78,13 +78,13 @@ std::vector<OutputKind> outputKinds()
     };
 }
 
-std::string expand(std::string args, const fs::path& dir, const std::string& name)
+/// ARGS with each KEY replaced by its value.
+std::string substitute(std::string s, const std::vector<std::pair<std::string, std::string>>& vars)
 {
-    for (auto [key, value] : {std::pair<std::string, std::string>{"OUT", (dir / name).string()},
-                              std::pair<std::string, std::string>{"DIR", dir.string()}})
-        for (size_t at; (at = args.find(key)) != std::string::npos;)
-            args.replace(at, key.size(), value);
-    return args;
+    for (const auto& [key, value] : vars)
+        for (size_t at; (at = s.find(key)) != std::string::npos;)
+            s.replace(at, key.size(), value);
+    return s;
 }
 
 TEST(NothingIsLost, AFailedWriteFailsAndKeepsTheOldFileForEveryOutputKind)
@@ -93,7 +93,7 @@ TEST(NothingIsLost, AFailedWriteFailsAndKeepsTheOldFileForEveryOutputKind)
     // every write(2) of the output fails with EFBIG.
     for (const OutputKind& k : outputKinds()) {
         const fs::path dir = freshDir("cambium_errors_efbig");
-        const std::string args = expand(k.args, dir, k.name);
+        const std::string args = substitute(k.args, {{"OUT", (dir / k.name).string()}, {"DIR", dir.string()}});
         const Result good = run(args);
         ASSERT_EQ(good.status, 0) << args << "\n" << good.err;
         const auto before = snapshot(dir);
@@ -240,14 +240,6 @@ struct BadInput {
     std::string args;      ///< IN: the inputs' directory, OUT: the outputs' directory, VDB: a good .vdb
     std::string expected;  ///< in the message: the file, option or place, and the problem
 };
-
-std::string substitute(std::string s, const std::vector<std::pair<std::string, std::string>>& vars)
-{
-    for (const auto& [key, value] : vars)
-        for (size_t at; (at = s.find(key)) != std::string::npos;)
-            s.replace(at, key.size(), value);
-    return s;
-}
 
 void writeText(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
 
