@@ -3,12 +3,15 @@
 // line and column; the turtle against hand-computed coordinates.
 #include "model/lsystem.h"
 #include "model/turtle.h"
+#include "model/tree_builder.h"
+#include "blobtree/evaluator.h"
 
 #include "core/error.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -217,7 +220,118 @@ TEST(Turtle, BadLengthsAndWidthsAreRefused)
 {
     EXPECT_THROW(turtle("Axiom: F(-1)\n"), InputError);
     EXPECT_THROW(turtle("Axiom: !(0)F\n"), InputError);
-    EXPECT_THROW(turtle("Axiom: !F\n"), InputError);
+    EXPECT_THROW(turtle("width: 0.1\nwidth increment: 0.1\nAxiom: !F\n"), InputError);  // down to 0
+}
+
+TEST(Turtle, WidthStepsAndColourIndicesInBothForms)
+{
+    // ! and # without a parameter take and add the width increment (default:
+    // a tenth of the initial width); with one they set the width.
+    Skeleton s = turtle("width: 0.4\nAxiom: F!F!!F#F!(0.3)F#(0.2)F\n");
+    ASSERT_EQ(s.internodes.size(), 6u);
+    const double diameters[] = {0.4, 0.36, 0.28, 0.32, 0.3, 0.2};
+    for (size_t i = 0; i < 6; ++i)
+        EXPECT_NEAR(2.0 * s.internodes[i].r0, diameters[i], 1e-12) << i;
+    s = turtle("width: 0.4\nwidth increment: 0.05\nAxiom: !F\n");
+    EXPECT_NEAR(2.0 * s.internodes[0].r0, 0.35, 1e-12);
+    // ' and ; add one to the colour index, or set it; index 0 is the bark (no
+    // colour of its own); "color:" overrides the palette.
+    s = turtle("color: 2 0.1 0.2 0.3\nAxiom: F'F;F;(7)F'(0)F[;(2)F]F\n");
+    ASSERT_EQ(s.internodes.size(), 7u);
+    const LSystem sys = parseLSystem("color: 2 0.1 0.2 0.3\nAxiom: F\n", "t.l");
+    EXPECT_FALSE(s.internodes[0].colour);
+    EXPECT_EQ(*s.internodes[1].colour, paletteColour(sys, 1));
+    EXPECT_EQ(*s.internodes[2].colour, glm::dvec3(0.1, 0.2, 0.3));
+    EXPECT_EQ(*s.internodes[3].colour, paletteColour(sys, 7));
+    EXPECT_FALSE(s.internodes[4].colour);
+    EXPECT_EQ(*s.internodes[5].colour, glm::dvec3(0.1, 0.2, 0.3));
+    EXPECT_FALSE(s.internodes[6].colour);  // the index is part of the state ']' restores
+    EXPECT_NE(paletteColour(sys, 1), paletteColour(sys, 3));
+    EXPECT_THROW(turtle("Axiom: ;(2.5)F\n"), InputError);
+    EXPECT_THROW(turtle("Axiom: '(-1)F\n"), InputError);
+}
+
+TEST(Turtle, PolygonsBecomeLeafBladesFittedToThem)
+{
+    // A 2 x 1 rectangle drawn by f moves in the turtle's H-L plane (seen from
+    // +z: up 2, left 1, down 2, back): its blade runs from the start to the
+    // far corner (-1, 2, 0), as wide as the farthest vertex from that
+    // diagonal, across the normal +-z; the colour of its index; F inside
+    // draws no internode.
+    const Skeleton s = turtle("angle: 90\nAxiom: F;(4){f(2)+f(1)+F(2)+f(1)}\n");
+    ASSERT_EQ(s.internodes.size(), 1u);
+    ASSERT_EQ(s.organs.size(), 1u);
+    const Organ& leaf = s.organs[0];
+    EXPECT_EQ(leaf.kind, Organ::Kind::Leaf);
+    expectNear(leaf.p0, {0, 1, 0}, "blade base: where '{' started");
+    expectNear(leaf.p1, {-1, 3, 0}, "blade tip: the farthest vertex");
+    EXPECT_NEAR(leaf.radius, 2.0 / std::sqrt(5.0), 1e-12);  // the other corners' distance from the diagonal
+    EXPECT_NEAR(std::abs(leaf.normal.z), 1.0, 1e-12);
+    EXPECT_EQ(leaf.colour, paletteColour(parseLSystem("Axiom: F\n", "t.l"), 4));
+    // '.' records vertices explicitly; G and g move without recording.
+    const Skeleton dots = turtle("angle: 90\nAxiom: {.g(2).+g(1).+g(2).}\n");
+    ASSERT_EQ(dots.organs.size(), 1u);
+    expectNear(dots.organs[0].p1, {-1, 2, 0}, "dots: far corner");
+    EXPECT_THROW(turtle("angle: 90\nAxiom: {g(2)+g(1)+g(2)}\n"), InputError);  // g records nothing: one vertex
+}
+
+TEST(Turtle, ABOPsBushIsAcceptedAndEveryLeafDrawn)
+{
+    // ABOP figure 1.25 as printed: ! without a parameter, ' for the colour,
+    // polygons for the leaves.  Every L of the derived string is one leaf.
+    const LSystem sys = loadLSystem(CAMBIUM_SOURCE_DIR "/examples/lsystems/bush.l");
+    const ModuleString str = derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules);
+    const Skeleton s = interpretTurtle(sys, str);
+    const size_t leaves = size_t(std::count_if(str.begin(), str.end(), [](const Module& m) { return m.name == '{'; }));
+    EXPECT_GT(leaves, 1000u);
+    EXPECT_EQ(s.organs.size(), leaves);
+    // Each order thinner by the width increment (0.1).
+    double thinnest = 1e9;
+    for (const Internode& n : s.internodes)
+        thinnest = std::min(thinnest, 2.0 * n.r0);
+    EXPECT_NEAR(thinnest, 0.8 - 6 * 0.1, 1e-9);  // the A s of step 7 have not drawn yet
+}
+
+TEST(Turtle, WhatIsOutsideTheSupportedSubsetIsRefused)
+{
+    EXPECT_THROW(turtle("Axiom: F~F\n"), InputError);   // predefined surfaces
+    EXPECT_THROW(turtle("Axiom: F@F\n"), InputError);   // @ commands
+    EXPECT_THROW(turtle("Axiom: {f}\n"), InputError);   // fewer than 3 vertices
+    EXPECT_THROW(turtle("Axiom: {ff|f}\n"), InputError); // no area
+    EXPECT_THROW(turtle("Axiom: {f+f+f\n"), InputError); // never closed
+    EXPECT_THROW(turtle("Axiom: f}\n"), InputError);
+    EXPECT_THROW(turtle("Axiom: f.\n"), InputError);    // a vertex outside a polygon
+    EXPECT_THROW(parseLSystem("Axiom: F,F\n", "t.l"), InputError);
+    EXPECT_THROW(parseLSystem("Axiom: F\nhomomorphism\nF --> G\n", "t.l"), InputError);
+    EXPECT_THROW(parseLSystem("consider: F\nAxiom: F\n", "t.l"), InputError);
+    EXPECT_THROW(parseLSystem("color: 300 1 1 1\nAxiom: F\n", "t.l"), InputError);
+}
+
+}  // namespace
+
+namespace {
+
+using namespace cambium;
+
+TEST(Turtle, ALeafAndAColouredBranchBakeIntoTheFieldWithTheirColours)
+{
+    // A green blade beside a red-indexed branch, beyond each other's
+    // supports: inside each, the field is above the threshold and the colour
+    // is its index's.
+    const LSystem sys = parseLSystem("angle: 90\nwidth: 0.2\nAxiom: F;(10)F[+(90);(4)f(4){f(2)+f(1)+f(2)+f(1)}]\n",
+                                     "t.l");
+    const Skeleton sk = interpretTurtle(sys, derive(sys, 0, 1, 1000));
+    ASSERT_EQ(sk.organs.size(), 1u);
+    BlobTree tree = buildTree(sk);
+    const ReferenceEvaluator eval(tree);
+    const Organ& leaf = sk.organs[0];
+    const FieldSample inLeaf = eval.sample(0.5 * (leaf.p0 + leaf.p1));
+    EXPECT_GT(inLeaf.value, tree.threshold());
+    const glm::dvec3 green = paletteColour(sys, 4), red = paletteColour(sys, 10);
+    EXPECT_LT(glm::length(inLeaf.color - green), 1e-6);
+    const FieldSample inBranch = eval.sample({0.0, 1.7, 0.0});  // on the second F's axis
+    EXPECT_GT(inBranch.value, tree.threshold());
+    EXPECT_LT(glm::length(inBranch.color - red), 1e-6);
 }
 
 }  // namespace

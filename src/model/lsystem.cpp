@@ -269,8 +269,8 @@ private:
 
 // --- module strings -----------------------------------------------------------
 
-/// The symbols the turtle reads, which may come with or without a parameter.
-bool isTurtleSymbol(char c) { return std::strchr("Ff+-&^\\/|$![]%", c) != nullptr; }
+/// The symbols the turtle interprets (turtle.cpp), each with an optional single parameter.
+bool isTurtleSymbol(char c) { return c != 0 && std::strchr("FfGg+-&^\\/|$![]%#';{}.", c) != nullptr; }
 
 /// Splits `text` at top-level commas (outside parentheses).
 std::vector<std::pair<std::string, size_t>> splitArgs(const std::string& text, size_t offset)
@@ -304,7 +304,9 @@ void scanModules(const std::string& text, const Place& at, F&& module)
             ++i;
             continue;
         }
-        if (c == '(' || c == ')' || c == ',')
+        if (c == ',')
+            fail(at, i, "unexpected ',' (cpfg's colour-index decrement is not supported: set the index with ;(n))");
+        if (c == '(' || c == ')')
             fail(at, i, fmt::format("unexpected '{}'", c));
         if (c == '[')
             ++depth;
@@ -394,7 +396,7 @@ public:
                 system_.axiom = constantModules(value, vat);
                 haveAxiom = true;
             } else if (key == "derivation length") {
-                system_.derivationLength = int(number(value, vat, 0, 1e6));
+                system_.derivationLength = int(number(value, vat, 0, kMaxSteps));
             } else if (key == "ignore") {
                 for (char ch : value)
                     if (!std::isspace(static_cast<unsigned char>(ch)))
@@ -405,6 +407,17 @@ public:
                 system_.step = number(value, vat, 0, 1e9);
             } else if (key == "width") {
                 system_.width = number(value, vat, 0, 1e9);
+            } else if (key == "width increment") {
+                system_.widthIncrement = number(value, vat, 0, 1e9);
+            } else if (key == "color" || key == "colour") {
+                std::istringstream v(value);
+                double index = -1.0;
+                glm::dvec3 c;
+                if (!(v >> index >> c.r >> c.g >> c.b) || !(index >= 0.0 && index <= 255.0) ||
+                    std::trunc(index) != index || !(c.r >= 0.0 && c.r <= 1.0 && c.g >= 0.0 && c.g <= 1.0 &&
+                                                    c.b >= 0.0 && c.b <= 1.0))
+                    fail(vat, 0, "color: expected an index from 0 to 255 and red, green, blue from 0 to 1");
+                system_.colours[int(index)] = c;
             } else if (key == "seed") {
                 system_.seed = uint64_t(number(value, vat, 0, 9e15));
             } else if (key == "tropism") {
@@ -412,12 +425,17 @@ public:
                 for (double& x : system_.tropism)
                     if (!(v >> x) || !std::isfinite(x))
                         fail(vat, 0, "tropism: expected four numbers, the direction (x y z) and the strength e");
-            } else if (key == "lsystem" || key == "endlsystem" || key == "homomorphism" || key == "endhomomorphism" ||
-                       key == "decomposition" || key == "enddecomposition" || key == "consider") {
+            } else if (key == "lsystem" || key == "endlsystem") {
                 // cpfg structure lines: one L-system per file here; nothing to do.
+            } else if (key == "homomorphism" || key == "endhomomorphism" || key == "decomposition" ||
+                       key == "enddecomposition" || key == "consider" || key == "group" || key == "endgroup") {
+                fail(at, 0, fmt::format("cpfg's '{}' is not supported (docs/lsystem-format.md lists what is): its "
+                                        "productions would be read as ordinary ones",
+                                        key));
             } else {
                 fail(at, 0, fmt::format("unknown line '{}' (expected #define, Axiom:, derivation length:, ignore:, "
-                                        "angle:, step:, width:, tropism:, seed: or a production with -->)",
+                                        "angle:, step:, width:, width increment:, color:, tropism:, seed: or a "
+                                        "production with -->)",
                                         t));
             }
         }

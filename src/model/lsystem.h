@@ -3,9 +3,12 @@
 // written as for cpfg (docs/lsystem-format.md).
 #pragma once
 
+#include <glm/glm.hpp>
+
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,6 +58,12 @@ struct LSystem {
     double angle = 90.0;             ///< default turn angle, degrees ("angle:")
     double step = 1.0;               ///< default F/f length ("step:")
     double width = 0.1;              ///< initial width, a diameter ("width:")
+    /// What '!' and '#' without a parameter take from and add to the width
+    /// ("width increment:"; default: a tenth of the initial width).
+    std::optional<double> widthIncrement;
+    /// The colours of colour indices ("color: INDEX R G B"), over the default
+    /// palette (turtle.h).
+    std::map<int, glm::dvec3> colours;
     double tropism[4] = {0, 0, 0, 0};  ///< "tropism: tx ty tz e" (e = 0: none)
     uint64_t seed = 1;               ///< "seed:" for stochastic productions
 };

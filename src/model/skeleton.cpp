@@ -122,8 +122,11 @@ BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold)
     BlobTree tree(threshold);
     std::vector<int> cones;
     cones.reserve(skeleton.internodes.size());
-    for (const Internode& n : skeleton.internodes)
+    for (const Internode& n : skeleton.internodes) {
         cones.push_back(tree.cone(n.p0, n.p1, n.r0, n.r1));
+        if (n.colour)
+            tree.setColor(cones.back(), *n.colour);
+    }
     tree.setRoot(tree.op({NodeType::BLEND}, std::move(cones)));
     tree.finalize();
     return tree;

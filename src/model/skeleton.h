@@ -5,6 +5,7 @@
 
 #include <glm/glm.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,8 @@ struct Internode {
     /// Years since it began to grow (growth models); negative when unknown.
     /// Junction ages drive the bark ridges (TreeBuildOptions::ridgeYears).
     double age = -1.0;
+    /// Its own colour (an L-system's colour index), else the builder's bark.
+    std::optional<glm::dvec3> colour;
 };
 
 /// Where a lateral organ was lost (shed): a stub from `base` (on the parent

@@ -136,6 +136,8 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     for (size_t i = 0; i < n; ++i) {
         int node = isCone(i) ? tree.cone(p0[i], p1[i], r0[i], r1[i])
                              : tree.convolutionSegment(p0[i], p1[i], r0[i], r1[i]);
+        if (sk.internodes[i].colour)
+            tree.setColor(node, *sk.internodes[i].colour);
         if (sk.internodes[i].cut) {
             // A saw cut through the skeleton's end, across the axis: the
             // difference with a sphere so large that over the cut face (radius

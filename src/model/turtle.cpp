@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace cambium {
@@ -16,6 +17,7 @@ namespace {
 struct TurtleState {
     glm::dvec3 pos{0.0}, H{0.0, 1.0, 0.0}, L{1.0, 0.0, 0.0}, U{0.0, 0.0, -1.0};
     double width = 0.1;
+    int colour = 0;  ///< colour index
     long long last = -1;  ///< the last internode drawn on the way here
     bool drewInBranch = false;  ///< whether `last` was drawn in the current branch
     int order = 0;
@@ -45,7 +47,47 @@ void roll(TurtleState& t, double deg)
     t.U = U;
 }
 
+/// A filled polygon as a leaf blade: the flat ellipsoid from its first
+/// vertex to the vertex farthest from it, as wide on each side as the
+/// farthest vertex from that axis, across the polygon's normal (Newell).
+Organ polygonLeaf(const std::vector<glm::dvec3>& v, const glm::dvec3& colour)
+{
+    Organ leaf;
+    leaf.kind = Organ::Kind::Leaf;
+    leaf.p0 = leaf.p1 = v.front();
+    for (const glm::dvec3& p : v)
+        if (glm::length(p - leaf.p0) > glm::length(leaf.p1 - leaf.p0))
+            leaf.p1 = p;
+    const glm::dvec3 axis = glm::normalize(leaf.p1 - leaf.p0);
+    for (const glm::dvec3& p : v) {
+        const glm::dvec3 d = p - leaf.p0;
+        leaf.radius = std::max(leaf.radius, glm::length(d - glm::dot(d, axis) * axis));
+    }
+    glm::dvec3 n(0.0);
+    for (size_t i = 0; i < v.size(); ++i) {
+        const glm::dvec3 &a = v[i], &b = v[(i + 1) % v.size()];
+        n += glm::dvec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    leaf.normal = glm::length(n) > 0.0 ? glm::normalize(n) : glm::dvec3(0.0, 0.0, 1.0);
+    leaf.thickness = 0.1 * leaf.radius;
+    leaf.colour = colour;
+    return leaf;
+}
+
 }  // namespace
+
+glm::dvec3 paletteColour(const LSystem& sys, int index)
+{
+    if (const auto c = sys.colours.find(index); c != sys.colours.end())
+        return c->second;
+    // Bark at 0, then greens from dark to light, then flower colours.
+    static const glm::dvec3 palette[] = {{0.36, 0.28, 0.22}, {0.30, 0.30, 0.16}, {0.22, 0.34, 0.12},
+                                         {0.20, 0.42, 0.12}, {0.26, 0.52, 0.16}, {0.36, 0.62, 0.20},
+                                         {0.50, 0.72, 0.26}, {0.66, 0.80, 0.32}, {0.90, 0.85, 0.30},
+                                         {0.95, 0.60, 0.20}, {0.85, 0.25, 0.25}, {0.95, 0.95, 0.92}};
+    constexpr int n = int(sizeof palette / sizeof palette[0]);
+    return palette[std::clamp(index, 0, n - 1)];
+}
 
 Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
 {
@@ -53,6 +95,12 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
     TurtleState t;
     t.width = sys.width;
     std::vector<TurtleState> stack;
+    std::vector<std::vector<glm::dvec3>> polygons;  // open polygons, innermost last
+    const double increment = sys.widthIncrement ? *sys.widthIncrement : 0.1 * sys.width;
+    auto vertex = [&] {
+        if (!polygons.empty() && (polygons.back().empty() || glm::length(polygons.back().back() - t.pos) > 0.0))
+            polygons.back().push_back(t.pos);
+    };
     const glm::dvec3 T(sys.tropism[0], sys.tropism[1], sys.tropism[2]);
     const double e = sys.tropism[3];
     auto param = [&](const Module& m, double fallback) { return m.params.empty() ? fallback : m.params[0]; };
@@ -64,14 +112,23 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
         const Module& m = modules[i];
         switch (m.name) {
         case 'F':
-        case 'f': {
+        case 'f':
+        case 'G':
+        case 'g': {
             const double l = param(m, sys.step);
             if (!(l >= 0.0) || !std::isfinite(l))
                 throw bad(i, "a length must be a number not below zero");
             if (l == 0.0)
                 break;
             const glm::dvec3 p1 = t.pos + l * t.H;
-            if (m.name == 'F') {
+            if (!polygons.empty()) {
+                // In a polygon F and f move and record a vertex; G and g only move.
+                t.pos = p1;
+                if (m.name == 'F' || m.name == 'f')
+                    vertex();
+                break;
+            }
+            if (m.name == 'F' || m.name == 'G') {
                 if (!(t.width > 0.0))
                     throw bad(i, fmt::format("the width is {}: set a positive one with !(w) or width:", t.width));
                 Internode n;
@@ -82,6 +139,8 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
                 n.r0 = n.r1 = 0.5 * t.width;
                 n.order = t.order;
                 n.module = (long long)i;
+                if (t.colour != 0)
+                    n.colour = paletteColour(sys, t.colour);
                 out.internodes.push_back(n);
                 t.last = n.id;
                 t.drewInBranch = true;
@@ -116,12 +175,58 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
             break;
         }
         case '!':
-            if (m.params.empty())
-                throw bad(i, "'!' needs the new width: !(w)");
-            if (!(m.params[0] > 0.0) || !std::isfinite(m.params[0]))
-                throw bad(i, "a width must be a positive number");
-            t.width = m.params[0];
+        case '#': {
+            // With a parameter: the new width; without: cpfg's decrement ('!')
+            // or increment ('#') by the width increment.
+            const double w = !m.params.empty() ? m.params[0] : t.width + (m.name == '!' ? -increment : increment);
+            if (!(w > 0.0) || !std::isfinite(w))
+                throw bad(i, m.params.empty() ? fmt::format("the width {} less the width increment {} is not "
+                                                            "positive: a smaller 'width increment:' or !(w)",
+                                                            t.width, increment)
+                                              : std::string("a width must be a positive number"));
+            t.width = w;
             break;
+        }
+        case '\'':
+        case ';': {
+            // The colour index: with a parameter, set; without, one more.
+            const double c = m.params.empty() ? t.colour + 1.0 : m.params[0];
+            if (!(c >= 0.0 && c <= 255.0) || std::trunc(c) != c)
+                throw bad(i, "a colour index must be a whole number from 0 to 255");
+            t.colour = int(c);
+            break;
+        }
+        case '{':
+            polygons.emplace_back();
+            vertex();
+            break;
+        case '.':
+            if (polygons.empty())
+                throw bad(i, "'.' records a polygon vertex: only between '{' and '}'");
+            vertex();
+            break;
+        case '}': {
+            if (polygons.empty())
+                throw bad(i, "'}' without a matching '{'");
+            std::vector<glm::dvec3> v = std::move(polygons.back());
+            polygons.pop_back();
+            if (v.size() > 1 && glm::length(v.back() - v.front()) == 0.0)
+                v.pop_back();  // closed by returning to its start
+            if (v.size() < 3)
+                throw bad(i, fmt::format("a polygon needs 3 vertices or more (this one has {}): its vertices are "
+                                         "where '{{' starts, each F or f inside, and each '.'",
+                                         v.size()));
+            const Organ leaf = polygonLeaf(v, paletteColour(sys, t.colour));
+            if (!(leaf.radius > 1e-6 * glm::length(leaf.p1 - leaf.p0)))
+                throw bad(i, "a polygon with no area (its vertices lie on a line)");
+            out.organs.push_back(leaf);
+            break;
+        }
+        case '~':
+        case '@':
+            throw bad(i, fmt::format("cpfg's '{}' (predefined surfaces and @ commands) is not supported "
+                                     "(docs/lsystem-format.md lists the turtle's symbols)",
+                                     m.name));
         case '[': {
             stack.push_back(t);
             ++t.order;
@@ -155,9 +260,12 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
             break;
         }
         default:
-            break;  // symbols the turtle does not know (A, L, {, }, ...)
+            break;  // modules that are not turtle commands (A, B, L, ...)
         }
     }
+    if (!polygons.empty())
+        throw InputError(fmt::format("{}: {} '{{' without a matching '}}' in the derived string", sys.source,
+                                     polygons.size()));
     return out;
 }
 
