@@ -5,6 +5,7 @@
 #include <openvdb/openvdb.h>
 
 #include <array>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,9 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path);
 /// triangles.  InputError naming the file (and line) for anything it cannot
 /// read.
 TriangleMesh readMesh(const std::string& path);
+/// readMesh of a stream holding a mesh of `format` "obj" or "ply" (`name`
+/// names it in messages).
+TriangleMesh parseMesh(std::istream& in, const std::string& name, const std::string& format);
 
 /// Throws InputError, before any work, when `path` is not a .obj or .ply
 /// file that can be written.

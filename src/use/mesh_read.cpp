@@ -32,11 +32,8 @@ void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::st
         m.triangles.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
 }
 
-TriangleMesh readObj(const std::string& path)
+TriangleMesh readObj(std::istream& in, const std::string& path)
 {
-    std::ifstream in(path);
-    if (!in)
-        fail(path, 0, "cannot open it");
     TriangleMesh m;
     std::vector<openvdb::Vec3s> normals;
     std::vector<std::pair<size_t, int64_t>> cornerNormals;  // (point, normal) pairs from the faces
@@ -144,11 +141,8 @@ struct PlyElement {
     std::vector<PlyProperty> properties;
 };
 
-TriangleMesh readPly(const std::string& path)
+TriangleMesh readPly(std::istream& in, const std::string& path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-        fail(path, 0, "cannot open it");
     std::string text, format;
     std::vector<PlyElement> elements;
     size_t line = 0;
@@ -291,16 +285,24 @@ std::vector<openvdb::Vec3s> vertexNormals(const TriangleMesh& m)
 
 }  // namespace
 
+TriangleMesh parseMesh(std::istream& in, const std::string& name, const std::string& format)
+{
+    TriangleMesh m = format == "obj" ? readObj(in, name) : readPly(in, name);
+    if (m.triangles.empty())
+        fail(name, 0, "the mesh has no faces");
+    if (m.normals.size() != m.points.size())
+        m.normals = vertexNormals(m);
+    return m;
+}
+
 TriangleMesh readMesh(const std::string& path)
 {
     const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
     checkInputFile(path, "mesh file");
-    TriangleMesh m = ext == "obj" ? readObj(path) : readPly(path);
-    if (m.triangles.empty())
-        fail(path, 0, "the mesh has no faces");
-    if (m.normals.size() != m.points.size())
-        m.normals = vertexNormals(m);
-    return m;
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        fail(path, 0, "cannot open it");
+    return parseMesh(in, path, ext);
 }
 
 }  // namespace cambium
