@@ -48,6 +48,20 @@ struct Chains {
     size_t size() const { return start.empty() ? 0 : start.size() - 1; }
 };
 
+#if defined(__clang__)
+// clang 14 (the sanitizer and fuzzing build) knows x86-64-v4 neither as a
+// target nor as a CPU feature: one portable build of the eight-lane sweeps.
+#define CB_SWEEP_NAME sweepAxis8
+#define CB_SWEEP_TARGET
+#define CB_SWEEP_LINES 1
+#include "bake/sweep.inc"
+
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
+               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
+{
+    sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
+}
+#else
 // The directional sweeps (src/bake/sweep.inc), compiled for AVX-512 with
 // vectors of sixteen lanes, and with eight lanes for AVX2 and older CPUs.
 #define CB_SWEEP_NAME sweepAxis16
@@ -69,6 +83,7 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
     else
         sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
 }
+#endif
 
 /// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
 /// from their nearest surface points p (index space, 1e15 where none) with

@@ -156,21 +156,49 @@ VdbSummary inspectVdb(const std::string& path)
     r.skip(36, "UUID");
 
     constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
-    const int32_t metas = r.value<int32_t>("metadata count");
-    if (metas < 0 || uint64_t(metas) > r.left() / 12)
-        r.damaged(fmt::format("{} metadata entries", metas));
-    for (int32_t i = 0; i < metas; ++i) {
-        const std::string name = r.string("metadata name", kNameLimit);
-        const std::string type = r.string("metadata type", kNameLimit);
-        const uint32_t n = r.value<uint32_t>("metadata size");
-        if (type == "string" && n <= kValueLimit) {
-            std::string v(n, '\0');
-            r.bytes(v.data(), n, "metadata value");
-            s.strings[name] = v;
-        } else {
-            r.skip(n, "metadata value");
+    // A metadata block (the file's, or a grid's ending by `end`): every
+    // entry's name, type and value within it; string values kept.
+    auto metadata = [&](uint64_t end, std::map<std::string, std::string>* strings) {
+        if (r.at() + 4 > end)
+            r.damaged(fmt::format("no room for metadata at byte {}", r.at()));
+        const int32_t metas = r.value<int32_t>("metadata count");
+        if (metas < 0 || uint64_t(metas) > (end - r.at()) / 12)
+            r.damaged(fmt::format("{} metadata entries at byte {}", metas, r.at() - 4));
+        for (int32_t i = 0; i < metas; ++i) {
+            const std::string name = r.string("metadata name", kNameLimit);
+            const std::string type = r.string("metadata type", kNameLimit);
+            const uint32_t n = r.value<uint32_t>("metadata size");
+            if (r.at() + n > end)
+                r.damaged(fmt::format("metadata '{}' of {} bytes at byte {} runs past its block", name, n, r.at()));
+            // OpenVDB reads a value of a fixed-size type by its type, not by
+            // the size written before it: the two must agree.
+            static const std::map<std::string, uint32_t> fixed = {
+                {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},  {"double", 8},  {"vec2i", 8},
+                {"vec2s", 8},  {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
+                {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64}, {"mat4d", 128}};
+            if (const auto f = fixed.find(type); f != fixed.end() && f->second != n)
+                r.damaged(fmt::format("metadata '{}' of type {} has {} bytes, not {}", name, type, n, f->second));
+            if (type == "__delayedload" && n > 0) {
+                // OpenVDB sizes per-leaf arrays by the count it holds.
+                if (n < 8)
+                    r.damaged(fmt::format("metadata '{}' of {} bytes", name, n));
+                const uint32_t count = r.value<uint32_t>("delayed-load count");
+                const uint32_t packed = r.value<uint32_t>("delayed-load size");
+                if (count > s.bytes || packed > n - 8)
+                    r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count, packed));
+                r.skip(n - 8, "metadata value");
+                continue;
+            }
+            if (strings && type == "string" && n <= kValueLimit) {
+                std::string v(n, '\0');
+                r.bytes(v.data(), n, "metadata value");
+                (*strings)[name] = v;
+            } else {
+                r.skip(n, "metadata value");
+            }
         }
-    }
+    };
+    metadata(s.bytes, &s.strings);
     const int32_t grids = r.value<int32_t>("grid count");
     if (grids < 0 || uint64_t(grids) > r.left() / 36)
         r.damaged(fmt::format("{} grids", grids));
@@ -189,6 +217,13 @@ VdbSummary inspectVdb(const std::string& path)
             throw InputError(fmt::format("{}: a truncated .vdb file: grid '{}' ends at byte {}, the file has {} "
                                          "bytes",
                                          path, g.name, g.end, s.bytes));
+        // The grid's compression word, metadata and transform's map type,
+        // within its block.
+        r.skip(4, "grid compression flags");
+        metadata(uint64_t(block), nullptr);
+        if (r.at() + 4 > uint64_t(block))
+            r.damaged(fmt::format("grid '{}' has no room for its transform", g.name));
+        r.string("transform type", kNameLimit);
         r.seek(uint64_t(g.end));
         s.grids.push_back(std::move(g));
     }

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer harness (tests/fuzz) for SECONDS each (default 60) on
+# the sanitized clang build (tools/sanitize.sh build), from a seed corpus of
+# examples/, tests/fuzz/seeds/ and tests/fuzz/regressions/, and prints what
+# each reached.  A finding stops with a non-zero status and leaves the input
+# in build-fuzz/findings/<harness>/: keep it in tests/fuzz/regressions/.
+#   bash tools/fuzz.sh [SECONDS]
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${CAMBIUM_FUZZ_BUILD_DIR:-$root/build-fuzz}
+seconds=${1:-60}
+bash "$root/tools/sanitize.sh" build
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp}
+
+# Seeds the harnesses cannot find in the tree: a small .vdb and its meshes
+# (the mesh harness reads a leading byte: even for OBJ, odd for PLY).
+made=$build/fuzz-made-seeds
+if [ ! -f "$made/small.vdb" ]; then
+  mkdir -p "$made"
+  "$build/cambium" bake "$root/examples/sphere_and_cone.json" --voxel-size 0.25 --device cpu \
+    -o "$made/small.vdb" >/dev/null
+  "$build/cambium" mesh "$made/small.vdb" -o "$made/small.obj" >/dev/null
+  "$build/cambium" mesh "$made/small.vdb" -o "$made/small.ply" >/dev/null
+  { printf '\0'; cat "$made/small.obj"; } >"$made/obj.mesh"
+  { printf '\1'; cat "$made/small.ply"; } >"$made/ply.mesh"
+fi
+
+seeds() {
+  case $1 in
+    scene) ls "$root"/examples/*.json ;;
+    lsystem) ls "$root"/examples/lsystems/*.l ;;
+    growth) ls "$root"/examples/populus/*.json ;;
+    mesh) ls "$made"/*.mesh ;;
+    vdb) ls "$made"/small.vdb ;;
+  esac
+  for kind in seeds regressions; do
+    [ -d "$root/tests/fuzz/$kind/$1" ] && find "$root/tests/fuzz/$kind/$1" -type f ! -name '.*'
+  done
+  return 0
+}
+
+report=$build/fuzz-report.txt
+printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' harness seconds executions exec/s cov features corpus result | tee "$report"
+status=0
+for h in scene lsystem skeleton growth mesh vdb; do
+  corpus=$build/corpus/$h
+  findings=$build/findings/$h
+  mkdir -p "$corpus" "$findings"
+  for s in $(seeds $h); do cp -n "$s" "$corpus/" 2>/dev/null || true; done
+  log=$build/fuzz-$h.log
+  result=clean
+  if ! "$build/tests/fuzz/fuzz_$h" "$corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3000 \
+      -malloc_limit_mb=2500 -print_final_stats=1 -artifact_prefix="$findings/" >"$log" 2>&1; then
+    result="FINDING: $(ls "$findings" | head -1) (see $log)"
+    status=1
+  fi
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  last=$(grep -E '^#[0-9]+' "$log" | tail -1)
+  cov=$(grep -o 'cov: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
+  ft=$(grep -o 'ft: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
+  corp=$(grep -o 'corp: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
+  printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' "$h" "$seconds" "$execs" "$((execs / seconds))" "$cov" "$ft" \
+    "$corp" "$result" | tee -a "$report"
+done
+exit $status
