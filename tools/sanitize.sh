@@ -8,19 +8,8 @@ set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${CAMBIUM_FUZZ_BUILD_DIR:-$root/build-fuzz}
-bash "$root/tools/setup.sh" build >/dev/null  # the Debian packages the project needs
-
-missing=()
-for p in clang-14 libclang-rt-14-dev; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "cambium sanitize: installing ${missing[*]}"
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo=sudo
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}"
-fi
+# The project's Debian packages, and clang with its sanitizer and fuzzer runtimes.
+CAMBIUM_EXTRA_PACKAGES="clang-14 libclang-rt-14-dev" bash "$root/tools/setup.sh" packages
 
 if [ ! -f "$build/CMakeCache.txt" ]; then
   # -O1 and line tables only: a third less to compile than -O2 -g, and

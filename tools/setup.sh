@@ -3,6 +3,8 @@
 # through sudo), configures and builds, then
 #   bash tools/setup.sh run    runs the main job on the bundled default example
 #   bash tools/setup.sh test   runs every test through CTest
+#   bash tools/setup.sh packages   only installs what is missing
+#                                  (and CAMBIUM_EXTRA_PACKAGES)
 # Idempotent: with everything present it only checks and rebuilds what changed.
 set -euo pipefail
 
@@ -17,6 +19,9 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev
 )
+# More for a caller's own needs (tools/sanitize.sh: clang and its runtimes).
+read -r -a extra <<<"${CAMBIUM_EXTRA_PACKAGES:-}"
+packages+=("${extra[@]}")
 
 missing=()
 for p in "${packages[@]}"; do
@@ -29,6 +34,8 @@ if ((${#missing[@]})); then
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}"
 fi
+
+[ "$mode" = packages ] && exit 0
 
 if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
@@ -53,7 +60,7 @@ case "$mode" in
   build)
     ;;
   *)
-    echo "usage: bash tools/setup.sh [run|test|build]" >&2
+    echo "usage: bash tools/setup.sh [run|test|build|packages]" >&2
     exit 64
     ;;
 esac
