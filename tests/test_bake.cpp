@@ -4,6 +4,7 @@
 #include "bake/levelset.h"
 #include "bake/topology.h"
 #include "bake/vdb_io.h"
+#include "use/grid_file.h"
 
 #include "blobtree/bounds.h"
 #include "bake_util.h"
@@ -15,6 +16,7 @@
 #include <tbb/parallel_for.h>
 
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <unistd.h>
 
@@ -390,6 +392,24 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
         EXPECT_EQ(summary.grids[0].name, "surface");
         EXPECT_EQ(uint64_t(summary.grids.back().end), std::filesystem::file_size(path));
         EXPECT_EQ(summary.strings.at("creator").rfind("cambium", 0), 0u);
+        // Its checksum holds, and any byte changed after it is found before
+        // OpenVDB decodes a tree.
+        EXPECT_TRUE(verifyVdbChecksum(path, summary));
+        {
+            const std::string flipped = path + ".flipped.vdb";
+            std::filesystem::copy_file(path, flipped, std::filesystem::copy_options::overwrite_existing);
+            std::fstream f(flipped, std::ios::in | std::ios::out | std::ios::binary);
+            const auto at = std::streamoff(std::filesystem::file_size(path) * 2 / 3);
+            f.seekg(at);
+            const char c = char(f.get());
+            f.seekp(at);
+            f.put(char(c ^ 0x10));
+            f.close();
+            EXPECT_NO_THROW(inspectVdb(flipped));  // the structure is whole
+            EXPECT_THROW(verifyVdbChecksum(flipped, inspectVdb(flipped)), InputError);
+            EXPECT_THROW(readLevelSet(flipped), InputError);
+            std::filesystem::remove(flipped);
+        }
         openvdb::io::File file(path);
         file.open();
         auto names = file.getGrids();

@@ -282,6 +282,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "growth_dup.json", "{\"years\": 3, " + growth.substr(growth.find('{') + 1));
     writeText(in / "trunc100.vdb", good.substr(0, 100));
     writeText(in / "trunc90.vdb", good.substr(0, good.size() * 9 / 10));
+    std::string flipped = good;
+    flipped[flipped.size() * 2 / 3] ^= 0x10;  // a bit changed inside a grid's compressed data
+    writeText(in / "flipped.vdb", flipped);
     writeText(in / "text.vdb", "not a vdb at all\n");
     writeText(in / "zeros.vdb", std::string(4096, '\0'));
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
@@ -367,6 +370,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"mesh IN/trunc100.vdb -o OUT/out.ply", "trunc100.vdb: a truncated .vdb file"},
         {"mesh IN/trunc90.vdb -o OUT/out.ply", "trunc90.vdb: a truncated .vdb file: grid"},
         {"render IN/trunc90.vdb -o OUT/out.png", "trunc90.vdb: a truncated .vdb file"},
+        {"mesh IN/flipped.vdb -o OUT/out.ply", "flipped.vdb: a damaged .vdb file: its bytes do not match the checksum"},
         {"mesh IN/text.vdb -o OUT/out.ply", "text.vdb: not a .vdb file"},
         {"mesh IN/zeros.vdb -o OUT/out.ply", "zeros.vdb: not a .vdb file"},
         {"mesh IN -o OUT/out.ply", ": is a directory, not a .vdb file"},

@@ -2,20 +2,66 @@
 #include "bake/vdb_io.h"
 
 #include "core/error.h"
+#include "core/math.h"
 #include "core/versions.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/io.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <sys/stat.h>
+#include <vector>
 
 namespace cambium {
 
 namespace {
+
+/// A seekable output stream's buffer in memory.
+class MemoryBuf : public std::streambuf {
+public:
+    std::vector<char>& data() { return data_; }
+
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (!traits_type::eq_int_type(c, traits_type::eof())) {
+            const char ch = traits_type::to_char_type(c);
+            xsputn(&ch, 1);
+        }
+        return traits_type::not_eof(c);
+    }
+    std::streamsize xsputn(const char* s, std::streamsize n) override
+    {
+        if (pos_ + size_t(n) > data_.size())
+            data_.resize(pos_ + size_t(n));
+        std::memcpy(data_.data() + pos_, s, size_t(n));
+        pos_ += size_t(n);
+        return n;
+    }
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
+    {
+        const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? off_type(pos_)
+                                                                                          : off_type(data_.size());
+        if (base + off < 0 || size_t(base + off) > data_.size())
+            return pos_type(off_type(-1));
+        pos_ = size_t(base + off);
+        return pos_type(off_type(pos_));
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+
+private:
+    std::vector<char> data_;
+    size_t pos_ = 0;
+};
+
+const char kChecksumKey[] = "cambium_checksum";
 
 /// OpenVDB's archive writer on a stream of our own: what io::File::write
 /// does (a seekable stream, so that readers find every grid by its offsets),
@@ -53,11 +99,28 @@ void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInf
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
     if (!info.sequence.empty())
         fileMeta.insertMeta("cambium_sequence", openvdb::StringMetadata(info.sequence));
-    writeFile(path, [&](std::ostream& os) {
+    // The file is made in memory (a tenth of the grids' size, compressed),
+    // its checksum written into the placeholder, then it goes to disk whole.
+    const std::string placeholder(16, '0');
+    fileMeta.insertMeta(kChecksumKey, openvdb::StringMetadata(placeholder));
+    MemoryBuf memory;
+    {
+        std::ostream os(&memory);
         StreamArchive archive;
         archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
         archive.writeTo(os, out, fileMeta);
-    });
+    }
+    std::vector<char>& bytes = memory.data();
+    const std::string entry = std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14) + placeholder;
+    const auto at = std::search(bytes.begin(), bytes.end(), entry.begin(), entry.end());
+    if (at == bytes.end())
+        throw std::runtime_error("the checksum's place was not found in the file OpenVDB wrote");
+    const size_t value = size_t(at - bytes.begin()) + entry.size() - placeholder.size();
+    Checksum64 sum;
+    sum.update(bytes.data() + value + placeholder.size(), bytes.size() - value - placeholder.size());
+    const std::string digest = fmt::format("{:016x}", sum.value());
+    std::memcpy(bytes.data() + value, digest.data(), digest.size());
+    writeFile(path, bytes.data(), bytes.size());
 }
 
 namespace {
@@ -168,6 +231,10 @@ VdbSummary inspectVdb(const std::string& path)
             const std::string name = r.string("metadata name", kNameLimit);
             const std::string type = r.string("metadata type", kNameLimit);
             const uint32_t n = r.value<uint32_t>("metadata size");
+            if (r.at() + n > end && end == s.bytes)
+                throw InputError(fmt::format("{}: a truncated .vdb file: metadata '{}' at byte {} needs {} bytes, the "
+                                             "file has {} in all",
+                                             path, name, r.at(), n, s.bytes));
             if (r.at() + n > end)
                 r.damaged(fmt::format("metadata '{}' of {} bytes at byte {} runs past its block", name, n, r.at()));
             // OpenVDB reads a value of a fixed-size type by its type, not by
@@ -193,6 +260,8 @@ VdbSummary inspectVdb(const std::string& path)
                 std::string v(n, '\0');
                 r.bytes(v.data(), n, "metadata value");
                 (*strings)[name] = v;
+                if (name == kChecksumKey)
+                    s.checksumEnd = r.at();
             } else {
                 r.skip(n, "metadata value");
             }
@@ -228,6 +297,26 @@ VdbSummary inspectVdb(const std::string& path)
         s.grids.push_back(std::move(g));
     }
     return s;
+}
+
+bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
+{
+    const auto expected = s.strings.find(kChecksumKey);
+    if (expected == s.strings.end() || s.checksumEnd == 0)
+        return false;
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(std::streamoff(s.checksumEnd));
+    Checksum64 sum;
+    std::vector<char> chunk(size_t(1) << 20);
+    while (in) {
+        in.read(chunk.data(), std::streamsize(chunk.size()));
+        sum.update(chunk.data(), size_t(in.gcount()));
+    }
+    if (fmt::format("{:016x}", sum.value()) != expected->second)
+        throw InputError(fmt::format("{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
+                                     "into it (changed or corrupted since)",
+                                     path));
+    return true;
 }
 
 std::string readSequenceKey(const std::string& path)

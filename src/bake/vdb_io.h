@@ -24,9 +24,11 @@ struct VdbFileInfo {
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
 /// metadata and cambium's own metadata, Blosc-compressed, through the checked
-/// writer (core/files.h): the file appears whole or not at all.  WriteError
-/// when writing fails (a full disk), InputError for a path that cannot be an
-/// output.
+/// writer (core/files.h): the file appears whole or not at all.  The file
+/// metadata `cambium_checksum` (16 hex digits) is a Checksum64 of every byte
+/// after it, so that readers find a file changed after writing before
+/// OpenVDB decodes it.  WriteError when writing fails (a full disk),
+/// InputError for a path that cannot be an output.
 void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
 
 /// What the structure of a .vdb file says, read without reading any grid.
@@ -34,6 +36,7 @@ struct VdbSummary {
     uint64_t bytes = 0;                           ///< file size
     uint32_t fileVersion = 0;
     std::map<std::string, std::string> strings;   ///< the file's string metadata
+    uint64_t checksumEnd = 0;                     ///< where the bytes `cambium_checksum` covers begin (0: none)
     struct Grid {
         std::string name, type;
         int64_t begin = 0, end = 0;               ///< byte range in the file
@@ -47,6 +50,11 @@ struct VdbSummary {
 /// the file and the first problem (not a regular file, not a .vdb, truncated,
 /// damaged) in one line.
 VdbSummary inspectVdb(const std::string& path);
+
+/// Checks the `cambium_checksum` a file written by cambium carries (inspectVdb
+/// first) by reading the bytes it covers; InputError when they changed.
+/// Returns false for a file without one (written by other software).
+bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
 
 /// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
 /// when the file is damaged.

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 namespace cambium {
 
@@ -36,5 +37,46 @@ inline uint64_t mix64(uint64_t z)
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
     return z ^ (z >> 31);
 }
+
+/// A 64-bit checksum of a byte stream, fed in pieces of any size: each
+/// 8-byte little-endian word mixed into the state (mix64), the length last.
+/// Not cryptographic: it finds damage, not tampering.
+class Checksum64 {
+public:
+    void update(const char* data, size_t n)
+    {
+        length_ += n;
+        while (n > 0) {
+            const size_t take = std::min(n, size_t(8) - fill_);
+            std::memcpy(word_ + fill_, data, take);
+            fill_ += take;
+            data += take;
+            n -= take;
+            if (fill_ == 8)
+                mixWord();
+        }
+    }
+    uint64_t value() const
+    {
+        Checksum64 last = *this;
+        if (last.fill_ > 0) {
+            std::memset(last.word_ + last.fill_, 0, 8 - last.fill_);
+            last.mixWord();
+        }
+        return mix64(last.state_ ^ last.length_);
+    }
+
+private:
+    void mixWord()
+    {
+        uint64_t w;
+        std::memcpy(&w, word_, 8);
+        state_ = mix64(state_ ^ w) + 0x9e3779b97f4a7c15ull;
+        fill_ = 0;
+    }
+    uint64_t state_ = 0x243f6a8885a308d3ull, length_ = 0;
+    char word_[8] = {};
+    size_t fill_ = 0;
+};
 
 }  // namespace cambium

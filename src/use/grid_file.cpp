@@ -14,7 +14,9 @@ namespace cambium {
 
 LevelSetFile readLevelSet(const std::string& path, const std::string& grid)
 {
-    inspectVdb(path);  // a damaged file is named here, before OpenVDB reads it
+    // A damaged file is named here, before OpenVDB decodes it: its structure,
+    // and for cambium's own files the checksum of every byte.
+    verifyVdbChecksum(path, inspectVdb(path));
     openvdb::GridPtrVecPtr grids;
     try {
         openvdb::io::File file(path);
