@@ -13,7 +13,6 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
-#include <sys/stat.h>
 #include <vector>
 
 namespace cambium {
@@ -195,15 +194,8 @@ private:
 
 VdbSummary inspectVdb(const std::string& path)
 {
-    struct stat st;
-    if (::stat(path.c_str(), &st) != 0)
-        throw InputError(fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
-    if (S_ISDIR(st.st_mode))
-        throw InputError(fmt::format("{}: is a directory, not a .vdb file", path));
-    if (!S_ISREG(st.st_mode))
-        throw InputError(fmt::format("{}: is not a regular file, not a .vdb file", path));
     VdbSummary s;
-    s.bytes = uint64_t(st.st_size);
+    s.bytes = checkInputFile(path, ".vdb file");
     VdbReader r(path, s.bytes);
     constexpr int64_t kMagic = 0x56444220;
     if (s.bytes < 8 || r.value<int64_t>("magic number") != kMagic)

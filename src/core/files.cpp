@@ -2,6 +2,7 @@
 #include "core/files.h"
 
 #include "core/error.h"
+#include "core/frames.h"
 
 #include <fmt/format.h>
 
@@ -328,11 +329,10 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
 {
     const std::string dir = directoryOf(pattern);
     const std::string name = pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
-    const size_t first = name.find('#');
-    if (first == std::string::npos)
+    if (name.find('#') == std::string::npos)
         return {};
-    const size_t last = name.find_first_not_of('#', first);
-    const size_t hashes = (last == std::string::npos ? name.size() : last) - first;
+    const auto [first, last] = frameRun(name);
+    const size_t hashes = last - first;
     const std::string prefix = name.substr(0, first), suffix = name.substr(first + hashes) + ".tmp-";
     std::vector<std::string> found;
     DIR* d = ::opendir(dir.c_str());

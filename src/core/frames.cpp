@@ -12,7 +12,7 @@ namespace cambium {
 
 bool isFramePattern(const std::string& pattern) { return pattern.find('#') != std::string::npos; }
 
-std::string framePath(const std::string& pattern, long long frame)
+std::pair<size_t, size_t> frameRun(const std::string& pattern)
 {
     const size_t a = pattern.find('#');
     if (a == std::string::npos)
@@ -22,6 +22,12 @@ std::string framePath(const std::string& pattern, long long frame)
         ++b;
     if (pattern.find('#', b) != std::string::npos)
         throw InputError(fmt::format("{}: more than one run of '#' (one frame number per name)", pattern));
+    return {a, b};
+}
+
+std::string framePath(const std::string& pattern, long long frame)
+{
+    const auto [a, b] = frameRun(pattern);
     const std::string digits = frame < 0 ? fmt::format("-{:0{}}", -frame, b - a) : fmt::format("{:0{}}", frame, b - a);
     return pattern.substr(0, a) + digits + pattern.substr(b);
 }

@@ -2,12 +2,17 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cambium {
 
 /// Whether `pattern` holds a run of `#` (the frame number's place).
 bool isFramePattern(const std::string& pattern);
+
+/// Where the (single) run of `#` of `pattern` lies: [first, last).  Throws
+/// InputError when the pattern has more than one run of `#` or none.
+std::pair<size_t, size_t> frameRun(const std::string& pattern);
 
 /// `pattern` with its (single) run of `#` replaced by `frame`, zero-padded to
 /// the run's length: "tree.####.vdb", 12 -> "tree.0012.vdb".  Throws
