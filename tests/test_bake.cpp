@@ -3,8 +3,9 @@
 // blends, PCM, CSG and GBB scenes (dense brute force); write / read round trip.
 #include "bake/levelset.h"
 #include "bake/topology.h"
-#include "bake/vdb_io.h"
-#include "use/grid_file.h"
+#include "core/files.h"
+#include "io/vdb.h"
+#include "io/vdb.h"
 
 #include "blobtree/bounds.h"
 #include "bake_util.h"

@@ -3,7 +3,7 @@
 // outputs that are not regular files are refused before any work; a signal
 // removes the temporary; one run at a time writes a sequence; --resume
 // cleans stale temporaries and bakes damaged frames again.
-#include "bake/vdb_io.h"
+#include "io/vdb.h"
 #include "cli_util.h"
 #include "core/files.h"
 

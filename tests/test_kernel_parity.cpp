@@ -1,8 +1,8 @@
 // Parity of the shared per-operation math on the OpenCL device (PoCL here)
 // with the host's double-precision evaluation of the same headers, on random
 // and adversarial inputs (on skeletons, at end planes, at region borders).
-#include "bake/cl_runtime.h"
-#include "bake/kernel_sources.h"
+#include "cl/runtime.h"
+#include "cl/kernel_sources.h"
 
 #include "cb_operators.h"
 #include "cb_primitives.h"

@@ -3,7 +3,7 @@
 // determinism; a volume that changes smoothly from frame to frame; bark
 // ridges that form continuously with a junction's age.
 #include "bake/sequence.h"
-#include "bake/vdb_io.h"
+#include "io/vdb.h"
 #include "blobtree/evaluator.h"
 #include "blobtree/stats.h"
 #include "core/error.h"

@@ -7,7 +7,8 @@
 #include "bake_util.h"
 #include "test_util.h"
 #include "model/turtle.h"
-#include "use/grid_file.h"
+#include "io/vdb.h"
+#include "use/world_sampler.h"
 
 #include "blobtree/evaluator.h"
 #include "core/error.h"

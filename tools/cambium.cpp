@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/versions.h"
+#include "cl/runtime.h"
 #include "model/growth.h"
 #include "model/turtle.h"
 #include "use/mesh.h"
@@ -205,6 +206,11 @@ int runVersion()
     fmt::print("cambium {}\n", version());
     for (const auto& [lib, v] : dependencyVersions())
         fmt::print("  {:<12} {}\n", lib, v);
+    const auto devices = listOpenCLDevices();
+    if (devices.empty())
+        fmt::print("  {:<12} {}\n", "OpenCL", "no platform found");
+    for (const auto& d : devices)
+        fmt::print("  {:<12} {} / {} / {}\n", "OpenCL", d.platform, d.device, d.version);
     return 0;
 }
 

@@ -5,8 +5,7 @@
 #include "bake/levelset.h"
 #include "blobtree/blobtree.h"
 #include "core/system.h"
-
-#include <tbb/global_control.h>
+#include "model/load_model.h"
 
 #include <functional>
 #include <memory>
@@ -14,35 +13,6 @@
 #include <string>
 
 namespace cambium {
-
-/// Reads a model: a JSON scene (.json), an L-system (.l, derived for its
-/// derivation length, drawn by the turtle and built with the papers' junction
-/// rules, model/tree_builder.h) or a skeleton text file (anything else,
-/// docs/skeleton-format.md, as the benchmarks' summation blend of one cone
-/// per internode).
-struct ModelOptions {
-    /// How skeletons and L-systems become BlobTrees: "pcm" (the papers'
-    /// junction rules with PCM between branches), "smooth" (the rules with
-    /// summation only), "blend" (one cone per internode, summed, no rules: the
-    /// benchmarks' field); empty: pcm for L-systems, blend for skeleton files.
-    std::string junctions;
-    double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (pcm, smooth)
-    /// "cone" (papers 001/003), "convolution" or "mixed" (paper 002; pcm and smooth only)
-    std::string primitives = "cone";
-    double regrowth = 0.0;  ///< callus over saw cuts, 0 to 1 (pcm, smooth)
-    /// Growth parameter files: the time in years (< 0: the file's last year)
-    /// and whether to grow leaves.
-    std::optional<double> time;
-    bool leaves = true;
-};
-/// InputError unless the options are valid (before any work).
-void checkModelOptions(const ModelOptions& options);
-/// InputError when options for L-systems and skeletons are given with a
-/// growth parameter file.
-void checkGrowthOptions(const std::string& path, const ModelOptions& options);
-/// Also reads growth parameter files (a .json with "curves",
-/// docs/growth-format.md): the tree grown to `options.time`.
-BlobTree loadModel(const std::string& path, const ModelOptions& options = {});
 
 struct BakeRequest {
     std::string input;                 ///< scene, L-system or skeleton file
@@ -85,15 +55,6 @@ struct VoxelPlan {
 /// volume is below 3e-15 (h < 1.44e-5).
 constexpr double kMinVoxelSize = 1e-4;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
-
-/// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
-class ThreadLimit {
-public:
-    explicit ThreadLimit(int threads);
-    ~ThreadLimit();
-private:
-    std::unique_ptr<tbb::global_control> control_;
-};
 
 /// The sampler of `device` ("opencl" names a failure and suggests --device cpu).
 std::unique_ptr<FieldSampler> makeSampler(const std::string& device);

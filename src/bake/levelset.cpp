@@ -252,8 +252,8 @@ void createGrids(BakedGrids& out, double h, float background, const openvdb::Vec
     out.surface->setTransform(xform);
     out.color->setTransform(xform->copy());
     out.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    out.surface->setName("surface");
-    out.color->setName("Cd");
+    out.surface->setName(kSurfaceGrid);
+    out.color->setName(kColorGrid);
     out.color->setVectorType(openvdb::VEC_INVARIANT);
 }
 
@@ -261,7 +261,7 @@ void addFog(BakedGrids& out)
 {
     out.density = out.surface->deepCopy();
     openvdb::tools::sdfToFogVolume(*out.density);
-    out.density->setName("density");
+    out.density->setName(kDensityGrid);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include "bake/sampler.h"
 #include "field/program.h"
+#include "io/grids.h"
 
 #include <openvdb/openvdb.h>
 
@@ -50,10 +51,9 @@ struct BakeStats {
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
 };
 
-struct BakedGrids {
-    openvdb::FloatGrid::Ptr surface;  ///< level set `surface`
-    openvdb::Vec3fGrid::Ptr color;    ///< `Cd` on the band
-    openvdb::FloatGrid::Ptr density;  ///< `density` fog volume, with BakeOptions::fog
+/// The grids (io/grids.h: `surface`, `Cd` on the band, `density` with
+/// BakeOptions::fog) and how the bake went.
+struct BakedGrids : LevelSetGrids {
     BakeStats stats;
 };
 

@@ -2,8 +2,8 @@
 #include "bake/sampler.h"
 #include "core/memory.h"
 
-#include "bake/cl_runtime.h"
-#include "bake/kernel_sources.h"
+#include "cl/runtime.h"
+#include "cl/kernel_sources.h"
 
 #include <fmt/format.h>
 #include <openvdb/math/Half.h>

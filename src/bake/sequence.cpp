@@ -1,7 +1,7 @@
 // cambium — growth frame sequences.
 #include "bake/sequence.h"
 
-#include "bake/vdb_io.h"
+#include "io/vdb.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/frames.h"

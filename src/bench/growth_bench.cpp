@@ -2,9 +2,9 @@
 #include "bench/growth_bench.h"
 
 #include "bake/bake.h"
-#include "bake/cl_runtime.h"
+#include "cl/runtime.h"
 #include "bake/sequence.h"
-#include "bake/vdb_io.h"
+#include "io/vdb.h"
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "model/growth.h"

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <regex>
 
 namespace cambium {
@@ -52,6 +53,31 @@ std::vector<long long> parseFrames(const std::string& range, const std::string& 
     for (long long f = first; f <= last; f += step)
         frames.push_back(f);
     return frames;
+}
+
+void forEachFile(const std::string& input, const std::string& output, const std::string& frames,
+                 const std::function<void(const std::string&)>& checkOutput,
+                 const std::function<void(const std::string&, const std::string&)>& one)
+{
+    if (!isFramePattern(input) && !isFramePattern(output) && frames.empty()) {
+        checkOutput(output);
+        one(input, output);
+        return;
+    }
+    if (!isFramePattern(input) || !isFramePattern(output) || frames.empty())
+        throw InputError(fmt::format("a sequence needs an input and an output with a run of '#' for the frame "
+                                     "number, and --frames (e.g. out/tree.####.vdb --frames 1-10 -o {})",
+                                     isFramePattern(output) ? output : "out/tree.####" +
+                                         std::filesystem::path(output).extension().string()));
+    const std::vector<long long> list = parseFrames(frames);
+    for (long long f : list) {
+        const std::string in = framePath(input, f);
+        if (!std::filesystem::exists(in))
+            throw InputError(fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
+    }
+    checkOutput(framePath(output, list.front()));
+    for (long long f : list)
+        one(framePath(input, f), framePath(output, f));
 }
 
 }  // namespace cambium

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -25,5 +26,13 @@ constexpr long long kMaxFrames = 1'000'000;
 /// The frames of a range "A", "A-B" or "A-B:STEP" (A <= B, STEP >= 1), in
 /// order.  Throws InputError naming `option` for anything else.
 std::vector<long long> parseFrames(const std::string& range, const std::string& option = "--frames");
+
+/// Runs one(input, output) for a single file, or, when input or output holds
+/// a run of `#` or `frames` is given, for every frame of `frames` with the
+/// frame number in both names; first checks every input exists and calls
+/// checkOutput on the first output, so that bad input fails before any work.
+void forEachFile(const std::string& input, const std::string& output, const std::string& frames,
+                 const std::function<void(const std::string&)>& checkOutput,
+                 const std::function<void(const std::string&, const std::string&)>& one);
 
 }  // namespace cambium

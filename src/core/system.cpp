@@ -1,6 +1,8 @@
 // cambium — memory available and used.
 #include "core/system.h"
 
+#include <tbb/global_control.h>
+
 #include <fmt/format.h>
 
 #include <fstream>
@@ -40,5 +42,17 @@ std::string formatBytes(double b)
     }
     return fmt::format("{:.3g} {}", b, units[u]);
 }
+
+ThreadLimit::ThreadLimit(int threads)
+{
+    if (threads <= 0)
+        return;
+    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    const std::string n = std::to_string(threads);
+    ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
+    ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
+}
+
+ThreadLimit::~ThreadLimit() = default;
 
 }  // namespace cambium

@@ -1,7 +1,11 @@
-// cambium — what this machine has: memory available and used.
+// cambium — what this machine has and how much of it a run takes: memory
+// available and used, threads.
 #pragma once
 
+#include <memory>
 #include <string>
+
+#include <tbb/global_control.h>
 
 namespace cambium {
 
@@ -11,5 +15,15 @@ double availableMemoryBytes();
 double peakMemoryBytes();
 /// "1.5 GB": bytes in decimal units, three significant digits.
 std::string formatBytes(double bytes);
+
+
+/// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
+class ThreadLimit {
+public:
+    explicit ThreadLimit(int threads);
+    ~ThreadLimit();
+private:
+    std::unique_ptr<tbb::global_control> control_;
+};
 
 }  // namespace cambium

@@ -2,8 +2,6 @@
 // version headers, so it stays quick to compile.
 #include "core/versions.h"
 
-#include "bake/cl_runtime.h"
-
 #include <OpenImageIO/oiioversion.h>
 #include <embree3/rtcore_config.h>
 #include <nanovdb/NanoVDB.h>
@@ -18,7 +16,7 @@ const char* version() { return CAMBIUM_VERSION; }
 
 std::vector<std::pair<std::string, std::string>> dependencyVersions()
 {
-    std::vector<std::pair<std::string, std::string>> v = {
+    return {
         {"OpenVDB", OPENVDB_LIBRARY_VERSION_STRING},
         {"NanoVDB", fmt::format("{}.{}.{}", NANOVDB_MAJOR_VERSION_NUMBER,
                                 NANOVDB_MINOR_VERSION_NUMBER, NANOVDB_PATCH_VERSION_NUMBER)},
@@ -26,12 +24,6 @@ std::vector<std::pair<std::string, std::string>> dependencyVersions()
         {"Embree", RTC_VERSION_STRING},
         {"TBB", fmt::format("{} (runtime {})", TBB_VERSION_STRING, TBB_runtime_version())},
     };
-    const auto devices = listOpenCLDevices();
-    if (devices.empty())
-        v.emplace_back("OpenCL", "no platform found");
-    for (const auto& d : devices)
-        v.emplace_back("OpenCL", fmt::format("{} / {} / {}", d.platform, d.device, d.version));
-    return v;
 }
 
 }  // namespace cambium

@@ -10,7 +10,7 @@ namespace cambium {
 const char* version();
 
 /// (library, version) pairs: compile-time versions of OpenVDB, NanoVDB,
-/// OpenImageIO, Embree, TBB and the OpenCL devices found at run time.
+/// OpenImageIO, Embree and TBB (the OpenCL devices: listOpenCLDevices).
 std::vector<std::pair<std::string, std::string>> dependencyVersions();
 
 }  // namespace cambium

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "core/box.h"
+#include "io/image_file.h"
 #include "use/mesh.h"
 
 #include <openvdb/openvdb.h>
@@ -45,15 +46,6 @@ struct CameraFrame {
 /// The world-space ray through image position (px, py) (pixels, y down).
 void cameraRay(const Camera& cam, int width, int height, double px, double py, glm::dvec3& origin,
                glm::dvec3& direction);
-
-/// A rendered image: rows top to bottom.
-struct RenderImage {
-    int width = 0, height = 0;
-    std::vector<float> rgb;     ///< linear colour, 3 per pixel
-    std::vector<float> alpha;   ///< fraction of a pixel's samples that hit the surface
-    std::vector<float> depth;   ///< distance to the hit along the pixel's central ray, +inf where it misses
-    std::vector<float> normal;  ///< unit normal at that hit, 3 per pixel (0 where it misses)
-};
 
 /// Linear colour of a surface point with unit normal n and albedo, seen along
 /// `dir`: a key light and a sky; the background for rays that miss.
@@ -156,15 +148,6 @@ private:
 /// EmbreeMesh(mesh).render(...).
 RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp);
 
-/// Writes an image by the extension of `path`: .png (8-bit sRGB with alpha,
-/// for people) or .exr (float R G B A, Z, N.x N.y N.z, for tools), through a
-/// temporary file.  InputError for another extension.
-void writeImage(const RenderImage& image, const std::string& path);
-
-/// Throws InputError, before any work, when `path` is not a .png or .exr
-/// file that can be written.
-void checkImageOutput(const std::string& path);
-
 /// World-space bounds of a mesh's points.
 Box meshBounds(const TriangleMesh& mesh);
 
@@ -173,7 +156,7 @@ Box activeWorldBounds(const openvdb::GridBase& grid);
 
 /// `cambium render`.
 struct RenderRequest {
-    std::string input, output, grid = "surface", camera = "auto", device = "opencl", frames;
+    std::string input, output, grid = kSurfaceGrid, camera = "auto", device = "opencl", frames;
     int width = 960, height = 720, spp = 1;
     bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
     std::string mesh;      ///< render this mesh file (OBJ, PLY) with Embree instead of a .vdb

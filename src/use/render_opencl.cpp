@@ -1,8 +1,8 @@
 // cambium — ray marching a level set with OpenCL through NanoVDB (kernels/march.cl).
 #include "use/render.h"
 
-#include "bake/cl_runtime.h"
-#include "bake/kernel_sources.h"
+#include "cl/runtime.h"
+#include "cl/kernel_sources.h"
 #include "core/error.h"
 
 #include <fmt/format.h>

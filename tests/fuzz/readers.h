@@ -13,8 +13,8 @@
 #include "model/skeleton.h"
 #include "model/tree_builder.h"
 #include "model/turtle.h"
-#include "bake/vdb_io.h"
-#include "use/grid_file.h"
+#include "io/vdb.h"
+#include "io/vdb.h"
 #include "use/mesh.h"
 
 #include <openvdb/io/File.h>

@@ -1,9 +1,8 @@
-// cambium — writing baked grids to .vdb files that other software opens, and
-// checking a .vdb file's structure before anything reads it.
+// cambium — .vdb files: writing baked grids that other software opens,
+// checking a file's structure before anything reads it, reading level sets back.
 #pragma once
 
-#include "bake/levelset.h"
-#include "core/files.h"
+#include "io/grids.h"
 
 #include <cstdint>
 #include <map>
@@ -29,7 +28,7 @@ struct VdbFileInfo {
 /// after it, so that readers find a file changed after writing before
 /// OpenVDB decodes it.  WriteError when writing fails (a full disk),
 /// InputError for a path that cannot be an output.
-void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info);
+void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info);
 
 /// What the structure of a .vdb file says, read without reading any grid.
 struct VdbSummary {
@@ -55,6 +54,12 @@ VdbSummary inspectVdb(const std::string& path);
 /// first) by reading the bytes it covers; InputError when they changed.
 /// Returns false for a file without one (written by other software).
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
+
+/// Reads grid `grid` (a float level set) and `Cd` from a .vdb file
+/// (inspectVdb and verifyVdbChecksum first).  InputError for an unreadable
+/// or damaged file, a missing grid (the message lists the file's grids) or
+/// one that is not a float level set.  `density` is not read.
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid);
 
 /// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
 /// when the file is damaged.

@@ -1,12 +1,14 @@
 // cambium — .vdb output, and the structure check of .vdb input.
-#include "bake/vdb_io.h"
+#include "io/vdb.h"
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/math.h"
 #include "core/versions.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/Archive.h>
+#include <openvdb/io/File.h>
 #include <openvdb/io/io.h>
 
 #include <algorithm>
@@ -75,7 +77,7 @@ public:
 
 }  // namespace
 
-void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInfo& info)
+void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
     openvdb::GridCPtrVec out;
     for (openvdb::GridBase::Ptr g : {openvdb::GridBase::Ptr(grids.surface),
@@ -85,7 +87,7 @@ void writeVdb(const BakedGrids& grids, const std::string& path, const VdbFileInf
             continue;
         g->addStatsMetadata();  // Arnold and others read these
         g->insertMeta("cambium_scene", openvdb::StringMetadata(info.scene));
-        g->insertMeta("cambium_voxel_size", openvdb::DoubleMetadata(grids.stats.voxelSize));
+        g->insertMeta("cambium_voxel_size", openvdb::DoubleMetadata(grids.surface->voxelSize()[0]));
         g->insertMeta("cambium_threshold", openvdb::DoubleMetadata(info.threshold));
         g->insertMeta("cambium_half_width", openvdb::DoubleMetadata(info.halfWidth));
         g->insertMeta("cambium_frame", openvdb::Int64Metadata(info.frame));
@@ -316,6 +318,39 @@ std::string readSequenceKey(const std::string& path)
     const VdbSummary s = inspectVdb(path);
     const auto key = s.strings.find("cambium_sequence");
     return key == s.strings.end() ? std::string() : key->second;
+}
+
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
+{
+    // A damaged file is named here, before OpenVDB decodes it: its structure,
+    // and for cambium's own files the checksum of every byte.
+    verifyVdbChecksum(path, inspectVdb(path));
+    openvdb::GridPtrVecPtr grids;
+    try {
+        openvdb::io::File file(path);
+        file.open(false);  // read whole now: no private copy of the file for delayed loading
+        grids = file.getGrids();
+        file.close();
+    } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
+    }
+    LevelSetGrids out;
+    std::string names;
+    for (const auto& g : *grids) {
+        names += (names.empty() ? "" : ", ") + g->getName();
+        if (g->getName() == grid) {
+            out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+            if (!out.surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
+                throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,
+                                             g->valueType(), openvdb::GridBase::gridClassToString(g->getGridClass())));
+        }
+        if (g->getName() == kColorGrid)
+            out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
+    }
+    if (!out.surface)
+        throw InputError(
+            fmt::format("{}: no grid named '{}' (it holds: {})", path, grid, names.empty() ? "no grids" : names));
+    return out;
 }
 
 }  // namespace cambium

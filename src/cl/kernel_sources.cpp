@@ -1,5 +1,5 @@
 // cambium — kernel source lookup and include expansion.
-#include "bake/kernel_sources.h"
+#include "cl/kernel_sources.h"
 
 #include <fmt/format.h>
 

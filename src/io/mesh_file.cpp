@@ -1,13 +1,17 @@
-// cambium — reading triangle meshes (OBJ, PLY) for `render --mesh`.
-#include "use/mesh.h"
+// cambium — triangle mesh files: OBJ and binary PLY written, OBJ and PLY read.
+#include "io/mesh_file.h"
 
 #include "core/error.h"
 #include "core/files.h"
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iterator>
+#include <ostream>
 #include <sstream>
 
 namespace cambium {
@@ -303,6 +307,89 @@ TriangleMesh readMesh(const std::string& path)
     if (!in)
         fail(path, 0, "cannot open it");
     return parseMesh(in, path, ext);
+}
+
+namespace {
+
+uint8_t toByte(float v) { return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+
+void writeObj(const TriangleMesh& m, std::ostream& out)
+{
+    fmt::memory_buffer buf;
+    auto drain = [&](bool last) {
+        if (last || buf.size() > (size_t(1) << 20)) {
+            out.write(buf.data(), std::streamsize(buf.size()));
+            buf.clear();
+        }
+    };
+    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} triangles\n", m.points.size(),
+                   m.triangles.size());
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        const auto& p = m.points[i];
+        if (m.colors.empty())
+            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g}\n", p[0], p[1], p[2]);
+        else
+            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g} {:.4g} {:.4g} {:.4g}\n", p[0], p[1], p[2],
+                           m.colors[i][0], m.colors[i][1], m.colors[i][2]);
+        drain(false);
+    }
+    for (const auto& nrm : m.normals) {
+        fmt::format_to(std::back_inserter(buf), "vn {:.5g} {:.5g} {:.5g}\n", nrm[0], nrm[1], nrm[2]);
+        drain(false);
+    }
+    for (const auto& t : m.triangles) {  // OBJ counts from 1
+        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1,
+                       t[2] + 1, t[2] + 1);
+        drain(false);
+    }
+    drain(true);
+}
+
+void writePly(const TriangleMesh& m, std::ostream& out)
+{
+    const bool rgb = !m.colors.empty();
+    out << "ply\nformat binary_little_endian 1.0\ncomment cambium mesh\n"
+        << "element vertex " << m.points.size() << "\n"
+        << "property float x\nproperty float y\nproperty float z\n"
+        << "property float nx\nproperty float ny\nproperty float nz\n";
+    if (rgb)
+        out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    out << "element face " << m.triangles.size() << "\nproperty list uchar uint vertex_indices\nend_header\n";
+    static_assert(sizeof(float) == 4 && sizeof(uint32_t) == 4, "PLY float and uint are 4 bytes");
+    // x86 and ARM are little-endian: the values are written as they are.
+    std::vector<char> buf;
+    const size_t vsize = 24 + (rgb ? 3 : 0);
+    buf.resize(m.points.size() * vsize);
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        char* o = buf.data() + i * vsize;
+        std::memcpy(o, m.points[i].asPointer(), 12);
+        std::memcpy(o + 12, m.normals[i].asPointer(), 12);
+        if (rgb)
+            for (int c = 0; c < 3; ++c)
+                o[24 + c] = char(toByte(m.colors[i][c]));
+    }
+    out.write(buf.data(), std::streamsize(buf.size()));
+    buf.resize(m.triangles.size() * 13);
+    for (size_t i = 0; i < m.triangles.size(); ++i) {
+        char* o = buf.data() + i * 13;
+        o[0] = 3;
+        std::memcpy(o + 1, m.triangles[i].data(), 12);
+    }
+    out.write(buf.data(), std::streamsize(buf.size()));
+}
+
+}  // namespace
+
+void checkMeshOutput(const std::string& path)
+{
+    fileFormat(path, {"obj", "ply"}, "mesh");
+    checkOutputPath(path);
+}
+
+void writeMesh(const TriangleMesh& mesh, const std::string& path)
+{
+    const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
+    writeFile(path, [&](std::ostream& out) { ext == "obj" ? writeObj(mesh, out) : writePly(mesh, out); });
 }
 
 }  // namespace cambium

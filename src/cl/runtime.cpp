@@ -1,5 +1,5 @@
 // cambium — OpenCL runtime wrapper.
-#include "bake/cl_runtime.h"
+#include "cl/runtime.h"
 
 #include "core/error.h"
 

@@ -1,0 +1,28 @@
+// cambium — rendered images and their files: PNG for people, EXR with depth
+// and normals for tools.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// A rendered image: rows top to bottom.
+struct RenderImage {
+    int width = 0, height = 0;
+    std::vector<float> rgb;     ///< linear colour, 3 per pixel
+    std::vector<float> alpha;   ///< fraction of a pixel's samples that hit the surface
+    std::vector<float> depth;   ///< distance to the hit along the pixel's central ray, +inf where it misses
+    std::vector<float> normal;  ///< unit normal at that hit, 3 per pixel (0 where it misses)
+};
+
+/// Writes an image by the extension of `path`: .png (8-bit sRGB with alpha,
+/// for people) or .exr (float R G B A, Z, N.x N.y N.z, for tools), through a
+/// temporary file.  InputError for another extension.
+void writeImage(const RenderImage& image, const std::string& path);
+
+/// Throws InputError, before any work, when `path` is not a .png or .exr
+/// file that can be written.
+void checkImageOutput(const std::string& path);
+
+}  // namespace cambium
