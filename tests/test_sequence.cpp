@@ -39,16 +39,16 @@ struct TempDir {
     std::string operator/(const std::string& name) const { return (path / name).string(); }
 };
 
-BakeRequest sequence(const std::string& out, const std::string& frames, double fps, double h = 0.04)
+SequenceRequest sequence(const std::string& out, const std::string& frames, double fps, double h = 0.04)
 {
     openvdb::initialize();
-    BakeRequest r;
-    r.input = kPopulus;
-    r.output = out;
+    SequenceRequest r;
+    r.bake.input = kPopulus;
+    r.bake.output = out;
     r.frames = frames;
     r.fpsPerYear = fps;
-    r.voxelSize = h;
-    r.device = "cpu";
+    r.bake.voxelSize = h;
+    r.bake.device = Device::Cpu;
     return r;
 }
 
@@ -97,7 +97,7 @@ void expectIdentical(const Grid& a, const Grid& b, const std::string& what)
 TEST(Sequence, FilesAreNamedPaddedAndConsistent)
 {
     TempDir dir;
-    const SequenceReport r = runBakeSequence(sequence(dir / "tree.####.vdb", "8-12:2", 1.0));
+    const SequenceReport r = bakeSequence(sequence(dir / "tree.####.vdb", "8-12:2", 1.0));
     ASSERT_EQ(r.frames.size(), 3u);
     std::vector<std::string> names;
     for (const auto& e : fs::directory_iterator(dir.path))
@@ -127,30 +127,30 @@ TEST(Sequence, ResumeKeepsFinishedFramesAndRefusesOthers)
 {
     TempDir dir;
     const std::string pattern = dir / "p.##.vdb";
-    runBakeSequence(sequence(pattern, "4-7", 1.0));
+    bakeSequence(sequence(pattern, "4-7", 1.0));
     fs::remove(dir / "p.06.vdb");
     const auto stamp = fs::last_write_time(dir / "p.05.vdb");
-    BakeRequest again = sequence(pattern, "4-7", 1.0);
+    SequenceRequest again = sequence(pattern, "4-7", 1.0);
     again.resume = true;
-    const SequenceReport r = runBakeSequence(again);
+    const SequenceReport r = bakeSequence(again);
     ASSERT_EQ(r.frames.size(), 4u);
     for (const FrameReport& f : r.frames)
         EXPECT_EQ(f.outcome, f.frame == 6 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped) << f.frame;
     EXPECT_EQ(fs::last_write_time(dir / "p.05.vdb"), stamp);
     EXPECT_TRUE(fs::exists(dir / "p.06.vdb"));
     // Files from another bake (here another voxel size) are not taken for finished.
-    BakeRequest other = sequence(pattern, "4-7", 1.0, 0.05);
+    SequenceRequest other = sequence(pattern, "4-7", 1.0, 0.05);
     other.resume = true;
-    expectInputError([&] { runBakeSequence(other); }, "p.04.vdb exists from another bake", "other key");
+    expectInputError([&] { bakeSequence(other); }, "p.04.vdb exists from another bake", "other key");
 }
 
 TEST(Sequence, DormantFramesReuseGridsIdenticalToAFullBake)
 {
     TempDir dir;
     // Year 4 at 10 frames a year: growth until 3.6, dormant after.
-    BakeRequest req = sequence(dir / "d.####.vdb", "35-40", 10.0);
-    req.model.leaves = false;
-    const SequenceReport r = runBakeSequence(req);
+    SequenceRequest req = sequence(dir / "d.####.vdb", "35-40", 10.0);
+    req.bake.model.leaves = false;
+    const SequenceReport r = bakeSequence(req);
     size_t reused = 0;
     for (const FrameReport& f : r.frames) {
         reused += f.outcome == FrameReport::Outcome::Reused;
@@ -161,9 +161,9 @@ TEST(Sequence, DormantFramesReuseGridsIdenticalToAFullBake)
     EXPECT_GE(reused, 3u);
     // The reused frame against a bake of that frame alone.
     TempDir single;
-    BakeRequest one = sequence(single / "s.####.vdb", "39", 10.0);
-    one.model.leaves = false;
-    runBakeSequence(one);
+    SequenceRequest one = sequence(single / "s.####.vdb", "39", 10.0);
+    one.bake.model.leaves = false;
+    bakeSequence(one);
     const auto reusedGrid = surface(dir / "d.0039.vdb"), fullGrid = surface(single / "s.0039.vdb");
     ASSERT_TRUE(reusedGrid && fullGrid);
     expectIdentical(*reusedGrid, *fullGrid, "reused vs full bake");
@@ -175,9 +175,9 @@ TEST(Sequence, UnchangedLeavesAreReusedAndTheFrameIsAFullBakes)
     // next year begins (91); a worker reuses the values of the 8^3 leaves
     // whose specialised program did not change since its last baked frame.
     TempDir dir;
-    BakeRequest req = sequence(dir / "r.####.vdb", "86-91", 10.0, 0.03);
+    SequenceRequest req = sequence(dir / "r.####.vdb", "86-91", 10.0, 0.03);
     req.jobs = 1;
-    const SequenceReport r = runBakeSequence(req);
+    const SequenceReport r = bakeSequence(req);
     size_t reusedLeaves = 0;
     for (const FrameReport& f : r.frames)
         if (f.outcome == FrameReport::Outcome::Baked && f.frame > 86) {
@@ -188,7 +188,7 @@ TEST(Sequence, UnchangedLeavesAreReusedAndTheFrameIsAFullBakes)
     EXPECT_GT(reusedLeaves, 1000u);
     for (const char* frame : {"89", "90", "91"}) {
         TempDir single;
-        runBakeSequence(sequence(single / "s.####.vdb", frame, 10.0, 0.03));
+        bakeSequence(sequence(single / "s.####.vdb", frame, 10.0, 0.03));
         const std::string name = std::string("00") + frame + ".vdb";
         expectIdentical(*surface(dir / ("r." + name)), *surface(single / ("s." + name)),
                         std::string("frame ") + frame + " with reuse vs alone");
@@ -197,11 +197,39 @@ TEST(Sequence, UnchangedLeavesAreReusedAndTheFrameIsAFullBakes)
     }
 }
 
+TEST(Sequence, RangesOfOnePlanWriteTheFramesOfOneRun)
+{
+    // The voxel size comes from the plan's last frame, not the range's: two
+    // runs of halves of a plan (as two processes would) write the frames
+    // that one run of the whole plan writes, bit for bit.
+    TempDir a, b;
+    SequenceRequest whole = sequence(a / "w.#.vdb", "3-6", 1.0);
+    whole.bake.voxelSize.reset();  // automatic: 512 voxels across year 6
+    const SequenceReport one = bakeSequence(whole);
+    SequenceRequest halves = whole;
+    halves.bake.output = b / "w.#.vdb";
+    const SequencePlan plan = planSequence(halves);
+    ASSERT_EQ(plan.frames.size(), 4u);
+    EXPECT_EQ(plan.voxelSize, one.voxelSize);
+    const SequenceReport first = runSequence(plan, 0, 2), second = runSequence(plan, 2, 4);
+    ASSERT_EQ(first.frames.size(), 2u);
+    ASSERT_EQ(second.frames.size(), 2u);
+    EXPECT_EQ(first.frames[0].frame, 3);
+    EXPECT_EQ(second.frames[1].frame, 6);
+    for (const char* f : {"w.3.vdb", "w.4.vdb", "w.5.vdb", "w.6.vdb"}) {
+        expectIdentical(*surface(a / f), *surface(b / f), std::string("surface of ") + f);
+        EXPECT_EQ(surface(b / f)->voxelSize()[0], one.voxelSize) << f;
+        EXPECT_EQ(readSequenceKey(a / f), readSequenceKey(b / f)) << f;
+    }
+    expectInputError([&] { runSequence(plan, 2, 2); }, "not a range", "empty range");
+    expectInputError([&] { runSequence(plan, 3, 5); }, "not a range", "past the end");
+}
+
 TEST(Sequence, SameSeedSameGridsOtherSeedOtherGrids)
 {
     TempDir a, b;
-    runBakeSequence(sequence(a / "t.#.vdb", "6", 1.0));
-    runBakeSequence(sequence(b / "t.#.vdb", "6", 1.0));
+    bakeSequence(sequence(a / "t.#.vdb", "6", 1.0));
+    bakeSequence(sequence(b / "t.#.vdb", "6", 1.0));
     expectIdentical(*surface(a / "t.6.vdb"), *surface(b / "t.6.vdb"), "same seed");
     // Another seed: the same parameters otherwise.
     std::string text = readTextFile(kPopulus, "test");
@@ -210,9 +238,9 @@ TEST(Sequence, SameSeedSameGridsOtherSeedOtherGrids)
     {
         std::ofstream(other) << text;
     }
-    BakeRequest req = sequence(b / "u.#.vdb", "6", 1.0);
-    req.input = other;
-    runBakeSequence(req);
+    SequenceRequest req = sequence(b / "u.#.vdb", "6", 1.0);
+    req.bake.input = other;
+    bakeSequence(req);
     const auto s1 = surface(a / "t.6.vdb"), s2 = surface(b / "u.6.vdb");
     size_t differ = 0;
     for (auto it = s1->cbeginValueOn(); it; ++it)
@@ -227,9 +255,9 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     // exceeds four times the median change of the growing frames.  (Without
     // leaves: they fall within a tenth of a year, one frame at this rate.)
     TempDir dir;
-    BakeRequest req = sequence(dir / "v.####.vdb", "81-130", 10.0, 0.03);
-    req.model.leaves = false;
-    const SequenceReport r = runBakeSequence(req);
+    SequenceRequest req = sequence(dir / "v.####.vdb", "81-130", 10.0, 0.03);
+    req.bake.model.leaves = false;
+    const SequenceReport r = bakeSequence(req);
     // Volumes of the level sets' meshes (OpenVDB's levelSetVolume, a band
     // integral, jumps by several times the change between frames here, on
     // twigs thinner than the band).
@@ -259,17 +287,17 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
 TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)
 {
     TempDir dir;
-    expectInputError([&] { runBakeSequence(sequence(dir / "a.####.vdb", "1-300", 10.0)); },
+    expectInputError([&] { bakeSequence(sequence(dir / "a.####.vdb", "1-300", 10.0)); },
                      "frame 271 is year 27.1 at 10 frames a year", "past the last year");
-    expectInputError([&] { runBakeSequence(sequence(dir / "a.vdb", "1-3", 1.0)); }, "a run of '#'", "no #");
-    expectInputError([&] { runBakeSequence(sequence(dir / "a.#.vdb", "1-3", 0.0)); }, "--fps-per-year", "fps");
-    BakeRequest scene = sequence(dir / "a.#.vdb", "1-3", 1.0);
-    scene.input = CAMBIUM_SOURCE_DIR "/examples/lsystems/sympodial.l";
-    expectInputError([&] { runBakeSequence(scene); }, "--frames needs a growth parameter file", "not growth");
-    BakeRequest junctions = sequence(dir / "a.#.vdb", "1-3", 1.0);
-    junctions.model.junctions = "blend";
-    expectInputError([&] { runBakeSequence(junctions); }, "a growth parameter file sets its own", "junctions");
-    expectInputError([&] { runBakeSequence(sequence(dir / "a.#.vdb", "20-27", 1.0, 2e-4)); }, "would need about",
+    expectInputError([&] { bakeSequence(sequence(dir / "a.vdb", "1-3", 1.0)); }, "a run of '#'", "no #");
+    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "1-3", 0.0)); }, "--fps-per-year", "fps");
+    SequenceRequest scene = sequence(dir / "a.#.vdb", "1-3", 1.0);
+    scene.bake.input = CAMBIUM_SOURCE_DIR "/examples/lsystems/sympodial.l";
+    expectInputError([&] { bakeSequence(scene); }, "--frames needs a growth parameter file", "not growth");
+    SequenceRequest junctions = sequence(dir / "a.#.vdb", "1-3", 1.0);
+    junctions.bake.model.junctions = ModelOptions::Junctions::Blend;
+    expectInputError([&] { bakeSequence(junctions); }, "a growth parameter file sets its own", "junctions");
+    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "20-27", 1.0, 2e-4)); }, "would need about",
                      "a voxel size needing terabytes");
     EXPECT_TRUE(fs::is_empty(dir.path));
 }

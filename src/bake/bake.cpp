@@ -26,7 +26,6 @@ void checkBakeOptions(const BakeRequest& req)
 {
     if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
         throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
-    checkDeviceOption(req.device);
 }
 
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
@@ -77,12 +76,12 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
 }
 
 
-std::unique_ptr<FieldSampler> makeSampler(const std::string& device)
+std::unique_ptr<FieldSampler> makeSampler(Device device)
 {
-    return device == "cpu" ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
+    return device == Device::Cpu ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
 }
 
-BakeReport runBake(const BakeRequest& req)
+BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
 {
     BakeReport report;
     checkBakeOptions(req);
@@ -103,8 +102,8 @@ BakeReport runBake(const BakeRequest& req)
             thinnest = std::min(thinnest, r);
             thin += 2.0 * r < plan.voxelSize;
         }
-    if (thin && req.notice)
-        req.notice(fmt::format("{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
+    if (thin && callbacks.notice)
+        callbacks.notice(fmt::format("{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
                                "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
                                thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
 
@@ -116,7 +115,7 @@ BakeReport runBake(const BakeRequest& req)
     opt.voxelSize = plan.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
-    opt.progress = req.progress;
+    opt.progress = callbacks.progress;
     const BakedGrids grids = bakeLevelSet(program, *sampler, opt);
     if (grids.stats.activeVoxels == 0)
         throw InputError(fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "

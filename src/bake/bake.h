@@ -14,31 +14,30 @@
 
 namespace cambium {
 
+/// One bake: a model file to one .vdb file.
 struct BakeRequest {
-    std::string input;                 ///< scene, L-system or skeleton file
+    std::string input;                 ///< scene, L-system, skeleton or growth parameter file
     ModelOptions model;                ///< how L-systems and skeletons are built
-    std::string output;                ///< .vdb path
+    std::string output;                ///< .vdb path (a sequence: a pattern with a run of '#')
     std::optional<double> voxelSize;   ///< default: 512 voxels across the surface bounds
     double halfWidth = 3.0;            ///< voxels
-    std::string device = "opencl";     ///< "opencl" or "cpu"
+    Device device = Device::OpenCL;
     bool fog = false;
     bool half = false;
     int threads = 0;                   ///< 0: all cores
-    std::function<void(const char*, double)> progress;
-    /// Things a user should know that are not errors (stale temporaries
-    /// removed, damaged frames baked again), one line each.
-    std::function<void(const std::string&)> notice;
-
-    // Growth sequences (bake/sequence.h): frames FIRST-LAST[:STEP] of a
-    // growth parameter file at `fpsPerYear` frames a year (frame f at year
-    // f / fpsPerYear), written to `output` with a run of '#'.
-    std::string frames;
-    double fpsPerYear = 1.0;
-    bool resume = false;  ///< keep the frames a previous run of the same bake finished
-    int jobs = 0;         ///< frames baked at once; 0: as many as cores and memory allow
 };
 
-/// InputError unless the half-width and device are valid.
+/// How a bake talks to whoever runs it (the library never prints).
+struct BakeCallbacks {
+    /// A stage name and the fraction done; may be called from several
+    /// threads at once.
+    std::function<void(const char*, double)> progress;
+    /// Things a user should know that are not errors (thin primitives, stale
+    /// temporaries removed, damaged frames baked again), one line each.
+    std::function<void(const std::string&)> notice;
+};
+
+/// InputError unless the half-width is valid.
 void checkBakeOptions(const BakeRequest& request);
 
 /// The voxel size of a bake: `request.voxelSize` or 512 voxels across the
@@ -56,8 +55,9 @@ struct VoxelPlan {
 constexpr double kMinVoxelSize = 1e-4;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
-/// The sampler of `device` ("opencl" names a failure and suggests --device cpu).
-std::unique_ptr<FieldSampler> makeSampler(const std::string& device);
+/// The sampler of `device` (an OpenCL failure is named with a hint to use
+/// --device cpu).
+std::unique_ptr<FieldSampler> makeSampler(Device device);
 
 struct BakeReport {
     BakeStats stats;
@@ -71,6 +71,6 @@ struct BakeReport {
 /// throws InputError naming the problem before any work or output; then
 /// bakes and writes.  An OpenCL failure names the problem and suggests
 /// --device cpu.
-BakeReport runBake(const BakeRequest& request);
+BakeReport runBake(const BakeRequest& request, const BakeCallbacks& callbacks = {});
 
 }  // namespace cambium

@@ -567,16 +567,16 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         // Voxels come out plane by plane in x + 8 y order: voxel order.
     });
     const double tEd = secondsSince(tEdges);
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "neighbours {:.3f} s, inside bits {:.3f} s, sign changes and queries {:.3f} s\n", tNb,
-                   tBits - tNb, tEd - tBits);
+    st.timings.neighbours = tNb;
+    st.timings.insideBits = tBits - tNb;
+    st.timings.signChanges = tEd - tBits;
     t = Clock::now();
     auto surface = parallelArray<SurfaceSample>(np);
     sampler.sampleSurface(topo.leaves, queries.get(), np, h, surface.get());
     queries.reset();
-    st.samplingSeconds = valueSeconds + secondsSince(t);
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "sampling: values {:.3f} s, surface {:.3f} s ({} points)\n", valueSeconds, secondsSince(t), np);
+    st.timings.values = valueSeconds;
+    st.timings.surfaceSamples = secondsSince(t);
+    st.samplingSeconds = valueSeconds + st.timings.surfaceSamples;
     progress("sampling", 1.0);
     topo.pool = {};
 
@@ -768,15 +768,16 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
         progress("assembly", double(++tilesDone) / double(tileStart.size() - 1));
     });
     const auto tTree = Clock::now();
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr,
-                   "propagation and leaves {:.3f} s (thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s "
-                   "(x {:.3f}, y {:.3f}, z {:.3f}), leaves {:.3f} s)\n",
-                   secondsSince(t), haloNs * 1e-9, pointsNs * 1e-9, sweepNs * 1e-9, axisNs[0] * 1e-9, axisNs[1] * 1e-9,
-                   axisNs[2] * 1e-9, leavesNs * 1e-9);
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "{} tiles, {} leaves with halos for {} leaves\n", tileStart.size() - 1,
-                   localLeaves.load(), n);
+    BakeTimings& tm = st.timings;
+    tm.propagation = secondsSince(t);
+    tm.halos = double(haloNs) * 1e-9;
+    tm.points = double(pointsNs) * 1e-9;
+    tm.sweeps = double(sweepNs) * 1e-9;
+    for (int k = 0; k < 3; ++k)
+        tm.sweepAxis[k] = double(axisNs[k]) * 1e-9;
+    tm.leaves = double(leavesNs) * 1e-9;
+    tm.tiles = tileStart.size() - 1;
+    tm.tileLeaves = localLeaves;
     value.reset();
     edges.reset();
     surface.reset();
@@ -804,9 +805,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler,
     // leaf level it would replace those signs by a scan-line guess).
     const double tAdd = secondsSince(tTree);
     openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, 1);
-    if (std::getenv("CAMBIUM_TIMING"))
-        fmt::print(stderr, "freeing {:.3f} s, tree {:.3f} s, flood fill {:.3f} s\n", tFree, tAdd - tFree,
-                   secondsSince(tTree) - tAdd);
+    tm.freeing = tFree;
+    tm.tree = tAdd - tFree;
+    tm.floodFill = secondsSince(tTree) - tAdd;
     if (opt.fog)
         addFog(out);
     st.seconds = secondsSince(start);

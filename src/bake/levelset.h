@@ -39,6 +39,18 @@ struct BakeOptions {
     std::function<void(const char* stage, double fraction)> progress;
 };
 
+/// Where a bake's time went, stage by stage (seconds; thread time where
+/// noted), for `cambium bake --timings`.
+struct BakeTimings {
+    double values = 0.0;          ///< sampling every voxel of the candidate leaves
+    double neighbours = 0.0, insideBits = 0.0, signChanges = 0.0;  ///< finding the surface voxels
+    double surfaceSamples = 0.0;  ///< sampling gradients and colours there
+    double propagation = 0.0;     ///< propagation and grid leaves, wall time
+    double halos = 0.0, points = 0.0, sweeps = 0.0, sweepAxis[3] = {0.0, 0.0, 0.0}, leaves = 0.0;  ///< thread time
+    double freeing = 0.0, tree = 0.0, floodFill = 0.0;
+    size_t tiles = 0, tileLeaves = 0;  ///< 64^3 tiles, and their leaves with halos
+};
+
 struct BakeStats {
     double voxelSize = 0.0;
     size_t boxesTested = 0;      ///< interval tests during the topology search
@@ -49,6 +61,7 @@ struct BakeStats {
     size_t surfacePoints = 0;    ///< voxels next to a sign change (the first layer)
     double meanProgramLength = 0.0;  ///< instructions per leaf program
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
+    BakeTimings timings;
 };
 
 /// The grids (io/grids.h: `surface`, `Cd` on the band, `density` with

@@ -1,6 +1,7 @@
 // cambium — growth frame sequences.
 #include "bake/sequence.h"
 
+#include "core/system.h"
 #include "io/vdb.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -17,6 +18,7 @@
 #include <exception>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 namespace cambium {
@@ -51,17 +53,19 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
 
 }  // namespace
 
-std::string sequenceKey(const BakeRequest& req, const std::string& text, double voxelSize)
+std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
-    const std::string options = fmt::format("h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize,
-                                            req.halfWidth, req.fpsPerYear, req.model.leaves, req.fog, req.half);
+    const std::string options =
+        fmt::format("h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize, req.bake.halfWidth,
+                    req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half);
     return fmt::format("{:016x}", fnv1a(options, fnv1a(text)));
 }
 
-SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(const FrameReport&)>& done)
+SequencePlan planSequence(const SequenceRequest& request)
 {
-    const auto start = Clock::now();
-    SequenceReport report;
+    SequencePlan plan;
+    plan.request = request;
+    const BakeRequest& req = request.bake;
     checkBakeOptions(req);
     checkModelOptions(req.model);
     if (!isGrowthParameterFile(req.input))
@@ -69,161 +73,215 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
                                      "docs/growth-format.md)",
                                      req.input));
     checkGrowthOptions(req.input, req.model);
-    if (!(std::isfinite(req.fpsPerYear) && req.fpsPerYear > 0.0 && req.fpsPerYear <= 1e6))
-        throw InputError(fmt::format("--fps-per-year must be a positive number (got {})", req.fpsPerYear));
+    if (!(std::isfinite(request.fpsPerYear) && request.fpsPerYear > 0.0 && request.fpsPerYear <= 1e6))
+        throw InputError(fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
     if (!isFramePattern(req.output))
         throw InputError(fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
                                      "out/tree.####.vdb",
                                      req.output));
-    const std::vector<long long> frames = parseFrames(req.frames);
+    plan.frames = parseFrames(request.frames);
     const std::string text = readTextFile(req.input, "growth parameter file");
-    const GrowthModel model(parseGrowthParameters(text, req.input));
+    plan.model = std::make_shared<const GrowthModel>(parseGrowthParameters(text, req.input));
+    const GrowthModel& model = *plan.model;
     const int years = model.params().years;
-    std::vector<double> times;
-    std::vector<std::string> paths;
-    for (long long f : frames) {
-        const double t = double(f) / req.fpsPerYear;
+    for (long long f : plan.frames) {
+        const double t = double(f) / request.fpsPerYear;
         if (!(t >= 0.0 && t <= years))
             throw InputError(fmt::format("frame {} is year {:g} at {:g} frames a year, outside the tree's 0 to {} "
                                          "years ({})",
-                                         f, t, req.fpsPerYear, years, req.input));
-        times.push_back(t);
-        paths.push_back(framePath(req.output, f));
-        checkOutputPath(paths.back(), paths.size() == 1);
+                                         f, t, request.fpsPerYear, years, req.input));
+        plan.times.push_back(t);
+        plan.paths.push_back(framePath(req.output, f));
+        checkOutputPath(plan.paths.back(), plan.paths.size() == 1);
     }
 
     // The last frame's tree (the largest) sets the voxel size, the same for
     // every frame, and the memory a bake needs.
     const TreeBuildOptions build = model.buildOptions();
-    const Skeleton last = model.skeleton(times.back(), req.model.leaves);
+    const Skeleton last = model.skeleton(plan.times.back(), req.model.leaves);
     if (last.internodes.empty())
         throw InputError(fmt::format("{}: the tree has not begun to grow by year {:g} (the last frame): nothing "
                                      "to bake",
-                                     req.input, times.back()));
+                                     req.input, plan.times.back()));
     const FieldProgram lastProgram = FieldProgram::compile(buildTree(last, build));
-    VoxelPlan plan = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped below
+    VoxelPlan voxels = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
     if (req.model.leaves) {
         // Wood only grows, but leaves come and go within a year: the last
         // year's frames in leaf may need more than the last frame.
         BakeRequest fixed = req;
-        fixed.voxelSize = plan.voxelSize;
-        const int lastYear = growthYear(times.back());
-        for (size_t i = 0; i + 1 < times.size(); ++i)
-            if (growthYear(times[i]) == lastYear) {
-                const Skeleton sk = model.skeleton(times[i], true);
+        fixed.voxelSize = voxels.voxelSize;
+        const int lastYear = growthYear(plan.times.back());
+        for (size_t i = 0; i + 1 < plan.times.size(); ++i)
+            if (growthYear(plan.times[i]) == lastYear) {
+                const Skeleton sk = model.skeleton(plan.times[i], true);
                 if (!sk.internodes.empty())
-                    plan.bytes = std::max(plan.bytes,
-                                          planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
+                    voxels.bytes = std::max(voxels.bytes,
+                                            planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
             }
     }
+    plan.voxelSize = voxels.voxelSize;
+    plan.autoVoxelSize = voxels.automatic;
+    plan.bytesPerFrame = voxels.bytes;
+    plan.threshold = lastProgram.threshold();
+    plan.groups = yearRuns(plan.times);
+    plan.key = sequenceKey(request, text, plan.voxelSize);
+    return plan;
+}
+
+namespace {
+
+/// Which frames of [first, last) a previous run of this plan finished (with
+/// --resume): a whole file with the plan's key.  One from another bake is
+/// not overwritten silently (InputError), a damaged one is baked again.
+std::vector<bool> finishedFrames(const SequencePlan& plan, size_t first, size_t last,
+                                 const std::function<void(const std::string&)>& notice)
+{
+    std::vector<bool> finished(plan.frames.size(), false);
+    if (!plan.request.resume)
+        return finished;
+    for (size_t i = first; i < last; ++i)
+        if (std::filesystem::exists(plan.paths[i])) {
+            std::string found;
+            try {
+                found = readSequenceKey(plan.paths[i]);
+            } catch (const InputError& e) {
+                notice(fmt::format("{} (baking it again)", e.what()));
+                continue;
+            }
+            if (found != plan.key)
+                throw InputError(fmt::format("{} exists from another bake (other parameters or options): remove "
+                                             "it, or bake without --resume to overwrite it",
+                                             plan.paths[i]));
+            finished[i] = true;
+        }
+    return finished;
+}
+
+/// One worker's state between the frames of a reuse group.
+struct FrameBaker {
+    const SequencePlan& plan;
+    FieldSampler* sampler;
+    LeafValueCache cache;                 // the last baked frame's leaves: unchanged ones are not sampled again
+    std::optional<FieldProgram> previous; // the last frame baked in this group
+    BakedGrids grids;
+
+    /// Bakes (or reuses) frame i and writes its file.
+    void bake(size_t i, FrameReport& fr)
+    {
+        const BakeRequest& req = plan.request.bake;
+        const Skeleton sk = plan.model->skeleton(plan.times[i], req.model.leaves);
+        BakeOptions opt;
+        opt.voxelSize = plan.voxelSize;
+        opt.halfWidth = req.halfWidth;
+        opt.fog = req.fog;
+        opt.reuse = &cache;
+        if (sk.internodes.empty()) {
+            grids = emptyLevelSet(opt);
+            fr.outcome = FrameReport::Outcome::Empty;
+            previous.reset();
+        } else {
+            FieldProgram program = FieldProgram::compile(buildTree(sk, plan.model->buildOptions()));
+            if (previous && previous->identical(program)) {
+                fr.outcome = FrameReport::Outcome::Reused;
+            } else {
+                grids = bakeLevelSet(program, *sampler, opt);
+                fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked : FrameReport::Outcome::Empty;
+                previous = std::move(program);
+            }
+        }
+        fr.stats = grids.stats;
+        VdbFileInfo info;
+        info.scene = req.input;
+        info.threshold = plan.threshold;
+        info.halfWidth = req.halfWidth;
+        info.frame = plan.frames[i];
+        info.time = plan.times[i];
+        info.half = req.half;
+        info.sequence = plan.key;
+        writeVdb(grids, plan.paths[i], info);
+    }
+};
+
+}  // namespace
+
+SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last, const SequenceCallbacks& callbacks)
+{
+    const auto start = Clock::now();
+    if (!(first < last && last <= plan.frames.size()))
+        throw InputError(fmt::format("frames [{}, {}) are not a range of the plan's {} frames", first, last,
+                                     plan.frames.size()));
+    const SequenceRequest& request = plan.request;
+    const BakeRequest& req = request.bake;
+    SequenceReport report;
     report.voxelSize = plan.voxelSize;
-    report.autoVoxelSize = plan.automatic;
+    report.autoVoxelSize = plan.autoVoxelSize;
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    const int byMemory = int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytes, 1.0))));
-    report.jobs = std::max(1, std::min({req.jobs > 0 ? req.jobs : cores, byMemory, int(frames.size())}));
+    const int byMemory = int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytesPerFrame, 1.0))));
+    report.jobs = std::max(1, std::min({request.jobs > 0 ? request.jobs : cores, byMemory, int(last - first)}));
     auto notice = [&](const std::string& line) {
-        if (req.notice)
-            req.notice(line);
+        if (callbacks.notice)
+            callbacks.notice(line);
     };
 
-    // One run at a time writes a pattern; temporaries that killed runs left
-    // (files appear by rename, so these were never frames) are removed.
-    const OutputLock outputLock(req.output);
+    // One run at a time writes a pattern (or a range of it); temporaries that
+    // killed runs left (files appear by rename, so these were never frames)
+    // are removed.
+    const bool whole = first == 0 && last == plan.frames.size();
+    const OutputLock outputLock(whole ? req.output
+                                      : fmt::format("{}.frames-{}-{}", req.output, plan.frames[first],
+                                                    plan.frames[last - 1]));
     for (const std::string& tmp : staleTemporaries(req.output))
         if (std::filesystem::remove(tmp))
             notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
-
-    // Resuming: a finished frame is a whole file with this bake's key; one
-    // from another bake is not overwritten silently, a damaged one is baked
-    // again.
-    const std::string key = sequenceKey(req, text, plan.voxelSize);
-    std::vector<bool> finished(frames.size(), false);
-    if (req.resume)
-        for (size_t i = 0; i < frames.size(); ++i)
-            if (std::filesystem::exists(paths[i])) {
-                std::string found;
-                try {
-                    found = readSequenceKey(paths[i]);
-                } catch (const InputError& e) {
-                    notice(fmt::format("{} (baking it again)", e.what()));
-                    continue;
-                }
-                if (found != key)
-                    throw InputError(fmt::format("{} exists from another bake (other parameters or options): remove "
-                                                 "it, or bake without --resume to overwrite it",
-                                                 paths[i]));
-                finished[i] = true;
-            }
+    const std::vector<bool> finished = finishedFrames(plan, first, last, notice);
 
     const ThreadLimit threads(req.threads);
-    report.frames.resize(frames.size());
-    const std::vector<std::vector<size_t>> runs = yearRuns(times);
+    report.frames.resize(last - first);
+    std::vector<std::vector<size_t>> groups;  // the plan's groups within the range
+    for (const std::vector<size_t>& g : plan.groups) {
+        std::vector<size_t> in;
+        for (size_t i : g)
+            if (i >= first && i < last)
+                in.push_back(i);
+        if (!in.empty())
+            groups.push_back(std::move(in));
+    }
     // One sampler per worker, made here one after the other (making OpenCL
     // contexts from several threads at once fails in the ICD loader).
     std::vector<std::unique_ptr<FieldSampler>> samplers;
-    if (std::find(finished.begin(), finished.end(), false) != finished.end())
+    if (std::find(finished.begin() + long(first), finished.begin() + long(last), false) !=
+        finished.begin() + long(last))
         for (int k = 0; k < report.jobs; ++k)
             samplers.push_back(makeSampler(req.device));
-    report.device = samplers.empty() ? req.device : samplers.front()->name();
+    report.device = samplers.empty() ? deviceName(req.device) : samplers.front()->name();
     std::atomic<size_t> next{0};
     std::atomic<bool> failed{false};
     std::exception_ptr error;
     std::mutex mutex;
     auto worker = [&](int w) {
         try {
-            FieldSampler* sampler = samplers.empty() ? nullptr : samplers[size_t(w)].get();
-            LeafValueCache cache;  // the last baked frame's leaves: unchanged ones are not sampled again
-            for (size_t r; !failed && (r = next++) < runs.size();) {
-                std::optional<FieldProgram> previous;  // the last frame baked in this run
-                BakedGrids grids;
-                for (size_t i : runs[r]) {
+            FrameBaker baker{plan, samplers.empty() ? nullptr : samplers[size_t(w)].get(), {}, {}, {}};
+            for (size_t r; !failed && (r = next++) < groups.size();) {
+                baker.previous.reset();
+                baker.grids = {};  // (the last group's grids are not kept through this one)
+                for (size_t i : groups[r]) {
                     if (failed)
                         return;
                     const auto t0 = Clock::now();
-                    FrameReport& fr = report.frames[i];
-                    fr.frame = frames[i];
-                    fr.time = times[i];
-                    fr.path = paths[i];
+                    FrameReport& fr = report.frames[i - first];
+                    fr.frame = plan.frames[i];
+                    fr.time = plan.times[i];
+                    fr.path = plan.paths[i];
                     if (finished[i]) {
                         fr.outcome = FrameReport::Outcome::Skipped;
-                        previous.reset();
+                        baker.previous.reset();
                     } else {
-                        const Skeleton sk = model.skeleton(times[i], req.model.leaves);
-                        BakeOptions opt;
-                        opt.voxelSize = plan.voxelSize;
-                        opt.halfWidth = req.halfWidth;
-                        opt.fog = req.fog;
-                        opt.reuse = &cache;
-                        if (sk.internodes.empty()) {
-                            grids = emptyLevelSet(opt);
-                            fr.outcome = FrameReport::Outcome::Empty;
-                            previous.reset();
-                        } else {
-                            FieldProgram program = FieldProgram::compile(buildTree(sk, build));
-                            if (previous && previous->identical(program)) {
-                                fr.outcome = FrameReport::Outcome::Reused;
-                            } else {
-                                grids = bakeLevelSet(program, *sampler, opt);
-                                fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked
-                                                                      : FrameReport::Outcome::Empty;
-                                previous = std::move(program);
-                            }
-                        }
-                        fr.stats = grids.stats;
-                        VdbFileInfo info;
-                        info.scene = req.input;
-                        info.threshold = lastProgram.threshold();
-                        info.halfWidth = req.halfWidth;
-                        info.frame = frames[i];
-                        info.time = times[i];
-                        info.half = req.half;
-                        info.sequence = key;
-                        writeVdb(grids, paths[i], info);
+                        baker.bake(i, fr);
                     }
                     fr.seconds = secondsSince(t0);
-                    if (done) {
+                    if (callbacks.done) {
                         std::lock_guard<std::mutex> lock(mutex);
-                        done(fr);
+                        callbacks.done(fr);
                     }
                 }
             }
@@ -244,6 +302,15 @@ SequenceReport runBakeSequence(const BakeRequest& req, const std::function<void(
         std::rethrow_exception(error);
     report.seconds = secondsSince(start);
     report.peakMemoryBytes = peakMemoryBytes();
+    return report;
+}
+
+SequenceReport bakeSequence(const SequenceRequest& request, const SequenceCallbacks& callbacks)
+{
+    const auto start = Clock::now();
+    const SequencePlan plan = planSequence(request);
+    SequenceReport report = runSequence(plan, 0, plan.frames.size(), callbacks);
+    report.seconds = secondsSince(start);
     return report;
 }
 

@@ -1,15 +1,57 @@
 // cambium — baking a growth model into a frame sequence: one .vdb per frame,
 // the same transform and grid names in every file, frame and time in the
 // metadata (what `cambium bake PARAMS --frames A-B -o tree.####.vdb` runs).
+//
+// A sequence is a plan (every frame's time and file, the one voxel size of
+// the whole sequence, the reuse groups, the memory a frame needs), made once
+// and checked before any output, and a runner that bakes any range of it:
+// two processes baking halves of one plan write frames that one process
+// would have written.
 #pragma once
 
 #include "bake/bake.h"
+#include "model/growth.h"
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace cambium {
+
+struct SequenceRequest {
+    /// The growth parameter file, the output pattern (a run of '#' for the
+    /// frame number), voxel size (default: 512 voxels across the last
+    /// frame), half-width, device, fog, half, threads; model.leaves.
+    BakeRequest bake;
+    std::string frames;      ///< FIRST-LAST[:STEP]; frame f is year f / fpsPerYear
+    double fpsPerYear = 1.0;
+    bool resume = false;     ///< keep the frames a previous run of the same bake finished
+    int jobs = 0;            ///< frames baked at once; 0: as many as cores and memory allow
+};
+
+/// Everything a sequence is, decided before any frame is baked.
+struct SequencePlan {
+    SequenceRequest request;
+    std::shared_ptr<const GrowthModel> model;
+    std::vector<long long> frames;      ///< in the order of --frames
+    std::vector<double> times;          ///< years, one per frame
+    std::vector<std::string> paths;     ///< files, one per frame
+    double voxelSize = 0.0;             ///< the whole sequence's (the last frame sizes it)
+    bool autoVoxelSize = false;
+    double bytesPerFrame = 0.0;         ///< estimated memory of the largest frame's bake
+    double threshold = 0.5;
+    /// Reuse groups: frames of one growth year, in order (indices into
+    /// frames).  A worker bakes a group in order, so that a dormant frame
+    /// finds its predecessor's grids and unchanged leaves.
+    std::vector<std::vector<size_t>> groups;
+    std::string key;                    ///< sequenceKey: what --resume compares
+};
+
+/// Validates everything (parameters, frames and their times, output pattern,
+/// voxel size at the last frame, memory at the last year's frames) and
+/// throws InputError naming the problem before any output.
+SequencePlan planSequence(const SequenceRequest& request);
 
 struct FrameReport {
     long long frame = 0;
@@ -33,23 +75,30 @@ struct SequenceReport {
     std::string device;
 };
 
-/// Within a worker, a baked frame also reuses the sampled values of the
-/// 8^3 leaves whose specialised program is unchanged since the frame it baked
-/// before (LeafValueCache): identical to a full bake of the frame.
-///
-/// Validates everything first (parameters, frames and their times, output
-/// pattern, voxel size at the last frame, memory at the last year's frames,
-/// resumable files) and
-/// throws InputError naming the problem before any output; then bakes the
-/// frames, `jobs` at once (each year's frames in order by one worker, so a
-/// frame whose BlobTree equals the previous one reuses its grids), and calls
-/// `done` after each frame (from worker threads, one at a time).
-SequenceReport runBakeSequence(const BakeRequest& request,
-                               const std::function<void(const FrameReport&)>& done = {});
+struct SequenceCallbacks {
+    /// Things a user should know that are not errors, one line each.
+    std::function<void(const std::string&)> notice;
+    /// After each frame (from worker threads, one at a time).
+    std::function<void(const FrameReport&)> done;
+};
+
+/// Bakes frames [first, last) of the plan (indices into plan.frames), `jobs`
+/// at once, each reuse group in order by one worker.  Within a worker, a
+/// baked frame also reuses the sampled values of the 8^3 leaves whose
+/// specialised program is unchanged since the frame it baked before
+/// (LeafValueCache): identical to a full bake of the frame.  One run at a
+/// time writes a range of a pattern (a lock file); temporaries that killed
+/// runs left are removed; with --resume, finished frames of this plan are
+/// kept, damaged ones baked again, and another bake's refused (InputError).
+SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
+                           const SequenceCallbacks& callbacks = {});
+
+/// planSequence, then runSequence of every frame.
+SequenceReport bakeSequence(const SequenceRequest& request, const SequenceCallbacks& callbacks = {});
 
 /// The key a sequence's files carry (file metadata `cambium_sequence`): a
 /// hash of the parameter file's text and every option that changes a frame.
 /// --resume keeps a finished frame only when its key matches.
-std::string sequenceKey(const BakeRequest& request, const std::string& parameterText, double voxelSize);
+std::string sequenceKey(const SequenceRequest& request, const std::string& parameterText, double voxelSize);
 
 }  // namespace cambium

@@ -5,6 +5,7 @@
 #include "bake/topology.h"
 #include "bench/median.h"
 #include "core/error.h"
+#include "core/system.h"
 #include "model/skeleton.h"
 
 #include "cb_primitives.h"
@@ -99,34 +100,17 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
     return t * voxels / double(patch);
 }
 
-std::string thousands(double v)
-{
-    std::string s = fmt::format("{:.0f}", v);
-    for (int i = int(s.size()) - 3; i > 0; i -= 3)
-        s.insert(size_t(i), ",");
-    return s;
-}
-
 }  // namespace
 
-std::string generateSkeleton(const std::string& generator, int internodes, const std::string& dir)
+std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu, int repeats,
+                                          const std::function<void(const BakeBenchResult&)>& done)
 {
-    const std::string path = fmt::format("{}/tree{}.txt", dir, internodes);
-    const std::string cmd = fmt::format("python3 '{}' --internodes {} > '{}'", generator, internodes, path);
-    if (std::system(cmd.c_str()) != 0)
-        throw InputError(fmt::format("could not run the workload generator: {}", cmd));
-    return path;
-}
-
-std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu,
-                                                    int repeats)
-{
-    std::vector<std::vector<BakeBenchRow>> all;
+    std::vector<BakeBenchResult> all;
     auto opencl = makeOpenCLSampler();  // built once, as across the frames of a sequence
     auto cpu = makeCpuSampler();
     repeats = std::max(1, repeats);
     for (const BakeBenchCase& c : cases) {
-        const Skeleton skeleton = loadSkeleton(c.skeleton);
+        const Skeleton& skeleton = c.skeleton;
         const BlobTree tree = skeletonToBlend(skeleton);
         const FieldProgram program = FieldProgram::compile(tree);
         const double h = c.voxelSize;
@@ -152,7 +136,7 @@ std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchC
         rows.push_back({"(a) cambium, OpenCL on PoCL"});
         if (!skipCpu)
             rows.push_back({"(b) cambium, CPU path (TBB)"});
-        rows.push_back({fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", thousands(double(sp.size())))});
+        rows.push_back({fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", formatCount(sp.size()))});
         std::vector<std::vector<double>> times(rows.size());
         for (int rep = 0; rep < repeats; ++rep) {
             for (size_t m = 0; m < rows.size(); ++m) {
@@ -194,21 +178,10 @@ std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchC
             r.peakBytes = voxels * sizeof(float);  // the dense grid it would fill
             rows.insert(rows.end() - 1, r);
         }
-        fmt::print("\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels; "
-                   "median of {} runs\n",
-                   c.label, thousands(double(skeleton.internodes.size())), h, c.halfWidth,
-                   thousands(boxVoxels), repeats);
-        fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels",
-                   "M voxels/s", "peak MB", "time/(a)");
-        for (const BakeBenchRow& r : rows) {
-            const bool dense = r.method.rfind("(c)", 0) == 0;
-            fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10.0f} {:>10.2f}\n", r.method,
-                       fmt::format("{}{:.3g}", r.estimated ? "~" : "", r.seconds),
-                       dense ? "(dense)" : thousands(r.activeVoxels),
-                       dense ? std::string("-") : fmt::format("{:.3g}", r.activeVoxels / r.seconds * 1e-6),
-                       r.peakBytes / 1e6, r.seconds / rows[0].seconds);
-        }
-        all.push_back(rows);
+        BakeBenchResult result{c.label, skeleton.internodes.size(), h, c.halfWidth, boxVoxels, repeats, rows};
+        if (done)
+            done(result);
+        all.push_back(std::move(result));
     }
     return all;
 }

@@ -2,13 +2,16 @@
 // would do the same job today, side by side in one process.
 #pragma once
 
+#include "model/skeleton.h"
+
+#include <functional>
 #include <string>
 #include <vector>
 
 namespace cambium {
 
 struct BakeBenchCase {
-    std::string skeleton;      ///< skeleton file (docs/skeleton-format.md)
+    Skeleton skeleton;         ///< e.g. generateBenchSkeleton's
     std::string label;         ///< e.g. "1k internodes"
     double voxelSize = 0.01;
     double halfWidth = 3.0;
@@ -22,16 +25,25 @@ struct BakeBenchRow {
     double peakBytes = 0.0;    ///< peak resident memory during the run
 };
 
+/// One case's table.
+struct BakeBenchResult {
+    std::string label;
+    size_t primitives = 0;
+    double voxelSize = 0.0, halfWidth = 0.0;
+    double boxVoxels = 0.0;    ///< voxels of the bounding box (what (c) evaluates)
+    int repeats = 0;
+    std::vector<BakeBenchRow> rows;  ///< (a), (b) unless skipped, (c), (d)
+};
+
 /// Runs, for each case: (a) cambium's OpenCL bake, (b) cambium's CPU bake
 /// over the same topology, (c) a naive dense evaluation of the same field
 /// (every voxel of the bounding box, every primitive; extrapolated from a
 /// timed slab), (d) OpenVDB's ParticlesToLevelSet of spheres along every
 /// internode (minimum radius lowered to 1 voxel).  (a), (b) and (d) run in
-/// turn `repeats` times and report their median.  Prints the table.
-std::vector<std::vector<BakeBenchRow>> runBakeBench(const std::vector<BakeBenchCase>& cases,
-                                                    bool skipCpu = false, int repeats = 3);
-
-/// Writes skeletons with ../shared/bench/gen_skeleton.py (python3).
-std::string generateSkeleton(const std::string& generator, int internodes, const std::string& dir);
+/// turn `repeats` times and report their median.  `done` gets each case's
+/// table as it is finished.
+std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu = false,
+                                          int repeats = 3,
+                                          const std::function<void(const BakeBenchResult&)>& done = {});
 
 }  // namespace cambium

@@ -3,6 +3,10 @@
 // whole sequence, against paper 000's figures for year 27.
 #pragma once
 
+#include "core/system.h"
+
+#include <functional>
+
 #include <string>
 #include <vector>
 
@@ -13,13 +17,43 @@ struct GrowthBenchRequest {
     std::vector<int> years{5, 10, 20, 27};
     double voxelSize = 0.01;
     double fpsPerYear = 1.0;          ///< the whole sequence's frame rate (0: no sequence)
-    std::string device = "opencl";
+    Device device = Device::OpenCL;
     bool leaves = false;
 };
 
-/// Prints one row per year (ascending: the process's peak memory is then
-/// that year's) and the sequence of every year's frames baked into a
-/// temporary directory.
-void runGrowthBench(const GrowthBenchRequest& request, const std::string& directory);
+/// What the run measures before the first year.
+struct GrowthBenchSetup {
+    size_t branches = 0;
+    int years = 0;
+    double globalSeconds = 0.0;  ///< the global phase of the growth model
+    std::string device;
+};
+
+/// One year's tree, built, baked and written.
+struct GrowthBenchYear {
+    int year = 0;
+    size_t internodes = 0, primitives = 0, operators = 0, activeVoxels = 0;
+    double modelSeconds = 0.0, bakeSeconds = 0.0, writeSeconds = 0.0;
+    double fileBytes = 0.0, peakBytes = 0.0;  ///< the process's peak so far (years ascend)
+};
+
+/// The whole sequence at fpsPerYear.
+struct GrowthBenchSequence {
+    size_t frames = 0, reused = 0, leaves = 0, reusedLeaves = 0;
+    double seconds = 0.0, fileBytes = 0.0, peakBytes = 0.0;
+    int jobs = 0;
+};
+
+struct GrowthBenchCallbacks {
+    std::function<void(const GrowthBenchSetup&)> setup;
+    std::function<void(const GrowthBenchYear&)> year;
+    std::function<void(const GrowthBenchSequence&)> sequence;
+};
+
+/// Measures one row per year (ascending: the process's peak memory is then
+/// that year's) and the sequence of every year's frames baked into
+/// `directory`, reporting each as it is done.
+void runGrowthBench(const GrowthBenchRequest& request, const std::string& directory,
+                    const GrowthBenchCallbacks& callbacks);
 
 }  // namespace cambium

@@ -26,12 +26,6 @@ std::string infoString(Query query, Handle h, Param what)
 
 }  // namespace
 
-void checkDeviceOption(const std::string& device)
-{
-    if (device != "opencl" && device != "cpu")
-        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", device));
-}
-
 void throwOpenCLHint(const OpenCLError& e, const char* action)
 {
     throw InputError(fmt::format("{}\n(use --device cpu to {} on the CPU without OpenCL)", e.what(), action));

@@ -29,9 +29,6 @@ struct OpenCLDeviceInfo {
 /// Every device of every platform; empty when no OpenCL platform is installed.
 std::vector<OpenCLDeviceInfo> listOpenCLDevices();
 
-/// The --device option of bake and render: InputError unless "opencl" or "cpu".
-void checkDeviceOption(const std::string& device);
-
 [[noreturn]] void throwOpenCLHint(const OpenCLError& e, const char* action);
 
 /// Runs f; an OpenCLError from it becomes an InputError that says how to do

@@ -1,6 +1,8 @@
 // cambium — memory available and used.
 #include "core/system.h"
 
+#include "core/error.h"
+
 #include <tbb/global_control.h>
 
 #include <fmt/format.h>
@@ -54,5 +56,22 @@ ThreadLimit::ThreadLimit(int threads)
 }
 
 ThreadLimit::~ThreadLimit() = default;
+
+std::string formatCount(double count)
+{
+    std::string s = fmt::format("{:.0f}", count);
+    for (int i = int(s.size()) - 3; i > (s[0] == '-' ? 1 : 0); i -= 3)
+        s.insert(size_t(i), ",");
+    return s;
+}
+
+const char* deviceName(Device device) { return device == Device::Cpu ? "cpu" : "opencl"; }
+
+Device parseDevice(const std::string& name)
+{
+    if (name != "opencl" && name != "cpu")
+        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", name));
+    return name == "cpu" ? Device::Cpu : Device::OpenCL;
+}
 
 }  // namespace cambium

@@ -15,6 +15,8 @@ double availableMemoryBytes();
 double peakMemoryBytes();
 /// "1.5 GB": bytes in decimal units, three significant digits.
 std::string formatBytes(double bytes);
+/// "1,234,567": a count with thousands separated (rounded to a whole number).
+std::string formatCount(double count);
 
 
 /// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
@@ -25,5 +27,13 @@ public:
 private:
     std::unique_ptr<tbb::global_control> control_;
 };
+
+/// Where fields are sampled and level sets ray-marched: OpenCL kernels (on
+/// PoCL here, a GPU's driver elsewhere) or the CPU reference paths.
+enum class Device { OpenCL, Cpu };
+/// "opencl" or "cpu", the --device option's values.
+const char* deviceName(Device device);
+/// InputError unless `name` is "opencl" or "cpu".
+Device parseDevice(const std::string& name);
 
 }  // namespace cambium

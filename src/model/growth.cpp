@@ -3,6 +3,7 @@
 
 #include "blobtree/stats.h"
 #include "core/error.h"
+#include "core/random.h"
 #include "core/math.h"
 
 #include <fmt/format.h>
@@ -25,7 +26,6 @@ double angularDistance(double deg)
 }
 
 /// SplitMix64: a seeded, platform-independent stream for the stochastic parts.
-double uniform(uint64_t& s) { return double(mix64(s += 0x9e3779b97f4a7c15ull) >> 11) * 0x1.0p-53; }
 
 glm::dvec3 anyPerpendicular(const glm::dvec3& v)
 {
@@ -126,9 +126,9 @@ void GrowthModel::grow()
     for (size_t bi = 0; bi < branches_.size(); ++bi) {
         {
             GrowthBranch& b = branches_[bi];
-            b.azimuth0 = 2.0 * kPi * uniform(rng);
+            b.azimuth0 = 2.0 * kPi * splitMix01(rng);
             for (double& ph : b.phase)
-                ph = 2.0 * kPi * uniform(rng);
+                ph = 2.0 * kPi * splitMix01(rng);
             // Shoots: m = Gm(l_s / l_s,max) metamers (eq. 14), the nearest
             // count for which the 40 degree rule holds.
             int first = 0, previous = -1;
@@ -505,50 +505,6 @@ GrowthStats GrowthModel::stats(double t, const Skeleton& sk) const
         ++(o.kind == Organ::Kind::Leaf ? s.leaves : o.kind == Organ::Kind::Bud ? s.buds : s.rings);
     s.height = grownLength(0, t);
     return s;
-}
-
-int runGrowthCommand(const GrowthRequest& req)
-{
-    GrowthParameters p = loadGrowthParameters(req.input);
-    if (req.seed >= 0)
-        p.seed = uint64_t(req.seed);
-    const double t = timeOfLife(p, req.time, req.input, "--year/--time");
-    const GrowthModel model(p);
-    const Skeleton sk = model.skeleton(t, req.leaves);
-    if (req.printSkeleton) {
-        fmt::print("# {} at t = {}: id parent x0 y0 z0 x1 y1 z1 r0 r1  # order age\n", req.input, t);
-        for (const Internode& n : sk.internodes)
-            fmt::print("{} {} {} {} {} {} {} {} {} {}  # {} {:.4g}\n", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x,
-                       n.p1.y, n.p1.z, n.r0, n.r1, n.order, n.age);
-    }
-    if (!req.printStats && req.printSkeleton)
-        return 0;
-    const GrowthStats s = model.stats(t, sk);
-    fmt::print("{} at t = {:g} (year {} of {}): height {:.3f}, {} branches grown in all ({} lost so far)\n",
-               req.input, t, growthYear(t), p.years, s.height, model.branches().size(),
-               s.lostBranches);
-    if (!req.printStats)
-        return 0;
-    fmt::print("order  branches  internodes\n");
-    long long branches = 0, internodes = 0;
-    for (const auto& [order, count] : s.branchesByOrder) {
-        const auto it = s.internodesByOrder.find(order);
-        const long long in = it == s.internodesByOrder.end() ? 0 : it->second;
-        fmt::print("{:>5}  {:>8}  {:>10}\n", order, count, in);
-        branches += count;
-        internodes += in;
-    }
-    fmt::print("  all  {:>8}  {:>10}\n", branches, internodes);
-    fmt::print("organs: {} leaves, {} buds, {} bud scale scar rings, {} scars\n", s.leaves, s.buds, s.rings,
-               sk.scars.size());
-    fmt::print("shoots: {} grown, {} with their metamer count moved by the {:g} degree rule\n", s.shoots,
-               s.shootsAdjusted, p.longestSeparation);
-    const TreeStats ts = computeStats(buildTree(sk, model.buildOptions()));
-    fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives, ts.operators, ts.warps,
-               ts.depth);
-    for (const auto& [type, count] : ts.countByType)
-        fmt::print("  {:<14} {}\n", typeName(type), count);
-    return 0;
 }
 
 }  // namespace cambium

@@ -129,14 +129,4 @@ private:
     double supportRef_ = 1.0;  ///< the trunk base's supported length at the last year
 };
 
-/// `cambium growth`: the model at a year (or any time), as counts or a skeleton.
-struct GrowthRequest {
-    std::string input;
-    std::optional<double> time;  ///< default: the last year
-    long long seed = -1; ///< < 0: the file's
-    bool leaves = true;
-    bool printStats = false, printSkeleton = false;
-};
-int runGrowthCommand(const GrowthRequest& request);
-
 }  // namespace cambium

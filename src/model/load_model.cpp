@@ -22,39 +22,51 @@ bool endsWith(const std::string& s, const std::string& suffix)
     return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-/// The tree builder's options for `junctions` "pcm" or "smooth".
-TreeBuildOptions treeOptions(const ModelOptions& o, const std::string& junctions)
+/// The tree builder's options for junction rules Pcm or Smooth.
+TreeBuildOptions treeOptions(const ModelOptions& o, ModelOptions::Junctions junctions)
 {
     TreeBuildOptions t;
-    t.junction = junctions == "pcm" ? TreeBuildOptions::Junction::Pcm : TreeBuildOptions::Junction::Smooth;
+    t.junction = junctions == ModelOptions::Junctions::Pcm ? TreeBuildOptions::Junction::Pcm
+                                                           : TreeBuildOptions::Junction::Smooth;
     t.bend = o.bendDegrees * kDegree;
     t.regrowth = o.regrowth;
-    t.primitives = o.primitives == "cone"          ? TreeBuildOptions::Primitives::Cone
-                   : o.primitives == "convolution" ? TreeBuildOptions::Primitives::Convolution
-                                                   : TreeBuildOptions::Primitives::Mixed;
+    t.primitives = o.primitives;
     return t;
 }
 
 }  // namespace
 
+ModelOptions::Junctions parseJunctions(const std::string& name)
+{
+    using J = ModelOptions::Junctions;
+    if (name == "pcm" || name == "smooth" || name == "blend")
+        return name == "pcm" ? J::Pcm : name == "smooth" ? J::Smooth : J::Blend;
+    throw InputError(fmt::format("--junctions must be pcm, smooth or blend (got '{}')", name));
+}
+
+ModelOptions::Primitives parsePrimitives(const std::string& name)
+{
+    using P = ModelOptions::Primitives;
+    if (name == "cone" || name == "convolution" || name == "mixed")
+        return name == "cone" ? P::Cone : name == "convolution" ? P::Convolution : P::Mixed;
+    throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", name));
+}
+
 void checkModelOptions(const ModelOptions& o)
 {
-    if (!o.junctions.empty() && o.junctions != "pcm" && o.junctions != "smooth" && o.junctions != "blend")
-        throw InputError(fmt::format("--junctions must be pcm, smooth or blend (got '{}')", o.junctions));
+    const bool blend = o.junctions == ModelOptions::Junctions::Blend;
     if (!(std::abs(o.bendDegrees) < 90.0))
         throw InputError(fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
-    if (o.bendDegrees != 0.0 && o.junctions == "blend")
+    if (o.bendDegrees != 0.0 && blend)
         throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
-    if (o.primitives != "cone" && o.primitives != "convolution" && o.primitives != "mixed")
-        throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", o.primitives));
-    if (o.primitives != "cone" && o.junctions == "blend")
+    if (o.primitives != ModelOptions::Primitives::Cone && blend)
         throw InputError("--primitives convolution or mixed needs --junctions pcm or smooth");
-    checkTreeBuildOptions(treeOptions(o, "pcm"));
+    checkTreeBuildOptions(treeOptions(o, ModelOptions::Junctions::Pcm));
 }
 
 void checkGrowthOptions(const std::string& path, const ModelOptions& o)
 {
-    if (!o.junctions.empty() || o.bendDegrees != 0.0 || o.primitives != "cone" || o.regrowth != 0.0)
+    if (o.junctions || o.bendDegrees != 0.0 || o.primitives != ModelOptions::Primitives::Cone || o.regrowth != 0.0)
         throw InputError(fmt::format("{}: --junctions, --bend, --primitives and --regrowth are for L-systems and "
                                      "skeletons; a growth parameter file sets its own (docs/growth-format.md)",
                                      path));
@@ -86,8 +98,9 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     } else {
         sk = loadSkeleton(path);
     }
-    const std::string junctions = o.junctions.empty() ? (lsystem ? "pcm" : "blend") : o.junctions;
-    return junctions == "blend" ? skeletonToBlend(sk) : buildTree(sk, treeOptions(o, junctions));
+    using J = ModelOptions::Junctions;
+    const J junctions = o.junctions.value_or(lsystem ? J::Pcm : J::Blend);
+    return junctions == J::Blend ? skeletonToBlend(sk) : buildTree(sk, treeOptions(o, junctions));
 }
 
 }  // namespace cambium

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "blobtree/blobtree.h"
+#include "model/tree_builder.h"
 
 #include <optional>
 #include <string>
@@ -15,14 +16,16 @@ namespace cambium {
 /// docs/skeleton-format.md, as the benchmarks' summation blend of one cone
 /// per internode).
 struct ModelOptions {
-    /// How skeletons and L-systems become BlobTrees: "pcm" (the papers'
-    /// junction rules with PCM between branches), "smooth" (the rules with
-    /// summation only), "blend" (one cone per internode, summed, no rules: the
-    /// benchmarks' field); empty: pcm for L-systems, blend for skeleton files.
-    std::string junctions;
-    double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (pcm, smooth)
-    /// "cone" (papers 001/003), "convolution" or "mixed" (paper 002; pcm and smooth only)
-    std::string primitives = "cone";
+    /// How skeletons and L-systems become BlobTrees: Pcm (the papers'
+    /// junction rules with PCM between branches), Smooth (the rules with
+    /// summation only), Blend (one cone per internode, summed, no rules: the
+    /// benchmarks' field).
+    enum class Junctions { Pcm, Smooth, Blend };
+    std::optional<Junctions> junctions;  ///< none: Pcm for L-systems, Blend for skeleton files
+    double bendDegrees = 0.0;  ///< endpoint-preserving bend of lateral internodes (Pcm, Smooth)
+    /// Cone (papers 001/003), Convolution or Mixed (paper 002; Pcm and Smooth only)
+    using Primitives = TreeBuildOptions::Primitives;
+    Primitives primitives = Primitives::Cone;
     double regrowth = 0.0;  ///< callus over saw cuts, 0 to 1 (pcm, smooth)
     /// Growth parameter files: the time in years (< 0: the file's last year)
     /// and whether to grow leaves.
@@ -34,6 +37,10 @@ void checkModelOptions(const ModelOptions& options);
 /// InputError when options for L-systems and skeletons are given with a
 /// growth parameter file.
 void checkGrowthOptions(const std::string& path, const ModelOptions& options);
+/// The option values' names on the command line ("pcm", "cone", ...), and
+/// back: InputError naming the option and the values it takes.
+ModelOptions::Junctions parseJunctions(const std::string& name);
+ModelOptions::Primitives parsePrimitives(const std::string& name);
 /// Also reads growth parameter files (a .json with "curves",
 /// docs/growth-format.md): the tree grown to `options.time`.
 BlobTree loadModel(const std::string& path, const ModelOptions& options = {});

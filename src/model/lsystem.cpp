@@ -2,6 +2,7 @@
 #include "model/lsystem.h"
 
 #include "core/error.h"
+#include "core/random.h"
 #include "core/math.h"
 
 #include <fmt/format.h>
@@ -82,8 +83,10 @@ double evaluate(const Expr& e, const std::vector<double>& vars, Rng& rng)
     case Expr::Call: break;
     }
     const Function& f = kFunctions[e.var];
-    if (!f.f)
-        return std::uniform_real_distribution<double>(0.0, 1.0)(rng) * k(0);
+    if (!f.f) {
+        const double u = uniformCanonical(rng);  // drawn before the argument's own draws
+        return u * k(0);
+    }
     return f.f(k(0), f.arity == 2 ? k(1) : 0.0);
 }
 
@@ -720,7 +723,7 @@ public:
                 double sum = 0.0;
                 for (const Production* p : applicable)
                     sum += std::max(p->probability, 0.0);
-                double u = std::uniform_real_distribution<double>(0.0, sum)(rng_);
+                double u = uniformReal(rng_, 0.0, sum);
                 for (pick = 0; pick + 1 < applicable.size(); ++pick) {
                     u -= std::max(applicable[pick]->probability, 0.0);
                     if (u < 0.0)

@@ -117,6 +117,12 @@ Skeleton loadSkeleton(const std::string& path)
     return parseSkeleton(readTextFile(path, "skeleton file"), path);
 }
 
+std::string formatInternode(const Internode& n)
+{
+    return fmt::format("{} {} {} {} {} {} {} {} {} {}", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x, n.p1.y, n.p1.z,
+                       n.r0, n.r1);
+}
+
 BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold)
 {
     BlobTree tree(threshold);

@@ -62,6 +62,12 @@ struct Skeleton {
 Skeleton parseSkeleton(const std::string& text, const std::string& source);
 Skeleton loadSkeleton(const std::string& path);
 
+/// The columns of the text format, for a header comment.
+inline constexpr const char* kSkeletonColumns = "id parent x0 y0 z0 x1 y1 z1 r0 r1";
+/// One internode as a line of the text format (no newline; numbers in their
+/// shortest form that reads back to the same double): what parseSkeleton reads.
+std::string formatInternode(const Internode& internode);
+
 /// The simplest BlobTree of a skeleton: a summation blend of one cone per
 /// internode (the benchmark field).
 BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold = 0.5);

@@ -269,28 +269,4 @@ Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
     return out;
 }
 
-int runLSystemCommand(const LSystemRequest& req)
-{
-    const LSystem sys = loadLSystem(req.input);
-    const int steps = req.steps >= 0 ? req.steps : sys.derivationLength;
-    const ModuleString s = derive(sys, steps, req.seed >= 0 ? uint64_t(req.seed) : sys.seed, req.maxModules);
-    const Skeleton sk = interpretTurtle(sys, s);
-    if (req.printString)
-        fmt::print("{}\n", formatModules(s));
-    if (req.printSkeleton) {
-        fmt::print("# {} after {} steps: id parent x0 y0 z0 x1 y1 z1 r0 r1  # order module [cut]\n", req.input, steps);
-        for (const Internode& n : sk.internodes)
-            fmt::print("{} {} {} {} {} {} {} {} {} {}  # {} {}{}\n", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x,
-                       n.p1.y, n.p1.z, n.r0, n.r1, n.order, n.module, n.cut ? " cut" : "");
-    }
-    if (!req.printString && !req.printSkeleton) {
-        int maxOrder = 0;
-        for (const Internode& n : sk.internodes)
-            maxOrder = std::max(maxOrder, n.order);
-        fmt::print("{}: {} steps, {} modules, {} internodes, branch orders 0-{}\n", req.input, steps, s.size(),
-                   sk.internodes.size(), maxOrder);
-    }
-    return 0;
-}
-
 }  // namespace cambium

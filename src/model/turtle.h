@@ -39,17 +39,4 @@ Skeleton interpretTurtle(const LSystem& system, const ModuleString& modules);
 /// orange, red, white; larger indices take the last).
 glm::dvec3 paletteColour(const LSystem& system, int index);
 
-/// `cambium lsystem FILE`: derives `steps` steps (the file's derivation
-/// length when negative) and prints the string (one line, ABOP notation),
-/// the skeleton (docs/skeleton-format.md, each line's order and module in a
-/// trailing comment) or, without either, a summary.
-struct LSystemRequest {
-    std::string input;
-    int steps = -1;
-    long long seed = -1;  ///< < 0: the file's seed:
-    size_t maxModules = kDefaultMaxModules;
-    bool printString = false, printSkeleton = false;
-};
-int runLSystemCommand(const LSystemRequest& request);
-
 }  // namespace cambium

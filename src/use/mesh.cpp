@@ -77,24 +77,6 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     return mesh;
 }
 
-int runMeshCommand(const MeshRequest& req)
-{
-    if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
-        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
-    forEachFile(req.input, req.output, req.frames, checkMeshOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = Clock::now();
-        const LevelSetGrids f = readLevelSet(in, req.grid);
-        const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
-        writeMesh(mesh, out);
-        const double s = secondsSince(start);
-        fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
-                   "volume {:.6g}\n",
-                   in, out, mesh.points.size(), mesh.triangles.size(), f.color ? ", colours from Cd" : "", s,
-                   double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
-    });
-    return 0;
-}
-
 double meshArea(const TriangleMesh& m)
 {
     double a = 0.0;

@@ -20,19 +20,6 @@ namespace cambium {
 TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color = nullptr,
                           double adaptivity = 0.0);
 
-/// `cambium mesh`: the float level-set grid `grid` of a .vdb file (and its
-/// `Cd` grid when present) meshed and written to `output`; for a sequence,
-/// input and output are patterns with a run of `#` and `frames` a range
-/// (core/frames.h): one mesh per frame.
-struct MeshRequest {
-    std::string input, output, grid = kSurfaceGrid, frames;
-    double adaptivity = 0.0;
-};
-/// Runs it and prints a one-line summary per file; InputError, before any
-/// work, for a bad output path or a missing input file, and for a file
-/// without the grid or whose grid is not a float level set.
-int runMeshCommand(const MeshRequest& request);
-
 /// Surface area and enclosed volume (divergence theorem; positive when the
 /// triangles face outwards) of a mesh.
 double meshArea(const TriangleMesh& mesh);

@@ -433,9 +433,8 @@ Box worldBox(const openvdb::GridBase& grid, const openvdb::CoordBBox& b)
                glm::dvec3(std::max(lo.x(), hi.x()), std::max(lo.y(), hi.y()), std::max(lo.z(), hi.z())));
 }
 
-/// The active bounds of a file's level set from the statistics metadata
-/// written with it (file_bbox_min/max: no voxels read), else from the grid
-/// read whole.
+}  // namespace
+
 Box storedActiveBounds(const std::string& path, const std::string& grid)
 {
     try {
@@ -453,88 +452,6 @@ Box storedActiveBounds(const std::string& path, const std::string& grid)
     return activeWorldBounds(*readLevelSet(path, grid).surface);
 }
 
-}  // namespace
-
 Box activeWorldBounds(const openvdb::GridBase& grid) { return worldBox(grid, grid.evalActiveVoxelBoundingBox()); }
-
-int runRenderCommand(const RenderRequest& req)
-{
-    if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
-        throw InputError(fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
-                                     req.height));
-    if (req.spp < 1 || req.spp > 4096)
-        throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
-    // The picture's channels, the pixels converted for the file, and its
-    // encoded bytes: about 128 bytes a pixel at most.
-    const double bytes = 128.0 * double(req.width) * double(req.height), have = availableMemoryBytes();
-    if (!(bytes <= have))
-        throw InputError(fmt::format("--width {} --height {}: a picture this large needs about {} of memory, and this "
-                                     "machine has {} available",
-                                     req.width, req.height, formatBytes(bytes), formatBytes(have)));
-    checkDeviceOption(req.device);
-    parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);  // the spec, before any work
-    if (!req.mesh.empty() && (!req.input.empty() || req.viaMesh))
-        throw InputError("--mesh renders a mesh file instead of a .vdb: give one or the other");
-    if (req.mesh.empty() && req.input.empty())
-        throw InputError("nothing to render: give a .vdb file (or --mesh MESH.obj|ply)");
-    const bool meshFile = !req.mesh.empty();
-    // A sequence keeps one camera, framed on its last frame (a growing tree
-    // grows into the picture instead of the camera backing away), and one
-    // OpenCL marcher (its context and kernel built once, new grids each frame).
-    std::optional<Box> sequenceBounds;
-    std::unique_ptr<OpenCLMarcher> marcher;
-    if (!req.frames.empty() && !meshFile && isFramePattern(req.input)) {
-        const std::string last = framePath(req.input, parseFrames(req.frames).back());
-        if (std::filesystem::exists(last))
-            sequenceBounds = storedActiveBounds(last, req.grid);
-    }
-    forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = Clock::now();
-        const double aspect = double(req.width) / double(req.height);
-        RenderImage img;
-        const char* how;
-        if (meshFile) {
-            const TriangleMesh mesh = readMesh(in);
-            img = renderMeshEmbree(mesh, parseCamera(req.camera, meshBounds(mesh), aspect), req.width, req.height,
-                                   req.spp);
-            how = "Embree on the mesh's triangles, reading included";
-        } else {
-            const LevelSetGrids f = readLevelSet(in, req.grid);
-            const Box bounds = activeWorldBounds(*f.surface);
-            if (bounds.empty())
-                throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
-            const Camera cam =
-                parseCamera(req.camera, sequenceBounds && !sequenceBounds->empty() ? *sequenceBounds : bounds, aspect);
-            if (req.viaMesh) {
-                img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
-                how = "Embree on the volumeToMesh triangles, meshing included";
-            } else if (req.device == "cpu") {
-                img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
-                how = "OpenVDB's level-set ray intersector";
-            } else {
-                how = marcher ? "OpenCL NanoVDB march, conversion included"
-                              : "OpenCL NanoVDB march, conversion and kernel build included";
-                img = withOpenCLHint("render", [&] {
-                    if (marcher)
-                        marcher->load(*f.surface, f.color.get());
-                    else
-                        marcher = std::make_unique<OpenCLMarcher>(*f.surface, f.color.get());
-                    return marcher->render(cam, req.width, req.height, req.spp);
-                });
-            }
-        }
-        writeImage(img, out);
-        const double s = secondsSince(start);
-        size_t covered = 0;
-        for (float a : img.alpha)
-            covered += a > 0.0f;
-        fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
-                   "({:.3g} M rays/s, {})\n",
-                   in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
-                   100.0 * double(covered) / double(img.alpha.size()), s,
-                   double(req.width) * req.height * req.spp / s * 1e-6, how);
-    });
-    return 0;
-}
 
 }  // namespace cambium

@@ -151,16 +151,12 @@ RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int
 /// World-space bounds of a mesh's points.
 Box meshBounds(const TriangleMesh& mesh);
 
+/// The world-space bounds of the active voxels of level set `grid` in a .vdb
+/// file: from the statistics metadata written with it (no voxels read), else
+/// from the grid read whole.
+Box storedActiveBounds(const std::string& path, const std::string& grid);
+
 /// World-space bounds of a grid's active voxels.
 Box activeWorldBounds(const openvdb::GridBase& grid);
-
-/// `cambium render`.
-struct RenderRequest {
-    std::string input, output, grid = kSurfaceGrid, camera = "auto", device = "opencl", frames;
-    int width = 960, height = 720, spp = 1;
-    bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
-    std::string mesh;      ///< render this mesh file (OBJ, PLY) with Embree instead of a .vdb
-};
-int runRenderCommand(const RenderRequest& request);
 
 }  // namespace cambium

@@ -1,0 +1,72 @@
+// cambium — the command layer: one file per command, each parsing its
+// options into the library's typed requests, calling the library and
+// formatting its report.  tools/cambium.cpp's main is a table of these.
+#pragma once
+
+#include "core/system.h"
+#include "model/load_model.h"
+
+#include <CLI/CLI.hpp>
+#include <glm/glm.hpp>
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace cambium {
+
+/// What a chosen command runs after parsing: its exit status.
+using Action = std::function<int()>;
+/// Adds one command to `app`; when the command line chooses it, `action`
+/// becomes its work.
+using AddCommand = void (*)(CLI::App& app, Action& action);
+
+void addInfoCommand(CLI::App& app, Action& action);
+void addEvalCommand(CLI::App& app, Action& action);
+void addBakeCommand(CLI::App& app, Action& action);
+void addMeshCommand(CLI::App& app, Action& action);
+void addRenderCommand(CLI::App& app, Action& action);
+void addBenchCommand(CLI::App& app, Action& action);
+void addLSystemCommand(CLI::App& app, Action& action);
+void addGrowthCommand(CLI::App& app, Action& action);
+void addVersionCommand(CLI::App& app, Action& action);
+
+/// The model options of info and bake as the command line gives them.
+struct ModelFlags {
+    std::string junctions, primitives = "cone";
+    double bendDegrees = 0.0, regrowth = 0.0, time = 0.0;
+    bool noLeaves = false;
+    CLI::Option* timeOption = nullptr;
+    /// The typed options (InputError for a value that names nothing).
+    ModelOptions options() const;
+};
+/// Adds --junctions, --bend, --primitives, --regrowth, --no-leaves and --time.
+void addModelFlags(CLI::App* command, ModelFlags& flags);
+
+/// The sequence's report of each frame and its summary.
+int runSequenceCommand(const struct SequenceRequest& request);
+
+/// "(x, y, z)" with six significant digits.
+std::string formatVec(const glm::dvec3& v);
+
+/// Prints a notice line on stdout ("note: ...").
+void printNotice(const std::string& line);
+
+/// A progress bar on stderr when it is a terminal; silent otherwise.
+class ProgressBar {
+public:
+    ProgressBar();
+    ~ProgressBar();
+    void operator()(const char* stage, double fraction);
+    void clear();
+
+private:
+    bool tty_;
+    bool shown_ = false;
+    std::mutex mutex_;
+    std::string stage_;
+    int percent_ = -1;
+};
+
+}  // namespace cambium

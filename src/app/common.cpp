@@ -1,0 +1,80 @@
+// cambium — what the commands share: model options, reports, progress.
+#include "app/app.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <unistd.h>
+
+namespace cambium {
+
+ModelOptions ModelFlags::options() const
+{
+    ModelOptions o;
+    if (!junctions.empty())
+        o.junctions = parseJunctions(junctions);
+    o.bendDegrees = bendDegrees;
+    o.primitives = parsePrimitives(primitives);
+    o.regrowth = regrowth;
+    o.leaves = !noLeaves;
+    if (timeOption && timeOption->count())
+        o.time = time;
+    return o;
+}
+
+void addModelFlags(CLI::App* cmd, ModelFlags& flags)
+{
+    cmd->add_option("--junctions", flags.junctions,
+                    "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
+                    "(the rules, summation only) or blend (a cone per internode, summed); default pcm for "
+                    "L-systems, blend for skeleton files");
+    cmd->add_option("--bend", flags.bendDegrees,
+                    "Bend lateral internodes by this many degrees, keeping their ends (pcm, smooth)");
+    cmd->add_option("--primitives", flags.primitives,
+                    "cone (papers 001/003), convolution (segments with linear density, paper 002) or mixed "
+                    "(cone axes, convolution laterals, better blending between)")
+        ->capture_default_str();
+    cmd->add_option("--regrowth", flags.regrowth,
+                    "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
+    cmd->add_flag("--no-leaves", flags.noLeaves, "Growth parameter files: leave the leaves out");
+    flags.timeOption = cmd->add_option("--time", flags.time,
+                                       "Growth parameter files: the tree at this time in years (default: the last)");
+}
+
+std::string formatVec(const glm::dvec3& v) { return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x, v.y, v.z); }
+
+void printNotice(const std::string& line)
+{
+    fmt::print("note: {}\n", line);
+    std::fflush(stdout);
+}
+
+ProgressBar::ProgressBar() : tty_(::isatty(2) != 0) {}
+
+ProgressBar::~ProgressBar() { clear(); }
+
+void ProgressBar::operator()(const char* stage, double fraction)
+{
+    if (!tty_)
+        return;
+    std::lock_guard<std::mutex> lock(mutex_);
+    const int percent = int(100.0 * fraction);
+    if (stage == stage_ && percent == percent_)
+        return;
+    stage_ = stage;
+    percent_ = percent;
+    const int filled = percent * 30 / 100;
+    fmt::print(stderr, "\r{:<9} [{}{}] {:3d}%", stage_, std::string(size_t(filled), '#'),
+               std::string(size_t(30 - filled), ' '), percent);
+    std::fflush(stderr);
+    shown_ = true;
+}
+
+void ProgressBar::clear()
+{
+    if (shown_)
+        fmt::print(stderr, "\r\033[K");
+    shown_ = false;
+}
+
+}  // namespace cambium

@@ -1,0 +1,66 @@
+// cambium mesh — a baked level set polygonised into an OBJ or PLY mesh.
+#include "app/app.h"
+
+#include "core/clock.h"
+#include "core/error.h"
+#include "core/frames.h"
+#include "io/grids.h"
+#include "io/mesh_file.h"
+#include "io/vdb.h"
+#include "use/mesh.h"
+
+#include <fmt/format.h>
+
+namespace cambium {
+
+namespace {
+
+/// `cambium mesh`: the float level-set grid `grid` of a .vdb file (and its
+/// `Cd` grid when present) meshed and written to `output`; for a sequence,
+/// input and output are patterns with a run of `#` and `frames` a range
+/// (core/frames.h): one mesh per frame.
+struct MeshRequest {
+    std::string input, output, grid = kSurfaceGrid, frames;
+    double adaptivity = 0.0;
+};
+
+/// One line per file; InputError, before any work, for a bad output path or
+/// a missing input file, and for a file without the grid or whose grid is
+/// not a float level set.
+int runMeshCommand(const MeshRequest& req)
+{
+    if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
+        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
+    forEachFile(req.input, req.output, req.frames, checkMeshOutput, [&](const std::string& in, const std::string& out) {
+        const auto start = Clock::now();
+        const LevelSetGrids f = readLevelSet(in, req.grid);
+        const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
+        writeMesh(mesh, out);
+        const double s = secondsSince(start);
+        fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
+                   "volume {:.6g}\n",
+                   in, out, mesh.points.size(), mesh.triangles.size(), f.color ? ", colours from Cd" : "", s,
+                   double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
+    });
+    return 0;
+}
+
+}  // namespace
+
+void addMeshCommand(CLI::App& app, Action& action)
+{
+    auto req = std::make_shared<MeshRequest>();
+    auto* cmd = app.add_subcommand("mesh", "Polygonise a baked level set (OpenVDB's volumeToMesh) into "
+                                           "an OBJ or binary PLY mesh");
+    cmd->add_option("input", req->input, "Input .vdb file")->required();
+    cmd->add_option("-o,--output", req->output, "Output mesh (.obj or .ply)")->required();
+    cmd->add_option("--adaptivity", req->adaptivity, "0: uniform triangles; up to 1: fewer where the surface is flat")
+        ->capture_default_str();
+    cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
+    cmd->add_option("--frames", req->frames,
+                    "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#' "
+                    "(tree.####.vdb)");
+    cmd->callback([req, &action] { action = [req] { return runMeshCommand(*req); }; });
+}
+
+}  // namespace cambium
