@@ -57,7 +57,7 @@ typedef int cb_mask;
 typedef float cb_scalar;
 #define CB_R(x) (x##f)
 #define CB_TINY 1e-37f
-#define CB_MATH(f) f##f /* sqrtf, atanf, ... */
+#define CB_MATH(fn) fn##f /* sqrtf, atanf, ... */
 #else
 typedef double cb_scalar;
 #define CB_R(x) (x)

@@ -59,6 +59,18 @@ CB_FN cb_real cb_pcm_deformation(cb_real f_other, cb_real T, cb_real w, cb_real 
     return CB_SELECT(s * pk1 * om, s, inside);
 }
 
+/* The PCM colour ridge (paper 000 section 3.2): where the other children
+ * deform the strongest one by `deformation` (pressing it in at the contact,
+ * swelling it around), its colour darkens by up to `darken`, fully where the
+ * deformation reaches a tenth of the propagation width w.  Returns the factor
+ * the colour is multiplied by, 1 - darken clamp(10 |deformation| / w, 0, 1):
+ * one expression, so that a compiler that fuses multiply-adds (OpenCL's
+ * contraction, -cl-mad-enable) fuses the kernel's and the host's alike. */
+CB_FN cb_real cb_pcm_ridge_shade(cb_real darken, cb_real deformation, cb_real w)
+{
+    return CB_R(1.0) - darken * cb_clamp01(CB_R(10.0) * CB_FABS(deformation) / w);
+}
+
 /* ---------------------------------------------------------------------------
  * "Better blending" remapping, paper 002 eq. 6 (after Wyvill & Wyvill 2000):
  *   g_k(t) = 0                   t < k

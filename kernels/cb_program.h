@@ -13,7 +13,8 @@
  * and its gradient carried back through the warp's Jacobian.
  *
  * The parameter table starts with T, w^-1(T) and the constant 0; node blocks
- * follow (layouts below, mirrored by src/field/program.cpp).
+ * follow (layouts below, written by src/field/program.cpp through the same
+ * names).
  *
  * The same interpreter runs on the host (cb_real = double, one point: the CPU
  * path) and in kernels/sample.cl (cb_real = float8: eight voxels of a row).
@@ -39,21 +40,93 @@
 #define CB_I_UNWARP 13 /* restore the point, carry the gradient back */
 
 /* Parameter table header */
-#define CB_P_T 0
-#define CB_P_XT 1
-#define CB_P_ZERO 2
+#define CB_P_T 0    /* the threshold T */
+#define CB_P_XT 1   /* w^-1(T) */
+#define CB_P_ZERO 2 /* the constant 0 */
 #define CB_P_HEADER 3
 
-/* Node parameter blocks */
-#define CB_SPHERE_SIZE 9  /* centre(3) r sigma weight rgb(3) */
-#define CB_CONE_SIZE 14   /* p0(3) axis(3) len r0 r1 sigma weight rgb(3) */
-#define CB_CONV_SIZE 15   /* p0(3) axis(3) len q0 q1 s support weight rgb(3) */
-#define CB_OP_SIZE 6      /* type n width attenuation k darken */
-#define CB_GBB_SIZE 12    /* B1 block, B2 block */
-#define CB_AFFINE_SIZE 12 /* M^-1 as 3x4 row-major */
-#define CB_BEND_SIZE 18   /* p0 u v w (12) len theta rho ch sh lscale */
-#define CB_TWIST_SIZE 7   /* origin axis rate */
-#define CB_TAPER_SIZE 9   /* origin axis len scale0 scale1 */
+/* Node parameter blocks: the offset of every field in its block (a field of
+ * three reals takes three slots), and the block's size.  The compiler in
+ * src/field/program.cpp writes the blocks through these names, and the
+ * interpreter below and the host's bounds read them through the same names,
+ * so that a layout changes in one place.  Sizes follow from the last field. */
+#define CB_CONST_VALUE 0
+#define CB_CONST_SIZE (CB_CONST_VALUE + 1)
+
+#define CB_SPHERE_CENTER 0 /* 3 */
+#define CB_SPHERE_RADIUS 3
+#define CB_SPHERE_SIGMA 4
+#define CB_SPHERE_WEIGHT 5
+#define CB_SPHERE_RGB 6 /* 3 */
+#define CB_SPHERE_SIZE (CB_SPHERE_RGB + 3)
+
+/* `cone` and `segment` (r0 == r1) */
+#define CB_CONE_P0 0   /* 3 */
+#define CB_CONE_AXIS 3 /* 3, unit */
+#define CB_CONE_LEN 6
+#define CB_CONE_R0 7
+#define CB_CONE_R1 8
+#define CB_CONE_SIGMA 9
+#define CB_CONE_WEIGHT 10
+#define CB_CONE_RGB 11 /* 3 */
+#define CB_CONE_SIZE (CB_CONE_RGB + 3)
+
+/* `convolution_segment` */
+#define CB_CONV_P0 0   /* 3 */
+#define CB_CONV_AXIS 3 /* 3, unit */
+#define CB_CONV_LEN 6
+#define CB_CONV_Q0 7           /* density at p0 */
+#define CB_CONV_Q1 8           /* density at the far end */
+#define CB_CONV_KERNEL_WIDTH 9 /* the Cauchy kernel's s */
+#define CB_CONV_SUPPORT 10     /* the window's radius */
+#define CB_CONV_WEIGHT 11
+#define CB_CONV_RGB 12 /* 3 */
+#define CB_CONV_SIZE (CB_CONV_RGB + 3)
+
+/* An operator's combiner; each operator reads the fields it needs. */
+#define CB_OP_TYPE 0        /* the node type */
+#define CB_OP_N 1           /* Ricci exponent */
+#define CB_OP_WIDTH 2       /* PCM propagation width */
+#define CB_OP_ATTENUATION 3 /* PCM attenuation */
+#define CB_OP_K 4           /* better blend's k */
+#define CB_OP_DARKEN 5      /* PCM ridge darkening */
+#define CB_OP_SIZE (CB_OP_DARKEN + 1)
+
+/* A generalized bounded blend: two combiner blocks */
+#define CB_GBB_B1 0
+#define CB_GBB_B2 CB_OP_SIZE
+#define CB_GBB_SIZE (CB_GBB_B2 + CB_OP_SIZE)
+
+/* `transform` */
+#define CB_AFFINE_M 0 /* 12: M^-1 as a row-major 3x4 matrix */
+#define CB_AFFINE_SIZE (CB_AFFINE_M + 12)
+
+/* `bend`: a cb_bend */
+#define CB_BEND_P0 0 /* 3 */
+#define CB_BEND_U 3  /* 3 */
+#define CB_BEND_V 6  /* 3 */
+#define CB_BEND_W 9  /* 3 */
+#define CB_BEND_LEN 12
+#define CB_BEND_THETA 13
+#define CB_BEND_RHO 14
+#define CB_BEND_CH 15
+#define CB_BEND_SH 16
+#define CB_BEND_LSCALE 17
+#define CB_BEND_SIZE (CB_BEND_LSCALE + 1)
+
+/* `twist`: a cb_twist */
+#define CB_TWIST_ORIGIN 0 /* 3 */
+#define CB_TWIST_AXIS 3   /* 3, unit */
+#define CB_TWIST_RATE 6
+#define CB_TWIST_SIZE (CB_TWIST_RATE + 1)
+
+/* `taper`: a cb_taper */
+#define CB_TAPER_ORIGIN 0 /* 3 */
+#define CB_TAPER_AXIS 3   /* 3, unit */
+#define CB_TAPER_LEN 6
+#define CB_TAPER_SCALE0 7
+#define CB_TAPER_SCALE1 8
+#define CB_TAPER_SIZE (CB_TAPER_SCALE1 + 1)
 
 /* A kernel that needs values only compiles with -D CB_GRADIENT=0 -D CB_COLOR=0:
  * the gradient and colour work below is then dead code the compiler removes. */
@@ -164,7 +237,7 @@ CB_FN void cb_acc_pick(cb_stack* s, int i, int j, cb_mask m, cb_real v, cb_real 
 CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op, cb_real T,
                        int first)
 {
-    int type = (int)op[0];
+    int type = (int)op[CB_OP_TYPE];
     cb_real f = s->v[j], d;
     if (type == CB_BLEND) {
         s->v[i] += f;
@@ -175,8 +248,8 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
         }
         cb_acc_color(s, i, j, CB_FABS(f));
     } else if (type == CB_RICCI) {
-        cb_real t = cb_ricci_term(f, op[1]);
-        cb_real gw = CB_POW(CB_FMAX(f, CB_R(0.0)), op[1] - CB_R(1.0));
+        cb_real t = cb_ricci_term(f, op[CB_OP_N]);
+        cb_real gw = CB_POW(CB_FMAX(f, CB_R(0.0)), op[CB_OP_N] - CB_R(1.0));
         gw = CB_SELECT(CB_R(0.0), gw, f > CB_R(0.0));
         s->v[i] += t;
         if (CB_GRADIENT) {
@@ -199,7 +272,7 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
     } else if (type == CB_PCM) {
         /* F = f_max + sum_{j != max} D(f_j) = M - D(M) + sum_all D(f_j) */
         cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 0);
-        cb_real D = cb_pcm_deformation(f, T, op[2], op[3], &d);
+        cb_real D = cb_pcm_deformation(f, T, op[CB_OP_WIDTH], op[CB_OP_ATTENUATION], &d);
         s->v2[i] += D;
         if (CB_GRADIENT) {
             s->hx[i] += d * s->gx[j];
@@ -208,7 +281,7 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
         }
         cb_acc_color(s, i, j, CB_FABS(f));
     } else if (type == CB_BETTER_BLEND) {
-        cb_real g = cb_better_blend_g(f, T, op[4], &d);
+        cb_real g = cb_better_blend_g(f, T, op[CB_OP_K], &d);
         s->v[i] += g;
         if (CB_GRADIENT) {
             s->gx[i] += d * s->gx[j];
@@ -222,10 +295,10 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
 /* Turns accumulator i into a sample. */
 CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_real T)
 {
-    int type = (int)op[0];
+    int type = (int)op[CB_OP_TYPE];
     if (type == CB_RICCI) {
-        cb_real F = cb_ricci_finish(s->v[i], op[1]);
-        cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(F, CB_TINY), CB_R(1.0) - op[1]),
+        cb_real F = cb_ricci_finish(s->v[i], op[CB_OP_N]);
+        cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(F, CB_TINY), CB_R(1.0) - op[CB_OP_N]),
                               F > CB_R(0.0));
         s->v[i] = F;
         if (CB_GRADIENT) {
@@ -235,18 +308,15 @@ CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_re
         }
     } else if (type == CB_PCM) {
         cb_real d;
-        cb_real D = cb_pcm_deformation(s->v[i], T, op[2], op[3], &d);
+        cb_real D = cb_pcm_deformation(s->v[i], T, op[CB_OP_WIDTH], op[CB_OP_ATTENUATION], &d);
         if (CB_GRADIENT) {
             s->gx[i] += s->hx[i] - d * s->gx[i];
             s->gy[i] += s->hy[i] - d * s->gy[i];
             s->gz[i] += s->hz[i] - d * s->gz[i];
         }
         if (CB_COLOR) {
-            /* The ridge: where the other children deform the strongest one
-             * (pressing it in at the contact, swelling it around), the colour
-             * darkens by up to op[5], fully where the deformation reaches a
-             * tenth of the propagation width (paper 000 section 3.2). */
-            cb_real k = CB_R(1.0) - op[5] * cb_clamp01(CB_R(10.0) * CB_FABS(s->v2[i] - D) / op[2]);
+            /* v2 - D: how much the other children deform the strongest one */
+            cb_real k = cb_pcm_ridge_shade(op[CB_OP_DARKEN], s->v2[i] - D, op[CB_OP_WIDTH]);
             s->cr[i] *= k;
             s->cg[i] *= k;
             s->cb[i] *= k;
@@ -268,44 +338,44 @@ CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_re
     }
 }
 
-/* Computes the warp of type `type` (params at prm) at p: returns q, writes J. */
+/* Computes the warp of type `type` (params at w) at p: returns q, writes J. */
 CB_FN cb_vec3 cb_warp_apply(int type, CB_GLOBAL const cb_scalar* w, cb_vec3 p, cb_real* J)
 {
     int k;
     if (type == CB_TRANSFORM) {
         cb_affine a;
         for (k = 0; k < 12; ++k)
-            a.m[k] = w[k];
+            a.m[k] = w[CB_AFFINE_M + k];
         return cb_affine_apply(a, p, J);
     }
     if (type == CB_BEND) {
         cb_bend b;
-        b.p0 = cb_load3(w, 0);
-        b.u = cb_load3(w, 3);
-        b.v = cb_load3(w, 6);
-        b.w = cb_load3(w, 9);
-        b.len = w[12];
-        b.theta = w[13];
-        b.rho = w[14];
-        b.ch = w[15];
-        b.sh = w[16];
-        b.lscale = w[17];
+        b.p0 = cb_load3(w, CB_BEND_P0);
+        b.u = cb_load3(w, CB_BEND_U);
+        b.v = cb_load3(w, CB_BEND_V);
+        b.w = cb_load3(w, CB_BEND_W);
+        b.len = w[CB_BEND_LEN];
+        b.theta = w[CB_BEND_THETA];
+        b.rho = w[CB_BEND_RHO];
+        b.ch = w[CB_BEND_CH];
+        b.sh = w[CB_BEND_SH];
+        b.lscale = w[CB_BEND_LSCALE];
         return cb_bend_apply(b, p, J);
     }
     if (type == CB_TWIST) {
         cb_twist t;
-        t.o = cb_load3(w, 0);
-        t.a = cb_load3(w, 3);
-        t.rate = w[6];
+        t.o = cb_load3(w, CB_TWIST_ORIGIN);
+        t.a = cb_load3(w, CB_TWIST_AXIS);
+        t.rate = w[CB_TWIST_RATE];
         return cb_twist_apply(t, p, J);
     }
     {
         cb_taper t;
-        t.o = cb_load3(w, 0);
-        t.a = cb_load3(w, 3);
-        t.len = w[6];
-        t.scale0 = w[7];
-        t.scale1 = w[8];
+        t.o = cb_load3(w, CB_TAPER_ORIGIN);
+        t.a = cb_load3(w, CB_TAPER_AXIS);
+        t.len = w[CB_TAPER_LEN];
+        t.scale0 = w[CB_TAPER_SCALE0];
+        t.scale1 = w[CB_TAPER_SCALE1];
         return cb_taper_apply(t, p, J);
     }
 }
@@ -325,28 +395,31 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
         CB_GLOBAL const cb_scalar* q = prm + a;
         if (op == CB_SPHERE) {
             cb_vec3 g;
-            cb_real f = cb_sphere_field(p, cb_load3(q, 0), q[3], q[4], xT, &g);
+            cb_real f = cb_sphere_field(p, cb_load3(q, CB_SPHERE_CENTER), q[CB_SPHERE_RADIUS], q[CB_SPHERE_SIGMA],
+                                        xT, &g);
             ++top;
-            cb_push_primitive(&s, top, q[5] * f, cb_scale(g, q[5]), q + 6);
+            cb_push_primitive(&s, top, q[CB_SPHERE_WEIGHT] * f, cb_scale(g, q[CB_SPHERE_WEIGHT]), q + CB_SPHERE_RGB);
         } else if (op == CB_SEGMENT || op == CB_CONE) {
             cb_vec3 g;
-            cb_real f = cb_cone_field(p, cb_load3(q, 0), cb_load3(q, 3), q[6], q[7], q[8], q[9], xT, &g);
+            cb_real f = cb_cone_field(p, cb_load3(q, CB_CONE_P0), cb_load3(q, CB_CONE_AXIS), q[CB_CONE_LEN],
+                                      q[CB_CONE_R0], q[CB_CONE_R1], q[CB_CONE_SIGMA], xT, &g);
             ++top;
-            cb_push_primitive(&s, top, q[10] * f, cb_scale(g, q[10]), q + 11);
+            cb_push_primitive(&s, top, q[CB_CONE_WEIGHT] * f, cb_scale(g, q[CB_CONE_WEIGHT]), q + CB_CONE_RGB);
         } else if (op == CB_CONVOLUTION_SEGMENT) {
             cb_vec3 g;
-            cb_real f = cb_convolution_field(p, cb_load3(q, 0), cb_load3(q, 3), q[6], q[7], q[8], q[9],
-                                             q[10], &g);
+            cb_real f = cb_convolution_field(p, cb_load3(q, CB_CONV_P0), cb_load3(q, CB_CONV_AXIS), q[CB_CONV_LEN],
+                                             q[CB_CONV_Q0], q[CB_CONV_Q1], q[CB_CONV_KERNEL_WIDTH],
+                                             q[CB_CONV_SUPPORT], &g);
             ++top;
-            cb_push_primitive(&s, top, q[11] * f, cb_scale(g, q[11]), q + 12);
+            cb_push_primitive(&s, top, q[CB_CONV_WEIGHT] * f, cb_scale(g, q[CB_CONV_WEIGHT]), q + CB_CONV_RGB);
         } else if (op == CB_I_CONST) {
             ++top;
-            cb_push(&s, top, q[0], cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)),
+            cb_push(&s, top, q[CB_CONST_VALUE], cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)),
                     cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)));
         } else if (op == CB_I_OPEN) {
             if (b == CB_GBB) {
-                cb_acc_open(&s, top + 1, (int)q[0]);
-                cb_acc_open(&s, top + 2, (int)q[CB_OP_SIZE]);
+                cb_acc_open(&s, top + 1, (int)q[CB_GBB_B1 + CB_OP_TYPE]);
+                cb_acc_open(&s, top + 2, (int)q[CB_GBB_B2 + CB_OP_TYPE]);
                 top += 2;
             } else {
                 ++top;
@@ -354,8 +427,8 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
             }
         } else if (op == CB_I_ACC) {
             if (b == CB_GBB) {
-                cb_acc_fold(&s, top - 2, top, q, T, code[4 * pc + 3]);
-                cb_acc_fold(&s, top - 1, top, q + CB_OP_SIZE, T, code[4 * pc + 3]);
+                cb_acc_fold(&s, top - 2, top, q + CB_GBB_B1, T, code[4 * pc + 3]);
+                cb_acc_fold(&s, top - 1, top, q + CB_GBB_B2, T, code[4 * pc + 3]);
             } else {
                 cb_acc_fold(&s, top - 1, top, q, T, code[4 * pc + 3]);
             }
@@ -365,8 +438,8 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
                 /* stack: B1 accumulator, B2 accumulator, bounding field */
                 int i1 = top - 2, i2 = top - 1;
                 cb_real fb = s.v[top], dFb, bb;
-                cb_acc_close(&s, i1, q, T);
-                cb_acc_close(&s, i2, q + CB_OP_SIZE, T);
+                cb_acc_close(&s, i1, q + CB_GBB_B1, T);
+                cb_acc_close(&s, i2, q + CB_GBB_B2, T);
                 bb = cb_clamp01(fb);
                 s.v[i1] = cb_gbb(fb, s.v[i1], s.v[i2], &dFb);
                 if (CB_GRADIENT) {

@@ -68,7 +68,7 @@ FieldSample combine(const Combiner& c, const std::vector<FieldSample>& kids, dou
 {
     FieldSample out;
     std::vector<double> w(kids.size(), 0.0);
-    double ridge = 0.0;
+    double shade = 1.0;  // the PCM ridge darkens colours
     switch (c.type) {
     case NodeType::BLEND:
         for (size_t i = 0; i < kids.size(); ++i) {
@@ -131,7 +131,7 @@ FieldSample combine(const Combiner& c, const std::vector<FieldSample>& kids, dou
             out.value += cb_pcm_deformation(kids[i].value, T, c.width, c.attenuation, &dD);
             out.gradient += dD * kids[i].gradient;
         }
-        ridge = c.darken * std::clamp(10.0 * std::abs(out.value - kids[strongest].value) / c.width, 0.0, 1.0);
+        shade = cb_pcm_ridge_shade(c.darken, out.value - kids[strongest].value, c.width);
         break;
     }
     case NodeType::BETTER_BLEND:
@@ -146,9 +146,8 @@ FieldSample combine(const Combiner& c, const std::vector<FieldSample>& kids, dou
     default:
         break;
     }
-    // A node's colour exists where its field does (black where it is zero);
-    // a PCM ridge darkens it.
-    out.color = out.value != 0.0 ? (1.0 - ridge) * weightedColor(kids, w) : glm::dvec3(0.0);
+    // A node's colour exists where its field does (black where it is zero).
+    out.color = out.value != 0.0 ? shade * weightedColor(kids, w) : glm::dvec3(0.0);
     return out;
 }
 

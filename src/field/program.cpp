@@ -13,6 +13,9 @@
 #include <deque>
 #include <array>
 #include <cmath>
+#include <iterator>
+#include <limits>
+#include <type_traits>
 
 namespace cambium {
 
@@ -43,44 +46,88 @@ public:
     }
 
 private:
-    int block() const { return int(P_.size()); }
-    void push(const glm::dvec3& v) { P_.insert(P_.end(), {v.x, v.y, v.z}); }
-    void push(const cb_vec3& v) { P_.insert(P_.end(), {v.x, v.y, v.z}); }
+    /// Appends a parameter block of `size` values, to be written field by
+    /// field through the layout names of kernels/cb_program.h, and returns its
+    /// offset.  It starts as NaN so that a field left unwritten poisons every
+    /// sample instead of quietly reading as 0.
+    int newBlock(int size)
+    {
+        const int at = int(P_.size());
+        P_.resize(P_.size() + size_t(size), std::numeric_limits<double>::quiet_NaN());
+        return at;
+    }
+    /// The block at offset `at`; valid until the next newBlock.
+    double* blockAt(int at) { return P_.data() + at; }
+
+    template <class Vec3>  // glm::dvec3 or cb_vec3
+    static void put3(double* field, const Vec3& v)
+    {
+        field[0] = v.x;
+        field[1] = v.y;
+        field[2] = v.z;
+    }
 
     void emitPrimitive(const Node& n)
     {
         const Primitive& p = n.prim();
-        const int at = block();
         const glm::dvec3 axis = p.p1 - p.p0;
         const double len = glm::length(axis);
         const glm::dvec3 u = len > 0.0 ? axis / len : glm::dvec3(0.0);
+        int at;
         switch (n.type) {
-        case NodeType::SPHERE:
-            push(p.p0);
-            P_.insert(P_.end(), {p.r0, p.sigma, p.weight});
-            break;
-        case NodeType::SEGMENT:
-        case NodeType::CONE:
-            push(p.p0);
-            push(u);
-            P_.insert(P_.end(), {len, p.r0, p.r1, p.sigma, p.weight});
-            break;
-        default:  // CONVOLUTION_SEGMENT
-            push(p.p0);
-            push(u);
-            P_.insert(P_.end(), {len, p.q0, p.q1, p.kernelWidth, p.support, p.weight});
+        case NodeType::SPHERE: {
+            at = newBlock(CB_SPHERE_SIZE);
+            double* q = blockAt(at);
+            put3(q + CB_SPHERE_CENTER, p.p0);
+            q[CB_SPHERE_RADIUS] = p.r0;
+            q[CB_SPHERE_SIGMA] = p.sigma;
+            q[CB_SPHERE_WEIGHT] = p.weight;
+            put3(q + CB_SPHERE_RGB, n.shade);
             break;
         }
-        push(n.shade);
+        case NodeType::SEGMENT:
+        case NodeType::CONE: {
+            at = newBlock(CB_CONE_SIZE);
+            double* q = blockAt(at);
+            put3(q + CB_CONE_P0, p.p0);
+            put3(q + CB_CONE_AXIS, u);
+            q[CB_CONE_LEN] = len;
+            q[CB_CONE_R0] = p.r0;
+            q[CB_CONE_R1] = p.r1;
+            q[CB_CONE_SIGMA] = p.sigma;
+            q[CB_CONE_WEIGHT] = p.weight;
+            put3(q + CB_CONE_RGB, n.shade);
+            break;
+        }
+        default: {  // CONVOLUTION_SEGMENT
+            at = newBlock(CB_CONV_SIZE);
+            double* q = blockAt(at);
+            put3(q + CB_CONV_P0, p.p0);
+            put3(q + CB_CONV_AXIS, u);
+            q[CB_CONV_LEN] = len;
+            q[CB_CONV_Q0] = p.q0;
+            q[CB_CONV_Q1] = p.q1;
+            q[CB_CONV_KERNEL_WIDTH] = p.kernelWidth;
+            q[CB_CONV_SUPPORT] = p.support;
+            q[CB_CONV_WEIGHT] = p.weight;
+            put3(q + CB_CONV_RGB, n.shade);
+            break;
+        }
+        }
         code_.push_back({int(n.type), at, 0, box(current_)});
         ++primitives;
         if (shades.size() < 2 && (shades.empty() || shades[0] != n.shade))
             shades.push_back(n.shade);
     }
 
-    void pushCombiner(const Combiner& c)
+    static void putCombiner(double* op, const Combiner& c)
     {
-        P_.insert(P_.end(), {double(c.type), c.n, c.width, c.attenuation, c.k, c.darken});
+        op[CB_OP_TYPE] = double(c.type);
+        op[CB_OP_N] = c.n;
+        op[CB_OP_WIDTH] = c.width;
+        op[CB_OP_ATTENUATION] = c.attenuation;
+        op[CB_OP_K] = c.k;
+        op[CB_OP_DARKEN] = c.darken;
     }
 
     int box(int index)
@@ -91,13 +138,13 @@ private:
 
     void emitOperator(int index, const Node& n)
     {
-        const int at = block();
         const bool gbb = n.type == NodeType::GBB;
+        const int at = newBlock(gbb ? CB_GBB_SIZE : CB_OP_SIZE);
         if (gbb) {
-            pushCombiner(n.gbb().b1);
-            pushCombiner(n.gbb().b2);
+            putCombiner(blockAt(at) + CB_GBB_B1, n.gbb().b1);
+            putCombiner(blockAt(at) + CB_GBB_B2, n.gbb().b2);
         } else {
-            pushCombiner(n.combiner());
+            putCombiner(blockAt(at), n.combiner());
         }
         const int type = int(n.type);
         code_.push_back({CB_I_OPEN, at, type, box(index)});
@@ -112,34 +159,49 @@ private:
 
     void emitWarp(int index, const Node& n)
     {
-        const int at = block();
+        int at;
         switch (n.type) {
         case NodeType::TRANSFORM: {
             const auto& inv = std::get<TransformParams>(n.params).inverse;
-            P_.insert(P_.end(), inv.m, inv.m + 12);
+            static_assert(std::extent_v<decltype(cb_affine::m)> == CB_AFFINE_SIZE - CB_AFFINE_M);
+            at = newBlock(CB_AFFINE_SIZE);
+            std::copy(std::begin(inv.m), std::end(inv.m), blockAt(at) + CB_AFFINE_M);
             break;
         }
         case NodeType::BEND: {
             const cb_bend& b = std::get<cb_bend>(n.params);
-            push(b.p0);
-            push(b.u);
-            push(b.v);
-            push(b.w);
-            P_.insert(P_.end(), {b.len, b.theta, b.rho, b.ch, b.sh, b.lscale});
+            at = newBlock(CB_BEND_SIZE);
+            double* w = blockAt(at);
+            put3(w + CB_BEND_P0, b.p0);
+            put3(w + CB_BEND_U, b.u);
+            put3(w + CB_BEND_V, b.v);
+            put3(w + CB_BEND_W, b.w);
+            w[CB_BEND_LEN] = b.len;
+            w[CB_BEND_THETA] = b.theta;
+            w[CB_BEND_RHO] = b.rho;
+            w[CB_BEND_CH] = b.ch;
+            w[CB_BEND_SH] = b.sh;
+            w[CB_BEND_LSCALE] = b.lscale;
             break;
         }
         case NodeType::TWIST: {
             const cb_twist& t = std::get<cb_twist>(n.params);
-            push(t.o);
-            push(t.a);
-            P_.push_back(t.rate);
+            at = newBlock(CB_TWIST_SIZE);
+            double* w = blockAt(at);
+            put3(w + CB_TWIST_ORIGIN, t.o);
+            put3(w + CB_TWIST_AXIS, t.a);
+            w[CB_TWIST_RATE] = t.rate;
             break;
         }
         default: {
             const cb_taper& t = std::get<cb_taper>(n.params);
-            push(t.o);
-            push(t.a);
-            P_.insert(P_.end(), {t.len, t.scale0, t.scale1});
+            at = newBlock(CB_TAPER_SIZE);
+            double* w = blockAt(at);
+            put3(w + CB_TAPER_ORIGIN, t.o);
+            put3(w + CB_TAPER_AXIS, t.a);
+            w[CB_TAPER_LEN] = t.len;
+            w[CB_TAPER_SCALE0] = t.scale0;
+            w[CB_TAPER_SCALE1] = t.scale1;
             break;
         }
         }
@@ -223,7 +285,7 @@ double betterBlendG(double t, double T, double k)
 /// The interval of a combiner over children intervals.
 Interval combine(const double* op, const std::vector<Interval>& iv, double T)
 {
-    const int type = int(op[0]);
+    const int type = int(op[CB_OP_TYPE]);
     Interval r;
     switch (type) {
     case CB_BLEND:
@@ -235,10 +297,10 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
     case CB_RICCI: {
         double slo = 0.0, shi = 0.0;
         for (const auto& i : iv) {
-            slo += std::pow(std::max(i.lo, 0.0), op[1]);
-            shi += std::pow(std::max(i.hi, 0.0), op[1]);
+            slo += std::pow(std::max(i.lo, 0.0), op[CB_OP_N]);
+            shi += std::pow(std::max(i.hi, 0.0), op[CB_OP_N]);
         }
-        return {std::pow(slo, 1.0 / op[1]), std::pow(shi, 1.0 / op[1])};
+        return {std::pow(slo, 1.0 / op[CB_OP_N]), std::pow(shi, 1.0 / op[CB_OP_N])};
     }
     case CB_UNION:
         r = {-kInf, -kInf};
@@ -265,14 +327,14 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
             r.lo = std::max(r.lo, i.lo);
             r.hi = std::max(r.hi, i.hi);
             dlo += std::min(0.0, pcmMinD(i.hi, T));
-            dhi += std::max(0.0, pcmMaxD(i.lo, i.hi, T, op[2], op[3]));
+            dhi += std::max(0.0, pcmMaxD(i.lo, i.hi, T, op[CB_OP_WIDTH], op[CB_OP_ATTENUATION]));
         }
         return {r.lo + dlo, r.hi + dhi};
     }
     case CB_BETTER_BLEND:
         for (const auto& i : iv) {  // g is non-decreasing
-            r.lo += betterBlendG(i.lo, T, op[4]);
-            r.hi += betterBlendG(i.hi, T, op[4]);
+            r.lo += betterBlendG(i.lo, T, op[CB_OP_K]);
+            r.hi += betterBlendG(i.hi, T, op[CB_OP_K]);
         }
         return r;
     default:
@@ -285,7 +347,7 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
 /// colour anywhere in the region (up to ties between equal values).
 void droppable(const double* op, const std::vector<Interval>& iv, double T, std::vector<char>& drop)
 {
-    const int type = int(op[0]);
+    const int type = int(op[CB_OP_TYPE]);
     const size_t n = iv.size();
     drop.assign(n, 0);
     switch (type) {
@@ -299,7 +361,7 @@ void droppable(const double* op, const std::vector<Interval>& iv, double T, std:
         break;
     case CB_BETTER_BLEND:
         for (size_t i = 0; i < n; ++i)
-            drop[i] = iv[i].lo >= -op[4] && iv[i].hi <= op[4];
+            drop[i] = iv[i].lo >= -op[CB_OP_K] && iv[i].hi <= op[CB_OP_K];
         break;
     case CB_UNION:
     case CB_PCM: {
@@ -341,7 +403,7 @@ void droppable(const double* op, const std::vector<Interval>& iv, double T, std:
 /// Whether an operator left with its one child `iv` computes exactly that child.
 bool collapsesToChild(const double* op, const Interval& iv)
 {
-    switch (int(op[0])) {
+    switch (int(op[CB_OP_TYPE])) {
     case CB_BLEND:
     case CB_UNION:
     case CB_INTERSECTION:
@@ -436,7 +498,7 @@ void FieldProgram::canonical(Code code, std::vector<double>& out) const
         case CB_SEGMENT:
         case CB_CONE: size = CB_CONE_SIZE; break;
         case CB_CONVOLUTION_SEGMENT: size = CB_CONV_SIZE; break;
-        case CB_I_CONST: size = 1; break;
+        case CB_I_CONST: size = CB_CONST_SIZE; break;
         case CB_I_OPEN:
         case CB_I_ACC:
         case CB_I_CLOSE: size = in.b == CB_GBB ? CB_GBB_SIZE : CB_OP_SIZE; break;
@@ -464,7 +526,10 @@ bool FieldProgram::identical(const FieldProgram& other) const
 FieldProgram FieldProgram::compile(const BlobTree& tree)
 {
     FieldProgram prog;
-    prog.params_ = {tree.threshold(), tree.xT(), 0.0};
+    prog.params_.assign(CB_P_HEADER, 0.0);
+    prog.params_[CB_P_T] = tree.threshold();
+    prog.params_[CB_P_XT] = tree.xT();
+    prog.params_[CB_P_ZERO] = 0.0;
     Compiler c(tree, prog.params_, prog.code_, prog.subtreeSupport_);
     c.emit(tree.root());
     prog.primitives_ = c.primitives;
@@ -482,6 +547,8 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
             stack, warps, CB_STACK_DEPTH, CB_WARP_DEPTH));
     return prog;
 }
+
+double FieldProgram::threshold() const { return params_[CB_P_T]; }
 
 std::vector<float> FieldProgram::paramsFloat() const
 {
@@ -527,26 +594,27 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
     double dmin, dmax;
     switch (in.op) {
     case CB_SPHERE: {
-        const glm::dvec3 c = load3(q);
+        const glm::dvec3 c = load3(q + CB_SPHERE_CENTER);
+        const double r = q[CB_SPHERE_RADIUS], sigma = q[CB_SPHERE_SIGMA];
         dmin = pointBoxDistance(c, box);
-        if (beyondSupport(dmin, q[3], q[4], xT))
+        if (beyondSupport(dmin, r, sigma, xT))
             return {0.0, 0.0};  // the farthest corner need not be found
         dmax = segmentBoxMaxDistance(c, c, box);
-        return skeletalInterval(dmin, dmax, q[3], q[3], q[4], xT, q[5]);
+        return skeletalInterval(dmin, dmax, r, r, sigma, xT, q[CB_SPHERE_WEIGHT]);
     }
     case CB_SEGMENT:
     case CB_CONE: {
-        const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
-        const double rmin = std::min(q[7], q[8]), rmax = std::max(q[7], q[8]);
+        const glm::dvec3 a = load3(q + CB_CONE_P0), b = a + q[CB_CONE_LEN] * load3(q + CB_CONE_AXIS);
+        const double rmin = std::min(q[CB_CONE_R0], q[CB_CONE_R1]), rmax = std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
         dmin = std::sqrt(segmentBoxDistance2(a, b, box));
-        if (beyondSupport(dmin, rmax, q[9], xT))
+        if (beyondSupport(dmin, rmax, q[CB_CONE_SIGMA], xT))
             return {0.0, 0.0};
         dmax = segmentBoxMaxDistance(a, b, box);
-        return skeletalInterval(dmin, dmax, rmin, rmax, q[9], xT, q[10]);
+        return skeletalInterval(dmin, dmax, rmin, rmax, q[CB_CONE_SIGMA], xT, q[CB_CONE_WEIGHT]);
     }
     default: {  // convolution segment
-        const glm::dvec3 a = load3(q), b = a + q[6] * load3(q + 3);
-        const double s = q[9], support = q[10], weight = q[11];
+        const glm::dvec3 a = load3(q + CB_CONV_P0), b = a + q[CB_CONV_LEN] * load3(q + CB_CONV_AXIS);
+        const double s = q[CB_CONV_KERNEL_WIDTH], support = q[CB_CONV_SUPPORT], weight = q[CB_CONV_WEIGHT];
         dmin = std::sqrt(segmentBoxDistance2(a, b, box));
         if (dmin >= support)
             return {0.0, 0.0};
@@ -557,7 +625,7 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
         const double P2 = 1.0 + s * s * dmin * dmin;
         double dW;
         const double W = cb_wyvill(2.0 * dmin / support - 1.0, &dW);
-        const double top = std::max(q[7], q[8]) * M_PI / (2.0 * s * P2 * std::sqrt(P2)) * W;
+        const double top = std::max(q[CB_CONV_Q0], q[CB_CONV_Q1]) * M_PI / (2.0 * s * P2 * std::sqrt(P2)) * W;
         return weight > 0.0 ? Interval{0.0, weight * top} : Interval{weight * top, 0.0};
     }
     }
@@ -567,10 +635,12 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
 {
     const double* w = params_.data() + in.a;
     if (in.b == CB_TRANSFORM)
-        return affineImage(box, w);
+        return affineImage(box, w + CB_AFFINE_M);
     if (in.b == CB_BEND) {
-        const glm::dvec3 p0 = load3(w), u = load3(w + 3), v = load3(w + 6), ax = load3(w + 9);
-        const double len = w[12], theta = w[13], rho = w[14], ch = w[15], sh = w[16], ls = w[17];
+        const glm::dvec3 p0 = load3(w + CB_BEND_P0), u = load3(w + CB_BEND_U), v = load3(w + CB_BEND_V);
+        const glm::dvec3 ax = load3(w + CB_BEND_W);
+        const double len = w[CB_BEND_LEN], theta = w[CB_BEND_THETA], rho = w[CB_BEND_RHO];
+        const double ch = w[CB_BEND_CH], sh = w[CB_BEND_SH], ls = w[CB_BEND_LSCALE];
         // Local coordinates of the box's points: x along u, y along v, z along ax.
         double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, z0 = kInf, z1 = -kInf;
         for (const auto& c : box.corners()) {
@@ -626,19 +696,20 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
     }
     // Twist and taper keep the height along their axis and move points only
     // across it: the image lies in a cylinder about the axis.
-    const glm::dvec3 o = load3(w), a = load3(w + 3);
+    static_assert(CB_TWIST_ORIGIN == CB_TAPER_ORIGIN && CB_TWIST_AXIS == CB_TAPER_AXIS);
+    const glm::dvec3 o = load3(w + CB_TWIST_ORIGIN), a = load3(w + CB_TWIST_AXIS);
     double hmin, hmax, rmax;
     axialExtent(box, o, a, hmin, hmax, rmax);
     if (in.b == CB_TAPER)
-        rmax /= std::min(w[7], w[8]);
+        rmax /= std::min(w[CB_TAPER_SCALE0], w[CB_TAPER_SCALE1]);
     return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
 }
 
 namespace {
 
-/// node()'s working lists, one set per depth of the recursion and thread,
-/// reused from call to call (the topology search specialises millions of
-/// times; five fresh vectors per call cost as much as the intervals).
+/// operatorNode()'s working lists, one set per depth of the recursion and
+/// thread, reused from call to call (the topology search specialises millions
+/// of times; five fresh vectors per call cost as much as the intervals).
 struct NodeScratch {
     struct Child {
         size_t begin, end;
@@ -651,154 +722,186 @@ struct NodeScratch {
 };
 thread_local std::deque<NodeScratch> tlsNodeScratch;  // a deque: growing keeps references valid
 
+void emitZero(std::vector<Instr>* out)
+{
+    if (out)
+        out->push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
+}
+
+/// What an operator computes on a region where its children's fields lie in
+/// scratch.iv: the combiner that remains (for a GBB whose bound is 1 or 0
+/// everywhere there, B1's or B2's alone), whether the whole GBB remains, and
+/// the bounds of its field; scratch.drop receives the children it can do
+/// without.
+struct OperatorReduction {
+    const double* op;
+    bool keepGbb;
+    Interval result;
+};
+
+OperatorReduction reduceOperator(const double* block, bool gbb, const Interval& bound, double T,
+                                 NodeScratch& scratch)
+{
+    const auto& iv = scratch.iv;
+    auto& drop = scratch.drop;
+    if (!gbb) {
+        const Interval result = combine(block, iv, T);
+        droppable(block, iv, T, drop);
+        return {block, false, result};
+    }
+    const double* op1 = block + CB_GBB_B1;
+    const double* op2 = block + CB_GBB_B2;
+    const Interval i1 = combine(op1, iv, T), i2 = combine(op2, iv, T);
+    const double b0 = std::clamp(bound.lo, 0.0, 1.0), b1 = std::clamp(bound.hi, 0.0, 1.0);
+    if (b1 <= 0.0) {  // bound 0 everywhere: B2 alone
+        droppable(op2, iv, T, drop);
+        return {op2, false, i2};
+    }
+    if (b0 >= 1.0) {  // bound 1 everywhere: B1 alone
+        droppable(op1, iv, T, drop);
+        return {op1, false, i1};
+    }
+    droppable(op1, iv, T, drop);
+    droppable(op2, iv, T, scratch.drop2);
+    for (size_t i = 0; i < iv.size(); ++i)
+        drop[i] = drop[i] && scratch.drop2[i];
+    return {op1, true, {std::min(i1.lo, i2.lo), std::max(i1.hi, i2.hi)}};
+}
+
+/// Replaces an operator's specialised code, out[start, end), by the code of
+/// what remains of it: the constant 0 when no child is left, the one child
+/// left when the combiner would pass it through unchanged, else OPEN (reading
+/// the block at `a`, support box `supportBox`) and the kept children.
+void rebuildOperator(const OperatorReduction& r, int a, int supportBox, NodeScratch::Child boundCode, size_t start,
+                     NodeScratch& scratch, std::vector<Instr>& out)
+{
+    const auto& kids = scratch.kids;
+    auto& segment = scratch.segment;
+    auto& kept = scratch.kept;
+    segment.clear();
+    kept.clear();
+    for (size_t i = 0; i < kids.size(); ++i)
+        if (!scratch.drop[i])
+            kept.push_back(i);
+    auto copy = [&](size_t b, size_t e) {
+        segment.insert(segment.end(), out.begin() + long(b), out.begin() + long(e));
+    };
+    if (kept.empty()) {
+        segment.push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
+    } else if (!r.keepGbb && kept.size() == 1 && collapsesToChild(r.op, scratch.iv[kept[0]])) {
+        copy(kids[kept[0]].begin, kids[kept[0]].end);
+    } else {
+        const int type = r.keepGbb ? CB_GBB : int(r.op[CB_OP_TYPE]);
+        segment.push_back({CB_I_OPEN, a, type, supportBox});
+        for (size_t k = 0; k < kept.size(); ++k) {
+            copy(kids[kept[k]].begin, kids[kept[k]].end);
+            segment.push_back({CB_I_ACC, a, type, kept[k] == 0 ? 1 : 0});
+        }
+        if (r.keepGbb)
+            copy(boundCode.begin, boundCode.end);
+        segment.push_back({CB_I_CLOSE, a, type, 0});
+    }
+    out.resize(start);
+    out.insert(out.end(), segment.begin(), segment.end());
+}
+
 }  // namespace
 
 Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const
 {
     const Instr head = in.data[pos];
-    const double T = params_[CB_P_T];
-    auto emitZero = [&] {
-        if (out)
-            out->push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
-    };
-
     if (head.op == CB_I_CONST) {
         ++pos;
         if (out)
             out->push_back(head);
-        const double v = params_[size_t(head.a)];
+        const double v = params_[size_t(head.a + CB_CONST_VALUE)];
         return {v, v};
     }
     if (head.op != CB_I_OPEN && head.op != CB_I_WARP) {
         ++pos;
-        // Most primitives of a big tree are far from a given box: their
-        // support box says so before any distance is computed.
-        const Interval iv = subtreeSupport_[size_t(head.c)].intersected(box).empty()
-                                ? Interval{0.0, 0.0}
-                                : primitiveInterval(head, box);
-        if (iv.isZero())
-            emitZero();
-        else if (out)
-            out->push_back(head);
-        return iv;
+        return primitiveNode(head, box, out);
     }
     // A subtree whose support misses the box is zero there: skip it unread.
     const Box& support = subtreeSupport_[size_t(head.c)];
     if (support.intersected(box).empty()) {
         pos = skipSubtree(in, pos);
-        emitZero();
+        emitZero(out);
         return {0.0, 0.0};
     }
+    if (head.op == CB_I_WARP)
+        return warpNode(in, pos, box, out, depth);
+    return operatorNode(in, pos, box, out, depth);
+}
 
-    if (head.op == CB_I_WARP) {
-        ++pos;
-        const size_t start = out ? out->size() : 0;
-        if (out)
-            out->push_back(head);
-        const Interval iv = node(in, pos, warpChildBox(head, box), out, depth + 1);
-        ++pos;  // UNWARP
-        if (out) {
-            if (iv.isZero()) {
-                out->resize(start);
-                emitZero();
-            } else {
-                out->push_back(in.data[pos - 1]);
-            }
+Interval FieldProgram::primitiveNode(const Instr& head, const Box& box, std::vector<Instr>* out) const
+{
+    // Most primitives of a big tree are far from a given box: their
+    // support box says so before any distance is computed.
+    const Interval iv = subtreeSupport_[size_t(head.c)].intersected(box).empty() ? Interval{0.0, 0.0}
+                                                                                  : primitiveInterval(head, box);
+    if (iv.isZero())
+        emitZero(out);
+    else if (out)
+        out->push_back(head);
+    return iv;
+}
+
+Interval FieldProgram::warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const
+{
+    const Instr head = in.data[pos++];
+    const size_t start = out ? out->size() : 0;
+    if (out)
+        out->push_back(head);
+    const Interval iv = node(in, pos, warpChildBox(head, box), out, depth + 1);
+    ++pos;  // UNWARP
+    if (out) {
+        if (iv.isZero()) {
+            out->resize(start);
+            emitZero(out);
+        } else {
+            out->push_back(in.data[pos - 1]);
         }
-        return iv;
     }
+    return iv;
+}
 
+Interval FieldProgram::operatorNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                                    size_t depth) const
+{
     // OPEN child ACC child ACC ... [bound] CLOSE
-    ++pos;
-    const bool gbb = head.b == CB_GBB;
-    const double* op1 = params_.data() + head.a;
-    const double* op2 = gbb ? op1 + CB_OP_SIZE : nullptr;
+    const Instr head = in.data[pos++];
     if (tlsNodeScratch.size() <= depth)
         tlsNodeScratch.resize(depth + 1);
     NodeScratch& scratch = tlsNodeScratch[depth];
-    auto& kids = scratch.kids;
-    auto& iv = scratch.iv;
-    kids.clear();
-    iv.clear();
+    scratch.kids.clear();
+    scratch.iv.clear();
     const size_t start = out ? out->size() : 0;
     Interval bound{0.0, 0.0};
-    size_t boundBegin = 0, boundEnd = 0;
+    NodeScratch::Child boundCode{0, 0};
     while (in.data[pos].op != CB_I_CLOSE) {
         const size_t b = out ? out->size() : 0;
         const Interval i = node(in, pos, box, out, depth + 1);
         const size_t e = out ? out->size() : 0;
         if (in.data[pos].op == CB_I_ACC) {
             ++pos;
-            kids.push_back({b, e});
-            iv.push_back(i);
+            scratch.kids.push_back({b, e});
+            scratch.iv.push_back(i);
         } else {  // the bounding field of a GBB
             bound = i;
-            boundBegin = b;
-            boundEnd = e;
+            boundCode = {b, e};
         }
     }
     ++pos;  // CLOSE
 
-    Interval result;
-    const double* op = op1;  // the combiner that will remain
-    auto& drop = scratch.drop;
-    bool keepGbb = false;
-    if (!gbb) {
-        result = combine(op1, iv, T);
-        droppable(op1, iv, T, drop);
-    } else {
-        const Interval i1 = combine(op1, iv, T), i2 = combine(op2, iv, T);
-        const double b0 = std::clamp(bound.lo, 0.0, 1.0), b1 = std::clamp(bound.hi, 0.0, 1.0);
-        if (b1 <= 0.0) {  // bound 0 everywhere: B2 alone
-            op = op2;
-            result = i2;
-            droppable(op2, iv, T, drop);
-        } else if (b0 >= 1.0) {  // bound 1 everywhere: B1 alone
-            result = i1;
-            droppable(op1, iv, T, drop);
-        } else {
-            keepGbb = true;
-            result = {std::min(i1.lo, i2.lo), std::max(i1.hi, i2.hi)};
-            droppable(op1, iv, T, drop);
-            droppable(op2, iv, T, scratch.drop2);
-            for (size_t i = 0; i < iv.size(); ++i)
-                drop[i] = drop[i] && scratch.drop2[i];
-        }
+    const OperatorReduction r =
+        reduceOperator(params_.data() + head.a, head.b == CB_GBB, bound, params_[CB_P_T], scratch);
+    if (out) {
+        // A whole GBB reads both combiners from its own block; one combiner
+        // left alone reads its own.
+        const int a = r.keepGbb ? head.a : int(r.op - params_.data());
+        rebuildOperator(r, a, head.c, boundCode, start, scratch, *out);
     }
-    if (!out)
-        return result;
-
-    // Rebuild this node's code from the kept children.
-    auto& segment = scratch.segment;
-    auto& kept = scratch.kept;
-    segment.clear();
-    kept.clear();
-    for (size_t i = 0; i < kids.size(); ++i)
-        if (!drop[i])
-            kept.push_back(i);
-    auto copy = [&](size_t b, size_t e) {
-        segment.insert(segment.end(), out->begin() + long(b), out->begin() + long(e));
-    };
-    const int opType = int(op[0]);
-    if (kept.empty()) {
-        segment.push_back({CB_I_CONST, CB_P_ZERO, 0, 0});
-    } else if (!keepGbb && kept.size() == 1 && collapsesToChild(op, iv[kept[0]])) {
-        copy(kids[kept[0]].begin, kids[kept[0]].end);
-    } else {
-        const int a = int(op - params_.data());
-        const int type = keepGbb ? CB_GBB : opType;
-        segment.push_back({CB_I_OPEN, a, type, head.c});
-        for (size_t k = 0; k < kept.size(); ++k) {
-            copy(kids[kept[k]].begin, kids[kept[k]].end);
-            segment.push_back({CB_I_ACC, a, type, kept[k] == 0 ? 1 : 0});
-        }
-        if (keepGbb)
-            copy(boundBegin, boundEnd);
-        segment.push_back({CB_I_CLOSE, a, type, 0});
-    }
-    out->resize(start);
-    out->insert(out->end(), segment.begin(), segment.end());
-    return result;
+    return r.result;
 }
 
 }  // namespace cambium

@@ -40,7 +40,7 @@ public:
     /// deeper than the kernels' fixed stacks allow.
     static FieldProgram compile(const BlobTree& tree);
 
-    double threshold() const { return params_[0]; }
+    double threshold() const;
     /// The parameter table (double; the kernels get a float copy).
     const std::vector<double>& params() const { return params_; }
     std::vector<float> paramsFloat() const;
@@ -89,7 +89,17 @@ public:
     static int maxWarpDepth();
 
 private:
+    /// specialize() of the subtree at in[pos]: its bounds over `box`, its
+    /// specialised code appended to *out, pos moved past it.  `depth` picks
+    /// the working lists of this level of the recursion.
     Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
+    /// node() for a primitive.
+    Interval primitiveNode(const Instr& head, const Box& box, std::vector<Instr>* out) const;
+    /// node() for WARP subtree UNWARP: a warp over a zero subtree is zero.
+    Interval warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
+    /// node() for an operator: its children specialised, those it can do
+    /// without on the box removed, the operator collapsed where it can be.
+    Interval operatorNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
     Interval primitiveInterval(const Instr& in, const Box& box) const;
     Box warpChildBox(const Instr& in, const Box& box) const;
 
