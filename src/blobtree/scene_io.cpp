@@ -24,46 +24,6 @@ using json = nlohmann::json;
 
 constexpr double kDegree = M_PI / 180.0;
 
-size_t editDistance(const std::string& a, const std::string& b)
-{
-    std::vector<size_t> row(b.size() + 1);
-    for (size_t j = 0; j <= b.size(); ++j)
-        row[j] = j;
-    for (size_t i = 1; i <= a.size(); ++i) {
-        size_t diag = row[0];
-        row[0] = i;
-        for (size_t j = 1; j <= b.size(); ++j) {
-            const size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
-            diag = up;
-        }
-    }
-    return row[b.size()];
-}
-
-/// " (did you mean 'x'?)" when a known word is close to `word`.
-std::string suggestion(const std::string& word, const std::vector<std::string>& known)
-{
-    std::string best;
-    size_t bestDistance = 3;
-    for (const auto& k : known) {
-        const size_t d = editDistance(word, k);
-        if (d < bestDistance) {
-            bestDistance = d;
-            best = k;
-        }
-    }
-    return best.empty() ? std::string() : fmt::format(" (did you mean '{}'?)", best);
-}
-
-std::string joined(const std::vector<std::string>& words)
-{
-    std::string s;
-    for (const auto& w : words)
-        s += (s.empty() ? "" : ", ") + w;
-    return s;
-}
-
 std::vector<std::string> fieldsOf(NodeType t)
 {
     switch (t) {
@@ -88,110 +48,47 @@ std::vector<std::string> fieldsOf(NodeType t)
     return {};
 }
 
-const char* jsonKind(const json& j)
-{
-    switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    default: return "something else";
-    }
-}
-
-class SceneReader {
+/// Reads a scene's nodes into a BlobTree, checking each value on the way
+/// (the shared JSON checks, and the node types' own).
+class SceneReader : private JsonValidator {
 public:
-    explicit SceneReader(std::string source) : source_(std::move(source)) {}
+    explicit SceneReader(std::string source) : JsonValidator(std::move(source)) {}
 
     BlobTree read(const json& doc)
     {
-        if (!doc.is_object())
-            fail("(top level)", fmt::format("must be an object with a \"root\" (got {})", jsonKind(doc)));
+        object(doc, "(top level)", "must be an object with a \"root\"");
         checkKeys(doc, "", {"threshold", "root", "name", "description", "comment"});
         double threshold = 0.5;
         if (doc.contains("threshold"))
             threshold = number(doc["threshold"], "threshold");
-        if (!doc.contains("root"))
-            fail("root", "missing: a scene needs a root node");
+        const json& root = required(doc, "root", "", "a scene needs a root node");
         try {
             tree_ = BlobTree(threshold);
         } catch (const ParameterError& e) {
             fail("threshold", e.what());
         }
-        tree_.setRoot(node(doc["root"], "root"));
+        tree_.setRoot(node(root, "root"));
         tree_.finalize();
         return std::move(tree_);
     }
 
 private:
-    [[noreturn]] void fail(const std::string& path, const std::string& what) const
-    {
-        throw InputError(fmt::format("{}: {}: {}", source_, path, what));
-    }
-
-    static std::string join(const std::string& path, const std::string& key)
-    {
-        return path.empty() ? key : path + "." + key;
-    }
-
-    void checkKeys(const json& obj, const std::string& path, const std::vector<std::string>& allowed)
-    {
-        for (auto it = obj.begin(); it != obj.end(); ++it) {
-            const std::string& key = it.key();
-            if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
-                fail(join(path, key), fmt::format("unknown field{}; allowed here: {}",
-                                                  suggestion(key, allowed), joined(allowed)));
-        }
-    }
-
-    double number(const json& j, const std::string& path)
-    {
-        if (!j.is_number())
-            fail(path, fmt::format("must be a number (got {})", jsonKind(j)));
-        const double v = j.get<double>();
-        if (!std::isfinite(v))
-            fail(path, "must be a finite number");
-        return v;
-    }
-
-    std::optional<double> optNumber(const json& obj, const char* key, const std::string& path)
-    {
-        if (!obj.contains(key))
-            return std::nullopt;
-        return number(obj[key], join(path, key));
-    }
-
-    double reqNumber(const json& obj, const char* key, const std::string& path)
-    {
-        if (!obj.contains(key))
-            fail(join(path, key), "missing");
-        return number(obj[key], join(path, key));
-    }
-
     glm::dvec3 vec3(const json& j, const std::string& path)
     {
-        if (!j.is_array() || j.size() != 3)
-            fail(path, fmt::format("must be an array of 3 numbers (got {}{})", jsonKind(j),
-                                   j.is_array() ? fmt::format(" of {}", j.size()) : ""));
+        array(j, path, 3, "must be an array of 3 numbers");
         return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
     }
 
     glm::dvec3 reqVec3(const json& obj, const char* key, const std::string& path)
     {
-        if (!obj.contains(key))
-            fail(join(path, key), "missing");
-        return vec3(obj[key], join(path, key));
+        return vec3(required(obj, key, path), jsonPath(path, key));
     }
 
     std::optional<glm::dvec3> optVec3(const json& obj, const char* key, const std::string& path)
     {
         if (!obj.contains(key))
             return std::nullopt;
-        return vec3(obj[key], join(path, key));
+        return vec3(obj[key], jsonPath(path, key));
     }
 
     /// Reads the parameters of a blending operator from `obj` into `c`.
@@ -219,7 +116,7 @@ private:
             NodeType::BLEND,      NodeType::RICCI, NodeType::UNION,       NodeType::INTERSECTION,
             NodeType::DIFFERENCE, NodeType::PCM,   NodeType::BETTER_BLEND};
         if (!blending.count(t))
-            fail(join(path, "type"),
+            fail(jsonPath(path, "type"),
                  fmt::format("'{}' cannot blend a GBB's children; use blend, ricci, union, "
                              "intersection, difference, pcm or better_blend",
                              typeName(t)));
@@ -235,26 +132,21 @@ private:
 
     NodeType nodeType(const json& j, const std::string& path)
     {
-        if (!j.is_object())
-            fail(path, fmt::format("must be an object with a \"type\" (got {})", jsonKind(j)));
-        if (!j.contains("type"))
-            fail(join(path, "type"), "missing: every node needs a type");
-        const json& t = j["type"];
-        if (!t.is_string())
-            fail(join(path, "type"), fmt::format("must be a string (got {})", jsonKind(t)));
-        const std::string name = t.get<std::string>();
+        object(j, path, "must be an object with a \"type\"");
+        const std::string tpath = jsonPath(path, "type");
+        const std::string name = string(required(j, "type", path, "every node needs a type"), tpath);
         if (auto type = typeFromName(name))
             return *type;
         std::vector<std::string> names;
         for (NodeType k : allNodeTypes())
             names.push_back(typeName(k));
-        fail(join(path, "type"), fmt::format("unknown node type '{}'{}; known types: {}", name,
-                                             suggestion(name, names), joined(names)));
+        fail(tpath, fmt::format("unknown node type '{}'{}; known types: {}", name, didYouMean(name, names),
+                                joinWords(names)));
     }
 
     std::vector<int> children(const json& j, const std::string& path, NodeType t)
     {
-        const std::string cpath = join(path, "children");
+        const std::string cpath = jsonPath(path, "children");
         if (!j.contains("children"))
             fail(cpath, fmt::format("missing: a '{}' needs children", typeName(t)));
         const json& c = j["children"];
@@ -277,9 +169,9 @@ private:
         const bool parts = j.contains("translate") || j.contains("rotate") || j.contains("scale");
         if (j.contains("matrix")) {
             if (parts)
-                fail(join(path, "matrix"), "give either a matrix or translate/rotate/scale, not both");
+                fail(jsonPath(path, "matrix"), "give either a matrix or translate/rotate/scale, not both");
             const json& m = j["matrix"];
-            const std::string mpath = join(path, "matrix");
+            const std::string mpath = jsonPath(path, "matrix");
             if (!m.is_array() || m.size() != 4)
                 fail(mpath, "must be 4 rows of 4 numbers (row-major)");
             glm::dmat4 out(1.0);
@@ -297,18 +189,18 @@ private:
             m = glm::translate(m, *t);
         if (j.contains("rotate")) {
             const json& r = j["rotate"];
-            const std::string rpath = join(path, "rotate");
+            const std::string rpath = jsonPath(path, "rotate");
             if (!r.is_object())
                 fail(rpath, "must be an object {\"axis\": [x, y, z], \"angle\": degrees}");
             checkKeys(r, rpath, {"axis", "angle"});
             const glm::dvec3 axis = reqVec3(r, "axis", rpath);
             if (!(glm::length(axis) > 0.0))
-                fail(join(rpath, "axis"), "must not be zero");
+                fail(jsonPath(rpath, "axis"), "must not be zero");
             m = glm::rotate(m, reqNumber(r, "angle", rpath) * kDegree, glm::normalize(axis));
         }
         if (j.contains("scale")) {
             const json& s = j["scale"];
-            const std::string spath = join(path, "scale");
+            const std::string spath = jsonPath(path, "scale");
             const glm::dvec3 v = s.is_number() ? glm::dvec3(number(s, spath)) : vec3(s, spath);
             if (v.x == 0.0 || v.y == 0.0 || v.z == 0.0)
                 fail(spath, "must not be 0: a transform must be invertible");
@@ -361,14 +253,13 @@ private:
                 break;
             }
             case NodeType::GBB: {
-                if (!j.contains("bound"))
-                    fail(join(path, "bound"), "missing: a gbb needs a bounding field");
-                const int bound = node(j["bound"], join(path, "bound"));
+                const int bound =
+                    node(required(j, "bound", path, "a gbb needs a bounding field"), jsonPath(path, "bound"));
                 Combiner b1{NodeType::PCM}, b2{NodeType::BLEND};
                 if (j.contains("b1"))
-                    b1 = combinerSpec(j["b1"], join(path, "b1"));
+                    b1 = combinerSpec(j["b1"], jsonPath(path, "b1"));
                 if (j.contains("b2"))
-                    b2 = combinerSpec(j["b2"], join(path, "b2"));
+                    b2 = combinerSpec(j["b2"], jsonPath(path, "b2"));
                 index = tree_.gbb(bound, kids, b1, b2);
                 break;
             }
@@ -398,14 +289,13 @@ private:
             }
             }
             if (j.contains("color"))
-                tree_.setColor(index, vec3(j["color"], join(path, "color")));
+                tree_.setColor(index, vec3(j["color"], jsonPath(path, "color")));
         } catch (const ParameterError& e) {
-            fail(join(path, e.field()), e.what());
+            fail(jsonPath(path, e.field()), e.what());
         }
         return index;
     }
 
-    std::string source_;
     BlobTree tree_;
 };
 

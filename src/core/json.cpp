@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <vector>
 
@@ -114,6 +115,155 @@ json parseJson(const std::string& text, const std::string& source)
         }
         throw InputError(fmt::format("{}: JSON syntax error: {}", source, what));
     }
+}
+
+const char* jsonKind(const json& j)
+{
+    switch (j.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::string: return "a string";
+    case json::value_t::array: return "an array";
+    case json::value_t::object: return "an object";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    default: return "something else";
+    }
+}
+
+namespace {
+
+size_t editDistance(const std::string& a, const std::string& b)
+{
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j)
+        row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        size_t diag = row[0];
+        row[0] = i;
+        for (size_t j = 1; j <= b.size(); ++j) {
+            const size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+}  // namespace
+
+std::string didYouMean(const std::string& word, const std::vector<std::string>& known)
+{
+    std::string best;
+    size_t bestDistance = 3;
+    for (const auto& k : known) {
+        const size_t d = editDistance(word, k);
+        if (d < bestDistance) {
+            bestDistance = d;
+            best = k;
+        }
+    }
+    return best.empty() ? std::string() : fmt::format(" (did you mean '{}'?)", best);
+}
+
+std::string joinWords(const std::vector<std::string>& words)
+{
+    std::string s;
+    for (const auto& w : words)
+        s += (s.empty() ? "" : ", ") + w;
+    return s;
+}
+
+std::string jsonPath(const std::string& path, const std::string& key)
+{
+    return path.empty() ? key : path + "." + key;
+}
+
+void JsonValidator::fail(const std::string& path, const std::string& what) const
+{
+    throw InputError(fmt::format("{}: {}: {}", source_, path, what));
+}
+
+void JsonValidator::checkKeys(const json& obj, const std::string& path, const std::vector<std::string>& allowed,
+                              const char* noun, const char* listedIn) const
+{
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+        const std::string& key = it.key();
+        if (std::find(allowed.begin(), allowed.end(), key) != allowed.end())
+            continue;
+        // A long list is better left to the format's document than spelled out.
+        const std::string where = listedIn ? fmt::format(" ({} lists them)", listedIn)
+                                           : fmt::format("; allowed here: {}", joinWords(allowed));
+        fail(jsonPath(path, key), fmt::format("unknown {}{}{}", noun, didYouMean(key, allowed), where));
+    }
+}
+
+const json& JsonValidator::required(const json& obj, const std::string& key, const std::string& path,
+                                    const char* why) const
+{
+    if (!obj.contains(key))
+        fail(jsonPath(path, key), why ? fmt::format("missing: {}", why) : std::string("missing"));
+    return obj[key];
+}
+
+const json& JsonValidator::object(const json& j, const std::string& path, const char* what) const
+{
+    if (!j.is_object())
+        fail(path, fmt::format("{} (got {})", what, jsonKind(j)));
+    return j;
+}
+
+const json& JsonValidator::array(const json& j, const std::string& path, size_t size, const char* what) const
+{
+    if (!j.is_array() || j.size() != size)
+        fail(path,
+             fmt::format("{} (got {}{})", what, jsonKind(j), j.is_array() ? fmt::format(" of {}", j.size()) : ""));
+    return j;
+}
+
+double JsonValidator::number(const json& j, const std::string& path) const
+{
+    if (!j.is_number())
+        fail(path, fmt::format("must be a number (got {})", jsonKind(j)));
+    const double v = j.get<double>();
+    if (!std::isfinite(v))
+        fail(path, "must be a finite number");
+    return v;
+}
+
+double JsonValidator::number(const json& j, const std::string& path, double lo, double hi) const
+{
+    const double v = number(j, path);
+    if (!(v >= lo && v <= hi))
+        fail(path, fmt::format("must be between {} and {} (got {})", lo, hi, v));
+    return v;
+}
+
+std::optional<double> JsonValidator::optNumber(const json& obj, const std::string& key, const std::string& path) const
+{
+    if (!obj.contains(key))
+        return std::nullopt;
+    return number(obj[key], jsonPath(path, key));
+}
+
+double JsonValidator::reqNumber(const json& obj, const std::string& key, const std::string& path) const
+{
+    return number(required(obj, key, path), jsonPath(path, key));
+}
+
+std::string JsonValidator::string(const json& j, const std::string& path) const
+{
+    if (!j.is_string())
+        fail(path, fmt::format("must be a string (got {})", jsonKind(j)));
+    return j.get<std::string>();
+}
+
+bool JsonValidator::boolean(const json& j, const std::string& path) const
+{
+    if (!j.is_boolean())
+        fail(path, fmt::format("must be true or false (got {})", jsonKind(j)));
+    return j.get<bool>();
 }
 
 }  // namespace cambium

@@ -145,10 +145,16 @@ struct PlyElement {
     std::vector<PlyProperty> properties;
 };
 
-TriangleMesh readPly(std::istream& in, const std::string& path)
-{
-    std::string text, format;
+/// A PLY header: its format and its elements, in order.
+struct PlyHeader {
+    std::string format;
     std::vector<PlyElement> elements;
+};
+
+PlyHeader readPlyHeader(std::istream& in, const std::string& path)
+{
+    PlyHeader h;
+    std::string text;
     size_t line = 0;
     if (!std::getline(in, text) || text.rfind("ply", 0) != 0)
         fail(path, 1, "not a PLY file (it does not start with 'ply')");
@@ -165,16 +171,17 @@ TriangleMesh readPly(std::istream& in, const std::string& path)
         if (tag == "end_header")
             break;
         if (tag == "format") {
-            s >> format;
-            if (format != "ascii" && format != "binary_little_endian")
-                fail(path, line, fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)", format));
+            s >> h.format;
+            if (h.format != "ascii" && h.format != "binary_little_endian")
+                fail(path, line,
+                     fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)", h.format));
         } else if (tag == "element") {
             PlyElement e;
             if (!(s >> e.name >> e.count))
                 fail(path, line, "expected 'element NAME COUNT'");
-            elements.push_back(e);
+            h.elements.push_back(e);
         } else if (tag == "property") {
-            if (elements.empty())
+            if (h.elements.empty())
                 fail(path, line, "a property before any element");
             PlyProperty p;
             std::string type;
@@ -188,87 +195,99 @@ TriangleMesh readPly(std::istream& in, const std::string& path)
                 p.type = plyType(type, path, line);
             if (!(s >> p.name))
                 fail(path, line, "a property without a name");
-            elements.back().properties.push_back(p);
+            h.elements.back().properties.push_back(p);
         }
         // comment, obj_info: nothing to do.
     }
-    if (format.empty())
+    if (h.format.empty())
         fail(path, line, "the header has no format line");
+    return h;
+}
 
-    TriangleMesh m;
-    const bool ascii = format == "ascii";
-    std::vector<char> record;
+/// Reads the items of element `e` (ASCII lines or binary records) into `m`:
+/// the vertices' positions, normals and colours, the faces' polygons; the
+/// values of other elements are read past.
+void readPlyElement(std::istream& in, const std::string& path, const PlyElement& e, bool ascii, TriangleMesh& m)
+{
+    std::string text;
     std::vector<double> values;
     std::vector<int64_t> poly;
-    for (const PlyElement& e : elements) {
-        auto index = [&](const char* name) -> int {
-            for (size_t i = 0; i < e.properties.size(); ++i)
-                if (e.properties[i].name == name)
-                    return int(i);
-            return -1;
-        };
-        const int x = index("x"), y = index("y"), z = index("z"), nx = index("nx"), ny = index("ny"),
-                  nz = index("nz"), r = index("red"), g = index("green"), b = index("blue");
-        int list = index("vertex_indices");
-        if (list < 0)
-            list = index("vertex_index");
-        if (e.name == "vertex" && (x < 0 || y < 0 || z < 0))
-            fail(path, 0, "the vertex element has no x, y, z");
-        if (e.name == "face" && list < 0)
-            fail(path, 0, "the face element has no vertex_indices list");
-        const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
-        const double colourScale = colours && e.properties[size_t(r)].type.real ? 1.0 : 1.0 / 255.0;
-        for (size_t item = 0; item < e.count; ++item) {
-            values.assign(e.properties.size(), 0.0);
-            poly.clear();
-            std::istringstream s;
-            if (ascii) {
-                if (!std::getline(in, text))
-                    fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item, e.count));
-                s.str(text);
-            }
-            for (size_t k = 0; k < e.properties.size(); ++k) {
-                const PlyProperty& p = e.properties[k];
-                auto one = [&](const PlyType& t) {
-                    double v = 0.0;
-                    if (ascii) {
-                        if (!(s >> v))
-                            fail(path, 0, fmt::format("element '{}' {}: too few values", e.name, item));
-                    } else {
-                        char buf[8];
-                        if (!in.read(buf, t.size))
-                            fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
-                                                      e.count));
-                        v = t.read(buf);
-                    }
-                    return v;
-                };
-                if (p.countType.size == 0) {
-                    values[k] = one(p.type);
-                    continue;
+    auto index = [&](const char* name) -> int {
+        for (size_t i = 0; i < e.properties.size(); ++i)
+            if (e.properties[i].name == name)
+                return int(i);
+        return -1;
+    };
+    const int x = index("x"), y = index("y"), z = index("z"), nx = index("nx"), ny = index("ny"),
+              nz = index("nz"), r = index("red"), g = index("green"), b = index("blue");
+    int list = index("vertex_indices");
+    if (list < 0)
+        list = index("vertex_index");
+    if (e.name == "vertex" && (x < 0 || y < 0 || z < 0))
+        fail(path, 0, "the vertex element has no x, y, z");
+    if (e.name == "face" && list < 0)
+        fail(path, 0, "the face element has no vertex_indices list");
+    const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
+    const double colourScale = colours && e.properties[size_t(r)].type.real ? 1.0 : 1.0 / 255.0;
+    for (size_t item = 0; item < e.count; ++item) {
+        values.assign(e.properties.size(), 0.0);
+        poly.clear();
+        std::istringstream s;
+        if (ascii) {
+            if (!std::getline(in, text))
+                fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item, e.count));
+            s.str(text);
+        }
+        for (size_t k = 0; k < e.properties.size(); ++k) {
+            const PlyProperty& p = e.properties[k];
+            auto one = [&](const PlyType& t) {
+                double v = 0.0;
+                if (ascii) {
+                    if (!(s >> v))
+                        fail(path, 0, fmt::format("element '{}' {}: too few values", e.name, item));
+                } else {
+                    char buf[8];
+                    if (!in.read(buf, t.size))
+                        fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
+                                                  e.count));
+                    v = t.read(buf);
                 }
-                const double n = one(p.countType);
-                if (!(n >= 0.0 && n < 1e6))
-                    fail(path, 0, fmt::format("element '{}' {}: a list of {} items", e.name, item, n));
-                for (int i = 0; i < int(n); ++i) {
-                    const double v = one(p.type);
-                    if (int(k) == list)
-                        poly.push_back(int64_t(v));
-                }
+                return v;
+            };
+            if (p.countType.size == 0) {
+                values[k] = one(p.type);
+                continue;
             }
-            if (e.name == "vertex") {
-                m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]), float(values[size_t(z)]));
-                if (nx >= 0 && ny >= 0 && nz >= 0)
-                    m.normals.emplace_back(float(values[size_t(nx)]), float(values[size_t(ny)]),
-                                           float(values[size_t(nz)]));
-                if (colours)
-                    m.colors.emplace_back(float(values[size_t(r)] * colourScale), float(values[size_t(g)] * colourScale),
-                                          float(values[size_t(b)] * colourScale));
-            } else if (e.name == "face") {
-                addPolygon(m, poly, path, 0);
+            const double n = one(p.countType);
+            if (!(n >= 0.0 && n < 1e6))
+                fail(path, 0, fmt::format("element '{}' {}: a list of {} items", e.name, item, n));
+            for (int i = 0; i < int(n); ++i) {
+                const double v = one(p.type);
+                if (int(k) == list)
+                    poly.push_back(int64_t(v));
             }
         }
+        if (e.name == "vertex") {
+            m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]), float(values[size_t(z)]));
+            if (nx >= 0 && ny >= 0 && nz >= 0)
+                m.normals.emplace_back(float(values[size_t(nx)]), float(values[size_t(ny)]),
+                                       float(values[size_t(nz)]));
+            if (colours)
+                m.colors.emplace_back(float(values[size_t(r)] * colourScale), float(values[size_t(g)] * colourScale),
+                                      float(values[size_t(b)] * colourScale));
+        } else if (e.name == "face") {
+            addPolygon(m, poly, path, 0);
+        }
     }
+}
+
+TriangleMesh readPly(std::istream& in, const std::string& path)
+{
+    const PlyHeader h = readPlyHeader(in, path);
+    TriangleMesh m;
+    const bool ascii = h.format == "ascii";
+    for (const PlyElement& e : h.elements)
+        readPlyElement(in, path, e, ascii, m);
     return m;
 }
 

@@ -253,230 +253,325 @@ double GrowthModel::growthTime(double time) const
     return (y - 1) + std::min(1.0, (time - (y - 1)) / p_.growingSeason);
 }
 
-Skeleton GrowthModel::skeleton(double time, bool leaves) const
-{
+/// One drawing of the tree at a calendar time, branch by branch, parents
+/// first: each branch starts at the frame its parent left at its node.
+class GrowthModel::SkeletonDrawer {
+public:
     // Growth, ageing and dying back run on the growth clock, which stands
     // still after each growing season; only the leaves fall on the calendar.
-    const double t = growthTime(time);
-    const size_t n = branches_.size();
-    const double minLength = 1e-3 * p_.tipRadius;
+    SkeletonDrawer(const GrowthModel& model, double time, bool leaves)
+        : model_(model),
+          p_(model.p_),
+          branches_(model.branches_),
+          leaves_(leaves),
+          t_(model.growthTime(time)),
+          minLength_(1e-3 * p_.tipRadius),
+          support_(model.branchSupports(t_)),
+          nodes_(branches_.size()),
+          visible_(branches_.size(), 0.0),
+          grown_(branches_.size(), 0.0),
+          alpha_(radians(p_.branchingAngle)),
+          wave1_(1.7 * p_.maxShootLength),
+          wave2_(0.61 * p_.maxShootLength),
+          noise_(radians(p_.orientationNoise)),
+          year_(growthYear(t_)),
+          u_(t_ - (year_ - 1)),
+          fall_(smoothstep(p_.leafFall, std::min(1.0, p_.leafFall + 0.1), time - (year_ - 1))),
+          barkDark_(0.55 * p_.bark)
+    {
+    }
 
-    const std::vector<double> support = branchSupports(t);
+    Skeleton draw()
+    {
+        for (size_t bi = 0; bi < branches_.size(); ++bi)
+            drawBranch(bi);
+        return std::move(sk_);
+    }
 
+private:
     struct NodeFrame {
         glm::dvec3 p, h, u;  ///< the metamer's tip, heading, reference across it
         double r = 0.0;      ///< radius at the tip
         long long id = -1;   ///< its internode
     };
-    std::vector<std::vector<NodeFrame>> nodes(n);
-    std::vector<double> visible(n, 0.0), grown(n, 0.0);
-    const double alpha = radians(p_.branchingAngle);
-    const double wave1 = 1.7 * p_.maxShootLength, wave2 = 0.61 * p_.maxShootLength;
-    const double noise = radians(p_.orientationNoise);
-    const int year = growthYear(t);
-    const double u = t - (year - 1);  // growth time within the current year
-    const double fall = smoothstep(p_.leafFall, std::min(1.0, p_.leafFall + 0.1), time - (year - 1));
-    const glm::dvec3 barkDark = 0.55 * p_.bark;
 
-    Skeleton sk;
-    for (size_t bi = 0; bi < n; ++bi) {
-        const GrowthBranch& b = branches_[bi];
-        if (t <= b.birth - 1)
-            continue;
-        const GrowthBranch* parent = b.parent >= 0 ? &branches_[size_t(b.parent)] : nullptr;
-        // Where it starts, and its frame there.
+    /// Where a branch starts, and its frame there (the trunk's: the origin, heading up).
+    struct Start {
         glm::dvec3 base{0.0}, h0{0.0, 1.0, 0.0}, axis{1.0, 0.0, 0.0};
         long long parentId = -1;
         double parentRadius = 0.0;
-        if (parent) {
-            const std::vector<NodeFrame>& pn = nodes[size_t(b.parent)];
-            if (size_t(b.node) >= pn.size())
-                continue;  // the parent died back past it, or is gone
-            const NodeFrame& at = pn[size_t(b.node)];
-            base = at.p;
-            parentId = at.id;
-            parentRadius = at.r;
-            const glm::dvec3 across = std::cos(b.azimuth) * at.u + std::sin(b.azimuth) * glm::cross(at.h, at.u);
-            h0 = glm::normalize(std::cos(alpha) * at.h + std::sin(alpha) * across);
-            const glm::dvec3 c = glm::cross(h0, at.h);
-            axis = glm::length(c) > 1e-9 ? glm::normalize(c) : anyPerpendicular(h0);
-        }
-        grown[bi] = grownLength(int(bi), t);
-        if (t >= b.lost) {
-            // Lost: a stub and a scar on the parent, fading as the bark grows over it.
-            const double since = t - b.lost;
-            const double fade = 1.0 - smoothstep(0.0, 2.0 * p_.scarYears, since);
-            if (parent && fade > 0.0) {
-                Scar s;
-                s.radius = radiusOf(support[bi]);
-                s.base = base;
-                s.tip = base + h0 * (parentRadius + 0.3 * s.radius * fade);
-                s.parent = parentId;
-                s.weight = smoothstep(0.0, 0.5, since) * fade;
-                sk.scars.push_back(s);
-            }
-            continue;
+    };
+
+    /// Metamers short for their radius (old, thick wood) are drawn as one
+    /// internode up to the next junction, at least four of its final radii
+    /// long: cones much shorter than thick would lose most of their length
+    /// to the junction rules (eq. 3) and leave waists.  The grouping
+    /// depends on final lengths and radii only (and on which laterals
+    /// live), so that it does not change from frame to frame.  `pending`
+    /// is the internode being gathered, `gathered` its final length.
+    struct Gathering {
+        Internode pending;
+        size_t pendingFrom = 0;  ///< its first metamer's frame
+        bool open = false;
+        double gathered = 0.0, pendingFinalRadius = 0.0;
+        long long previous = -1;  ///< the internode before it
+    };
+
+    void drawBranch(size_t bi)
+    {
+        const GrowthBranch& b = branches_[bi];
+        if (t_ <= b.birth - 1)
+            return;
+        const GrowthBranch* parent = b.parent >= 0 ? &branches_[size_t(b.parent)] : nullptr;
+        Start start;
+        if (parent && !startOnParent(b, start))
+            return;  // the parent died back past it, or is gone
+        grown_[bi] = model_.grownLength(int(bi), t_);
+        if (t_ >= b.lost) {
+            leaveScar(bi, parent != nullptr, start);
+            return;
         }
         // Dying back over the year it is lost; carried off with a dying parent.
-        double v = b.lost == year ? 1.0 - smoothstep(0.0, 1.0, u) : 1.0;
-        if (parent && visible[size_t(b.parent)] < grown[size_t(b.parent)]) {
-            const double lp = grown[size_t(b.parent)];
-            v = std::min(v, std::clamp((visible[size_t(b.parent)] - b.position) / (lp - b.position), 0.0, 1.0));
+        double v = b.lost == year_ ? 1.0 - smoothstep(0.0, 1.0, u_) : 1.0;
+        if (parent && visible_[size_t(b.parent)] < grown_[size_t(b.parent)]) {
+            const double lp = grown_[size_t(b.parent)];
+            v = std::min(v, std::clamp((visible_[size_t(b.parent)] - b.position) / (lp - b.position), 0.0, 1.0));
         }
-        const double L = grown[bi];
-        visible[bi] = L * v;
-        if (visible[bi] < minLength)
-            continue;
+        const double L = grown_[bi];
+        visible_[bi] = L * v;
+        if (visible_[bi] < minLength_)
+            return;
+        drawMetamers(bi, parent != nullptr, start);
+    }
+
+    /// The start of lateral `b` at its node on its parent; false when the
+    /// parent no longer reaches that node.
+    bool startOnParent(const GrowthBranch& b, Start& start) const
+    {
+        const std::vector<NodeFrame>& pn = nodes_[size_t(b.parent)];
+        if (size_t(b.node) >= pn.size())
+            return false;
+        const NodeFrame& at = pn[size_t(b.node)];
+        start.base = at.p;
+        start.parentId = at.id;
+        start.parentRadius = at.r;
+        const glm::dvec3 across = std::cos(b.azimuth) * at.u + std::sin(b.azimuth) * glm::cross(at.h, at.u);
+        start.h0 = glm::normalize(std::cos(alpha_) * at.h + std::sin(alpha_) * across);
+        const glm::dvec3 c = glm::cross(start.h0, at.h);
+        start.axis = glm::length(c) > 1e-9 ? glm::normalize(c) : anyPerpendicular(start.h0);
+        return true;
+    }
+
+    /// Lost: a stub and a scar on the parent, fading as the bark grows over it.
+    void leaveScar(size_t bi, bool hasParent, const Start& start)
+    {
+        const GrowthBranch& b = branches_[bi];
+        const double since = t_ - b.lost;
+        const double fade = 1.0 - smoothstep(0.0, 2.0 * p_.scarYears, since);
+        if (hasParent && fade > 0.0) {
+            Scar s;
+            s.radius = model_.radiusOf(support_[bi]);
+            s.base = start.base;
+            s.tip = start.base + start.h0 * (start.parentRadius + 0.3 * s.radius * fade);
+            s.parent = start.parentId;
+            s.weight = smoothstep(0.0, 0.5, since) * fade;
+            sk_.scars.push_back(s);
+        }
+    }
+
+    /// The internodes of branch bi up to its visible length, with their
+    /// rings, buds and leaves, and its apical bud while it grows.
+    void drawMetamers(size_t bi, bool hasParent, const Start& start)
+    {
+        const GrowthBranch& b = branches_[bi];
+        const double L = grown_[bi];
         const double sTheta = std::min(1.0, L / p_.maxBranchLength);  // eq. 8
 
         const int m = b.metamers();
         std::vector<double> lengths;
-        const std::vector<double> beyond = metamerSupports(bi, t, support, lengths);
+        const std::vector<double> beyond = model_.metamerSupports(bi, t_, support_, lengths);
 
         // Nodes whose bud has broken into a lateral, and those where it
         // still lives: the skeleton's internodes end there.
         std::vector<bool> broken(size_t(m), false), junction(size_t(m), false);
         for (int c : b.laterals) {
             const GrowthBranch& lb = branches_[size_t(c)];
-            broken[size_t(lb.node)] = broken[size_t(lb.node)] || t > lb.birth - 1;
-            junction[size_t(lb.node)] = junction[size_t(lb.node)] || (t > lb.birth - 1 && t < lb.lost);
+            broken[size_t(lb.node)] = broken[size_t(lb.node)] || t_ > lb.birth - 1;
+            junction[size_t(lb.node)] = junction[size_t(lb.node)] || (t_ > lb.birth - 1 && t_ < lb.lost);
         }
 
-        std::vector<NodeFrame>& out = nodes[bi];
-        glm::dvec3 p = base;
+        std::vector<NodeFrame>& out = nodes_[bi];
+        glm::dvec3 p = start.base;
         double drawn = 0.0;
-        long long previous = parentId;
-        const bool growing = b.lastYear() >= year && b.lost > year;
-        // Metamers short for their radius (old, thick wood) are drawn as one
-        // internode up to the next junction, at least four of its final radii
-        // long: cones much shorter than thick would lose most of their length
-        // to the junction rules (eq. 3) and leave waists.  The grouping
-        // depends on final lengths and radii only (and on which laterals
-        // live), so that it does not change from frame to frame.  `pending`
-        // is the internode being gathered, `gathered` its final length.
-        Internode pending;
-        size_t pendingFrom = 0;
-        bool open = false;
-        double gathered = 0.0, pendingFinalRadius = 0.0;
-        auto flush = [&] {
-            if (!open)
-                return;
-            pending.id = (long long)sk.internodes.size();
-            pending.parent = previous;
-            sk.internodes.push_back(pending);
-            previous = pending.id;
-            for (size_t k = pendingFrom; k < out.size(); ++k)
-                out[k].id = pending.id;
-            open = false;
-        };
+        Gathering g;
+        g.previous = start.parentId;
+        const bool growing = b.lastYear() >= year_ && b.lost > year_;
         for (const GrowthShoot& s : b.shoots) {
             const double li = s.length / s.metamers;
             for (int k = 0; k < s.metamers; ++k) {
                 const int j = s.firstMetamer + k;
-                double len = std::min(lengths[size_t(j)], visible[bi] - drawn);
-                if (len < minLength)
+                double len = std::min(lengths[size_t(j)], visible_[bi] - drawn);
+                if (len < minLength_)
                     break;
-                // Heading (eq. 9) towards the parent's direction, and the seeded variation.
-                const double sNominal = s.start + (k + 0.5) * li;
-                const double x = std::clamp(sNominal / L, 0.0, 1.0);
-                const double theta =
-                    parent ? radians((1.0 - sTheta) * p_.Go1(x) + sTheta * p_.Go2(x)) : 0.0;
-                const double n1 = noise * (0.6 * std::sin(2 * kPi * sNominal / wave1 + b.phase[0]) +
-                                           0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[1]));
-                const double n2 = noise * (0.6 * std::sin(2 * kPi * sNominal / wave1 + b.phase[2]) +
-                                           0.4 * std::sin(2 * kPi * sNominal / wave2 + b.phase[3]));
-                glm::dvec3 h = rotateAbout(h0, axis, theta + n1), across = axis;
-                const glm::dvec3 yawAxis = glm::normalize(glm::cross(h, axis));
-                h = glm::normalize(rotateAbout(h, yawAxis, n2));
-                across = glm::normalize(rotateAbout(across, yawAxis, n2));
+                glm::dvec3 h, across;
+                metamerFrame(b, start, hasParent, s.start + (k + 0.5) * li, L, sTheta, h, across);
 
                 Internode in;
                 in.p0 = p;
                 in.p1 = p + len * h;
-                in.r0 = radiusOf(beyond[size_t(j)]);
-                in.r1 = radiusOf(beyond[size_t(j) + 1]);
+                in.r0 = model_.radiusOf(beyond[size_t(j)]);
+                in.r1 = model_.radiusOf(beyond[size_t(j) + 1]);
                 in.order = b.order;
                 in.module = (long long)bi;
-                in.age = t - (s.year - 1);
-                if (!open) {
-                    pending = in;
-                    pendingFrom = out.size();
-                    open = true;
-                    gathered = 0.0;
-                    pendingFinalRadius = b.finalRadius[size_t(j)];
+                in.age = t_ - (s.year - 1);
+                if (!g.open) {
+                    g.pending = in;
+                    g.pendingFrom = out.size();
+                    g.open = true;
+                    g.gathered = 0.0;
+                    g.pendingFinalRadius = b.finalRadius[size_t(j)];
                 } else {
-                    pending.p1 = in.p1;
-                    pending.r1 = in.r1;
+                    g.pending.p1 = in.p1;
+                    g.pending.r1 = in.r1;
                 }
-                gathered += li;
+                g.gathered += li;
                 drawn += len;
                 out.push_back({in.p1, h, across, in.r1, -1});
-                if (junction[size_t(j)] || gathered >= 4.0 * pendingFinalRadius)
-                    flush();
+                if (junction[size_t(j)] || g.gathered >= 4.0 * g.pendingFinalRadius)
+                    flush(g, out);
 
                 // A bud scale scar ring at the base of each shoot but the seedling's first.
-                if (k == 0 && (parent || s.year > b.birth) && p_.scarRing > 0.0) {
-                    const double w = p_.scarRing * (1.0 - in.age / std::max(p_.scarYears, 1e-9));
-                    if (w > 1e-3) {
-                        Organ ring;
-                        ring.kind = Organ::Kind::Ring;
-                        ring.p0 = in.p0;
-                        ring.p1 = in.p0 + std::min(len, in.r0) * h;
-                        ring.radius = in.r0;
-                        ring.weight = w;
-                        ring.colour = barkDark;
-                        sk.organs.push_back(ring);
-                    }
-                }
-                // This year's organs at the node: a leaf and a lateral bud
-                // growing; last year's buds that did not break fade.
-                const double az = b.azimuth0 + radians(j * p_.phyllotaxis);
-                const glm::dvec3 side = std::cos(az) * across + std::sin(az) * glm::cross(h, across);
-                const double grownFor = organTime(s, k, t);
-                double bud = 0.0;
-                if (s.year == year && growing)
-                    bud = p_.budRadius * p_.budGrowth(grownFor);
-                else if (s.year == year - 1 && !broken[size_t(j)] && b.lost > year)
-                    bud = p_.budRadius * (1.0 - u);
-                if (bud > 1e-3 * p_.budRadius) {
-                    Organ o;
-                    o.kind = Organ::Kind::Bud;
-                    o.p0 = in.p1 + side * (in.r1 + 0.5 * bud);
-                    o.radius = bud;
-                    o.colour = p_.bark;
-                    sk.organs.push_back(o);
-                }
-                if (leaves && p_.leaves && s.year == year && growing) {
-                    const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(grownFor) *
-                                        (1.0 - fall);
-                    if (size > 1e-3 * p_.tipRadius) {
-                        const glm::dvec3 d = glm::normalize(side + 0.5 * h);
-                        glm::dvec3 up = glm::dvec3(0, 1, 0) - d * d.y;
-                        Organ o;
-                        o.kind = Organ::Kind::Leaf;
-                        o.p0 = in.p1 + d * in.r1;
-                        o.p1 = o.p0 + d * size;
-                        o.radius = 0.35 * size;
-                        o.thickness = 0.12 * size;
-                        o.normal = glm::length(up) > 1e-6 ? glm::normalize(up) : across;
-                        o.colour = p_.leaf;
-                        sk.organs.push_back(o);
-                    }
-                }
+                if (k == 0 && (hasParent || s.year > b.birth) && p_.scarRing > 0.0)
+                    addScarRing(in, len, h);
+                addNodeOrgans(b, s, k, in, h, across, broken[size_t(j)], growing);
                 p = in.p1;
             }
         }
-        flush();
+        flush(g, out);
         if (growing && p_.budRadius > 0.0 && !out.empty()) {  // the apical bud
             Organ o;
             o.kind = Organ::Kind::Bud;
             o.p0 = p + out.back().h * (0.5 * p_.budRadius);
             o.radius = p_.budRadius;
             o.colour = p_.bark;
-            sk.organs.push_back(o);
+            sk_.organs.push_back(o);
         }
     }
-    return sk;
+
+    /// The heading `h` of a metamer whose middle is `sNominal` along branch
+    /// `b` of length L (eq. 9: towards the parent's direction, and the
+    /// seeded variation), and `across`, the reference across it.
+    void metamerFrame(const GrowthBranch& b, const Start& start, bool hasParent, double sNominal, double L,
+                      double sTheta, glm::dvec3& h, glm::dvec3& across) const
+    {
+        const double x = std::clamp(sNominal / L, 0.0, 1.0);
+        const double theta = hasParent ? radians((1.0 - sTheta) * p_.Go1(x) + sTheta * p_.Go2(x)) : 0.0;
+        const double n1 = noise_ * (0.6 * std::sin(2 * kPi * sNominal / wave1_ + b.phase[0]) +
+                                    0.4 * std::sin(2 * kPi * sNominal / wave2_ + b.phase[1]));
+        const double n2 = noise_ * (0.6 * std::sin(2 * kPi * sNominal / wave1_ + b.phase[2]) +
+                                    0.4 * std::sin(2 * kPi * sNominal / wave2_ + b.phase[3]));
+        h = rotateAbout(start.h0, start.axis, theta + n1);
+        across = start.axis;
+        const glm::dvec3 yawAxis = glm::normalize(glm::cross(h, start.axis));
+        h = glm::normalize(rotateAbout(h, yawAxis, n2));
+        across = glm::normalize(rotateAbout(across, yawAxis, n2));
+    }
+
+    /// Ends the internode being gathered, if any: into the skeleton, its
+    /// metamers' frames naming it.
+    void flush(Gathering& g, std::vector<NodeFrame>& out)
+    {
+        if (!g.open)
+            return;
+        g.pending.id = (long long)sk_.internodes.size();
+        g.pending.parent = g.previous;
+        sk_.internodes.push_back(g.pending);
+        g.previous = g.pending.id;
+        for (size_t k = g.pendingFrom; k < out.size(); ++k)
+            out[k].id = g.pending.id;
+        g.open = false;
+    }
+
+    /// The bud scale scar ring at the base of internode `in` (its first `len`
+    /// drawn), fading over scar_years.
+    void addScarRing(const Internode& in, double len, const glm::dvec3& h)
+    {
+        const double w = p_.scarRing * (1.0 - in.age / std::max(p_.scarYears, 1e-9));
+        if (w > 1e-3) {
+            Organ ring;
+            ring.kind = Organ::Kind::Ring;
+            ring.p0 = in.p0;
+            ring.p1 = in.p0 + std::min(len, in.r0) * h;
+            ring.radius = in.r0;
+            ring.weight = w;
+            ring.colour = barkDark_;
+            sk_.organs.push_back(ring);
+        }
+    }
+
+    /// This year's organs at the node atop metamer k of shoot s (internode
+    /// `in`): a leaf and a lateral bud growing; last year's buds that did not
+    /// break fade.
+    void addNodeOrgans(const GrowthBranch& b, const GrowthShoot& s, int k, const Internode& in, const glm::dvec3& h,
+                       const glm::dvec3& across, bool broken, bool growing)
+    {
+        const int j = s.firstMetamer + k;
+        const double az = b.azimuth0 + radians(j * p_.phyllotaxis);
+        const glm::dvec3 side = std::cos(az) * across + std::sin(az) * glm::cross(h, across);
+        const double grownFor = model_.organTime(s, k, t_);
+        double bud = 0.0;
+        if (s.year == year_ && growing)
+            bud = p_.budRadius * p_.budGrowth(grownFor);
+        else if (s.year == year_ - 1 && !broken && b.lost > year_)
+            bud = p_.budRadius * (1.0 - u_);
+        if (bud > 1e-3 * p_.budRadius) {
+            Organ o;
+            o.kind = Organ::Kind::Bud;
+            o.p0 = in.p1 + side * (in.r1 + 0.5 * bud);
+            o.radius = bud;
+            o.colour = p_.bark;
+            sk_.organs.push_back(o);
+        }
+        if (leaves_ && p_.leaves && s.year == year_ && growing) {
+            const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(grownFor) * (1.0 - fall_);
+            if (size > 1e-3 * p_.tipRadius) {
+                const glm::dvec3 d = glm::normalize(side + 0.5 * h);
+                glm::dvec3 up = glm::dvec3(0, 1, 0) - d * d.y;
+                Organ o;
+                o.kind = Organ::Kind::Leaf;
+                o.p0 = in.p1 + d * in.r1;
+                o.p1 = o.p0 + d * size;
+                o.radius = 0.35 * size;
+                o.thickness = 0.12 * size;
+                o.normal = glm::length(up) > 1e-6 ? glm::normalize(up) : across;
+                o.colour = p_.leaf;
+                sk_.organs.push_back(o);
+            }
+        }
+    }
+
+    const GrowthModel& model_;
+    const GrowthParameters& p_;
+    const std::vector<GrowthBranch>& branches_;
+    const bool leaves_;
+    const double t_;          ///< growth time
+    const double minLength_;  ///< shorter internodes are not drawn
+    const std::vector<double> support_;
+    std::vector<std::vector<NodeFrame>> nodes_;  ///< each branch's metamer frames, as drawn
+    std::vector<double> visible_, grown_;        ///< each branch's length drawn, and grown
+    const double alpha_;
+    const double wave1_, wave2_;
+    const double noise_;
+    const int year_;
+    const double u_;     ///< growth time within the current year
+    const double fall_;  ///< how far the leaves have fallen, in [0, 1]
+    const glm::dvec3 barkDark_;
+    Skeleton sk_;
+};
+
+Skeleton GrowthModel::skeleton(double time, bool leaves) const
+{
+    return SkeletonDrawer(*this, time, leaves).draw();
 }
 
 GrowthStats GrowthModel::stats(double t, bool leaves) const { return stats(t, skeleton(t, leaves)); }

@@ -108,6 +108,9 @@ public:
     bool separationHolds(int first, int m, int previous) const;
 
 private:
+    /// Draws skeleton(t) (growth.cpp).
+    class SkeletonDrawer;
+
     void grow();
     /// Each branch's supported length at growth time t (its own and its
     /// laterals', lost ones at the length they had).

@@ -7,7 +7,6 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sys/stat.h>
@@ -19,35 +18,76 @@ namespace {
 
 using json = nlohmann::json;
 
-class Reader {
+/// The top-level keys of a parameter file (docs/growth-format.md).
+const std::vector<std::string>& topLevelKeys()
+{
+    static const std::vector<std::string> keys = {"name",
+                                                  "years",
+                                                  "seed",
+                                                  "trunk_length",
+                                                  "min_shoot_length",
+                                                  "max_branch_length",
+                                                  "max_shoot_length",
+                                                  "min_scale",
+                                                  "phyllotaxis",
+                                                  "longest_separation",
+                                                  "orientation_noise",
+                                                  "branching_angle",
+                                                  "base_radius",
+                                                  "tip_radius",
+                                                  "thickening",
+                                                  "growing_season",
+                                                  "shoot_spread",
+                                                  "bud_radius",
+                                                  "scar_ring",
+                                                  "scar_years",
+                                                  "ridge_years",
+                                                  "ridge_radius",
+                                                  "leaf_fall",
+                                                  "max_internodes",
+                                                  "leaves",
+                                                  "bark",
+                                                  "leaf",
+                                                  "curves"};
+    return keys;
+}
+
+/// Reads a parameter file with the shared JSON checks; the lists of keys
+/// and curves are too long to spell out in a message: the unknown ones
+/// point to docs/growth-format.md.
+class Reader : private JsonValidator {
 public:
-    explicit Reader(std::string source) : source_(std::move(source)) {}
+    explicit Reader(std::string source) : JsonValidator(std::move(source)) {}
 
-    [[noreturn]] void fail(const std::string& path, const std::string& what) const
+    GrowthParameters read(const std::string& text) const
     {
-        throw InputError(fmt::format("{}: {}: {}", source_, path, what));
+        const json root = parseJson(text, source());
+        object(root, "(top level)", "must be an object");
+        if (!root.contains("curves") || !root["curves"].is_object())
+            fail("curves", "missing: an object with the graphically defined functions (is this a growth "
+                           "parameter file? docs/growth-format.md)");
+        checkKeys(root, "", topLevelKeys(), "key", "docs/growth-format.md");
+        GrowthParameters p;
+        readScalars(root, p);
+        readCurves(root["curves"], p);
+        checkCurveRanges(p);
+        return p;
     }
 
-    double number(const json& obj, const char* key, double value, double lo, double hi)
+private:
+    /// obj[key] in [lo, hi], or `value` when it is absent.
+    double numberOr(const json& obj, const char* key, double value, double lo, double hi) const
     {
         if (!obj.contains(key))
             return value;
-        const json& v = obj.at(key);
-        if (!v.is_number())
-            fail(key, "must be a number");
-        const double x = v.get<double>();
-        if (!(x >= lo && x <= hi))
-            fail(key, fmt::format("must be between {} and {} (got {})", lo, hi, x));
-        return x;
+        return number(obj.at(key), key, lo, hi);
     }
 
-    glm::dvec3 colour(const json& obj, const char* key, glm::dvec3 value)
+    glm::dvec3 colour(const json& obj, const char* key, glm::dvec3 value) const
     {
         if (!obj.contains(key))
             return value;
-        const json& v = obj.at(key);
-        if (!v.is_array() || v.size() != 3)
-            fail(key, "must be [r, g, b]");
+        const json& v = array(obj.at(key), key, 3, "must be [r, g, b]");
         glm::dvec3 c;
         for (int k = 0; k < 3; ++k) {
             if (!v[size_t(k)].is_number() || !(v[size_t(k)].get<double>() >= 0.0 && v[size_t(k)].get<double>() <= 1.0))
@@ -57,106 +97,70 @@ public:
         return c;
     }
 
-    GrowthParameters read(const std::string& text)
+    /// The species' scalars, the flags and the colours, in the file's documented order.
+    void readScalars(const json& root, GrowthParameters& p) const
     {
-        const json root = parseJson(text, source_);
-        if (!root.is_object())
-            throw InputError(fmt::format("{}: expected a JSON object", source_));
-        static const char* keys[] = {"name",
-                                     "years",
-                                     "seed",
-                                     "trunk_length",
-                                     "min_shoot_length",
-                                     "max_branch_length",
-                                     "max_shoot_length",
-                                     "min_scale",
-                                     "phyllotaxis",
-                                     "longest_separation",
-                                     "orientation_noise",
-                                     "branching_angle",
-                                     "base_radius",
-                                     "tip_radius",
-                                     "thickening",
-                                     "growing_season",
-                                     "shoot_spread",
-                                     "bud_radius",
-                                     "scar_ring",
-                                     "scar_years",
-                                     "ridge_years",
-                                     "ridge_radius",
-                                     "leaf_fall",
-                                     "max_internodes",
-                                     "leaves",
-                                     "bark",
-                                     "leaf",
-                                     "curves"};
-        if (!root.contains("curves") || !root["curves"].is_object())
-            fail("curves", "missing: an object with the graphically defined functions (is this a growth "
-                           "parameter file? docs/growth-format.md)");
-        for (const auto& [key, value] : root.items())
-            if (std::find(std::begin(keys), std::end(keys), key) == std::end(keys))
-                fail(key, "unknown key (docs/growth-format.md lists them)");
-        GrowthParameters p;
-        if (root.contains("name")) {
-            if (!root["name"].is_string())
-                fail("name", "must be a string");
-            p.name = root["name"].get<std::string>();
-        }
-        const double years = number(root, "years", p.years, 1, 1000);
+        if (root.contains("name"))
+            p.name = string(root["name"], "name");
+        const double years = numberOr(root, "years", p.years, 1, 1000);
         if (years != std::floor(years))
             fail("years", fmt::format("must be a whole number (got {})", years));
         p.years = int(years);
-        p.seed = uint64_t(number(root, "seed", double(p.seed), 0, 9e15));
-        p.trunkLength = number(root, "trunk_length", p.trunkLength, 1e-6, 1e6);
-        p.minShootLength = number(root, "min_shoot_length", p.minShootLength, 0, 1e6);
-        p.maxBranchLength = number(root, "max_branch_length", p.maxBranchLength, 1e-6, 1e6);
-        p.maxShootLength = number(root, "max_shoot_length", p.maxShootLength, 1e-6, 1e6);
-        p.minScale = number(root, "min_scale", p.minScale, 0, 1e3);
-        p.phyllotaxis = number(root, "phyllotaxis", p.phyllotaxis, 0, 360);
-        p.longestSeparation = number(root, "longest_separation", p.longestSeparation, 0, 180);
-        p.orientationNoise = number(root, "orientation_noise", p.orientationNoise, 0, 90);
-        p.branchingAngle = number(root, "branching_angle", p.branchingAngle, 0, 180);
-        p.baseRadius = number(root, "base_radius", p.baseRadius, 1e-9, 1e6);
-        p.tipRadius = number(root, "tip_radius", p.tipRadius, 1e-9, 1e6);
+        p.seed = uint64_t(numberOr(root, "seed", double(p.seed), 0, 9e15));
+        p.trunkLength = numberOr(root, "trunk_length", p.trunkLength, 1e-6, 1e6);
+        p.minShootLength = numberOr(root, "min_shoot_length", p.minShootLength, 0, 1e6);
+        p.maxBranchLength = numberOr(root, "max_branch_length", p.maxBranchLength, 1e-6, 1e6);
+        p.maxShootLength = numberOr(root, "max_shoot_length", p.maxShootLength, 1e-6, 1e6);
+        p.minScale = numberOr(root, "min_scale", p.minScale, 0, 1e3);
+        p.phyllotaxis = numberOr(root, "phyllotaxis", p.phyllotaxis, 0, 360);
+        p.longestSeparation = numberOr(root, "longest_separation", p.longestSeparation, 0, 180);
+        p.orientationNoise = numberOr(root, "orientation_noise", p.orientationNoise, 0, 90);
+        p.branchingAngle = numberOr(root, "branching_angle", p.branchingAngle, 0, 180);
+        p.baseRadius = numberOr(root, "base_radius", p.baseRadius, 1e-9, 1e6);
+        p.tipRadius = numberOr(root, "tip_radius", p.tipRadius, 1e-9, 1e6);
         if (!(p.tipRadius <= p.baseRadius))
             fail("tip_radius", fmt::format("must not exceed base_radius ({} > {})", p.tipRadius, p.baseRadius));
-        p.thickening = number(root, "thickening", p.thickening, 0, 2);
-        p.growingSeason = number(root, "growing_season", p.growingSeason, 0.05, 1);
-        p.shootSpread = number(root, "shoot_spread", p.shootSpread, 0, 0.99);
-        p.budRadius = number(root, "bud_radius", p.budRadius, 0, 1e6);
-        p.scarRing = number(root, "scar_ring", p.scarRing, 0, 2);
-        p.scarYears = number(root, "scar_years", p.scarYears, 0, 1000);
-        p.ridgeYears = number(root, "ridge_years", p.ridgeYears, 0, 1000);
-        p.ridgeRadius = number(root, "ridge_radius", p.ridgeRadius, 0.5, 100);
-        p.leafFall = number(root, "leaf_fall", p.leafFall, 0, 1);
-        p.maxInternodes = number(root, "max_internodes", p.maxInternodes, 1, 1e9);
-        if (root.contains("leaves")) {
-            if (!root["leaves"].is_boolean())
-                fail("leaves", "must be true or false");
-            p.leaves = root["leaves"].get<bool>();
-        }
+        p.thickening = numberOr(root, "thickening", p.thickening, 0, 2);
+        p.growingSeason = numberOr(root, "growing_season", p.growingSeason, 0.05, 1);
+        p.shootSpread = numberOr(root, "shoot_spread", p.shootSpread, 0, 0.99);
+        p.budRadius = numberOr(root, "bud_radius", p.budRadius, 0, 1e6);
+        p.scarRing = numberOr(root, "scar_ring", p.scarRing, 0, 2);
+        p.scarYears = numberOr(root, "scar_years", p.scarYears, 0, 1000);
+        p.ridgeYears = numberOr(root, "ridge_years", p.ridgeYears, 0, 1000);
+        p.ridgeRadius = numberOr(root, "ridge_radius", p.ridgeRadius, 0.5, 100);
+        p.leafFall = numberOr(root, "leaf_fall", p.leafFall, 0, 1);
+        p.maxInternodes = numberOr(root, "max_internodes", p.maxInternodes, 1, 1e9);
+        if (root.contains("leaves"))
+            p.leaves = boolean(root["leaves"], "leaves");
         p.bark = colour(root, "bark", p.bark);
         p.leaf = colour(root, "leaf", p.leaf);
+    }
 
-        const json& curves = root["curves"];
+    /// The graphically defined functions: every one, and no other.
+    void readCurves(const json& curves, GrowthParameters& p) const
+    {
         const std::map<std::string, Curve*> named = {
             {"Gh", &p.Gh},   {"Gs1", &p.Gs1}, {"Gs2", &p.Gs2}, {"Go1", &p.Go1},
             {"Go2", &p.Go2}, {"Gbs", &p.Gbs}, {"Ga", &p.Ga},   {"Gm", &p.Gm},
             {"Gl", &p.Gl},   {"Gss", &p.Gss}, {"internode_growth", &p.internodeGrowth},
             {"leaf_growth", &p.leafGrowth},   {"bud_growth", &p.budGrowth}};
-        for (const auto& [key, value] : curves.items())
-            if (!named.count(key))
-                fail("curves." + key, "unknown curve (docs/growth-format.md lists them)");
+        std::vector<std::string> names;
+        for (const auto& [key, curve] : named)
+            names.push_back(key);
+        checkKeys(curves, "curves", names, "curve", "docs/growth-format.md");
         for (const auto& [key, curve] : named) {
-            if (!curves.contains(key))
-                fail("curves." + key, "missing");
+            required(curves, key, "curves");
             try {
                 *curve = curveFromJson(curves.at(key), "curves." + key);
             } catch (const InputError& e) {
-                throw InputError(fmt::format("{}: {}", source_, e.what()));
+                throw InputError(fmt::format("{}: {}", source(), e.what()));
             }
         }
-        // Ranges the model relies on.
+    }
+
+    /// The ranges of curve values the model relies on.
+    void checkCurveRanges(const GrowthParameters& p) const
+    {
         auto within = [&](const Curve& c, const char* key, double lo, double hi) {
             for (const auto& [x, y] : c.points())
                 if (!(y >= lo && y <= hi))
@@ -185,11 +189,7 @@ public:
                 fail(fmt::format("curves.{}", key),
                      fmt::format("must start at 0 and end at 1 (fraction of full size; it goes from {} to {})",
                                  c->points().front().second, c->points().back().second));
-        return p;
     }
-
-private:
-    std::string source_;
 };
 
 }  // namespace

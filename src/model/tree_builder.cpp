@@ -28,73 +28,104 @@ void checkTreeBuildOptions(const TreeBuildOptions& o)
         throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
 }
 
-BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
+namespace {
+
+using Primitives = TreeBuildOptions::Primitives;
+
+/// The skeleton's links by internode index (its ids may be anything).
+struct Topology {
+    std::vector<std::vector<size_t>> children;
+    std::vector<long long> parent;    ///< -1 for a root
+    std::vector<long long> thickest;  ///< the thickest child (the first of equals), -1 for none
+    /// The main axis: a root, and the thickest child of each internode on
+    /// it; the rest are laterals.
+    std::vector<bool> onAxis;
+};
+
+Topology indexSkeleton(const Skeleton& sk)
 {
     const size_t n = sk.internodes.size();
-    if (n == 0)
-        throw InputError("the skeleton has no internodes");
-    checkTreeBuildOptions(o);
+    Topology g;
     std::unordered_map<long long, size_t> index;
     for (size_t i = 0; i < n; ++i)
         index[sk.internodes[i].id] = i;
-    std::vector<std::vector<size_t>> children(n);
-    std::vector<long long> parent(n, -1);
+    g.children.resize(n);
+    g.parent.assign(n, -1);
     for (size_t i = 0; i < n; ++i)
         if (const auto it = index.find(sk.internodes[i].parent); it != index.end()) {
-            children[it->second].push_back(i);
-            parent[i] = (long long)it->second;
+            g.children[it->second].push_back(i);
+            g.parent[i] = (long long)it->second;
         }
 
-    // Each internode's thickest child (the first of equals), -1 for none.
-    std::vector<long long> thickest(n, -1);
+    g.thickest.assign(n, -1);
     for (size_t i = 0; i < n; ++i)
-        for (size_t k : children[i])
-            if (thickest[i] < 0 || sk.internodes[k].r0 > sk.internodes[size_t(thickest[i])].r0)
-                thickest[i] = (long long)k;
-    // The main axis: a root, and the thickest child of each internode on it;
-    // the rest are laterals.
-    std::vector<bool> onAxis(n, false);
+        for (size_t k : g.children[i])
+            if (g.thickest[i] < 0 || sk.internodes[k].r0 > sk.internodes[size_t(g.thickest[i])].r0)
+                g.thickest[i] = (long long)k;
+    g.onAxis.assign(n, false);
     for (size_t i = 0; i < n; ++i) {
-        if (parent[i] < 0)
-            onAxis[i] = true;
-        if (onAxis[i] && thickest[i] >= 0)
-            onAxis[size_t(thickest[i])] = true;
+        if (g.parent[i] < 0)
+            g.onAxis[i] = true;
+        if (g.onAxis[i] && g.thickest[i] >= 0)
+            g.onAxis[size_t(g.thickest[i])] = true;
     }
-    using P = TreeBuildOptions::Primitives;
-    // Internodes that are cones (with the rules) and the children that count
-    // at their junctions (in mixed mode, only cones).
-    auto isCone = [&](size_t i) { return o.primitives == P::Cone || (o.primitives == P::Mixed && onAxis[i]); };
+    return g;
+}
 
-    // Each internode's skeleton after the junction rules: its tip pulled back
-    // by delta_A, its base moved off a shared branching point by delta_Bi.
-    std::vector<glm::dvec3> p0(n), p1(n);
-    std::vector<double> r0(n), r1(n);
+/// Whether internode i is a cone (with the rules) rather than a convolution
+/// segment; the children that count at a junction are its cones (in mixed
+/// mode, only the main axis is in cones).
+bool isCone(const TreeBuildOptions& o, const Topology& g, size_t i)
+{
+    return o.primitives == Primitives::Cone || (o.primitives == Primitives::Mixed && g.onAxis[i]);
+}
+
+/// Each internode's skeleton after the junction rules: its tip pulled back
+/// by delta_A, its base moved off a shared branching point by delta_Bi.
+struct Segments {
+    std::vector<glm::dvec3> p0, p1;
+    std::vector<double> r0, r1;
+};
+
+/// The internodes as the skeleton has them; InputError for one whose ends coincide.
+Segments skeletonSegments(const Skeleton& sk)
+{
+    const size_t n = sk.internodes.size();
+    Segments s{std::vector<glm::dvec3>(n), std::vector<glm::dvec3>(n), std::vector<double>(n), std::vector<double>(n)};
     for (size_t i = 0; i < n; ++i) {
         const Internode& a = sk.internodes[i];
         const double len = glm::length(a.p1 - a.p0);
         if (!(len > 0.0))
             throw InputError(fmt::format("internode {}: its two ends coincide", a.id));
-        p0[i] = a.p0;
-        p1[i] = a.p1;
-        r0[i] = a.r0;
-        r1[i] = a.r1;
+        s.p0[i] = a.p0;
+        s.p1[i] = a.p1;
+        s.r0[i] = a.r0;
+        s.r1[i] = a.r1;
     }
-    std::vector<double> baseShift(n, 0.0);  // how far each internode's base moves along its axis
+    return s;
+}
+
+/// Pulls back the tip of each basal cone by delta_A (eq. 3, 7), and adds to
+/// `baseShift` how far the bases of its branches move along their axes (eq. 6).
+void shortenBasalInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g, Segments& s,
+                            std::vector<double>& baseShift)
+{
+    const size_t n = sk.internodes.size();
     auto moveTip = [&](size_t i, double by) {
         // Along the internode's own axis, the radius following its taper.
         const Internode& a = sk.internodes[i];
         const glm::dvec3 axis = a.p1 - a.p0;
         // An internode short for its radii loses at most half its length.
         const double t = std::max(1.0 - by / glm::length(axis), 0.5);
-        p1[i] = a.p0 + t * axis;
-        r1[i] = a.r0 + t * (a.r1 - a.r0);
+        s.p1[i] = a.p0 + t * axis;
+        s.r1[i] = a.r0 + t * (a.r1 - a.r0);
     };
     for (size_t i = 0; i < n; ++i) {
-        if (!isCone(i))
+        if (!isCone(o, g, i))
             continue;  // convolution segments join without the rules
         std::vector<size_t> c;
-        for (size_t k : children[i])
-            if (isCone(k))
+        for (size_t k : g.children[i])
+            if (isCone(o, g, k))
                 c.push_back(k);
         if (c.empty())
             continue;
@@ -117,62 +148,95 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         // of old wood).
         const double half = 0.5 * glm::length(sk.internodes[i].p1 - sk.internodes[i].p0);
         if (deltaA > half)
-            baseShift[size_t(thickest[i])] += deltaA - half;
+            baseShift[size_t(g.thickest[i])] += deltaA - half;
     }
+}
+
+/// Moves each internode's base along its axis by its `baseShift`.
+void moveBases(const Skeleton& sk, const std::vector<double>& baseShift, Segments& s)
+{
+    const size_t n = sk.internodes.size();
     for (size_t k = 0; k < n; ++k)
         if (baseShift[k] > 0.0) {
             // At most half its length, and a tenth must stay after its own tip moved.
             const Internode& a = sk.internodes[k];
             const glm::dvec3 axis = a.p1 - a.p0;
-            const double tipAt = glm::dot(p1[k] - a.p0, axis) / glm::dot(axis, axis);
+            const double tipAt = glm::dot(s.p1[k] - a.p0, axis) / glm::dot(axis, axis);
             const double t = std::min({baseShift[k] / glm::length(axis), 0.5, tipAt - 0.1});
-            p0[k] = a.p0 + t * axis;
-            r0[k] = a.r0 + t * (a.r1 - a.r0);
+            s.p0[k] = a.p0 + t * axis;
+            s.r0[k] = a.r0 + t * (a.r1 - a.r0);
         }
+}
 
+/// The tree as it is assembled: the nodes of the top-level summation, the
+/// convolution segments (summed on their own, then better-blended with the
+/// rest), and each junction's branches (combined by PCM).
+struct Assembly {
     BlobTree tree;
     std::vector<int> top, convolution;
-    std::vector<std::vector<int>> groups(n);  // junction -> its branches' nodes
+    std::vector<std::vector<int>> groups;  // junction -> its branches' nodes
+};
+
+/// A saw cut through the skeleton's end, across the axis, of `node` (internode
+/// `a`), and the callus over it when the options regrow one (into `top`).
+int sawCut(const Internode& a, int node, const TreeBuildOptions& o, Assembly& out)
+{
+    BlobTree& tree = out.tree;
+    // The difference with a sphere so large that over the cut face (radius
+    // r) it departs from the plane by r^2 / 2R = r / 2000.  Its field
+    // rises from 0 to 1 within 4 r of its surface (a narrow support),
+    // so that elsewhere it leaves the branch's field as it is.
+    const double r = std::max(a.r0, a.r1), R = 1000.0 * r;
+    PrimitiveOptions cutter;
+    cutter.support = 4.0 * r / tree.xT();
+    const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
+    node = tree.op({NodeType::DIFFERENCE}, {node, tree.sphere(a.p1 + R * axis, R, cutter)});
+    if (o.regrowth > 0.0) {
+        // The callus: from 1.5 radii below the cut to a little beyond
+        // it, thicker than the branch at its base, closing at its tip.
+        const double g = o.regrowth, rc = a.r1;
+        out.top.push_back(tree.convolutionSegment(a.p1 - 1.5 * rc * axis, a.p1 + 0.6 * g * rc * axis,
+                                                  rc * (0.6 + 0.3 * g), rc * (0.3 + 0.5 * g)));
+    }
+    return node;
+}
+
+/// Each internode's primitive (cut, bent), into its junction's group, the
+/// convolution segments or the top-level summation.
+void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g, const Segments& s,
+                   Assembly& out)
+{
+    const size_t n = sk.internodes.size();
+    BlobTree& tree = out.tree;
     for (size_t i = 0; i < n; ++i) {
-        int node = isCone(i) ? tree.cone(p0[i], p1[i], r0[i], r1[i])
-                             : tree.convolutionSegment(p0[i], p1[i], r0[i], r1[i]);
+        int node = isCone(o, g, i) ? tree.cone(s.p0[i], s.p1[i], s.r0[i], s.r1[i])
+                                   : tree.convolutionSegment(s.p0[i], s.p1[i], s.r0[i], s.r1[i]);
         if (sk.internodes[i].colour)
             tree.setColor(node, *sk.internodes[i].colour);
-        if (sk.internodes[i].cut) {
-            // A saw cut through the skeleton's end, across the axis: the
-            // difference with a sphere so large that over the cut face (radius
-            // r) it departs from the plane by r^2 / 2R = r / 2000.  Its field
-            // rises from 0 to 1 within 4 r of its surface (a narrow support),
-            // so that elsewhere it leaves the branch's field as it is.
-            const Internode& a = sk.internodes[i];
-            const double r = std::max(a.r0, a.r1), R = 1000.0 * r;
-            PrimitiveOptions cutter;
-            cutter.support = 4.0 * r / tree.xT();
-            const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
-            node = tree.op({NodeType::DIFFERENCE}, {node, tree.sphere(a.p1 + R * axis, R, cutter)});
-            if (o.regrowth > 0.0) {
-                // The callus: from 1.5 radii below the cut to a little beyond
-                // it, thicker than the branch at its base, closing at its tip.
-                const double g = o.regrowth, rc = a.r1;
-                top.push_back(tree.convolutionSegment(a.p1 - 1.5 * rc * axis, a.p1 + 0.6 * g * rc * axis,
-                                                      rc * (0.6 + 0.3 * g), rc * (0.3 + 0.5 * g)));
-            }
-        }
-        if (o.bend != 0.0 && parent[i] >= 0) {
-            const Internode& b = sk.internodes[size_t(parent[i])];
-            const glm::dvec3 hA = glm::normalize(b.p1 - b.p0), h = glm::normalize(p1[i] - p0[i]);
+        if (sk.internodes[i].cut)
+            node = sawCut(sk.internodes[i], node, o, out);
+        if (o.bend != 0.0 && g.parent[i] >= 0) {
+            const Internode& b = sk.internodes[size_t(g.parent[i])];
+            const glm::dvec3 hA = glm::normalize(b.p1 - b.p0), h = glm::normalize(s.p1[i] - s.p0[i]);
             const glm::dvec3 away = h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
             if (glm::length(away) > 1e-3)
-                node = tree.bend(p0[i], p1[i], glm::normalize(away), o.bend, node);
+                node = tree.bend(s.p0[i], s.p1[i], glm::normalize(away), o.bend, node);
         }
-        if (!isCone(i)) {
-            convolution.push_back(node);
+        if (!isCone(o, g, i)) {
+            out.convolution.push_back(node);
             continue;
         }
-        const bool branch = o.primitives == P::Cone && parent[i] >= 0 &&
-                            children[size_t(parent[i])].size() > 1 && o.junction == TreeBuildOptions::Junction::Pcm;
-        (branch ? groups[size_t(parent[i])] : top).push_back(node);
+        const bool branch = o.primitives == Primitives::Cone && g.parent[i] >= 0 &&
+                            g.children[size_t(g.parent[i])].size() > 1 &&
+                            o.junction == TreeBuildOptions::Junction::Pcm;
+        (branch ? out.groups[size_t(g.parent[i])] : out.top).push_back(node);
     }
+}
+
+/// The scars of shed organs, into the top-level summation.
+void addScars(const Skeleton& sk, const TreeBuildOptions& o, Assembly& out)
+{
+    BlobTree& tree = out.tree;
     for (const Scar& scar : sk.scars) {
         // The shortened stub, and the negative field that presses the scar in;
         // both the colour of the wood under the bark.
@@ -183,52 +247,62 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
             nodes.push_back(tree.sphere(scar.tip, o.scarRadius * scar.radius, negative));
         for (int node : nodes) {
             tree.setColor(node, 0.5 * o.bark);
-            top.push_back(node);
+            out.top.push_back(node);
         }
     }
-    for (const Organ& organ : sk.organs) {
-        int node = -1;
-        switch (organ.kind) {
-        case Organ::Kind::Bud:
-            node = tree.sphere(organ.p0, organ.radius);
-            break;
-        case Organ::Kind::Ring: {
-            PrimitiveOptions ring;
-            ring.weight = organ.weight;
-            node = tree.cone(organ.p0, organ.p1, organ.radius, organ.radius, ring);
-            break;
-        }
-        case Organ::Kind::Leaf: {
-            // The unit sphere mapped onto the blade's ellipsoid.
-            const glm::dvec3 a = 0.5 * (organ.p1 - organ.p0);
-            const glm::dvec3 along = glm::normalize(a);
-            const glm::dvec3 normal = glm::normalize(organ.normal - along * glm::dot(organ.normal, along));
-            const glm::dvec3 wide = glm::cross(normal, along);
-            glm::dmat4 m(1.0);
-            m[0] = glm::dvec4(a, 0.0);
-            m[1] = glm::dvec4(organ.radius * wide, 0.0);
-            m[2] = glm::dvec4(organ.thickness * normal, 0.0);
-            m[3] = glm::dvec4(organ.p0 + a, 1.0);
-            node = tree.transform(m, tree.sphere(glm::dvec3(0.0), 1.0));
-            break;
-        }
-        }
-        tree.setColor(node, organ.colour);
-        top.push_back(node);
+}
+
+/// The primitive of a bud, a bud scale scar ring or a leaf.
+int organNode(BlobTree& tree, const Organ& organ)
+{
+    int node = -1;
+    switch (organ.kind) {
+    case Organ::Kind::Bud:
+        node = tree.sphere(organ.p0, organ.radius);
+        break;
+    case Organ::Kind::Ring: {
+        PrimitiveOptions ring;
+        ring.weight = organ.weight;
+        node = tree.cone(organ.p0, organ.p1, organ.radius, organ.radius, ring);
+        break;
     }
+    case Organ::Kind::Leaf: {
+        // The unit sphere mapped onto the blade's ellipsoid.
+        const glm::dvec3 a = 0.5 * (organ.p1 - organ.p0);
+        const glm::dvec3 along = glm::normalize(a);
+        const glm::dvec3 normal = glm::normalize(organ.normal - along * glm::dot(organ.normal, along));
+        const glm::dvec3 wide = glm::cross(normal, along);
+        glm::dmat4 m(1.0);
+        m[0] = glm::dvec4(a, 0.0);
+        m[1] = glm::dvec4(organ.radius * wide, 0.0);
+        m[2] = glm::dvec4(organ.thickness * normal, 0.0);
+        m[3] = glm::dvec4(organ.p0 + a, 1.0);
+        node = tree.transform(m, tree.sphere(glm::dvec3(0.0), 1.0));
+        break;
+    }
+    }
+    return node;
+}
+
+/// Each junction's group of branches: PCM, or, with ridges over time, the
+/// summation blending into PCM as the junction ages.
+void addJunctions(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g, Assembly& out)
+{
+    const size_t n = sk.internodes.size();
+    BlobTree& tree = out.tree;
     Combiner pcm{NodeType::PCM};
     pcm.width = o.pcmWidth;
     pcm.attenuation = o.pcmAttenuation;
     pcm.darken = o.ridgeDarken;
     for (size_t i = 0; i < n; ++i) {  // in skeleton order: the same tree every time
-        const std::vector<int>& group = groups[i];
+        const std::vector<int>& group = out.groups[i];
         if (group.empty())
             continue;
         // The junction's age and thinnest branch (ridges over time).
         double age = 1e300, thinnest = 1e300;
         glm::dvec3 lateral{0.0};
-        for (size_t k : children[i])
-            if (isCone(k)) {
+        for (size_t k : g.children[i])
+            if (isCone(o, g, k)) {
                 age = std::min(age, sk.internodes[k].age);
                 if (sk.internodes[k].r0 < thinnest) {
                     thinnest = sk.internodes[k].r0;
@@ -236,12 +310,12 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
                 }
             }
         if (o.ridgeYears <= 0.0 || age < 0.0) {
-            top.push_back(tree.op(pcm, group));
+            out.top.push_back(tree.op(pcm, group));
             continue;
         }
         const double support = smoothstep(0.0, o.ridgeYears, age) * o.ridgeRadius * thinnest;
         if (support < 1e-6 * thinnest) {
-            top.insert(top.end(), group.begin(), group.end());  // a new junction: the summation alone
+            out.top.insert(out.top.end(), group.begin(), group.end());  // a new junction: the summation alone
             continue;
         }
         // Fb = 1 along the thinnest branch's axis through the bark of its
@@ -250,23 +324,58 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
         bound.support = support;
         const glm::dvec3 at = sk.internodes[i].p1;
         const int fb = tree.segment(at, at + (sk.internodes[i].r1 + 2.0 * thinnest) * lateral, 0.5 * support, bound);
-        top.push_back(tree.gbb(fb, group, pcm, {NodeType::BLEND}));
+        out.top.push_back(tree.gbb(fb, group, pcm, {NodeType::BLEND}));
     }
+}
+
+/// The root: the top-level summation, the convolution segments' summation,
+/// or the two better-blended; in the bark's colour.
+void setRoot(const TreeBuildOptions& o, Assembly& out)
+{
+    BlobTree& tree = out.tree;
     auto sum = [&](const std::vector<int>& nodes) {
         return nodes.size() == 1 ? nodes[0] : tree.op({NodeType::BLEND}, nodes);
     };
-    if (convolution.empty()) {
-        tree.setRoot(sum(top));
-    } else if (top.empty()) {
-        tree.setRoot(sum(convolution));
+    if (out.convolution.empty()) {
+        tree.setRoot(sum(out.top));
+    } else if (out.top.empty()) {
+        tree.setRoot(sum(out.convolution));
     } else {
         Combiner better{NodeType::BETTER_BLEND};
         better.k = o.betterBlendK;
-        tree.setRoot(tree.op(better, {sum(top), sum(convolution)}));
+        tree.setRoot(tree.op(better, {sum(out.top), sum(out.convolution)}));
     }
     tree.setColor(tree.root(), o.bark);
-    tree.finalize();
-    return tree;
+}
+
+}  // namespace
+
+BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
+{
+    const size_t n = sk.internodes.size();
+    if (n == 0)
+        throw InputError("the skeleton has no internodes");
+    checkTreeBuildOptions(o);
+    const Topology g = indexSkeleton(sk);
+
+    Segments s = skeletonSegments(sk);
+    std::vector<double> baseShift(n, 0.0);  // how far each internode's base moves along its axis
+    shortenBasalInternodes(sk, o, g, s, baseShift);
+    moveBases(sk, baseShift, s);
+
+    Assembly out;
+    out.groups.resize(n);
+    addInternodes(sk, o, g, s, out);
+    addScars(sk, o, out);
+    for (const Organ& organ : sk.organs) {
+        const int node = organNode(out.tree, organ);
+        out.tree.setColor(node, organ.colour);
+        out.top.push_back(node);
+    }
+    addJunctions(sk, o, g, out);
+    setRoot(o, out);
+    out.tree.finalize();
+    return std::move(out.tree);
 }
 
 }  // namespace cambium

@@ -89,184 +89,241 @@ glm::dvec3 paletteColour(const LSystem& sys, int index)
     return palette[std::clamp(index, 0, n - 1)];
 }
 
-Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
-{
-    Skeleton out;
-    TurtleState t;
-    t.width = sys.width;
-    std::vector<TurtleState> stack;
-    std::vector<std::vector<glm::dvec3>> polygons;  // open polygons, innermost last
-    const double increment = sys.widthIncrement ? *sys.widthIncrement : 0.1 * sys.width;
-    auto vertex = [&] {
-        if (!polygons.empty() && (polygons.back().empty() || glm::length(polygons.back().back() - t.pos) > 0.0))
-            polygons.back().push_back(t.pos);
-    };
-    const glm::dvec3 T(sys.tropism[0], sys.tropism[1], sys.tropism[2]);
-    const double e = sys.tropism[3];
-    auto param = [&](const Module& m, double fallback) { return m.params.empty() ? fallback : m.params[0]; };
-    auto bad = [&](size_t i, const std::string& what) {
-        return InputError(fmt::format("{}: module {} of the derived string ({}): {}", sys.source, i,
-                                      formatModules({modules[i]}), what));
-    };
-    for (size_t i = 0; i < modules.size(); ++i) {
-        const Module& m = modules[i];
-        switch (m.name) {
-        case 'F':
-        case 'f':
-        case 'G':
-        case 'g': {
-            const double l = param(m, sys.step);
-            if (!(l >= 0.0) || !std::isfinite(l))
-                throw bad(i, "a length must be a number not below zero");
-            if (l == 0.0)
-                break;
-            const glm::dvec3 p1 = t.pos + l * t.H;
-            if (!polygons.empty()) {
-                // In a polygon F and f move and record a vertex; G and g only move.
-                t.pos = p1;
-                if (m.name == 'F' || m.name == 'f')
-                    vertex();
-                break;
-            }
-            if (m.name == 'F' || m.name == 'G') {
-                if (!(t.width > 0.0))
-                    throw bad(i, fmt::format("the width is {}: set a positive one with !(w) or width:", t.width));
-                Internode n;
-                n.id = (long long)out.internodes.size();
-                n.parent = t.last;
-                n.p0 = t.pos;
-                n.p1 = p1;
-                n.r0 = n.r1 = 0.5 * t.width;
-                n.order = t.order;
-                n.module = (long long)i;
-                if (t.colour != 0)
-                    n.colour = paletteColour(sys, t.colour);
-                out.internodes.push_back(n);
-                t.last = n.id;
-                t.drewInBranch = true;
-                if (e != 0.0) {
-                    const glm::dvec3 axis = glm::cross(t.H, T);
-                    const double len = glm::length(axis);
-                    if (len > 1e-12) {
-                        const glm::dvec3 a = axis / len;
-                        const double angle = e * len;
-                        t.H = glm::normalize(rotateAbout(t.H, a, angle));
-                        t.L = glm::normalize(rotateAbout(t.L, a, angle));
-                        t.U = glm::cross(t.H, t.L);
-                    }
+namespace {
+
+/// The module's first parameter, or `fallback` without one.
+double param(const Module& m, double fallback) { return m.params.empty() ? fallback : m.params[0]; }
+
+/// Interprets a derived string module by module (interpretTurtle): the
+/// turtle, its stack of branches and its open polygons.
+class TurtleInterpreter {
+public:
+    TurtleInterpreter(const LSystem& sys, const ModuleString& modules)
+        : sys_(sys),
+          modules_(modules),
+          increment_(sys.widthIncrement ? *sys.widthIncrement : 0.1 * sys.width),
+          T_(sys.tropism[0], sys.tropism[1], sys.tropism[2]),
+          e_(sys.tropism[3])
+    {
+        t_.width = sys.width;
+    }
+
+    Skeleton run()
+    {
+        for (size_t i = 0; i < modules_.size(); ++i) {
+            const Module& m = modules_[i];
+            switch (m.name) {
+            case 'F':
+            case 'f':
+            case 'G':
+            case 'g': forward(i, m); break;
+            case '+': turn(t_, param(m, sys_.angle)); break;
+            case '-': turn(t_, -param(m, sys_.angle)); break;
+            case '&': pitch(t_, param(m, sys_.angle)); break;
+            case '^': pitch(t_, -param(m, sys_.angle)); break;
+            case '\\': roll(t_, param(m, sys_.angle)); break;
+            case '/': roll(t_, -param(m, sys_.angle)); break;
+            case '|': turn(t_, 180.0); break;
+            case '$': {
+                const glm::dvec3 l = glm::cross(glm::dvec3(0.0, 1.0, 0.0), t_.H);
+                if (glm::length(l) > 1e-12) {
+                    t_.L = glm::normalize(l);
+                    t_.U = glm::cross(t_.H, t_.L);
                 }
+                break;
             }
-            t.pos = p1;
-            break;
-        }
-        case '+': turn(t, param(m, sys.angle)); break;
-        case '-': turn(t, -param(m, sys.angle)); break;
-        case '&': pitch(t, param(m, sys.angle)); break;
-        case '^': pitch(t, -param(m, sys.angle)); break;
-        case '\\': roll(t, param(m, sys.angle)); break;
-        case '/': roll(t, -param(m, sys.angle)); break;
-        case '|': turn(t, 180.0); break;
-        case '$': {
-            const glm::dvec3 l = glm::cross(glm::dvec3(0.0, 1.0, 0.0), t.H);
-            if (glm::length(l) > 1e-12) {
-                t.L = glm::normalize(l);
-                t.U = glm::cross(t.H, t.L);
+            case '!':
+            case '#': setWidth(i, m); break;
+            case '\'':
+            case ';': setColour(i, m); break;
+            case '{':
+                polygons_.emplace_back();
+                vertex();
+                break;
+            case '.':
+                if (polygons_.empty())
+                    throw bad(i, "'.' records a polygon vertex: only between '{' and '}'");
+                vertex();
+                break;
+            case '}': closePolygon(i); break;
+            case '~':
+            case '@':
+                throw bad(i, fmt::format("cpfg's '{}' (predefined surfaces and @ commands) is not supported "
+                                         "(docs/lsystem-format.md lists the turtle's symbols)",
+                                         m.name));
+            case '[': {
+                stack_.push_back(t_);
+                ++t_.order;
+                t_.drewInBranch = false;
+                break;
             }
-            break;
-        }
-        case '!':
-        case '#': {
-            // With a parameter: the new width; without: cpfg's decrement ('!')
-            // or increment ('#') by the width increment.
-            const double w = !m.params.empty() ? m.params[0] : t.width + (m.name == '!' ? -increment : increment);
-            if (!(w > 0.0) || !std::isfinite(w))
-                throw bad(i, m.params.empty() ? fmt::format("the width {} less the width increment {} is not "
-                                                            "positive: a smaller 'width increment:' or !(w)",
-                                                            t.width, increment)
-                                              : std::string("a width must be a positive number"));
-            t.width = w;
-            break;
-        }
-        case '\'':
-        case ';': {
-            // The colour index: with a parameter, set; without, one more.
-            const double c = m.params.empty() ? t.colour + 1.0 : m.params[0];
-            if (!(c >= 0.0 && c <= 255.0) || std::trunc(c) != c)
-                throw bad(i, "a colour index must be a whole number from 0 to 255");
-            t.colour = int(c);
-            break;
-        }
-        case '{':
-            polygons.emplace_back();
-            vertex();
-            break;
-        case '.':
-            if (polygons.empty())
-                throw bad(i, "'.' records a polygon vertex: only between '{' and '}'");
-            vertex();
-            break;
-        case '}': {
-            if (polygons.empty())
-                throw bad(i, "'}' without a matching '{'");
-            std::vector<glm::dvec3> v = std::move(polygons.back());
-            polygons.pop_back();
-            if (v.size() > 1 && glm::length(v.back() - v.front()) == 0.0)
-                v.pop_back();  // closed by returning to its start
-            if (v.size() < 3)
-                throw bad(i, fmt::format("a polygon needs 3 vertices or more (this one has {}): its vertices are "
-                                         "where '{{' starts, each F or f inside, and each '.'",
-                                         v.size()));
-            const Organ leaf = polygonLeaf(v, paletteColour(sys, t.colour));
-            if (!(leaf.radius > 1e-6 * glm::length(leaf.p1 - leaf.p0)))
-                throw bad(i, "a polygon with no area (its vertices lie on a line)");
-            out.organs.push_back(leaf);
-            break;
-        }
-        case '~':
-        case '@':
-            throw bad(i, fmt::format("cpfg's '{}' (predefined surfaces and @ commands) is not supported "
-                                     "(docs/lsystem-format.md lists the turtle's symbols)",
-                                     m.name));
-        case '[': {
-            stack.push_back(t);
-            ++t.order;
-            t.drewInBranch = false;
-            break;
-        }
-        case ']':
-            if (stack.empty())
-                throw bad(i, "']' without a matching '['");
-            t = stack.back();
-            stack.pop_back();
-            break;
-        case '%': {
-            // A saw cut: the branch's last internode ends in a flat cut, and
-            // the rest of the branch (if the string still has it) is skipped.
-            if (t.drewInBranch && t.last >= 0) {
-                out.internodes[size_t(t.last)].cut = true;
-            } else if (t.last >= 0) {
-                // Cut before it drew anything: the organ was shed at its base,
-                // a scar on the internode it grew from, along its heading.
-                const Internode& parent = out.internodes[size_t(t.last)];
-                const double rp = std::max(parent.r0, parent.r1), rs = 0.5 * t.width;
-                Scar scar;
-                scar.base = t.pos;
-                scar.tip = t.pos + rp * t.H;
-                scar.radius = rs;
-                scar.parent = parent.id;
-                out.scars.push_back(scar);
+            case ']':
+                if (stack_.empty())
+                    throw bad(i, "']' without a matching '['");
+                t_ = stack_.back();
+                stack_.pop_back();
+                break;
+            case '%': i = cut(i); break;
+            default:
+                break;  // modules that are not turtle commands (A, B, L, ...)
             }
-            i = branchEnd(modules, i) - 1;  // the branch's ']' comes next
-            break;
         }
-        default:
-            break;  // modules that are not turtle commands (A, B, L, ...)
+        if (!polygons_.empty())
+            throw InputError(fmt::format("{}: {} '{{' without a matching '}}' in the derived string", sys_.source,
+                                         polygons_.size()));
+        return std::move(out_);
+    }
+
+private:
+    InputError bad(size_t i, const std::string& what) const
+    {
+        return InputError(fmt::format("{}: module {} of the derived string ({}): {}", sys_.source, i,
+                                      formatModules({modules_[i]}), what));
+    }
+
+    /// Records the turtle's position as a vertex of the innermost open
+    /// polygon, unless it is where the last one is.
+    void vertex()
+    {
+        if (!polygons_.empty() && (polygons_.back().empty() || glm::length(polygons_.back().back() - t_.pos) > 0.0))
+            polygons_.back().push_back(t_.pos);
+    }
+
+    /// F, f, G or g (module i): forward, drawing an internode (F, G) or not;
+    /// in a polygon F and f record a vertex instead.
+    void forward(size_t i, const Module& m)
+    {
+        const double l = param(m, sys_.step);
+        if (!(l >= 0.0) || !std::isfinite(l))
+            throw bad(i, "a length must be a number not below zero");
+        if (l == 0.0)
+            return;
+        const glm::dvec3 p1 = t_.pos + l * t_.H;
+        if (!polygons_.empty()) {
+            // In a polygon F and f move and record a vertex; G and g only move.
+            t_.pos = p1;
+            if (m.name == 'F' || m.name == 'f')
+                vertex();
+            return;
+        }
+        if (m.name == 'F' || m.name == 'G')
+            drawInternode(i, p1);
+        t_.pos = p1;
+    }
+
+    /// The internode from the turtle's position to p1 (module i), then the
+    /// heading bent by tropism.
+    void drawInternode(size_t i, const glm::dvec3& p1)
+    {
+        if (!(t_.width > 0.0))
+            throw bad(i, fmt::format("the width is {}: set a positive one with !(w) or width:", t_.width));
+        Internode n;
+        n.id = (long long)out_.internodes.size();
+        n.parent = t_.last;
+        n.p0 = t_.pos;
+        n.p1 = p1;
+        n.r0 = n.r1 = 0.5 * t_.width;
+        n.order = t_.order;
+        n.module = (long long)i;
+        if (t_.colour != 0)
+            n.colour = paletteColour(sys_, t_.colour);
+        out_.internodes.push_back(n);
+        t_.last = n.id;
+        t_.drewInBranch = true;
+        if (e_ != 0.0) {
+            const glm::dvec3 axis = glm::cross(t_.H, T_);
+            const double len = glm::length(axis);
+            if (len > 1e-12) {
+                const glm::dvec3 a = axis / len;
+                const double angle = e_ * len;
+                t_.H = glm::normalize(rotateAbout(t_.H, a, angle));
+                t_.L = glm::normalize(rotateAbout(t_.L, a, angle));
+                t_.U = glm::cross(t_.H, t_.L);
+            }
         }
     }
-    if (!polygons.empty())
-        throw InputError(fmt::format("{}: {} '{{' without a matching '}}' in the derived string", sys.source,
-                                     polygons.size()));
-    return out;
+
+    /// ! or # (module i).
+    void setWidth(size_t i, const Module& m)
+    {
+        // With a parameter: the new width; without: cpfg's decrement ('!')
+        // or increment ('#') by the width increment.
+        const double w = !m.params.empty() ? m.params[0] : t_.width + (m.name == '!' ? -increment_ : increment_);
+        if (!(w > 0.0) || !std::isfinite(w))
+            throw bad(i, m.params.empty() ? fmt::format("the width {} less the width increment {} is not "
+                                                        "positive: a smaller 'width increment:' or !(w)",
+                                                        t_.width, increment_)
+                                          : std::string("a width must be a positive number"));
+        t_.width = w;
+    }
+
+    /// ' or ; (module i).
+    void setColour(size_t i, const Module& m)
+    {
+        // The colour index: with a parameter, set; without, one more.
+        const double c = m.params.empty() ? t_.colour + 1.0 : m.params[0];
+        if (!(c >= 0.0 && c <= 255.0) || std::trunc(c) != c)
+            throw bad(i, "a colour index must be a whole number from 0 to 255");
+        t_.colour = int(c);
+    }
+
+    /// } (module i): the innermost open polygon into a leaf blade.
+    void closePolygon(size_t i)
+    {
+        if (polygons_.empty())
+            throw bad(i, "'}' without a matching '{'");
+        std::vector<glm::dvec3> v = std::move(polygons_.back());
+        polygons_.pop_back();
+        if (v.size() > 1 && glm::length(v.back() - v.front()) == 0.0)
+            v.pop_back();  // closed by returning to its start
+        if (v.size() < 3)
+            throw bad(i, fmt::format("a polygon needs 3 vertices or more (this one has {}): its vertices are "
+                                     "where '{{' starts, each F or f inside, and each '.'",
+                                     v.size()));
+        const Organ leaf = polygonLeaf(v, paletteColour(sys_, t_.colour));
+        if (!(leaf.radius > 1e-6 * glm::length(leaf.p1 - leaf.p0)))
+            throw bad(i, "a polygon with no area (its vertices lie on a line)");
+        out_.organs.push_back(leaf);
+    }
+
+    /// % (module i): a saw cut.  The index to go on from: the rest of the
+    /// branch (if the string still has it) is skipped.
+    size_t cut(size_t i)
+    {
+        // The branch's last internode ends in a flat cut.
+        if (t_.drewInBranch && t_.last >= 0) {
+            out_.internodes[size_t(t_.last)].cut = true;
+        } else if (t_.last >= 0) {
+            // Cut before it drew anything: the organ was shed at its base,
+            // a scar on the internode it grew from, along its heading.
+            const Internode& parent = out_.internodes[size_t(t_.last)];
+            const double rp = std::max(parent.r0, parent.r1), rs = 0.5 * t_.width;
+            Scar scar;
+            scar.base = t_.pos;
+            scar.tip = t_.pos + rp * t_.H;
+            scar.radius = rs;
+            scar.parent = parent.id;
+            out_.scars.push_back(scar);
+        }
+        return branchEnd(modules_, i) - 1;  // the branch's ']' comes next
+    }
+
+    const LSystem& sys_;
+    const ModuleString& modules_;
+    const double increment_;  ///< the width increment of ! and # without a parameter
+    const glm::dvec3 T_;      ///< tropism: the direction the heading bends towards
+    const double e_;          ///< and how much
+    Skeleton out_;
+    TurtleState t_;
+    std::vector<TurtleState> stack_;
+    std::vector<std::vector<glm::dvec3>> polygons_;  // open polygons, innermost last
+};
+
+}  // namespace
+
+Skeleton interpretTurtle(const LSystem& sys, const ModuleString& modules)
+{
+    return TurtleInterpreter(sys, modules).run();
 }
 
 }  // namespace cambium
