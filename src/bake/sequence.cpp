@@ -1,6 +1,7 @@
 // cambium — growth frame sequences.
 #include "bake/sequence.h"
 
+#include "core/hash.h"
 #include "core/system.h"
 #include "io/vdb.h"
 #include "core/error.h"
@@ -26,15 +27,6 @@ namespace cambium {
 namespace {
 
 
-uint64_t fnv1a(const std::string& s, uint64_t h = 0xcbf29ce484222325ull)
-{
-    for (unsigned char c : s) {
-        h ^= c;
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
 /// Frames in runs of one growth year: a worker takes a run and bakes it in
 /// order, so that a dormant frame finds its predecessor's grids.
 std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
@@ -58,7 +50,7 @@ std::string sequenceKey(const SequenceRequest& req, const std::string& text, dou
     const std::string options =
         fmt::format("h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize, req.bake.halfWidth,
                     req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half);
-    return fmt::format("{:016x}", fnv1a(options, fnv1a(text)));
+    return fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
 }
 
 SequencePlan planSequence(const SequenceRequest& request)

@@ -3,7 +3,7 @@
 // not depend on which standard library built the binary.
 #pragma once
 
-#include "core/math.h"
+#include "core/hash.h"
 
 #include <cmath>
 #include <cstdint>

@@ -3,7 +3,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
-#include "core/math.h"
+#include "core/hash.h"
 #include "core/versions.h"
 
 #include <fmt/format.h>

@@ -1,0 +1,53 @@
+// cambium — how much memory a bake will need, before it starts.
+#include "bake/levelset.h"
+
+#include "cb_program.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace cambium {
+
+double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
+{
+    // Surface area of the primitives (an overestimate where they overlap).
+    // Each is convex, so the part of it inside a box has at most the box's
+    // area: the surface's bounds (a huge sphere that cuts, a saw cut, counts
+    // so) and its support box in world space — its own, or under warps the
+    // outermost warp's (a unit sphere mapped onto a leaf counts as the leaf).
+    auto boxArea = [](const Box& box) {
+        const glm::dvec3 b = box.size();
+        return 2.0 * (b.x * b.y + b.y * b.z + b.z * b.x);
+    };
+    const double boundsArea = boxArea(program.positiveBounds());
+    double area = 0.0;
+    const auto& P = program.params();
+    std::vector<const Box*> warps;
+    for (const Instr& in : program.code()) {
+        if (in.op == CB_I_WARP)
+            warps.push_back(&program.supportOf(in));
+        else if (in.op == CB_I_UNWARP)
+            warps.pop_back();
+        const double* q = P.data() + in.a;
+        double a = -1.0;
+        if (in.op == CB_SPHERE)
+            a = 4.0 * M_PI * q[CB_SPHERE_RADIUS] * q[CB_SPHERE_RADIUS];
+        else if (in.op == CB_SEGMENT || in.op == CB_CONE)
+            a = M_PI * (q[CB_CONE_R0] + q[CB_CONE_R1]) * q[CB_CONE_LEN] +
+                2.0 * M_PI * std::max(q[CB_CONE_R0], q[CB_CONE_R1]) * std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
+        else if (in.op == CB_CONVOLUTION_SEGMENT) {
+            const double r = q[CB_CONV_SUPPORT] / 3.0;  // its window is three times its largest radius
+            a = 2.0 * M_PI * r * q[CB_CONV_LEN] + 2.0 * M_PI * r * r;
+        }
+        if (a >= 0.0)
+            area += std::min({a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
+    }
+    // Band voxels; about three sampled voxels per band voxel, each holding its
+    // value (4 bytes), propagation state (8) and a share of the surface points
+    // (3); the output grids (16 bytes per band voxel).
+    const double bandVoxels = area / (h * h) * 2.0 * halfWidth;
+    return bandVoxels * (3.0 * (4.0 + 8.0 + 3.0) + 16.0) + 64e6;
+}
+
+}  // namespace cambium

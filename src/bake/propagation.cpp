@@ -1,0 +1,407 @@
+// cambium — bake stage 4: propagation.  Each tile's surface points swept
+// through its leaves and a halo (bake/sweep.inc), then its signed distances
+// and grid leaves.
+#include "bake/stages.h"
+
+#include "core/clock.h"
+
+#include <glm/glm.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+namespace cambium {
+
+namespace {
+
+/// A point on the surface found next to a sign change, in index space.
+struct SurfacePoint {
+    float p[3];      // position
+    float n[3];      // outward unit normal
+    uint8_t rgb[3];  // colour
+};
+
+/// Chains of consecutive leaves along one axis, leaf by leaf (indices into
+/// the tile's local leaves): directional sweeps run along them.
+struct Chains {
+    std::vector<int> leaf;   ///< chain after chain
+    std::vector<int> start;  ///< chain k: leaf[start[k], start[k + 1])
+    size_t size() const { return start.empty() ? 0 : start.size() - 1; }
+};
+
+#if defined(__clang__)
+// clang 14 (the sanitizer and fuzzing build) knows x86-64-v4 neither as a
+// target nor as a CPU feature: one portable build of the eight-lane sweeps.
+#define CB_SWEEP_NAME sweepAxis8
+#define CB_SWEEP_TARGET
+#define CB_SWEEP_LINES 1
+#include "bake/sweep.inc"
+
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
+               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
+{
+    sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
+}
+#else
+// The directional sweeps (src/bake/sweep.inc), compiled for AVX-512 with
+// vectors of sixteen lanes, and with eight lanes for AVX2 and older CPUs.
+#define CB_SWEEP_NAME sweepAxis16
+#define CB_SWEEP_TARGET __attribute__((target("arch=x86-64-v4")))
+#define CB_SWEEP_LINES 2
+#include "bake/sweep.inc"
+#define CB_SWEEP_NAME sweepAxis8
+#define CB_SWEEP_TARGET __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define CB_SWEEP_LINES 1
+#include "bake/sweep.inc"
+
+/// `turned`: scratch for the x-sweeps' transposed chains.
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
+               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
+{
+    static const bool avx512 = __builtin_cpu_supports("x86-64-v4");
+    if (avx512)
+        sweepAxis16(rows, local, axis, srcAll, pos, limit2, turned);
+    else
+        sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
+}
+#endif
+
+/// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
+/// from their nearest surface points p (index space, 1e15 where none) with
+/// unit normals (nx, ny, nz)[src], and whether each lies in the band.  The tangent plane's
+/// distance corrects for the spacing of the surface points (about a voxel)
+/// where the surface is smooth: there the nearest point lies near the foot of
+/// the perpendicular.  A lateral offset of several voxels means a crease (CSG,
+/// a scar's rim) whose nearest point is the point itself: the Euclidean
+/// distance takes over from 1.5 to 2.5 voxels of offset; it also takes over
+/// where the plane disagrees with the field's sign.  Branch-free, so that it
+/// runs as vectors (clones chosen at run time, as for the sweeps; the file is
+/// compiled without errno and trapping math, which would keep it scalar).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
+    const int32_t* origin, const uint16_t* __restrict value, const float* __restrict px,
+    const float* __restrict py, const float* __restrict pz, const int32_t* __restrict src,
+    const float* __restrict nx, const float* __restrict ny, const float* __restrict nz, float h,
+    float background, float* __restrict sd, uint8_t* __restrict on)
+{
+    const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
+    int active = 0;
+    for (int i = 0; i < kLeafVoxels; ++i) {
+        const float sign = halfPositive(value[i]) ? -1.0f : 1.0f;  // F - T > 0: inside, negative
+        const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
+                    dz = oz + float(i >> 6) - pz[i];
+        const float e2 = dx * dx + dy * dy + dz * dz;
+        const int32_t j = src[i];  // gathered: the point's normal
+        const float plane = dx * nx[j] + dy * ny[j] + dz * nz[j];
+        const float euclid = std::sqrt(e2);
+        const float l2 = e2 - plane * plane;
+        const float lateral = std::sqrt(l2 > 0.0f ? l2 : 0.0f);
+        const float b0 = lateral - 1.5f, b1 = b0 > 0.0f ? b0 : 0.0f, b = b1 < 1.0f ? b1 : 1.0f;
+        const float flat = std::fabs(plane);
+        const float blended = flat + (euclid - flat) * (b * b * (3.0f - 2.0f * b));
+        const float mag = (plane < 0.0f) != (sign < 0.0f) ? euclid : blended;
+        const float v = sign * mag * h;
+        const bool in = std::fabs(v) < background;  // false where there is no point (1e15)
+        sd[i] = in ? v : sign * background;
+        on[i] = in;
+        active += in;
+    }
+    return active;
+}
+
+/// The chains of `jobs` along `axis`, through a dense table of the leaves'
+/// box (a tile's leaves with their halo span ten leaves a side), line by line.
+void buildChains(const std::vector<LeafJob>& jobs, int axis, std::vector<int>& table, Chains& out)
+{
+    out.leaf.clear();
+    out.start.clear();
+    if (jobs.empty())
+        return;
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k)
+        lo[k] = hi[k] = jobs[0].origin[k] >> 3;
+    for (const LeafJob& j : jobs)
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], j.origin[k] >> 3);
+            hi[k] = std::max(hi[k], j.origin[k] >> 3);
+        }
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    const size_t nu = size_t(hi[axis] - lo[axis] + 1), nv = size_t(hi[a] - lo[a] + 1), nw = size_t(hi[b] - lo[b] + 1);
+    table.assign(nu * nv * nw, -1);
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        const int* o = jobs[i].origin;
+        table[size_t((o[axis] >> 3) - lo[axis]) +
+              nu * (size_t((o[a] >> 3) - lo[a]) + nv * size_t((o[b] >> 3) - lo[b]))] = int(i);
+    }
+    for (size_t line = 0; line < nv * nw; ++line) {
+        const int* t = table.data() + line * nu;
+        for (size_t u = 0; u < nu; ++u) {
+            if (t[u] < 0)
+                continue;
+            if (u == 0 || t[u - 1] < 0)
+                out.start.push_back(int(out.leaf.size()));
+            out.leaf.push_back(t[u]);
+        }
+    }
+    out.start.push_back(int(out.leaf.size()));
+}
+
+/// A tile's working state, one per thread, reused from tile to tile.
+struct TileScratch {
+    std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
+    std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
+    std::vector<std::array<uint8_t, 3>> rgb;  // the colours of the tile's points (with its halo's; 0: none)
+    std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
+    std::vector<float> turned;         // the x-sweeps' transposed chains
+    std::vector<LeafJob> local;        // the tile's leaves, then its halo
+    Chains rows[3];                    // the chains along each axis
+    std::vector<int> table;            // (building them)
+};
+
+/// Propagation over the tiles (64^3 voxels: octants of the topology's tiles,
+/// whose leaves are contiguous in its depth-first order): each tile's leaves
+/// and a one-leaf halo of their neighbours (a band voxel's nearest point is
+/// within halfWidth + 2 voxels, well inside a leaf), then the tile's grid
+/// leaves.  A 64^3 tile's state stays in the caches through the twelve
+/// sweeps (128^3 tiles: 1.5 times slower).
+class Propagation {
+public:
+    Propagation(const PropagationInput& in, BandLeaves& out)
+        : in_(in), out_(out), first_(in.surface.first), edges_(in.surface.edges.get()), invH_(float(1.0 / in.voxelSize)),
+          limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
+    {
+    }
+
+    void tile(size_t t0, size_t t1, TileScratch& S)
+    {
+        const auto tq0 = Clock::now();
+        gatherLeaves(t0, t1, S);
+        const auto tq1 = Clock::now();
+        loadPoints(S);
+        const auto tSweep = Clock::now();
+        haloNs += size_t(std::chrono::duration<double>(tq1 - tq0).count() * 1e9);
+        pointsNs += size_t(std::chrono::duration<double>(tSweep - tq1).count() * 1e9);
+        sweep(S);
+        sweepNs += size_t(secondsSince(tSweep) * 1e9);
+        const auto tLeaves = Clock::now();
+        writeLeaves(t0, t1, S);
+        leavesNs += size_t(secondsSince(tLeaves) * 1e9);
+    }
+
+    std::atomic<size_t> axisNs[3] = {0, 0, 0}, haloNs{0}, pointsNs{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
+
+private:
+    /// A surface voxel's point (leaf l's k-th): computed where a tile needs
+    /// it (tiles share halo leaves, but a point costs less than storing all
+    /// of them).
+    SurfacePoint surfacePoint(size_t l, size_t k) const
+    {
+        const int32_t* o = in_.leaves[l].origin;
+        const size_t q = first_[l] + k;
+        const SurfaceEdge& ed = edges_[q];
+        const SurfaceSample& sample = in_.samples[q];
+        const int i = ed.voxel;
+        const float fv = ed.f;
+        const bool inside = fv > 0.0f;
+        const glm::vec3 g(halfToFloat(sample.gradient[0]), halfToFloat(sample.gradient[1]),
+                          halfToFloat(sample.gradient[2]));
+        const float g2 = glm::dot(g, g);
+        // Outward normal: against the gradient (F grows inwards).
+        const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
+        glm::vec3 nrm = -inv * g;
+        float dist = g2 > 0.0f ? std::abs(fv) * inv * invH_ : INFINITY;
+        if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
+            dist = ed.t;
+            if (!(g2 > 0.0f)) {
+                const int* dir = kFaceDirections[ed.dir];
+                nrm = (inside ? 1.0f : -1.0f) * glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
+            }
+        }
+        // Closest point: from outside, inwards along -n; from inside, outwards.
+        const glm::vec3 cp = glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
+                                       float(o[2] + (i >> 6))) + (inside ? dist : -dist) * nrm;
+        SurfacePoint sp;
+        for (int c = 0; c < 3; ++c) {
+            sp.p[c] = cp[c];
+            sp.n[c] = nrm[c];
+            sp.rgb[c] = sample.color[c];
+        }
+        return sp;
+    }
+
+    /// The tile's leaves [t0, t1), then its halo.
+    void gatherLeaves(size_t t0, size_t t1, TileScratch& S)
+    {
+        S.leaves.resize(t1 - t0);
+        std::iota(S.leaves.begin(), S.leaves.end(), int32_t(t0));
+        // A neighbour without surface points only carries points from two
+        // leaves away, beyond a band voxel's reach (halfWidth + 2 voxels < 8):
+        // only neighbours with points join the halo.
+        for (size_t l = t0; l < t1; ++l)
+            for (int32_t m : in_.nb[l])
+                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1) && first_[size_t(m) + 1] > first_[size_t(m)])
+                    S.leaves.push_back(m);
+        std::sort(S.leaves.begin() + long(t1 - t0), S.leaves.end());
+        S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
+        localLeaves += S.leaves.size();
+    }
+
+    /// Every local voxel's state and the local leaves' surface points.
+    void loadPoints(TileScratch& S) const
+    {
+        const size_t nl = S.leaves.size();
+        S.src.resize(nl * kLeafVoxels);
+        for (auto& p : S.pos)
+            p.resize(nl * kLeafVoxels);
+        S.local.resize(nl);
+        size_t count = 1;  // point 0: none
+        for (size_t k = 0; k < nl; ++k)
+            count += first_[size_t(S.leaves[k]) + 1] - first_[size_t(S.leaves[k])];
+        if (!in_.uniformColor)  // a model of one colour needs no colours per point
+            S.rgb.resize(count);
+        for (auto& v : S.nrm) {
+            v.resize(count);
+            v[0] = 0.0f;
+        }
+        int32_t next = 1;
+        for (size_t k = 0; k < nl; ++k) {
+            const size_t l = size_t(S.leaves[k]);
+            S.local[k] = in_.leaves[l];
+            // The leaf's state, then its points (in the caches: leaf by leaf).
+            // Voxels without a point hold point 0 (none, zero normal) placed
+            // infinitely far away, so that the sweeps need no branches.
+            const size_t lb = k * kLeafVoxels;
+            std::fill_n(S.src.begin() + long(lb), kLeafVoxels, 0);
+            for (auto& p : S.pos)
+                std::fill_n(p.begin() + long(lb), kLeafVoxels, 1e15f);
+            for (size_t e = 0; e < first_[l + 1] - first_[l]; ++e, ++next) {
+                const SurfacePoint sp = surfacePoint(l, e);
+                const size_t at = k * kLeafVoxels + size_t(edges_[first_[l] + e].voxel);
+                S.src[at] = next;
+                if (!in_.uniformColor)
+                    S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
+                for (int c = 0; c < 3; ++c) {
+                    S.nrm[c][size_t(next)] = sp.n[c];
+                    S.pos[c][at] = sp.p[c];
+                }
+            }
+        }
+    }
+
+    /// Sweeps along each axis in both directions, each voxel offered its
+    /// predecessor's surface point; two rounds (the second repairs the paths
+    /// the first could not take: max error 0.25 -> 0.1 voxel,
+    /// tests/test_bake.cpp).  (Both rounds must run over the halo too:
+    /// without it in the second, the far error of a capsule grows from 0.11
+    /// to 0.46 voxel.)
+    void sweep(TileScratch& S)
+    {
+        float* const pos[3] = {S.pos[0].data(), S.pos[1].data(), S.pos[2].data()};
+        for (int axis = 0; axis < 3; ++axis)
+            buildChains(S.local, axis, S.table, S.rows[axis]);
+        for (int pass = 0; pass < 6; ++pass) {
+            const int axis = pass % 3;
+            const auto ta = Clock::now();
+            sweepAxis(S.rows[axis], S.local, axis, S.src.data(), pos, limit2_, S.turned);
+            axisNs[axis] += size_t(secondsSince(ta) * 1e9);
+        }
+    }
+
+    /// The tile's grid leaves, written straight into their buffers.
+    void writeLeaves(size_t t0, size_t t1, const TileScratch& S)
+    {
+        const float background = in_.background;
+        for (size_t k = 0; k < t1 - t0; ++k) {
+            const size_t l = t0 + k;
+            const int32_t* o = in_.leaves[l].origin;
+            float sd[kLeafVoxels];
+            uint8_t on[kLeafVoxels];
+            const int32_t* src = S.src.data() + k * kLeafVoxels;
+            const size_t at = k * kLeafVoxels;
+            const int active = leafDistances(o, in_.value + l * kLeafVoxels, S.pos[0].data() + at,
+                                             S.pos[1].data() + at, S.pos[2].data() + at, src, S.nrm[0].data(),
+                                             S.nrm[1].data(), S.nrm[2].data(), float(in_.voxelSize), background, sd,
+                                             on);
+            out_.active[l] = size_t(active);
+            if (!active)
+                continue;
+            const openvdb::Coord origin(o[0], o[1], o[2]);
+            // (PartialCreate: the buffer is allocated by data() and not filled:
+            // every value is written below.)
+            auto* sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin, background, false);
+            auto* cl = in_.uniformColor ? nullptr
+                                        : new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
+            float* sv = sl->buffer().data();
+            openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
+            // VDB leaves index x slowest: offset = 64 x + 8 y + z, so mask
+            // word x holds bit 8 y + z.
+            // (x innermost and unrolled: the eight words stay in registers.)
+            uint64_t words[8] = {};
+            for (int yz = 0; yz < 64; ++yz) {
+                const int base = 8 * (yz >> 3) + 64 * (yz & 7);  // voxel (0, y, z)
+#pragma GCC unroll 8
+                for (int x = 0; x < 8; ++x) {
+                    sv[64 * x + yz] = sd[base + x];
+                    words[x] |= uint64_t(on[base + x]) << yz;
+                }
+            }
+            if (cl)
+                for (int i = 0; i < kLeafVoxels; ++i)
+                    if (on[i]) {
+                        const uint8_t* rgb = S.rgb[size_t(src[i])].data();
+                        cv[64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6)] =
+                            openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+                    }
+            for (int x = 0; x < 8; ++x) {
+                sl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
+                if (cl)
+                    cl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
+            }
+            out_.surface[l] = sl;
+            out_.color[l] = cl;
+        }
+    }
+
+    const PropagationInput& in_;
+    BandLeaves& out_;
+    const std::vector<size_t>& first_;
+    const SurfaceEdge* edges_;
+    const float invH_, limit2_;
+};
+
+}  // namespace
+
+BandLeaves propagate(const PropagationInput& in, const Progress& progress, BakeTimings& timings)
+{
+    const auto t = Clock::now();
+    const size_t n = in.leaves.size();
+    BandLeaves out;
+    out.surface.assign(n, nullptr);
+    out.color.assign(n, nullptr);
+    out.active.assign(n, 0);
+    const std::vector<size_t> tileStart = cubeRuns(in.leaves, 6);
+    const size_t tiles = tileStart.size() - 1;
+    Propagation work(in, out);
+    std::atomic<size_t> tilesDone{0};
+    tbb::enumerable_thread_specific<TileScratch> scratch;
+    tbb::parallel_for(size_t(0), tiles, [&](size_t tile) {
+        work.tile(tileStart[tile], tileStart[tile + 1], scratch.local());
+        progress("assembly", double(++tilesDone) / double(tiles));
+    });
+    timings.propagation = secondsSince(t);
+    timings.halos = double(work.haloNs) * 1e-9;
+    timings.points = double(work.pointsNs) * 1e-9;
+    timings.sweeps = double(work.sweepNs) * 1e-9;
+    for (int k = 0; k < 3; ++k)
+        timings.sweepAxis[k] = double(work.axisNs[k]) * 1e-9;
+    timings.leaves = double(work.leavesNs) * 1e-9;
+    timings.tiles = tiles;
+    timings.tileLeaves = work.localLeaves;
+    return out;
+}
+
+}  // namespace cambium
