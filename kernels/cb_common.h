@@ -6,11 +6,10 @@
  *   cb_scalar  one number: a parameter read from a table;
  *   cb_real    the value at the points being evaluated: on the host one point
  *              (double, so the reference evaluator is the precise oracle); in a
- *              kernel compiled with -D CB_LANES=8 or 16, that many points at once (float8, float16),
- *              because PoCL vectorises only what is written as vectors.
- * The math is written without data-dependent branches (CB_SELECT instead of
- * if/?:) so the same text is correct for scalars and for vectors.  Scalars
- * widen implicitly where a cb_real is expected.
+ *              kernel compiled with -D CB_LANES=8 or 16, that many points at once (float8,
+ * float16), because PoCL vectorises only what is written as vectors. The math is written without
+ * data-dependent branches (CB_SELECT instead of if/?:) so the same text is correct for scalars and
+ * for vectors.  Scalars widen implicitly where a cb_real is expected.
  *
  * Define CB_REAL_IS_FLOAT on the host to compile the float flavour.
  */
@@ -39,7 +38,7 @@ typedef int cb_mask;
 #endif
 #define CB_R(x) (x##f)
 #define CB_TINY 1e-37f /* smallest divisor worth dividing by */
-#define CB_MATH(f) f /* OpenCL's built-ins are overloaded */
+#define CB_MATH(f) f   /* OpenCL's built-ins are overloaded */
 /* select(a, b, c): b where c is true, a elsewhere */
 #define CB_SELECT(a, b, c) select((cb_real)(a), (cb_real)(b), (c))
 #if CB_LANES > 1
@@ -100,21 +99,39 @@ CB_FN cb_vec3 cb_v3(cb_real x, cb_real y, cb_real z)
     r.z = z;
     return r;
 }
-CB_FN cb_vec3 cb_add(cb_vec3 a, cb_vec3 b) { return cb_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-CB_FN cb_vec3 cb_sub(cb_vec3 a, cb_vec3 b) { return cb_v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-CB_FN cb_vec3 cb_scale(cb_vec3 a, cb_real s) { return cb_v3(a.x * s, a.y * s, a.z * s); }
+CB_FN cb_vec3 cb_add(cb_vec3 a, cb_vec3 b)
+{
+    return cb_v3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+CB_FN cb_vec3 cb_sub(cb_vec3 a, cb_vec3 b)
+{
+    return cb_v3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+CB_FN cb_vec3 cb_scale(cb_vec3 a, cb_real s)
+{
+    return cb_v3(a.x * s, a.y * s, a.z * s);
+}
 /* a + b * s */
 CB_FN cb_vec3 cb_madd(cb_vec3 a, cb_vec3 b, cb_real s)
 {
     return cb_v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
 }
-CB_FN cb_real cb_dot(cb_vec3 a, cb_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+CB_FN cb_real cb_dot(cb_vec3 a, cb_vec3 b)
+{
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 CB_FN cb_vec3 cb_cross(cb_vec3 a, cb_vec3 b)
 {
     return cb_v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-CB_FN cb_real cb_length(cb_vec3 a) { return CB_SQRT(cb_dot(a, a)); }
-CB_FN cb_real cb_clamp01(cb_real x) { return CB_FMIN(CB_FMAX(x, CB_R(0.0)), CB_R(1.0)); }
+CB_FN cb_real cb_length(cb_vec3 a)
+{
+    return CB_SQRT(cb_dot(a, a));
+}
+CB_FN cb_real cb_clamp01(cb_real x)
+{
+    return CB_FMIN(CB_FMAX(x, CB_R(0.0)), CB_R(1.0));
+}
 /* x / y where y > 0, else 0: a division guarded lane by lane. */
 CB_FN cb_real cb_div0(cb_real x, cb_real y)
 {

@@ -9,22 +9,22 @@
 #ifndef CAMBIUM_CB_NODE_TYPES_H
 #define CAMBIUM_CB_NODE_TYPES_H
 
-#define CB_NODE_TYPES(X)                                          \
-    X(SPHERE, 1, "sphere", PRIMITIVE)                             \
-    X(SEGMENT, 2, "segment", PRIMITIVE)                           \
-    X(CONE, 3, "cone", PRIMITIVE)                                 \
-    X(CONVOLUTION_SEGMENT, 4, "convolution_segment", PRIMITIVE)   \
-    X(BLEND, 16, "blend", OPERATOR)                               \
-    X(RICCI, 17, "ricci", OPERATOR)                               \
-    X(UNION, 18, "union", OPERATOR)                               \
-    X(INTERSECTION, 19, "intersection", OPERATOR)                 \
-    X(DIFFERENCE, 20, "difference", OPERATOR)                     \
-    X(PCM, 21, "pcm", OPERATOR)                                   \
-    X(GBB, 22, "gbb", OPERATOR)                                   \
-    X(BETTER_BLEND, 23, "better_blend", OPERATOR)                 \
-    X(TRANSFORM, 32, "transform", WARP)                           \
-    X(BEND, 33, "bend", WARP)                                     \
-    X(TWIST, 34, "twist", WARP)                                   \
+#define CB_NODE_TYPES(X)                                        \
+    X(SPHERE, 1, "sphere", PRIMITIVE)                           \
+    X(SEGMENT, 2, "segment", PRIMITIVE)                         \
+    X(CONE, 3, "cone", PRIMITIVE)                               \
+    X(CONVOLUTION_SEGMENT, 4, "convolution_segment", PRIMITIVE) \
+    X(BLEND, 16, "blend", OPERATOR)                             \
+    X(RICCI, 17, "ricci", OPERATOR)                             \
+    X(UNION, 18, "union", OPERATOR)                             \
+    X(INTERSECTION, 19, "intersection", OPERATOR)               \
+    X(DIFFERENCE, 20, "difference", OPERATOR)                   \
+    X(PCM, 21, "pcm", OPERATOR)                                 \
+    X(GBB, 22, "gbb", OPERATOR)                                 \
+    X(BETTER_BLEND, 23, "better_blend", OPERATOR)               \
+    X(TRANSFORM, 32, "transform", WARP)                         \
+    X(BEND, 33, "bend", WARP)                                   \
+    X(TWIST, 34, "twist", WARP)                                 \
     X(TAPER, 35, "taper", WARP)
 
 #define CB_NODE_ENUM_ENTRY(ident, number, name, kind) CB_##ident = number,

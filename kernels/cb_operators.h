@@ -15,7 +15,10 @@
  * Negative child values (scars) are clamped to 0 first: the power of a
  * negative field is not defined for real n.  Accumulate cb_ricci_term over
  * the children, then finish; dF/df_i = (f_i / F)^(n-1) for f_i > 0. */
-CB_FN cb_real cb_ricci_term(cb_real f, cb_real n) { return CB_POW(CB_FMAX(f, CB_R(0.0)), n); }
+CB_FN cb_real cb_ricci_term(cb_real f, cb_real n)
+{
+    return CB_POW(CB_FMAX(f, CB_R(0.0)), n);
+}
 CB_FN cb_real cb_ricci_finish(cb_real sum, cb_real n)
 {
     return CB_POW(CB_FMAX(sum, CB_R(0.0)), CB_R(1.0) / n);
@@ -30,7 +33,10 @@ CB_FN cb_real cb_ricci_partial(cb_real f, cb_real F, cb_real n)
  * CSG on fields where inside is F > T: union = max, intersection = min,
  * difference A - B = min(F_A, 2T - F_B).  2T - F reflects a field about the
  * threshold, so it is the complement solid with the same surface. */
-CB_FN cb_real cb_csg_complement(cb_real f, cb_real T) { return CB_R(2.0) * T - f; }
+CB_FN cb_real cb_csg_complement(cb_real f, cb_real T)
+{
+    return CB_R(2.0) * T - f;
+}
 
 /* ---------------------------------------------------------------------------
  * Precise Contact Modeling (Gascuel 1993; papers 001 sec. 2.3, 002 sec. 3.3,

@@ -35,11 +35,13 @@ static inline void cb_pnanovdb_memcpy(void* dst, const void* src, size_t n)
 typedef struct pnanovdb_buf_t {
     __global const uint* data;
 } pnanovdb_buf_t;
-static inline __attribute__((always_inline)) uint pnanovdb_buf_read_uint32(pnanovdb_buf_t buf, uint byte_offset)
+static inline __attribute__((always_inline)) uint pnanovdb_buf_read_uint32(pnanovdb_buf_t buf,
+                                                                           uint byte_offset)
 {
     return buf.data[byte_offset >> 2];
 }
-static inline __attribute__((always_inline)) ulong pnanovdb_buf_read_uint64(pnanovdb_buf_t buf, uint byte_offset)
+static inline __attribute__((always_inline)) ulong pnanovdb_buf_read_uint64(pnanovdb_buf_t buf,
+                                                                            uint byte_offset)
 {
     return ((__global const ulong*)buf.data)[byte_offset >> 3];
 }

@@ -26,12 +26,14 @@ CB_FN cb_real cb_wyvill(cb_real x, cb_real* dw)
     cb_mask beyond = x >= CB_R(1.0);
     /* The polynomial vanishes at 1 and its slope vanishes at 0 and 1; the
      * selects make "zero beyond the support" exact rather than rounded. */
-    *dw = CB_SELECT(xc * (CB_R(-44.0) / CB_R(9.0) + y * (CB_R(68.0) / CB_R(9.0) - y * CB_R(24.0) / CB_R(9.0))),
-                    CB_R(0.0), beyond);
-    return CB_SELECT(CB_FMAX(CB_R(1.0) + y * (CB_R(-22.0) / CB_R(9.0) +
-                                              y * (CB_R(17.0) / CB_R(9.0) - y * CB_R(4.0) / CB_R(9.0))),
-                             CB_R(0.0)),
-                     CB_R(0.0), beyond);
+    *dw = CB_SELECT(
+        xc * (CB_R(-44.0) / CB_R(9.0) + y * (CB_R(68.0) / CB_R(9.0) - y * CB_R(24.0) / CB_R(9.0))),
+        CB_R(0.0), beyond);
+    return CB_SELECT(
+        CB_FMAX(CB_R(1.0) + y * (CB_R(-22.0) / CB_R(9.0) +
+                                 y * (CB_R(17.0) / CB_R(9.0) - y * CB_R(4.0) / CB_R(9.0))),
+                CB_R(0.0)),
+        CB_R(0.0), beyond);
 }
 
 #if CB_LANES == 1
@@ -96,8 +98,8 @@ CB_FN cb_real cb_sphere_field(cb_vec3 p, cb_vec3 c, cb_real r, cb_real sigma, cb
  * r0 at the base to r1 at the tip; beyond the ends the closest point is an end
  * point and the caps are spheres of radius r0 and r1 (papers 001/003: branches
  * tipped by hemispherical caps).  len == 0 degenerates to a sphere of radius r0. */
-CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real r0,
-                            cb_real r1, cb_real sigma, cb_real xT, cb_vec3* grad)
+CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real r0, cb_real r1,
+                            cb_real sigma, cb_real xT, cb_vec3* grad)
 {
     cb_vec3 d = cb_sub(p, a);
     cb_real tt = cb_div0(cb_dot(d, axis), len);
@@ -106,7 +108,8 @@ CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_
     cb_real dist = cb_length(e), fd, fr;
     cb_real r = r0 + (r1 - r0) * t;
     cb_real f = cb_skeletal_field(dist, r, sigma, xT, &fd, &fr);
-    cb_real slope = CB_SELECT(CB_R(0.0), fr * cb_div0(r1 - r0, len), tt > CB_R(0.0) && tt < CB_R(1.0));
+    cb_real slope =
+        CB_SELECT(CB_R(0.0), fr * cb_div0(r1 - r0, len), tt > CB_R(0.0) && tt < CB_R(1.0));
     *grad = cb_madd(cb_scale(e, cb_div0(fd, dist)), axis, slope);
     return f;
 }
@@ -194,7 +197,8 @@ CB_FN cb_real cb_convolution_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real l
     cb_real raw = cb_convolution_raw(p, a, axis, len, q0, q1, s, &graw);
     cb_real dW;
     cb_real W = cb_wyvill(CB_R(2.0) * dist / support - CB_R(1.0), &dW);
-    *grad = cb_madd(cb_scale(graw, W), e, raw * dW * CB_R(2.0) * cb_div0(CB_R(1.0), support * dist));
+    *grad =
+        cb_madd(cb_scale(graw, W), e, raw * dW * CB_R(2.0) * cb_div0(CB_R(1.0), support * dist));
     return raw * W;
 }
 

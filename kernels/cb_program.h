@@ -31,12 +31,13 @@
 /* Opcodes.  Primitives use their node-type numbers (CB_SPHERE ... ), with
  * the parameter block at a and, for the host, the index of their support box
  * in c. */
-#define CB_I_CONST 8   /* push the constant prm[a] */
-#define CB_I_OPEN 9    /* push the accumulator of the operator whose block is at a; b = node type;
-                          c = index of the subtree's support box (host only) */
-#define CB_I_ACC 10    /* fold the top entry into the accumulator below; c = 1 for the first child */
-#define CB_I_CLOSE 11  /* finish the accumulator; b = node type */
-#define CB_I_WARP 12   /* b = warp node type, params at a: warp the point; c as for OPEN */
+#define CB_I_CONST 8 /* push the constant prm[a] */
+#define CB_I_OPEN                                                                                 \
+    9                 /* push the accumulator of the operator whose block is at a; b = node type; \
+                         c = index of the subtree's support box (host only) */
+#define CB_I_ACC 10   /* fold the top entry into the accumulator below; c = 1 for the first child */
+#define CB_I_CLOSE 11 /* finish the accumulator; b = node type */
+#define CB_I_WARP 12  /* b = warp node type, params at a: warp the point; c as for OPEN */
 #define CB_I_UNWARP 13 /* restore the point, carry the gradient back */
 
 /* Parameter table header */
@@ -183,7 +184,8 @@ CB_FN void cb_push(cb_stack* s, int i, cb_real v, cb_vec3 g, cb_vec3 c)
 
 /* A primitive's colour exists where its field does: black where the field
  * is zero, so that folding zero fields away never changes a colour. */
-CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g, CB_GLOBAL const cb_scalar* rgb)
+CB_FN void cb_push_primitive(cb_stack* s, int i, cb_real v, cb_vec3 g,
+                             CB_GLOBAL const cb_scalar* rgb)
 {
     cb_real on = CB_SELECT(CB_R(0.0), CB_R(1.0), v != CB_R(0.0));
     cb_push(s, i, v, g, cb_scale(cb_v3(rgb[0], rgb[1], rgb[2]), on));
@@ -395,23 +397,27 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
         CB_GLOBAL const cb_scalar* q = prm + a;
         if (op == CB_SPHERE) {
             cb_vec3 g;
-            cb_real f = cb_sphere_field(p, cb_load3(q, CB_SPHERE_CENTER), q[CB_SPHERE_RADIUS], q[CB_SPHERE_SIGMA],
-                                        xT, &g);
+            cb_real f = cb_sphere_field(p, cb_load3(q, CB_SPHERE_CENTER), q[CB_SPHERE_RADIUS],
+                                        q[CB_SPHERE_SIGMA], xT, &g);
             ++top;
-            cb_push_primitive(&s, top, q[CB_SPHERE_WEIGHT] * f, cb_scale(g, q[CB_SPHERE_WEIGHT]), q + CB_SPHERE_RGB);
+            cb_push_primitive(&s, top, q[CB_SPHERE_WEIGHT] * f, cb_scale(g, q[CB_SPHERE_WEIGHT]),
+                              q + CB_SPHERE_RGB);
         } else if (op == CB_SEGMENT || op == CB_CONE) {
             cb_vec3 g;
-            cb_real f = cb_cone_field(p, cb_load3(q, CB_CONE_P0), cb_load3(q, CB_CONE_AXIS), q[CB_CONE_LEN],
-                                      q[CB_CONE_R0], q[CB_CONE_R1], q[CB_CONE_SIGMA], xT, &g);
+            cb_real f =
+                cb_cone_field(p, cb_load3(q, CB_CONE_P0), cb_load3(q, CB_CONE_AXIS), q[CB_CONE_LEN],
+                              q[CB_CONE_R0], q[CB_CONE_R1], q[CB_CONE_SIGMA], xT, &g);
             ++top;
-            cb_push_primitive(&s, top, q[CB_CONE_WEIGHT] * f, cb_scale(g, q[CB_CONE_WEIGHT]), q + CB_CONE_RGB);
+            cb_push_primitive(&s, top, q[CB_CONE_WEIGHT] * f, cb_scale(g, q[CB_CONE_WEIGHT]),
+                              q + CB_CONE_RGB);
         } else if (op == CB_CONVOLUTION_SEGMENT) {
             cb_vec3 g;
-            cb_real f = cb_convolution_field(p, cb_load3(q, CB_CONV_P0), cb_load3(q, CB_CONV_AXIS), q[CB_CONV_LEN],
-                                             q[CB_CONV_Q0], q[CB_CONV_Q1], q[CB_CONV_KERNEL_WIDTH],
-                                             q[CB_CONV_SUPPORT], &g);
+            cb_real f = cb_convolution_field(p, cb_load3(q, CB_CONV_P0), cb_load3(q, CB_CONV_AXIS),
+                                             q[CB_CONV_LEN], q[CB_CONV_Q0], q[CB_CONV_Q1],
+                                             q[CB_CONV_KERNEL_WIDTH], q[CB_CONV_SUPPORT], &g);
             ++top;
-            cb_push_primitive(&s, top, q[CB_CONV_WEIGHT] * f, cb_scale(g, q[CB_CONV_WEIGHT]), q + CB_CONV_RGB);
+            cb_push_primitive(&s, top, q[CB_CONV_WEIGHT] * f, cb_scale(g, q[CB_CONV_WEIGHT]),
+                              q + CB_CONV_RGB);
         } else if (op == CB_I_CONST) {
             ++top;
             cb_push(&s, top, q[CB_CONST_VALUE], cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0)),

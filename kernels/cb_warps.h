@@ -109,7 +109,7 @@ CB_FN cb_vec3 cb_bend_apply(cb_bend b, cb_vec3 p, cb_real* J)
     cb_real r2 = dx * dx + dy * dy;
     cb_real r = CB_SQRT(r2);
     cb_real phi = CB_ATAN2(dx, dy);
-    cb_mask before = phi < -h, after = phi > h;
+    cb_mask before = phi<-h, after = phi> h;
     /* on the arc: polar coordinates about its centre */
     cb_real k = cb_div0(b.len, b.theta);
     cb_real a = (phi + h) * k, yp = r - b.rho;
@@ -197,14 +197,21 @@ CB_FN cb_vec3 cb_taper_apply(cb_taper t, cb_vec3 p, cb_real* J)
     cb_real h = cb_dot(d, t.a);
     cb_real u = h / t.len;
     cb_real s = t.scale0 + (t.scale1 - t.scale0) * cb_clamp01(u);
-    cb_real ds = CB_SELECT(CB_R(0.0), (t.scale1 - t.scale0) / t.len, u > CB_R(0.0) && u < CB_R(1.0));
+    cb_real ds =
+        CB_SELECT(CB_R(0.0), (t.scale1 - t.scale0) / t.len, u > CB_R(0.0) && u < CB_R(1.0));
     cb_vec3 dp = cb_madd(d, t.a, -h);
     cb_vec3 a = t.a;
     cb_real is = CB_R(1.0) / s, k = -ds * is * is;
     cb_real aa[9];
-    aa[0] = a.x * a.x; aa[1] = a.x * a.y; aa[2] = a.x * a.z;
-    aa[3] = a.y * a.x; aa[4] = a.y * a.y; aa[5] = a.y * a.z;
-    aa[6] = a.z * a.x; aa[7] = a.z * a.y; aa[8] = a.z * a.z;
+    aa[0] = a.x * a.x;
+    aa[1] = a.x * a.y;
+    aa[2] = a.x * a.z;
+    aa[3] = a.y * a.x;
+    aa[4] = a.y * a.y;
+    aa[5] = a.y * a.z;
+    aa[6] = a.z * a.x;
+    aa[7] = a.z * a.y;
+    aa[8] = a.z * a.z;
     J[0] = aa[0] + (CB_R(1.0) - aa[0]) * is + k * dp.x * a.x;
     J[1] = aa[1] * (CB_R(1.0) - is) + k * dp.x * a.y;
     J[2] = aa[2] * (CB_R(1.0) - is) + k * dp.x * a.z;

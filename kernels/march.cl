@@ -39,7 +39,8 @@ CB_INLINE cb_nano_t cb_nano_open(__global const uint* data, pnanovdb_grid_type_t
     g.buf.data = data;
     g.type = type;
     pnanovdb_grid_handle_t grid = {pnanovdb_address_null()};
-    pnanovdb_readaccessor_init(&g.acc, pnanovdb_tree_get_root(g.buf, pnanovdb_grid_get_tree(g.buf, grid)));
+    pnanovdb_readaccessor_init(&g.acc,
+                               pnanovdb_tree_get_root(g.buf, pnanovdb_grid_get_tree(g.buf, grid)));
     g.leafOrigin = (int3)(1); /* no leaf: leaf origins are multiples of 8 */
     g.leafTable = 0;
     return g;
@@ -53,8 +54,8 @@ CB_INLINE float cb_value(cb_nano_t* g, int3 c)
         return g->leafTable[((c.x & 7) << 6) | ((c.y & 7) << 3) | (c.z & 7)];
     pnanovdb_uint32_t level = 0;
     const pnanovdb_coord_t ijk = {c.x, c.y, c.z};
-    const pnanovdb_address_t a = pnanovdb_readaccessor_get_value_address_and_level(g->type, g->buf, &g->acc, &ijk,
-                                                                                   &level);
+    const pnanovdb_address_t a =
+        pnanovdb_readaccessor_get_value_address_and_level(g->type, g->buf, &g->acc, &ijk, &level);
     __global const float* v = (__global const float*)g->buf.data + (a.byte_offset >> 2);
     if (level == 0) {
         g->leafOrigin = c & ~7;
@@ -69,11 +70,11 @@ CB_INLINE pnanovdb_address_t cb_nano_address(cb_nano_t* g, int x, int y, int z)
     return pnanovdb_readaccessor_get_value_address(g->type, g->buf, &g->acc, &ijk);
 }
 
-
 CB_INLINE float3 cb_nano_vec3(cb_nano_t* g, int x, int y, int z)
 {
     const pnanovdb_address_t a = cb_nano_address(g, x, y, z);
-    return (float3)(pnanovdb_read_float(g->buf, a), pnanovdb_read_float(g->buf, pnanovdb_address_offset(a, 4u)),
+    return (float3)(pnanovdb_read_float(g->buf, a),
+                    pnanovdb_read_float(g->buf, pnanovdb_address_offset(a, 4u)),
                     pnanovdb_read_float(g->buf, pnanovdb_address_offset(a, 8u)));
 }
 
@@ -110,7 +111,8 @@ CB_INLINE float cb_trilinear(cb_nano_t* g, float3 p, float3* grad)
     const float a10 = mix(v100, v101, u.z), a11 = mix(v110, v111, u.z);
     const float b0 = mix(a00, a01, u.y), b1 = mix(a10, a11, u.y);
     if (grad) {
-        const float gz = mix(mix(v001 - v000, v011 - v010, u.y), mix(v101 - v100, v111 - v110, u.y), u.x);
+        const float gz =
+            mix(mix(v001 - v000, v011 - v010, u.y), mix(v101 - v100, v111 - v110, u.y), u.x);
         const float gy = mix(a01 - a00, a11 - a10, u.x);
         *grad = (float3)(b1 - b0, gy, gz);
     }
@@ -125,7 +127,8 @@ CB_INLINE float3 cb_trilinear3(cb_nano_t* g, float3 p)
     const float3 a00 = mix(cb_nano_vec3(g, x, y, z), cb_nano_vec3(g, x, y, z + 1), u.z);
     const float3 a01 = mix(cb_nano_vec3(g, x, y + 1, z), cb_nano_vec3(g, x, y + 1, z + 1), u.z);
     const float3 a10 = mix(cb_nano_vec3(g, x + 1, y, z), cb_nano_vec3(g, x + 1, y, z + 1), u.z);
-    const float3 a11 = mix(cb_nano_vec3(g, x + 1, y + 1, z), cb_nano_vec3(g, x + 1, y + 1, z + 1), u.z);
+    const float3 a11 =
+        mix(cb_nano_vec3(g, x + 1, y + 1, z), cb_nano_vec3(g, x + 1, y + 1, z + 1), u.z);
     return mix(mix(a00, a01, u.y), mix(a10, a11, u.y), u.x);
 }
 
@@ -190,12 +193,15 @@ static void cb_hdda_enter(pnanovdb_hdda_t* h, float3 o, float3 inv, pnanovdb_coo
     h->voxel.x = ijk.x & ~(dim - 1);
     h->voxel.y = ijk.y & ~(dim - 1);
     h->voxel.z = ijk.z & ~(dim - 1);
-    h->next.x = h->step.x == 0 ? PNANOVDB_HDDA_FLOAT_MAX
-                               : ((float)(h->step.x > 0 ? h->voxel.x + dim : h->voxel.x) - o.x) * inv.x;
-    h->next.y = h->step.y == 0 ? PNANOVDB_HDDA_FLOAT_MAX
-                               : ((float)(h->step.y > 0 ? h->voxel.y + dim : h->voxel.y) - o.y) * inv.y;
-    h->next.z = h->step.z == 0 ? PNANOVDB_HDDA_FLOAT_MAX
-                               : ((float)(h->step.z > 0 ? h->voxel.z + dim : h->voxel.z) - o.z) * inv.z;
+    h->next.x = h->step.x == 0
+                    ? PNANOVDB_HDDA_FLOAT_MAX
+                    : ((float)(h->step.x > 0 ? h->voxel.x + dim : h->voxel.x) - o.x) * inv.x;
+    h->next.y = h->step.y == 0
+                    ? PNANOVDB_HDDA_FLOAT_MAX
+                    : ((float)(h->step.y > 0 ? h->voxel.y + dim : h->voxel.y) - o.y) * inv.y;
+    h->next.z = h->step.z == 0
+                    ? PNANOVDB_HDDA_FLOAT_MAX
+                    : ((float)(h->step.z > 0 ? h->voxel.z + dim : h->voxel.z) - o.z) * inv.z;
 }
 
 /* The voxel at o + t d, kept inside [lo, lo + size). */
@@ -214,7 +220,8 @@ static pnanovdb_coord_t cb_voxel_in(float3 o, float3 d, float t, int3 lo, int si
 CB_INLINE int cb_node_dim(cb_nano_t* g, pnanovdb_coord_t ijk, float skip)
 {
     const int dim = (int)pnanovdb_readaccessor_get_dim(g->type, g->buf, &g->acc, &ijk);
-    if (dim == 1 && pnanovdb_read_float(g->buf, pnanovdb_leaf_get_min_address(g->type, g->buf, g->acc.leaf)) > skip)
+    if (dim == 1 && pnanovdb_read_float(
+                        g->buf, pnanovdb_leaf_get_min_address(g->type, g->buf, g->acc.leaf)) > skip)
         return 8;
     return dim;
 }
@@ -224,8 +231,9 @@ CB_INLINE int cb_node_dim(cb_nano_t* g, pnanovdb_coord_t ijk, float skip)
  * (128^3) the ray is clipped to the bounds of its active voxels: when it
  * misses them the whole node is stepped over, and when it meets them further
  * on it jumps there (h->tmin moves; nothing between can cross the surface). */
-CB_INLINE int cb_locate(cb_nano_t* g, pnanovdb_hdda_t* h, float3 o, float3 d, float3 inv, float tmax, float skip,
-                        int3 lo, int size, int3* lower, pnanovdb_coord_t* ijk)
+CB_INLINE int cb_locate(cb_nano_t* g, pnanovdb_hdda_t* h, float3 o, float3 d, float3 inv,
+                        float tmax, float skip, int3 lo, int size, int3* lower,
+                        pnanovdb_coord_t* ijk)
 {
     for (;;) {
         *ijk = cb_voxel_in(o, d, h->tmin, lo, size);
@@ -279,12 +287,14 @@ static float cb_march(cb_nano_t* g, float3 o, float3 d, float tmin, float tmax, 
     for (;;) {
         if (h.dim == 1) {
             /* A voxel cell: the interpolant where the ray leaves it. */
-            const int axis = h.next.x < h.next.y ? (h.next.x < h.next.z ? 0 : 2) : (h.next.y < h.next.z ? 1 : 2);
+            const int axis =
+                h.next.x < h.next.y ? (h.next.x < h.next.z ? 0 : 2) : (h.next.y < h.next.z ? 1 : 2);
             const float tExit = axis == 0 ? h.next.x : axis == 1 ? h.next.y : h.next.z;
             const int up = (axis == 0 ? h.step.x : axis == 1 ? h.step.y : h.step.z) > 0;
             const int3 cell = (int3)(h.voxel.x, h.voxel.y, h.voxel.z);
             const float tB = fmin(tExit, tmax);
-            const float vB = tExit <= tmax ? cb_face(g, cell, axis, up, o + tB * d) : cb_trilinear(g, o + tB * d, 0);
+            const float vB = tExit <= tmax ? cb_face(g, cell, axis, up, o + tB * d)
+                                           : cb_trilinear(g, o + tB * d, 0);
             if ((vA < 0.0f) != (vB < 0.0f)) {
                 /* Regula falsi, Illinois variant, on the interpolant. */
                 float a = tA, fa = vA, b = tB, fb = vB;
@@ -334,8 +344,9 @@ static float cb_march(cb_nano_t* g, float3 o, float3 d, float tmin, float tmax, 
     }
 }
 
-__kernel void march_rays(__global const uint* surface, __global const uint* color, int hasColor, float4 albedo, float skip,
-                         __global const float8* rays, __global float8* hits, uint count)
+__kernel void march_rays(__global const uint* surface, __global const uint* color, int hasColor,
+                         float4 albedo, float skip, __global const float8* rays,
+                         __global float8* hits, uint count)
 {
     const uint i = get_global_id(0);
     if (i >= count)
@@ -363,8 +374,9 @@ __kernel void march_rays(__global const uint* surface, __global const uint* colo
     float m[9];
     for (uint k = 0; k < 9; ++k)
         m[k] = pnanovdb_map_get_invmatf(g.buf, map, k);
-    const float3 gw = (float3)(m[0] * gi.x + m[3] * gi.y + m[6] * gi.z, m[1] * gi.x + m[4] * gi.y + m[7] * gi.z,
-                               m[2] * gi.x + m[5] * gi.y + m[8] * gi.z);
+    const float3 gw =
+        (float3)(m[0] * gi.x + m[3] * gi.y + m[6] * gi.z, m[1] * gi.x + m[4] * gi.y + m[7] * gi.z,
+                 m[2] * gi.x + m[5] * gi.y + m[8] * gi.z);
     const float len = length(gw);
     const float3 n = len > 0.0f ? gw / len : (float3)(0.0f);
     float3 c = albedo.xyz;

@@ -2,11 +2,11 @@
  *
  * Built with -D CB_LANES=8: each work-item evaluates eight points at once as
  * float8 lanes (PoCL vectorises only what is written as vectors; a GPU runs
- * the same code); the values kernel is built 16 wide (-D CB_LANES=16).  The programs are region-specialised FieldPrograms
- * (kernels/cb_program.h), so a leaf near one twig runs a handful of
- * instructions.  The CPU reference of these kernels is
- * FieldProgram::evaluate (src/field/program.cpp), the same interpreter in
- * double precision, itself tested against the BlobTree's reference evaluator.
+ * the same code); the values kernel is built 16 wide (-D CB_LANES=16).  The programs are
+ * region-specialised FieldPrograms (kernels/cb_program.h), so a leaf near one twig runs a handful
+ * of instructions.  The CPU reference of these kernels is FieldProgram::evaluate
+ * (src/field/program.cpp), the same interpreter in double precision, itself tested against the
+ * BlobTree's reference evaluator.
  */
 #include "cb_program.h"
 
@@ -22,8 +22,7 @@
  * out: 512 halves per leaf, x fastest: F - T, rounded to nearest even (relative
  * precision 2^-11 where it matters, next to the surface; its sign is the side). */
 __kernel void sample_values(__global const int* code, __global const float* prm,
-                            __global const int* leaves, const float voxelSize,
-                            __global half* out)
+                            __global const int* leaves, const float voxelSize, __global half* out)
 {
     int leaf = (int)get_group_id(0);
     int row = (int)get_local_id(0);
@@ -38,7 +37,8 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
     vstore_half16_rte(s.v - prm[CB_P_T], 0, out + (size_t)leaf * CB_LEAF_VOXELS + 16 * row);
 #else
-    cb_real x = ((float8)((float)L[0]) + (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f)) * voxelSize;
+    cb_real x = ((float8)((float)L[0]) + (float8)(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f)) *
+                voxelSize;
     float y = (float)(L[1] + (row & 7)) * voxelSize;
     float z = (float)(L[2] + (row >> 3)) * voxelSize;
     cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, cb_v3(x, y, z));
@@ -92,9 +92,8 @@ __kernel void sample_surface(__global const int* code, __global const float* prm
 /* Evaluates one program at arbitrary points, eight per work-item: points and
  * out are planes (x, y, z / value, gx, gy, gz, r, g, b) of `stride` floats,
  * stride a multiple of 8. */
-__kernel void sample_points(__global const int* code, const int length,
-                            __global const float* prm, __global const float* points,
-                            const int stride, __global float* out)
+__kernel void sample_points(__global const int* code, const int length, __global const float* prm,
+                            __global const float* points, const int stride, __global float* out)
 {
     int i = 8 * (int)get_global_id(0);
     cb_vec3 p = cb_v3(vload8(0, points + i), vload8(0, points + stride + i),

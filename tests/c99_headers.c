@@ -27,4 +27,7 @@ double cb_c99_pcm_deformation(double f_other, double T, double w, double k)
     return cb_pcm_deformation(f_other, T, w, k, &d);
 }
 
-int cb_c99_opcode_pcm(void) { return CB_PCM; }
+int cb_c99_opcode_pcm(void)
+{
+    return CB_PCM;
+}

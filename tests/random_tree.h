@@ -41,15 +41,21 @@ private:
         const glm::dvec3 b = a + glm::dvec3(uni(-0.7, 0.7), uni(-0.7, 0.7), uni(-0.7, 0.7));
         int n;
         switch (pick(4)) {
-        case 0: n = t.sphere(a, uni(0.15, 0.45), o); break;
-        case 1: n = t.segment(a, b, uni(0.08, 0.3), o); break;
-        case 2: n = t.cone(a, b, uni(0.1, 0.35), uni(0.05, 0.2), o); break;
-        default: {
-            ConvolutionOptions c;
-            c.weight = o.weight;
-            n = t.convolutionSegment(a, b, uni(0.1, 0.3), uni(0.05, 0.2), c);
-            break;
-        }
+            case 0:
+                n = t.sphere(a, uni(0.15, 0.45), o);
+                break;
+            case 1:
+                n = t.segment(a, b, uni(0.08, 0.3), o);
+                break;
+            case 2:
+                n = t.cone(a, b, uni(0.1, 0.35), uni(0.05, 0.2), o);
+                break;
+            default: {
+                ConvolutionOptions c;
+                c.weight = o.weight;
+                n = t.convolutionSegment(a, b, uni(0.1, 0.3), uni(0.05, 0.2), c);
+                break;
+            }
         }
         if (pick(2))
             t.setColor(n, colour());
@@ -72,9 +78,9 @@ private:
     {
         if (depth == 0)
             return primitive(t);
-        static const NodeType blending[] = {NodeType::BLEND,      NodeType::RICCI, NodeType::UNION,
-                                            NodeType::INTERSECTION, NodeType::DIFFERENCE,
-                                            NodeType::PCM,        NodeType::BETTER_BLEND};
+        static const NodeType blending[] = {
+            NodeType::BLEND,      NodeType::RICCI, NodeType::UNION,       NodeType::INTERSECTION,
+            NodeType::DIFFERENCE, NodeType::PCM,   NodeType::BETTER_BLEND};
         const int choice = pick(12);
         if (choice < 7) {
             std::vector<int> kids;
@@ -90,21 +96,23 @@ private:
         }
         const int child = node(t, depth - 1);
         switch (choice) {
-        case 8: {
-            glm::dmat4 m = glm::translate(glm::dmat4(1.0), point(0.3));
-            m = glm::rotate(m, uni(-3, 3), point() + glm::dvec3(0.01, 0, 0));
-            m = glm::scale(m, glm::dvec3(uni(0.6, 1.4), uni(0.6, 1.4), uni(0.6, 1.4)));
-            return t.transform(m, child);
-        }
-        case 9: {
-            const glm::dvec3 a = point(0.5);
-            return t.bend(a, a + glm::dvec3(uni(-0.3, 0.3), uni(0.4, 0.9), uni(-0.3, 0.3)),
-                          glm::dvec3(1, 0, 0.2), uni(-2.0, 2.0), child);
-        }
-        case 10: return t.twist(point(0.3), glm::dvec3(uni(-1, 1), 1, uni(-1, 1)), uni(-2, 2), child);
-        default:
-            return t.taper(point(0.3), glm::dvec3(uni(-1, 1), 1, uni(-1, 1)), uni(0.5, 1.5),
-                           uni(0.5, 1.5), uni(0.3, 1.5), child);
+            case 8: {
+                glm::dmat4 m = glm::translate(glm::dmat4(1.0), point(0.3));
+                m = glm::rotate(m, uni(-3, 3), point() + glm::dvec3(0.01, 0, 0));
+                m = glm::scale(m, glm::dvec3(uni(0.6, 1.4), uni(0.6, 1.4), uni(0.6, 1.4)));
+                return t.transform(m, child);
+            }
+            case 9: {
+                const glm::dvec3 a = point(0.5);
+                return t.bend(a, a + glm::dvec3(uni(-0.3, 0.3), uni(0.4, 0.9), uni(-0.3, 0.3)),
+                              glm::dvec3(1, 0, 0.2), uni(-2.0, 2.0), child);
+            }
+            case 10:
+                return t.twist(point(0.3), glm::dvec3(uni(-1, 1), 1, uni(-1, 1)), uni(-2, 2),
+                               child);
+            default:
+                return t.taper(point(0.3), glm::dvec3(uni(-1, 1), 1, uni(-1, 1)), uni(0.5, 1.5),
+                               uni(0.5, 1.5), uni(0.3, 1.5), child);
         }
     }
 

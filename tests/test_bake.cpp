@@ -27,22 +27,25 @@ using namespace cambium;
 using namespace cambium::test;
 
 struct Errors {
-    double nearMax = 0.0;   // |error| in voxels where |d| < 1 voxel
-    double farMax = 0.0;    // elsewhere in the band
+    double nearMax = 0.0;  // |error| in voxels where |d| < 1 voxel
+    double farMax = 0.0;   // elsewhere in the band
     double mean = 0.0;
     size_t active = 0, missing = 0, extra = 0;
 };
 
 /// Compares a baked grid with an exact signed distance over every voxel of
 /// the band's bounding box.
-Errors compareWithExact(const openvdb::FloatGrid& grid, const std::function<double(const glm::dvec3&)>& exact,
-                        const Box& bounds, double h, double W)
+Errors compareWithExact(const openvdb::FloatGrid& grid,
+                        const std::function<double(const glm::dvec3&)>& exact, const Box& bounds,
+                        double h, double W)
 {
     Errors e;
     auto acc = grid.getConstAccessor();
-    const openvdb::Coord lo(int(std::floor(bounds.lo.x / h)) - int(W) - 2, int(std::floor(bounds.lo.y / h)) - int(W) - 2,
+    const openvdb::Coord lo(int(std::floor(bounds.lo.x / h)) - int(W) - 2,
+                            int(std::floor(bounds.lo.y / h)) - int(W) - 2,
                             int(std::floor(bounds.lo.z / h)) - int(W) - 2);
-    const openvdb::Coord hi(int(std::ceil(bounds.hi.x / h)) + int(W) + 2, int(std::ceil(bounds.hi.y / h)) + int(W) + 2,
+    const openvdb::Coord hi(int(std::ceil(bounds.hi.x / h)) + int(W) + 2,
+                            int(std::ceil(bounds.hi.y / h)) + int(W) + 2,
                             int(std::ceil(bounds.hi.z / h)) + int(W) + 2);
     double sum = 0.0;
     for (int x = lo.x(); x <= hi.x(); ++x)
@@ -55,7 +58,8 @@ Errors compareWithExact(const openvdb::FloatGrid& grid, const std::function<doub
                     // Outside the band: the value is the background with the right sign.
                     if (std::abs(d) < W - 0.4)
                         ++e.missing;
-                    EXPECT_EQ(acc.getValue(c), d < 0 ? -grid.background() : grid.background()) << "at " << c;
+                    EXPECT_EQ(acc.getValue(c), d < 0 ? -grid.background() : grid.background())
+                        << "at " << c;
                     continue;
                 }
                 ++e.active;
@@ -63,7 +67,8 @@ Errors compareWithExact(const openvdb::FloatGrid& grid, const std::function<doub
                     ++e.extra;
                 const double err = std::abs(acc.getValue(c) / h - d);
                 sum += err;
-                (std::abs(d) < 1.0 ? e.nearMax : e.farMax) = std::max(std::abs(d) < 1.0 ? e.nearMax : e.farMax, err);
+                (std::abs(d) < 1.0 ? e.nearMax : e.farMax) =
+                    std::max(std::abs(d) < 1.0 ? e.nearMax : e.farMax, err);
             }
     e.mean = e.active ? sum / double(e.active) : 0.0;
     return e;
@@ -72,8 +77,8 @@ Errors compareWithExact(const openvdb::FloatGrid& grid, const std::function<doub
 void expectAccurate(const Errors& e, const char* what)
 {
     EXPECT_GT(e.active, 1000u) << what;
-    EXPECT_LT(e.nearMax, 0.1) << what;   // the bound near the surface
-    EXPECT_LT(e.farMax, 0.4) << what;    // cambium's stated bound over the rest of the band
+    EXPECT_LT(e.nearMax, 0.1) << what;  // the bound near the surface
+    EXPECT_LT(e.farMax, 0.4) << what;   // cambium's stated bound over the rest of the band
     EXPECT_LT(e.mean, 0.03) << what;
     EXPECT_EQ(e.missing, 0u) << what;
     EXPECT_EQ(e.extra, 0u) << what;
@@ -89,8 +94,9 @@ TEST(BakeAccuracy, SphereMatchesItsExactDistance)
         tree.finalize();
         const double h = 0.02;
         const BakedGrids g = bakeTree(tree, h, 3.0, cpu);
-        const Errors e = compareWithExact(*g.surface, [&](const glm::dvec3& p) { return glm::length(p - c) - r; },
-                                          Box::around(c, r), h, 3.0);
+        const Errors e = compareWithExact(
+            *g.surface, [&](const glm::dvec3& p) { return glm::length(p - c) - r; },
+            Box::around(c, r), h, 3.0);
         std::printf("sphere (%s): near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n",
                     cpu ? "cpu" : "opencl", e.nearMax, e.farMax, e.mean, e.active);
         expectAccurate(e, "sphere");
@@ -115,8 +121,8 @@ TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
     box.expand(a);
     box.expand(b);
     const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
-    std::printf("capsule: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax, e.farMax,
-                e.mean, e.active);
+    std::printf("capsule: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax,
+                e.farMax, e.mean, e.active);
     expectAccurate(e, "capsule");
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
@@ -124,15 +130,16 @@ TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
 /// Exact signed distance to cambium's cone: in the (axial s, radial rho) half
 /// plane the surface is the segment from (0, r0) to (L, r1) and the cap arcs of
 /// radius r0 around (0, 0) for s <= 0 and r1 around (L, 0) for s >= L.
-double coneDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, double r0, double r1,
-                    bool inside)
+double coneDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, double r0,
+                    double r1, bool inside)
 {
     const glm::dvec3 u = glm::normalize(b - a);
     const double L = glm::length(b - a);
     const double s = glm::dot(p - a, u), rho = glm::length((p - a) - s * u);
     auto segDist = [](double px, double py, double ax, double ay, double bx, double by) {
         const double t = std::clamp(((px - ax) * (bx - ax) + (py - ay) * (by - ay)) /
-                                        ((bx - ax) * (bx - ax) + (by - ay) * (by - ay)), 0.0, 1.0);
+                                        ((bx - ax) * (bx - ax) + (by - ay) * (by - ay)),
+                                    0.0, 1.0);
         return std::hypot(px - ax - t * (bx - ax), py - ay - t * (by - ay));
     };
     double d = segDist(s, rho, 0.0, r0, L, r1);
@@ -155,10 +162,11 @@ TEST(BakeAccuracy, ConeMatchesItsExactDistance)
     box.expand(a);
     box.expand(b);
     const Errors e = compareWithExact(
-        *g.surface, [&](const glm::dvec3& p) { return coneDistance(p, a, b, r0, r1, ref.value(p) > 0.5); },
+        *g.surface,
+        [&](const glm::dvec3& p) { return coneDistance(p, a, b, r0, r1, ref.value(p) > 0.5); },
         box.padded(r0), h, 3.0);
-    std::printf("cone: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax, e.farMax, e.mean,
-                e.active);
+    std::printf("cone: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax,
+                e.farMax, e.mean, e.active);
     expectAccurate(e, "cone");
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
@@ -170,34 +178,38 @@ BlobTree completenessScene(int which)
 {
     BlobTree t;
     switch (which) {
-    case 0: {  // blend with a scar
-        const int a = t.sphere({0, 0, 0}, 0.4), b = t.cone({0.1, 0.1, 0}, {0.5, 0.6, 0.1}, 0.2, 0.08);
-        const int scar = t.sphere({0.3, 0.0, 0.2}, 0.12, {-0.8, std::nullopt});
-        t.setRoot(t.op({NodeType::BLEND}, {a, b, scar}));
-        break;
-    }
-    case 1: {  // a PCM junction of three branches summed with the base
-        const int base = t.cone({0, -0.6, 0}, {0, 0.0, 0}, 0.18, 0.15);
-        Combiner pcm{NodeType::PCM};
-        pcm.width = 0.2;
-        const int j = t.op(pcm, {t.cone({0, 0.02, 0}, {0.05, 0.6, 0}, 0.13, 0.1),
-                                 t.cone({0.03, 0.05, 0}, {0.45, 0.4, 0.1}, 0.09, 0.06),
-                                 t.cone({-0.03, 0.05, 0.02}, {-0.35, 0.45, -0.2}, 0.08, 0.05)});
-        t.setRoot(t.op({NodeType::BLEND}, {base, j}));
-        break;
-    }
-    case 2: {  // CSG: a sphere minus a sphere, unioned with a capsule
-        const int d = t.op({NodeType::DIFFERENCE}, {t.sphere({0, 0, 0}, 0.45), t.sphere({0.3, 0.2, 0}, 0.3)});
-        t.setRoot(t.op({NodeType::UNION}, {d, t.segment({-0.5, -0.3, 0}, {0.4, -0.4, 0.2}, 0.1)}));
-        break;
-    }
-    default: {  // GBB of PCM and blend, bounded by a sphere, inside a bend
-        const int a = t.cone({0, -0.5, 0}, {0, 0.2, 0}, 0.2, 0.15), b = t.cone({0, 0.0, 0}, {0.5, 0.4, 0}, 0.12, 0.08);
-        const int bound = t.sphere({0.05, 0.05, 0}, 0.15, {1.5, 0.5});
-        const int g = t.gbb(bound, {a, b});
-        t.setRoot(t.bend({0, -0.5, 0}, {0, 0.5, 0}, {1, 0, 0}, 0.6, g));
-        break;
-    }
+        case 0: {  // blend with a scar
+            const int a = t.sphere({0, 0, 0}, 0.4),
+                      b = t.cone({0.1, 0.1, 0}, {0.5, 0.6, 0.1}, 0.2, 0.08);
+            const int scar = t.sphere({0.3, 0.0, 0.2}, 0.12, {-0.8, std::nullopt});
+            t.setRoot(t.op({NodeType::BLEND}, {a, b, scar}));
+            break;
+        }
+        case 1: {  // a PCM junction of three branches summed with the base
+            const int base = t.cone({0, -0.6, 0}, {0, 0.0, 0}, 0.18, 0.15);
+            Combiner pcm{NodeType::PCM};
+            pcm.width = 0.2;
+            const int j = t.op(pcm, {t.cone({0, 0.02, 0}, {0.05, 0.6, 0}, 0.13, 0.1),
+                                     t.cone({0.03, 0.05, 0}, {0.45, 0.4, 0.1}, 0.09, 0.06),
+                                     t.cone({-0.03, 0.05, 0.02}, {-0.35, 0.45, -0.2}, 0.08, 0.05)});
+            t.setRoot(t.op({NodeType::BLEND}, {base, j}));
+            break;
+        }
+        case 2: {  // CSG: a sphere minus a sphere, unioned with a capsule
+            const int d = t.op({NodeType::DIFFERENCE},
+                               {t.sphere({0, 0, 0}, 0.45), t.sphere({0.3, 0.2, 0}, 0.3)});
+            t.setRoot(
+                t.op({NodeType::UNION}, {d, t.segment({-0.5, -0.3, 0}, {0.4, -0.4, 0.2}, 0.1)}));
+            break;
+        }
+        default: {  // GBB of PCM and blend, bounded by a sphere, inside a bend
+            const int a = t.cone({0, -0.5, 0}, {0, 0.2, 0}, 0.2, 0.15),
+                      b = t.cone({0, 0.0, 0}, {0.5, 0.4, 0}, 0.12, 0.08);
+            const int bound = t.sphere({0.05, 0.05, 0}, 0.15, {1.5, 0.5});
+            const int g = t.gbb(bound, {a, b});
+            t.setRoot(t.bend({0, -0.5, 0}, {0, 0.5, 0}, {1, 0, 0}, 0.6, g));
+            break;
+        }
     }
     t.finalize();
     return t;
@@ -218,18 +230,22 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
         const Box box = prog.positiveBounds().padded(W * h + 2 * h);
         const glm::ivec3 n = glm::ivec3(glm::ceil(box.size() / f)) + 1;
         std::vector<float> F(size_t(n.x) * size_t(n.y) * size_t(n.z));
-        auto at = [&](int x, int y, int z) { return (size_t(z) * size_t(n.y) + size_t(y)) * size_t(n.x) + size_t(x); };
+        auto at = [&](int x, int y, int z) {
+            return (size_t(z) * size_t(n.y) + size_t(y)) * size_t(n.x) + size_t(x);
+        };
         tbb::parallel_for(0, n.z, [&](int z) {
             for (int y = 0; y < n.y; ++y)
                 for (int x = 0; x < n.x; ++x)
-                    F[at(x, y, z)] = float(prog.evaluate(prog.code(), box.lo + f * glm::dvec3(x, y, z)).value - T);
+                    F[at(x, y, z)] = float(
+                        prog.evaluate(prog.code(), box.lo + f * glm::dvec3(x, y, z)).value - T);
         });
         // Surface points binned into voxel-sized cells.
         const glm::ivec3 lo(glm::floor(box.lo / h)), hi(glm::ceil(box.hi / h));
         const glm::ivec3 nc = hi - lo + 1;
         std::vector<std::vector<glm::dvec3>> cells(size_t(nc.x) * size_t(nc.y) * size_t(nc.z));
         auto cellOf = [&](int x, int y, int z) {
-            return (size_t(z - lo.z) * size_t(nc.y) + size_t(y - lo.y)) * size_t(nc.x) + size_t(x - lo.x);
+            return (size_t(z - lo.z) * size_t(nc.y) + size_t(y - lo.y)) * size_t(nc.x) +
+                   size_t(x - lo.x);
         };
         size_t surfacePoints = 0;
         for (int z = 0; z < n.z; ++z)
@@ -243,7 +259,8 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
                         if ((a > 0) == (b > 0))
                             continue;
                         const double t = a / (a - b);
-                        const glm::dvec3 p = box.lo + f * (glm::dvec3(x, y, z) + t * glm::dvec3(x1 - x, y1 - y, z1 - z));
+                        const glm::dvec3 p = box.lo + f * (glm::dvec3(x, y, z) +
+                                                           t * glm::dvec3(x1 - x, y1 - y, z1 - z));
                         const glm::ivec3 c = glm::clamp(glm::ivec3(glm::floor(p / h)), lo, hi);
                         cells[cellOf(c.x, c.y, c.z)].push_back(p);
                         ++surfacePoints;
@@ -258,8 +275,10 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
                     const glm::dvec3 v = h * glm::dvec3(x, y, z);
                     double best = INFINITY;
                     for (int dz = std::max(lo.z, z - reach); dz <= std::min(hi.z, z + reach); ++dz)
-                        for (int dy = std::max(lo.y, y - reach); dy <= std::min(hi.y, y + reach); ++dy)
-                            for (int dx = std::max(lo.x, x - reach); dx <= std::min(hi.x, x + reach); ++dx)
+                        for (int dy = std::max(lo.y, y - reach); dy <= std::min(hi.y, y + reach);
+                             ++dy)
+                            for (int dx = std::max(lo.x, x - reach);
+                                 dx <= std::min(hi.x, x + reach); ++dx)
                                 for (const auto& p : cells[cellOf(dx, dy, dz)])
                                     best = std::min(best, glm::dot(p - v, p - v));
                     const double d = std::sqrt(best) / h;  // voxels to the surface
@@ -273,8 +292,8 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
                     if (active && d > W + 0.75) {
                         ++outside;
                         if (std::getenv("CAMBIUM_DEBUG") && outside < 6)
-                            std::printf("outside: voxel %d %d %d true %.3f baked %.3f voxels\n", x, y, z, d,
-                                        acc.getValue(openvdb::Coord(x, y, z)) / h);
+                            std::printf("outside: voxel %d %d %d true %.3f baked %.3f voxels\n", x,
+                                        y, z, d, acc.getValue(openvdb::Coord(x, y, z)) / h);
                     }
                 }
         EXPECT_GT(band, 2000u);
@@ -377,7 +396,8 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
     const BakedGrids g = bakeLevelSet(prog, *sampler, o);
     for (bool half : {false, true}) {
         const std::string path = (std::filesystem::temp_directory_path() /
-                                  (std::string(half ? "cambium_rt_half_" : "cambium_rt_") + std::to_string(::getpid()) + ".vdb"))
+                                  (std::string(half ? "cambium_rt_half_" : "cambium_rt_") +
+                                   std::to_string(::getpid()) + ".vdb"))
                                      .string();
         VdbFileInfo info;
         info.scene = "junction";
@@ -398,7 +418,8 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
         EXPECT_TRUE(verifyVdbChecksum(path, summary));
         {
             const std::string flipped = path + ".flipped.vdb";
-            std::filesystem::copy_file(path, flipped, std::filesystem::copy_options::overwrite_existing);
+            std::filesystem::copy_file(path, flipped,
+                                       std::filesystem::copy_options::overwrite_existing);
             std::fstream f(flipped, std::ios::in | std::ios::out | std::ios::binary);
             const auto at = std::streamoff(std::filesystem::file_size(path) * 2 / 3);
             f.seekg(at);

@@ -37,10 +37,12 @@ void expectRefused(const std::string& command, const std::vector<Refusal>& cases
 /// A directory of its own for a test, and a small baked .vdb in it.
 std::filesystem::path bakedDir(const std::string& name, std::string& vdb)
 {
-    const auto dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     vdb = (dir / "s.vdb").string();
-    const Result r = run("bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05");
+    const Result r =
+        run("bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05");
     EXPECT_EQ(r.status, 0) << r.err;
     return dir;
 }
@@ -49,7 +51,8 @@ TEST(Cli, InfoPrintsCountsDepthAndBounds)
 {
     const Result r = run("info " + kExamples + "branch_junction.json");
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_NE(r.out.find("nodes      11: 7 primitives, 3 operators, 1 warp"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("nodes      11: 7 primitives, 3 operators, 1 warp"), std::string::npos)
+        << r.out;
     EXPECT_NE(r.out.find("cone                   5"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("pcm                    1"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("depth      4"), std::string::npos) << r.out;
@@ -59,12 +62,14 @@ TEST(Cli, InfoPrintsCountsDepthAndBounds)
 
 TEST(Cli, MalformedScenesFailWithAClearMessage)
 {
-    const auto path = std::filesystem::temp_directory_path() / ("cambium_cli_bad_" + std::to_string(::getpid()) + ".json");
+    const auto path = std::filesystem::temp_directory_path() /
+                      ("cambium_cli_bad_" + std::to_string(::getpid()) + ".json");
     const std::pair<const char*, const char*> cases[] = {
         {R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
              {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})",
          ": root.children[1].r0: must be greater than 0 (got -0.3)"},
-        {R"({"root": {"type": "cone", "p0": [0,0,0], "r0": 0.3, "r1": 0.1}})", ": root.p1: missing"},
+        {R"({"root": {"type": "cone", "p0": [0,0,0], "r0": 0.3, "r1": 0.1}})",
+         ": root.p1: missing"},
         {R"({"root": {"type": "spher", "center": [0,0,0], "radius": 1}})",
          ": root.type: unknown node type 'spher' (did you mean 'sphere'?)"},
         {"{\"root\": {\"type\": \"sphere\",\n \"center\": [0, NaN, 0], \"radius\": 1}}",
@@ -80,7 +85,8 @@ TEST(Cli, MalformedScenesFailWithAClearMessage)
         const Result r = run("info " + path.string());
         EXPECT_EQ(r.status, 2) << expected;
         EXPECT_TRUE(r.out.empty()) << r.out;
-        EXPECT_NE(r.err.find("cambium: error: " + path.string() + expected), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("cambium: error: " + path.string() + expected), std::string::npos)
+            << r.err;
     }
     std::filesystem::remove(path);
 }
@@ -89,7 +95,8 @@ TEST(Cli, MissingSceneFails)
 {
     const Result r = run("info /nonexistent/scene.json");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("/nonexistent/scene.json: cannot read the scene file"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("/nonexistent/scene.json: cannot read the scene file"), std::string::npos)
+        << r.err;
 }
 
 TEST(Cli, EvalPrintsTheFieldAtAPoint)
@@ -111,15 +118,18 @@ TEST(Cli, VersionListsTheLibrariesAndAnOpenCLDevice)
 
 TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
 {
-    const auto out = std::filesystem::temp_directory_path() / ("cambium_cli_bake_" + std::to_string(::getpid()) + ".vdb");
+    const auto out = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_bake_" + std::to_string(::getpid()) + ".vdb");
     std::filesystem::remove(out);
-    const Result r = run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --voxel-size 0.05");
+    const Result r =
+        run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --voxel-size 0.05");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(std::filesystem::exists(out));
     EXPECT_NE(r.out.find("active voxels"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("peak memory"), std::string::npos) << r.out;
     // Without --voxel-size the summary states the automatic choice.
-    const Result a = run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --device cpu");
+    const Result a =
+        run("bake " + kExamples + "sphere_and_cone.json -o " + out.string() + " --device cpu");
     ASSERT_EQ(a.status, 0) << a.err;
     EXPECT_NE(a.out.find("(auto: 512 voxels across"), std::string::npos) << a.out;
     std::filesystem::remove(out);
@@ -134,20 +144,25 @@ TEST(Cli, MeshWritesAMeshOfABakedGrid)
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find(" triangles"), std::string::npos) << r.out;
     EXPECT_TRUE(std::filesystem::file_size(ply) > 1000);
-    expectRefused("mesh", {
-        {(dir / "missing.vdb").string() + " -o " + ply, "cannot read the .vdb file: No such file"},
-        {vdb + " -o " + ply + " --grid density", "no grid named 'density' (it holds: Cd, surface)"},
-        {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
-        {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
-        {vdb + " -o /nonexistent/dir/s.obj", "/nonexistent/dir/s.obj: cannot write the output"},
-        {vdb + " -o " + ply + " --adaptivity 2", "--adaptivity must be between 0 and 1"},
-    });
+    expectRefused(
+        "mesh",
+        {
+            {(dir / "missing.vdb").string() + " -o " + ply,
+             "cannot read the .vdb file: No such file"},
+            {vdb + " -o " + ply + " --grid density",
+             "no grid named 'density' (it holds: Cd, surface)"},
+            {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
+            {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
+            {vdb + " -o /nonexistent/dir/s.obj", "/nonexistent/dir/s.obj: cannot write the output"},
+            {vdb + " -o " + ply + " --adaptivity 2", "--adaptivity must be between 0 and 1"},
+        });
     std::filesystem::remove_all(dir);
 }
 
 TEST(Cli, MeshMeshesASequenceFrameByFrame)
 {
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_seq_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cambium_cli_seq_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     for (const char* f : {"0003", "0004"})
         ASSERT_EQ(run("bake " + kExamples + "sphere_and_cone.json -o " + (dir / "t.").string() + f +
@@ -158,7 +173,8 @@ TEST(Cli, MeshMeshesASequenceFrameByFrame)
     // A missing frame is found before any mesh is written.
     const Result missing = run("mesh '" + in + "' --frames 3-5 -o '" + out + "'");
     EXPECT_EQ(missing.status, 2);
-    EXPECT_NE(missing.err.find("t.0005.vdb: no such file (frame 5 of --frames 3-5)"), std::string::npos)
+    EXPECT_NE(missing.err.find("t.0005.vdb: no such file (frame 5 of --frames 3-5)"),
+              std::string::npos)
         << missing.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "m.0003.obj"));
     const Result noFrames = run("mesh '" + in + "' -o '" + out + "'");
@@ -179,7 +195,8 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
     const Result r = run("render " + vdb + " -o " + png + " --width 64 --height 48 --spp 2");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("64 x 48, 2 samples per pixel"), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("OpenCL NanoVDB march"), std::string::npos) << r.out;  // the default device
+    EXPECT_NE(r.out.find("OpenCL NanoVDB march"), std::string::npos)
+        << r.out;  // the default device
     EXPECT_TRUE(std::filesystem::file_size(png) > 100);
     const Result c = run("render " + vdb + " -o " + png + " --width 64 --height 48 --device cpu");
     ASSERT_EQ(c.status, 0) << c.err;
@@ -191,25 +208,32 @@ TEST(Cli, RenderDrawsABakedGridAndRefusesBadOptions)
     ASSERT_EQ(run("mesh " + vdb + " -o " + ply).status, 0);
     const Result fromMesh = run("render --mesh " + ply + " -o " + png + " --width 64 --height 48");
     ASSERT_EQ(fromMesh.status, 0) << fromMesh.err;
-    EXPECT_NE(fromMesh.out.find("Embree on the mesh's triangles"), std::string::npos) << fromMesh.out;
-    expectRefused("render", {
-        {"--mesh " + ply + " " + vdb + " -o " + png, "--mesh renders a mesh file instead of a .vdb"},
-        {"-o " + png, "nothing to render"},
-        {"--mesh " + (dir / "m.stl").string() + " -o " + png, "unknown mesh format '.stl'"},
-        {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
-        {vdb + " -o " + png + " --camera orbit", "--camera orbit: expected auto, turntable:ANGLE (degrees) or look:"},
-        {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},
-        {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
-        {vdb + " -o " + png + " --device gpu", "--device must be opencl or cpu (got 'gpu')"},
-        {vdb + " -o " + png + " --grid Cd", "grid 'Cd' is a vec3s"},
-        {(dir / "missing.vdb").string() + " -o " + png, "cannot read the .vdb file: No such file"},
-    });
+    EXPECT_NE(fromMesh.out.find("Embree on the mesh's triangles"), std::string::npos)
+        << fromMesh.out;
+    expectRefused(
+        "render",
+        {
+            {"--mesh " + ply + " " + vdb + " -o " + png,
+             "--mesh renders a mesh file instead of a .vdb"},
+            {"-o " + png, "nothing to render"},
+            {"--mesh " + (dir / "m.stl").string() + " -o " + png, "unknown mesh format '.stl'"},
+            {vdb + " -o " + (dir / "s.jpg").string(), "unknown image format '.jpg'"},
+            {vdb + " -o " + png + " --camera orbit",
+             "--camera orbit: expected auto, turntable:ANGLE (degrees) or look:"},
+            {vdb + " -o " + png + " --width 0", "--width and --height must be between 1 and 16384"},
+            {vdb + " -o " + png + " --spp 0", "--spp must be between 1 and 4096"},
+            {vdb + " -o " + png + " --device gpu", "--device must be opencl or cpu (got 'gpu')"},
+            {vdb + " -o " + png + " --grid Cd", "grid 'Cd' is a vec3s"},
+            {(dir / "missing.vdb").string() + " -o " + png,
+             "cannot read the .vdb file: No such file"},
+        });
     std::filesystem::remove_all(dir);
 }
 
 TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 {
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_bad_bake_" + std::to_string(::getpid()));
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_bad_bake_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string out = (dir / "out.vdb").string();
     const auto empty = dir / "empty.json";
@@ -221,13 +245,17 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
         std::string args, expected;
     };
     const Case cases[] = {
-        {kExamples + "sphere_and_cone.json -o /nonexistent/dir/out.vdb", "/nonexistent/dir/out.vdb: cannot write the output"},
+        {kExamples + "sphere_and_cone.json -o /nonexistent/dir/out.vdb",
+         "/nonexistent/dir/out.vdb: cannot write the output"},
         {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size 1e-4",
          "a voxel size of 0.0001 would need about"},
-        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2", "--voxel-size must be a number from 0.0001 to 1e9 (got -2)"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2",
+         "--voxel-size must be a number from 0.0001 to 1e9 (got -2)"},
         {empty.string() + " -o " + out, "the model has no surface"},
-        {kExamples + "sphere_and_cone.json -o " + out + " --device gpu", "--device must be opencl or cpu"},
-        {kExamples + "sphere_and_cone.json -o " + out + " --half-width 0.5", "--half-width must be between 1 and 64"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --device gpu",
+         "--device must be opencl or cpu"},
+        {kExamples + "sphere_and_cone.json -o " + out + " --half-width 0.5",
+         "--half-width must be between 1 and 64"},
     };
     for (const Case& c : cases) {
         const Result r = run("bake " + c.args);
@@ -242,7 +270,8 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
 
 TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
 {
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_skeleton_" + std::to_string(::getpid()));
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_skeleton_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto sk = dir / "tree.txt";
     {
@@ -270,7 +299,8 @@ TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
 
 TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
 {
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_lsystem_" + std::to_string(::getpid()));
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_lsystem_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto algae = dir / "algae.l";
     {
@@ -301,17 +331,23 @@ TEST(Cli, LSystemPrintsItsStringAndSkeletonAndBakes)
     const Result rules = run("info " + txt.string() + " --junctions pcm --bend 10");
     ASSERT_EQ(rules.status, 0) << rules.err;
     EXPECT_NE(rules.out.find("pcm"), std::string::npos) << rules.out;
-    expectRefused("bake", {
-        {honda + " -o " + vdb + " --junctions ridge", "--junctions must be pcm, smooth or blend (got 'ridge')"},
-        {honda + " -o " + vdb + " --bend 95", "--bend must be between -90 and 90 degrees"},
-        {honda + " -o " + vdb + " --junctions blend --bend 5", "--bend needs --junctions pcm or smooth"},
-        {honda + " -o " + vdb + " --primitives nurbs", "--primitives must be cone, convolution or mixed"},
-        {honda + " -o " + vdb + " --regrowth 3", "--regrowth must be between 0 and 1"},
-    });
+    expectRefused(
+        "bake",
+        {
+            {honda + " -o " + vdb + " --junctions ridge",
+             "--junctions must be pcm, smooth or blend (got 'ridge')"},
+            {honda + " -o " + vdb + " --bend 95", "--bend must be between -90 and 90 degrees"},
+            {honda + " -o " + vdb + " --junctions blend --bend 5",
+             "--bend needs --junctions pcm or smooth"},
+            {honda + " -o " + vdb + " --primitives nurbs",
+             "--primitives must be cone, convolution or mixed"},
+            {honda + " -o " + vdb + " --regrowth 3", "--regrowth must be between 0 and 1"},
+        });
     expectRefused("lsystem", {
-        {algae.string() + " --steps 30 --max-modules 1000", "derivation step 15 would make 1597 modules"},
-        {(dir / "missing.l").string(), "cannot read the L-system file"},
-    });
+                                 {algae.string() + " --steps 30 --max-modules 1000",
+                                  "derivation step 15 would make 1597 modules"},
+                                 {(dir / "missing.l").string(), "cannot read the L-system file"},
+                             });
     std::filesystem::remove_all(dir);
 }
 
@@ -320,27 +356,34 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
     const std::string populus = kExamples + "populus/populus.json";
     const Result st = run("growth " + populus + " --year 10 --print-stats");
     ASSERT_EQ(st.status, 0) << st.err;
-    for (const char* part : {"at t = 10 (year 10 of 27)", "order  branches  internodes", "    0         1", "  all ",
-                             "bud scale scar rings", "BlobTree: ", " operators", "gbb"})
+    for (const char* part :
+         {"at t = 10 (year 10 of 27)", "order  branches  internodes", "    0         1", "  all ",
+          "bud scale scar rings", "BlobTree: ", " operators", "gbb"})
         EXPECT_NE(st.out.find(part), std::string::npos) << part << "\n" << st.out;
     const Result sk = run("growth " + populus + " --year 2 --print-skeleton");
     ASSERT_EQ(sk.status, 0) << sk.err;
     EXPECT_NE(sk.out.find("# order age"), std::string::npos);
 
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_cli_growth_" + std::to_string(::getpid()));
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_growth_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string pattern = (dir / "p.###.vdb").string();
-    const Result b = run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu -o " + pattern);
+    const Result b =
+        run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu -o " + pattern);
     ASSERT_EQ(b.status, 0) << b.err;
     for (const char* f : {"p.003.vdb", "p.004.vdb", "p.005.vdb"})
         EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
-    EXPECT_NE(b.out.find("3 frames (3 baked, 0 reused, 0 kept, 0 empty)"), std::string::npos) << b.out;
-    const Result again = run("bake " + populus + " --frames 3-5 --voxel-size 0.04 --device cpu --resume -o " + pattern);
+    EXPECT_NE(b.out.find("3 frames (3 baked, 0 reused, 0 kept, 0 empty)"), std::string::npos)
+        << b.out;
+    const Result again = run("bake " + populus +
+                             " --frames 3-5 --voxel-size 0.04 --device cpu --resume -o " + pattern);
     ASSERT_EQ(again.status, 0) << again.err;
-    EXPECT_NE(again.out.find("3 frames (0 baked, 0 reused, 3 kept, 0 empty)"), std::string::npos) << again.out;
+    EXPECT_NE(again.out.find("3 frames (0 baked, 0 reused, 3 kept, 0 empty)"), std::string::npos)
+        << again.out;
     // Rendering the sequence: one camera for all frames, framed on the last,
     // so the young tree covers less of the picture than the older one.
-    const Result r = run("render " + pattern + " --frames 3-5 --width 96 --height 96 -o " + (dir / "p.###.png").string());
+    const Result r = run("render " + pattern + " --frames 3-5 --width 96 --height 96 -o " +
+                         (dir / "p.###.png").string());
     ASSERT_EQ(r.status, 0) << r.err;
     std::vector<double> covered;
     for (size_t at = 0; (at = r.out.find(" % of pixels", at)) != std::string::npos; ++at) {
@@ -349,23 +392,29 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
     }
     ASSERT_EQ(covered.size(), 3u) << r.out;
     EXPECT_LT(covered[0], 0.75 * covered[2]) << r.out;
-    EXPECT_NE(r.out.find("conversion included"), std::string::npos) << "later frames reuse the kernel";
+    EXPECT_NE(r.out.find("conversion included"), std::string::npos)
+        << "later frames reuse the kernel";
     // One tree, at a time of its life.
     const std::string one = (dir / "one.vdb").string();
-    const Result single = run("bake " + populus + " --time 4.5 --no-leaves --voxel-size 0.04 -o " + one);
+    const Result single =
+        run("bake " + populus + " --time 4.5 --no-leaves --voxel-size 0.04 -o " + one);
     ASSERT_EQ(single.status, 0) << single.err;
     EXPECT_TRUE(std::filesystem::exists(one));
-    expectRefused("bake", {
-        {populus + " --frames 1-40 -o " + pattern, "frame 28 is year 28 at 1 frames a year, outside the tree's 0 to 27"},
-        {populus + " --frames 1-3 -o " + (dir / "x.vdb").string(), "a run of '#'"},
-        {populus + " --time 30 -o " + one, "--time must be between 0 and 27"},
-        {populus + " --junctions blend -o " + one, "a growth parameter file sets its own"},
-        {kExamples + "sphere_and_cone.json --frames 1-3 -o " + pattern, "--frames needs a growth parameter file"},
-    });
+    expectRefused(
+        "bake",
+        {
+            {populus + " --frames 1-40 -o " + pattern,
+             "frame 28 is year 28 at 1 frames a year, outside the tree's 0 to 27"},
+            {populus + " --frames 1-3 -o " + (dir / "x.vdb").string(), "a run of '#'"},
+            {populus + " --time 30 -o " + one, "--time must be between 0 and 27"},
+            {populus + " --junctions blend -o " + one, "a growth parameter file sets its own"},
+            {kExamples + "sphere_and_cone.json --frames 1-3 -o " + pattern,
+             "--frames needs a growth parameter file"},
+        });
     expectRefused("growth", {
-        {populus + " --year 28", "--year/--time must be between 0 and 27"},
-        {kExamples + "sphere_and_cone.json", "curves: missing"},
-    });
+                                {populus + " --year 28", "--year/--time must be between 0 and 27"},
+                                {kExamples + "sphere_and_cone.json", "curves: missing"},
+                            });
     std::filesystem::remove_all(dir);
 }
 

@@ -42,7 +42,8 @@ TEST(Curve, SmoothPassesThroughItsPointsWithoutOvershootAndIsC1)
         EXPECT_NEAR(c(x), y, 1e-12);
     const auto& p = c.points();
     for (size_t i = 0; i + 1 < p.size(); ++i) {
-        const double lo = std::min(p[i].second, p[i + 1].second), hi = std::max(p[i].second, p[i + 1].second);
+        const double lo = std::min(p[i].second, p[i + 1].second),
+                     hi = std::max(p[i].second, p[i + 1].second);
         for (int k = 0; k <= 1000; ++k) {
             const double x = p[i].first + (p[i + 1].first - p[i].first) * k / 1000.0;
             ASSERT_GE(c(x), lo - 1e-12) << "x " << x;
@@ -64,23 +65,27 @@ TEST(Curve, SmoothPassesThroughItsPointsWithoutOvershootAndIsC1)
 TEST(Curve, MalformedCurvesAreNamedByTheirPath)
 {
     auto expectError = [](const char* text, const std::string& message) {
-        test::expectInputError([&] { curveFromJson(json::parse(text), "curves.Gh"); }, message, text);
+        test::expectInputError([&] { curveFromJson(json::parse(text), "curves.Gh"); }, message,
+                               text);
     };
     expectError("[[0, 0]]", "curves.Gh: a curve needs at least two points");
-    expectError("[[0, 0], [0.5, 1], [0.5, 2], [1, 0]]", "curves.Gh: the x of point 2 (0.5) must exceed");
+    expectError("[[0, 0], [0.5, 1], [0.5, 2], [1, 0]]",
+                "curves.Gh: the x of point 2 (0.5) must exceed");
     expectError("[[0.1, 0], [1, 1]]", "curves.Gh: the points must span x from 0 to 1");
     expectError("[[0, 0], [1]]", "curves.Gh[1]: expected [x, y]");
     expectError(R"({"points": [[0, 0], [1, "a"]]})", "curves.Gh.points[1]: expected [x, y]");
     expectError(R"({"points": [[0, 0], [1, 1]], "interpolation": "cubic"})",
                 "curves.Gh.interpolation: must be \"linear\" or \"smooth\"");
-    expectError(R"({"points": [[0, 0], [1, 1]], "smoothing": 1})", "curves.Gh.smoothing: unknown key");
+    expectError(R"({"points": [[0, 0], [1, 1]], "smoothing": 1})",
+                "curves.Gh.smoothing: unknown key");
     expectError(R"({"interpolation": "smooth"})", "curves.Gh.points: missing");
     expectError("\"up\"", "curves.Gh: expected a number, an array of [x, y] points");
 }
 
 TEST(GrowthParameters, TheBundledPopulusReads)
 {
-    const GrowthParameters p = loadGrowthParameters(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+    const GrowthParameters p =
+        loadGrowthParameters(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
     EXPECT_EQ(p.years, 27);
     EXPECT_DOUBLE_EQ(p.phyllotaxis, 137.5);
     EXPECT_DOUBLE_EQ(p.longestSeparation, 40.0);
@@ -111,12 +116,19 @@ TEST(GrowthParameters, MalformedFilesAreNamedByFileAndPath)
     expectError("{", "tree.json: JSON syntax error: parse error at line 1, column 2");
     expectError("{\"years\": 3, \"years\": 4}", "tree.json: duplicate key 'years'");
     expectError(edited([](json& j) { j["yaers"] = 3; }), "tree.json: yaers: unknown key");
-    expectError(edited([](json& j) { j["years"] = 2.5; }), "tree.json: years: must be a whole number");
-    expectError(edited([](json& j) { j["years"] = 0; }), "tree.json: years: must be between 1 and 1000");
-    expectError(edited([](json& j) { j["tip_radius"] = 1.0; }), "tree.json: tip_radius: must not exceed base_radius");
-    expectError(edited([](json& j) { j["bark"] = json::array({1, 2}); }), "tree.json: bark: must be [r, g, b]");
+    expectError(edited([](json& j) { j["years"] = 2.5; }),
+                "tree.json: years: must be a whole number");
+    expectError(edited([](json& j) { j["years"] = 0; }),
+                "tree.json: years: must be between 1 and 1000");
+    expectError(edited([](json& j) { j["tip_radius"] = 1.0; }),
+                "tree.json: tip_radius: must not exceed base_radius");
+    expectError(edited([](json& j) {
+                    j["bark"] = json::array({1, 2});
+                }),
+                "tree.json: bark: must be [r, g, b]");
     expectError(edited([](json& j) { j["curves"].erase("Gm"); }), "tree.json: curves.Gm: missing");
-    expectError(edited([](json& j) { j["curves"]["Gx"] = 1; }), "tree.json: curves.Gx: unknown curve");
+    expectError(edited([](json& j) { j["curves"]["Gx"] = 1; }),
+                "tree.json: curves.Gx: unknown curve");
     expectError(edited([](json& j) { j["curves"]["Gh"] = json::parse("[[0, 0], [1, 2]]"); }),
                 "tree.json: curves.Gh: values must be between 0 and 1");
     expectError(edited([](json& j) { j["curves"]["Gs1"] = json::parse("[[0, 0], [0.9, 1]]"); }),

@@ -42,7 +42,8 @@ std::map<std::string, std::string> snapshot(const fs::path& dir)
 {
     std::map<std::string, std::string> files;
     for (const auto& e : fs::directory_iterator(dir))
-        files[e.path().filename().string()] = e.is_regular_file() ? fileContents(e.path()) : "(not a regular file)";
+        files[e.path().filename().string()] =
+            e.is_regular_file() ? fileContents(e.path()) : "(not a regular file)";
     return files;
 }
 
@@ -70,7 +71,8 @@ std::vector<OutputKind> outputKinds()
     const std::string vdb = fixtureVdb();
     return {
         {"out.vdb", "bake " + kScene + " --voxel-size 0.05 --device cpu -o OUT"},
-        {"out.0002.vdb", "bake " + kPopulus + " --frames 2 --voxel-size 0.05 --device cpu -o DIR/out.####.vdb"},
+        {"out.0002.vdb",
+         "bake " + kPopulus + " --frames 2 --voxel-size 0.05 --device cpu -o DIR/out.####.vdb"},
         {"out.obj", "mesh " + vdb + " -o OUT"},
         {"out.ply", "mesh " + vdb + " -o OUT"},
         {"out.png", "render " + vdb + " --width 48 --height 32 --device cpu -o OUT"},
@@ -93,15 +95,17 @@ TEST(NothingIsLost, AFailedWriteFailsAndKeepsTheOldFileForEveryOutputKind)
     // every write(2) of the output fails with EFBIG.
     for (const OutputKind& k : outputKinds()) {
         const fs::path dir = freshDir("cambium_errors_efbig");
-        const std::string args = substitute(k.args, {{"OUT", (dir / k.name).string()}, {"DIR", dir.string()}});
+        const std::string args =
+            substitute(k.args, {{"OUT", (dir / k.name).string()}, {"DIR", dir.string()}});
         const Result good = run(args);
         ASSERT_EQ(good.status, 0) << args << "\n" << good.err;
         const auto before = snapshot(dir);
         ASSERT_EQ(before.size(), 1u) << args;
         const Result bad = run(args, 0);
         EXPECT_EQ(bad.status, 1) << args << "\n" << bad.err;
-        EXPECT_NE(bad.err.find((dir / k.name).string() + ": cannot write the output: File too large"),
-                  std::string::npos)
+        EXPECT_NE(
+            bad.err.find((dir / k.name).string() + ": cannot write the output: File too large"),
+            std::string::npos)
             << bad.err;
         EXPECT_EQ(snapshot(dir), before) << args;  // the old file whole, no temporary
         fs::remove_all(dir);
@@ -111,13 +115,15 @@ TEST(NothingIsLost, AFailedWriteFailsAndKeepsTheOldFileForEveryOutputKind)
 TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
 {
     const fs::path dir = freshDir("cambium_errors_full");
-    if (::geteuid() != 0 || std::system(("mount -t tmpfs -o size=256k tmpfs " + dir.string() + " 2>/dev/null").c_str()))
+    if (::geteuid() != 0 ||
+        std::system(("mount -t tmpfs -o size=256k tmpfs " + dir.string() + " 2>/dev/null").c_str()))
         GTEST_SKIP() << "cannot mount a tmpfs here (not root, or no permission)";
     std::ofstream(dir / "keep.vdb") << "a good file";
     const auto before = snapshot(dir);
     for (const std::string& args :
          {"bake " + kScene + " --voxel-size 0.02 --device cpu -o " + (dir / "keep.vdb").string(),
-          "render " + fixtureVdb() + " --width 512 --height 512 --device cpu -o " + (dir / "keep.exr").string()}) {
+          "render " + fixtureVdb() + " --width 512 --height 512 --device cpu -o " +
+              (dir / "keep.exr").string()}) {
         const Result r = run(args);
         EXPECT_EQ(r.status, 1) << args << "\n" << r.out << r.err;
         EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
@@ -125,8 +131,9 @@ TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
     }
     // A sequence stops at the first frame that does not fit; every frame
     // that is there is whole.
-    const Result r = run("bake " + kPopulus + " --frames 8-27:4 --voxel-size 0.01 --jobs 1 --device cpu -o " +
-                         (dir / "tree.####.vdb").string());
+    const Result r =
+        run("bake " + kPopulus + " --frames 8-27:4 --voxel-size 0.01 --jobs 1 --device cpu -o " +
+            (dir / "tree.####.vdb").string());
     EXPECT_EQ(r.status, 1) << r.out << r.err;
     EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
     for (const auto& [name, text] : snapshot(dir)) {
@@ -146,10 +153,12 @@ TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
     fs::create_directories(dir / "d.ply");
     const std::string vdb = fixtureVdb();
     const std::pair<std::string, std::string> cases[] = {
-        {"bake " + kScene + " -o /dev/full", "/dev/full: is a character device, not a regular file"},
+        {"bake " + kScene + " -o /dev/full",
+         "/dev/full: is a character device, not a regular file"},
         {"bake " + kScene + " -o /dev/null", "/dev/null: is a character device"},
         {"bake " + kScene + " -o " + (dir / "fifo.vdb").string(), "fifo.vdb: is a FIFO"},
-        {"bake " + kPopulus + " --frames 1-3 -o " + (dir / "seq.####.vdb").string(), "seq.0002.vdb: is a FIFO"},
+        {"bake " + kPopulus + " --frames 1-3 -o " + (dir / "seq.####.vdb").string(),
+         "seq.0002.vdb: is a FIFO"},
         {"mesh " + vdb + " -o " + (dir / "d.ply").string(), "d.ply: is a directory"},
         {"bake " + kScene + " -o " + dir.string(), ": is a directory"},
         {"bake " + kScene + " -o ''", "-o: the output path is empty"},
@@ -172,8 +181,9 @@ TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
 {
     const fs::path dir = freshDir("cambium_errors_signal");
     const std::string out = (dir / "tree.vdb").string();
-    const std::string cmd = std::string(CAMBIUM_EXE) + " bake " + kPopulus + " --voxel-size 0.015 --device cpu -o " +
-                            out + " >/dev/null 2>&1 & echo $!";
+    const std::string cmd = std::string(CAMBIUM_EXE) + " bake " + kPopulus +
+                            " --voxel-size 0.015 --device cpu -o " + out +
+                            " >/dev/null 2>&1 & echo $!";
     FILE* p = ::popen(cmd.c_str(), "r");
     long pid = 0;
     ASSERT_EQ(std::fscanf(p, "%ld", &pid), 1);
@@ -183,7 +193,8 @@ TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
     bool seen = false;
     const auto start = std::chrono::steady_clock::now();
     while (!seen && ::kill(pid_t(pid), 0) == 0 &&
-           std::chrono::steady_clock::now() - start < std::chrono::minutes(5)) {  // sanitized builds are slow
+           std::chrono::steady_clock::now() - start <
+               std::chrono::minutes(5)) {  // sanitized builds are slow
         seen = fs::exists(tmp);
         if (!seen)
             std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -202,9 +213,12 @@ TEST(NothingIsLost, OneSequenceAtATimePerPattern)
     const fs::path dir = freshDir("cambium_errors_lock");
     const std::string pattern = (dir / "tree.####.vdb").string();
     const OutputLock held(pattern);  // as another run would hold it
-    const Result r = run("bake " + kPopulus + " --frames 1-2 --voxel-size 0.05 --device cpu -o " + pattern);
+    const Result r =
+        run("bake " + kPopulus + " --frames 1-2 --voxel-size 0.05 --device cpu -o " + pattern);
     EXPECT_EQ(r.status, 2) << r.err;
-    EXPECT_NE(r.err.find("another cambium (pid " + std::to_string(::getpid()) + ")"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("another cambium (pid " + std::to_string(::getpid()) + ")"),
+              std::string::npos)
+        << r.err;
     EXPECT_EQ(snapshot(dir).size(), 1u);  // the lock file only: no frame written
 }
 
@@ -212,7 +226,8 @@ TEST(NothingIsLost, ResumeRemovesStaleTemporariesAndBakesDamagedFramesAgain)
 {
     const fs::path dir = freshDir("cambium_errors_resume");
     const std::string pattern = (dir / "tree.####.vdb").string();
-    const std::string bake = "bake " + kPopulus + " --frames 2-4 --voxel-size 0.05 --device cpu -o " + pattern;
+    const std::string bake =
+        "bake " + kPopulus + " --frames 2-4 --voxel-size 0.05 --device cpu -o " + pattern;
     ASSERT_EQ(run(bake).status, 0);
     // A killed run's temporary, another pattern's temporary, a damaged frame.
     std::ofstream(dir / "tree.0003.vdb.tmp-999999") << "half a frame";
@@ -224,12 +239,14 @@ TEST(NothingIsLost, ResumeRemovesStaleTemporariesAndBakesDamagedFramesAgain)
 
     const Result r = run(bake + " --resume");
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_NE(r.out.find("removed " + (dir / "tree.0003.vdb.tmp-999999").string()), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("removed " + (dir / "tree.0003.vdb.tmp-999999").string()),
+              std::string::npos)
+        << r.out;
     EXPECT_NE(r.out.find("tree.0004.vdb: a truncated .vdb file"), std::string::npos) << r.out;
     EXPECT_FALSE(fs::exists(dir / "tree.0003.vdb.tmp-999999"));
     EXPECT_TRUE(fs::exists(dir / "bush.0003.vdb.tmp-999999"));
     EXPECT_EQ(fileContents(dir / "tree.0002.vdb"), second);  // kept, not rewritten
-    EXPECT_EQ(fs::file_size(third), whole.size());            // baked again, whole
+    EXPECT_EQ(fs::file_size(third), whole.size());           // baked again, whole
     EXPECT_NO_THROW(inspectVdb(third));
 }
 
@@ -241,11 +258,14 @@ namespace {
 /// exit status 2 and a message naming the file or option, before any output
 /// changes.  A new input kind or option adds its rows here.
 struct BadInput {
-    std::string args;      ///< IN: the inputs' directory, OUT: the outputs' directory, VDB: a good .vdb
+    std::string args;  ///< IN: the inputs' directory, OUT: the outputs' directory, VDB: a good .vdb
     std::string expected;  ///< in the message: the file, option or place, and the problem
 };
 
-void writeText(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+void writeText(const fs::path& p, const std::string& text)
+{
+    std::ofstream(p, std::ios::binary) << text;
+}
 
 TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
 {
@@ -259,12 +279,16 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     for (int i = 0; i < 20000; ++i)
         deep += "]}";
     writeText(in / "deep.json", R"({"root": )" + deep + "}");
-    writeText(in / "dup.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "radius": 2}})");
+    writeText(in / "dup.json",
+              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "radius": 2}})");
     writeText(in / "nan.json", R"({"root": {"type": "sphere", "center": [0,NaN,0], "radius": 1}})");
-    writeText(in / "neg.json", R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
+    writeText(in / "neg.json",
+              R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
-    writeText(in / "far.json", R"({"root": {"type": "sphere", "center": [1e300,0,0], "radius": 1}})");
-    writeText(in / "tiny.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e-6}})");
+    writeText(in / "far.json",
+              R"({"root": {"type": "sphere", "center": [1e300,0,0], "radius": 1}})");
+    writeText(in / "tiny.json",
+              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e-6}})");
     writeText(in / "empty.json", "");
     writeText(in / "binary.json", std::string("{\0\1\2", 4));
     fs::create_directories(in / "dir.json");
@@ -304,7 +328,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/dup.json -o OUT/out.vdb", "dup.json: root: duplicate key 'radius'"},
         {"bake IN/nan.json -o OUT/out.vdb", "nan.json: JSON syntax error: parse error at line 1"},
         {"bake IN/neg.json -o OUT/out.vdb", "neg.json: root.r0: must be greater than 0"},
-        {"bake IN/type.json -o OUT/out.vdb", "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
+        {"bake IN/type.json -o OUT/out.vdb",
+         "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
         {"bake IN/far.json -o OUT/out.vdb", "far.json: the model reaches 1e+300 from the origin"},
         {"bake IN/tiny.json -o OUT/out.vdb", "tiny.json: the surface is only 4e-06 across"},
         {"bake IN/empty.json -o OUT/out.vdb", "empty.json: JSON syntax error"},
@@ -312,7 +337,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/dir.json -o OUT/out.vdb", "dir.json: is a directory, not a scene file"},
         {"bake VDB -o OUT/out.vdb", ": is a .vdb file (a baked level set), not a skeleton file"},
         {"bake /dev/zero -o OUT/out.vdb", "/dev/zero: is a device, FIFO or socket"},
-        {"bake IN/missing.json -o OUT/out.vdb", "missing.json: cannot read the scene file: No such file"},
+        {"bake IN/missing.json -o OUT/out.vdb",
+         "missing.json: cannot read the scene file: No such file"},
         {"eval IN/dup.json -- 0 0 0", "duplicate key 'radius'"},
         {"eval " + S + " -- nan 0 0", "eval: the point (nan, 0, 0) must have finite coordinates"},
         {"eval " + S + " -- 0 0", "point"},
@@ -328,12 +354,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"lsystem IN/missing.l", "missing.l: cannot read the L-system file"},
         // skeletons
         {"bake IN/cycle.txt -o OUT/out.vdb", "cycle.txt:1: internode 1 is its own ancestor"},
-        {"bake IN/self.txt -o OUT/out.vdb", "self.txt:1: internode 1 is its own ancestor (parents in a cycle: 1 -> 1)"},
+        {"bake IN/self.txt -o OUT/out.vdb",
+         "self.txt:1: internode 1 is its own ancestor (parents in a cycle: 1 -> 1)"},
         {"bake IN/nine.txt -o OUT/out.vdb", "nine.txt:1: expected 10 fields"},
         {"bake IN/nanr.txt -o OUT/out.vdb", "nanr.txt:1: r0 is not a finite number"},
         {"bake IN/negr.txt -o OUT/out.vdb", "negr.txt:1: r0 must be greater than 0"},
         {"bake IN/twice.txt -o OUT/out.vdb", "twice.txt:2: id 1 appears twice"},
-        {"bake IN/orphan.txt -o OUT/out.vdb", "orphan.txt:1: internode 1 has parent 7, which is not in the file"},
+        {"bake IN/orphan.txt -o OUT/out.vdb",
+         "orphan.txt:1: internode 1 has parent 7, which is not in the file"},
         // growth parameter files and their options
         {"bake IN/growth_dup.json -o OUT/out.vdb", "growth_dup.json: duplicate key 'years'"},
         {"bake " + P + " --time -1 -o OUT/out.vdb", "--time must be between 0 and 27 years"},
@@ -342,46 +370,62 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"growth " + P + " --seed -1 --print-stats", "--seed"},
         {"bake " + P + " --junctions pcm -o OUT/out.vdb", "a growth parameter file sets its own"},
         // sequences
-        {"bake " + P + " --frames 1-3 -o OUT/seq.vdb", "-o OUT/seq.vdb: a sequence needs a run of '#'"},
-        {"bake " + P + " --frames 5-1 -o OUT/seq.####.vdb", "--frames 5-1: the last frame must not come before"},
-        {"bake " + P + " --frames 1-99999999999 -o OUT/seq.####.vdb", "--frames 1-99999999999: 99999999999 frames"},
+        {"bake " + P + " --frames 1-3 -o OUT/seq.vdb",
+         "-o OUT/seq.vdb: a sequence needs a run of '#'"},
+        {"bake " + P + " --frames 5-1 -o OUT/seq.####.vdb",
+         "--frames 5-1: the last frame must not come before"},
+        {"bake " + P + " --frames 1-99999999999 -o OUT/seq.####.vdb",
+         "--frames 1-99999999999: 99999999999 frames"},
         {"bake " + P + " --frames x -o OUT/seq.####.vdb", "--frames x: expected FRAME"},
-        {"bake " + P + " --frames 1-3 --fps-per-year 0 -o OUT/seq.####.vdb", "--fps-per-year must be a positive"},
+        {"bake " + P + " --frames 1-3 --fps-per-year 0 -o OUT/seq.####.vdb",
+         "--fps-per-year must be a positive"},
         {"bake " + P + " --frames 1-300 -o OUT/seq.####.vdb", "frame 28 is year 28"},
-        {"bake " + P + " --frames 1-3 --jobs 0 -o OUT/seq.####.vdb", "--jobs: Value 0 not in range"},
-        {"bake " + S + " --frames 1-3 -o OUT/seq.####.vdb", "--frames needs a growth parameter file"},
+        {"bake " + P + " --frames 1-3 --jobs 0 -o OUT/seq.####.vdb",
+         "--jobs: Value 0 not in range"},
+        {"bake " + S + " --frames 1-3 -o OUT/seq.####.vdb",
+         "--frames needs a growth parameter file"},
         // bake options and outputs
-        {"bake " + S + " --voxel-size 0 -o OUT/out.vdb", "--voxel-size must be a number from 0.0001"},
-        {"bake " + S + " --voxel-size nan -o OUT/out.vdb", "--voxel-size must be a number from 0.0001"},
-        {"bake " + S + " --voxel-size 1e-4 -o OUT/out.vdb", "a voxel size of 0.0001 would need about"},
+        {"bake " + S + " --voxel-size 0 -o OUT/out.vdb",
+         "--voxel-size must be a number from 0.0001"},
+        {"bake " + S + " --voxel-size nan -o OUT/out.vdb",
+         "--voxel-size must be a number from 0.0001"},
+        {"bake " + S + " --voxel-size 1e-4 -o OUT/out.vdb",
+         "a voxel size of 0.0001 would need about"},
         {"bake " + S + " --half-width 0 -o OUT/out.vdb", "--half-width must be between 1 and 64"},
         {"bake " + S + " --device gpu -o OUT/out.vdb", "--device"},
         {"bake " + S + " --threads 0 -o OUT/out.vdb", "--threads: Value 0 not in range"},
-        {"bake " + S + " --junctions knot -o OUT/out.vdb", "--junctions must be pcm, smooth or blend"},
+        {"bake " + S + " --junctions knot -o OUT/out.vdb",
+         "--junctions must be pcm, smooth or blend"},
         {"bake " + S + " --bend 100 -o OUT/out.vdb", "--bend must be between -90 and 90"},
-        {"bake " + S + " --primitives cubes -o OUT/out.vdb", "--primitives must be cone, convolution or mixed"},
+        {"bake " + S + " --primitives cubes -o OUT/out.vdb",
+         "--primitives must be cone, convolution or mixed"},
         {"bake " + S + " -o OUT", "OUT: is a directory, not an output file"},
         {"bake " + S + " -o ''", "-o: the output path is empty"},
         {"bake " + S + " -o /dev/null", "/dev/null: is a character device"},
-        {"bake " + S + " -o OUT/no/such/dir/out.vdb", "out.vdb: cannot write the output: No such file"},
+        {"bake " + S + " -o OUT/no/such/dir/out.vdb",
+         "out.vdb: cannot write the output: No such file"},
         {"bake " + S, "--output is required"},
         {"bake " + S + " -o OUT/out.vdb --no-such-option", "--no-such-option"},
         // reading .vdb files
         {"mesh IN/trunc100.vdb -o OUT/out.ply", "trunc100.vdb: a truncated .vdb file"},
         {"mesh IN/trunc90.vdb -o OUT/out.ply", "trunc90.vdb: a truncated .vdb file: grid"},
         {"render IN/trunc90.vdb -o OUT/out.png", "trunc90.vdb: a truncated .vdb file"},
-        {"mesh IN/flipped.vdb -o OUT/out.ply", "flipped.vdb: a damaged .vdb file: its bytes do not match the checksum"},
+        {"mesh IN/flipped.vdb -o OUT/out.ply",
+         "flipped.vdb: a damaged .vdb file: its bytes do not match the checksum"},
         {"mesh IN/text.vdb -o OUT/out.ply", "text.vdb: not a .vdb file"},
         {"mesh IN/zeros.vdb -o OUT/out.ply", "zeros.vdb: not a .vdb file"},
         {"mesh IN -o OUT/out.ply", ": is a directory, not a .vdb file"},
-        {"mesh IN/missing.vdb -o OUT/out.ply", "missing.vdb: cannot read the .vdb file: No such file"},
+        {"mesh IN/missing.vdb -o OUT/out.ply",
+         "missing.vdb: cannot read the .vdb file: No such file"},
         {"mesh VDB -o OUT/out.ply --grid nope", "no grid named 'nope'"},
         {"mesh VDB -o OUT/out.ply --adaptivity 2", "--adaptivity must be between 0 and 1"},
         {"mesh VDB -o OUT/out.stl", "out.stl: unknown mesh format '.stl'"},
-        {"mesh VDB -o OUT/out.ply --frames 1-3", "a sequence needs an input and an output with a run of '#'"},
+        {"mesh VDB -o OUT/out.ply --frames 1-3",
+         "a sequence needs an input and an output with a run of '#'"},
         // rendering
         {"render VDB -o OUT/out.png --width 0", "--width and --height must be between 1 and 16384"},
-        {"render VDB -o OUT/out.png --width 16384 --height 16384", "a picture this large needs about"},
+        {"render VDB -o OUT/out.png --width 16384 --height 16384",
+         "a picture this large needs about"},
         {"render VDB -o OUT/out.png --spp 0", "--spp must be between 1 and 4096"},
         {"render VDB -o OUT/out.png --camera sideways", "--camera sideways: expected auto"},
         {"render VDB -o OUT/out.png --device gpu", "--device"},
@@ -389,7 +433,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render -o OUT/out.png", "nothing to render"},
         {"render --mesh IN/index.obj -o OUT/out.png", "index.obj:4: vertex index 9 out of range"},
         {"render --mesh IN/noface.obj -o OUT/out.png", "noface.obj: the mesh has no faces"},
-        {"render --mesh IN/bad.ply -o OUT/out.png", "bad.ply:2: PLY format 'binary_big_endian' is not read"},
+        {"render --mesh IN/bad.ply -o OUT/out.png",
+         "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
         // the command line itself
         {"", "A subcommand is required"},
@@ -403,7 +448,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         const std::string args = substitute(c.args, vars);
         const Result r = run(args);
         EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
-        EXPECT_NE(r.err.find(substitute(c.expected, vars)), std::string::npos) << args << "\n" << r.err;
+        EXPECT_NE(r.err.find(substitute(c.expected, vars)), std::string::npos) << args << "\n"
+                                                                               << r.err;
         EXPECT_LT(r.err.size(), 600u) << args << ": one short message";
         EXPECT_EQ(r.out, "") << args << ": refused before any work";
         EXPECT_EQ(snapshot(out), before) << args;
@@ -429,13 +475,16 @@ TEST(Determinism, TwoBakesAndTwoSequencesGiveTheSameFilesApartFromTheUuid)
 {
     const fs::path dir = freshDir("cambium_determinism");
     for (const char* name : {"a.vdb", "b.vdb"})
-        ASSERT_EQ(run("bake " + kExamples + "branch_junction.json --voxel-size 0.02 -o " + (dir / name).string()).status,
+        ASSERT_EQ(run("bake " + kExamples + "branch_junction.json --voxel-size 0.02 -o " +
+                      (dir / name).string())
+                      .status,
                   0);
     EXPECT_EQ(withoutUuid(dir / "a.vdb"), withoutUuid(dir / "b.vdb"));
-    EXPECT_NE(fileContents(dir / "a.vdb"), fileContents(dir / "b.vdb"));  // the UUIDs differ: the test sees them
+    EXPECT_NE(fileContents(dir / "a.vdb"),
+              fileContents(dir / "b.vdb"));  // the UUIDs differ: the test sees them
     for (const char* jobs : {"1", "2"})
-        ASSERT_EQ(run("bake " + kPopulus + " --frames 3-5 --voxel-size 0.04 --jobs " + jobs + " -o " +
-                      (dir / (std::string("j") + jobs + ".####.vdb")).string())
+        ASSERT_EQ(run("bake " + kPopulus + " --frames 3-5 --voxel-size 0.04 --jobs " + jobs +
+                      " -o " + (dir / (std::string("j") + jobs + ".####.vdb")).string())
                       .status,
                   0);
     for (const char* frame : {"0003", "0004", "0005"})

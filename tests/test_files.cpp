@@ -89,7 +89,9 @@ TEST(Files, AFullDeviceFailsTheWriteWithItsReason)
 {
     // A small tmpfs, when this process may mount one (the tests run as root).
     const fs::path dir = freshDir("cambium_files_full");
-    if (::geteuid() != 0 || std::system(("mount -t tmpfs -o size=64k tmpfs " + dir.string() + " 2>/dev/null").c_str()) != 0)
+    if (::geteuid() != 0 ||
+        std::system(
+            ("mount -t tmpfs -o size=64k tmpfs " + dir.string() + " 2>/dev/null").c_str()) != 0)
         GTEST_SKIP() << "cannot mount a tmpfs here (not root, or no mount permission)";
     const std::string path = (dir / "a.bin").string();
     writeFile(path, "old", 3);
@@ -97,7 +99,8 @@ TEST(Files, AFullDeviceFailsTheWriteWithItsReason)
         writeFile(path, [](std::ostream& out) { out << std::string(1 << 20, 'n'); });
         ADD_FAILURE() << "a 1 MB write into 64 KB succeeded";
     } catch (const WriteError& e) {
-        EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos)
+            << e.what();
         EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     }
     EXPECT_EQ(contents(path), "old");
@@ -148,10 +151,11 @@ TEST(Files, ASymlinkIsWrittenThroughAndKept)
 TEST(Files, StaleTemporariesAreThoseOfThePatternOnly)
 {
     const fs::path dir = freshDir("cambium_files_stale");
-    for (const char* name : {"tree.0001.vdb.tmp-99999999", "tree.0012.vdb.tmp-4", "tree.12345.vdb.tmp-7",
-                             // not ours: other patterns, other names, a frame itself
-                             "tree.0001.vdb", "tree.001.vdb.tmp-5", "tree.0001.vdb.tmp-", "tree.0001.vdb.tmp-5x",
-                             "bush.0001.vdb.tmp-5", "tree.0001.exr.tmp-5", "tree.00a1.vdb.tmp-5", "notes.txt"})
+    for (const char* name :
+         {"tree.0001.vdb.tmp-99999999", "tree.0012.vdb.tmp-4", "tree.12345.vdb.tmp-7",
+          // not ours: other patterns, other names, a frame itself
+          "tree.0001.vdb", "tree.001.vdb.tmp-5", "tree.0001.vdb.tmp-", "tree.0001.vdb.tmp-5x",
+          "bush.0001.vdb.tmp-5", "tree.0001.exr.tmp-5", "tree.00a1.vdb.tmp-5", "notes.txt"})
         std::ofstream(dir / name) << "x";
     const std::vector<std::string> found = staleTemporaries((dir / "tree.####.vdb").string());
     std::vector<std::string> names;
@@ -172,12 +176,13 @@ TEST(Files, TheOutputLockKeepsASecondWriterOutAndNamesTheHolder)
             const OutputLock second(pattern);
             ADD_FAILURE() << "two locks on one pattern";
         } catch (const InputError& e) {
-            EXPECT_NE(std::string(e.what()).find("pid " + std::to_string(::getpid())), std::string::npos)
+            EXPECT_NE(std::string(e.what()).find("pid " + std::to_string(::getpid())),
+                      std::string::npos)
                 << e.what();
         }
     }
     EXPECT_TRUE(listing(dir).empty());  // the lock file goes with the lock
-    const OutputLock again(pattern);     // and can be taken again
+    const OutputLock again(pattern);    // and can be taken again
 }
 
 }  // namespace

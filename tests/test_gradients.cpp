@@ -31,13 +31,17 @@ TEST(Gradient, MatchesFiniteDifferencesForEveryNodeType)
                 continue;  // outside every support
             ++nonzero;
             switch (checkGradient(f, p, s.gradient, 1e-5, 2e-4)) {
-            case GradientCheck::Agrees: ++agree; break;
-            case GradientCheck::NotSmooth: ++creased; break;
-            case GradientCheck::Disagrees:
-                ADD_FAILURE() << "gradient (" << s.gradient.x << ", " << s.gradient.y << ", "
-                              << s.gradient.z << ") disagrees with finite differences at (" << p.x
-                              << ", " << p.y << ", " << p.z << ")";
-                break;
+                case GradientCheck::Agrees:
+                    ++agree;
+                    break;
+                case GradientCheck::NotSmooth:
+                    ++creased;
+                    break;
+                case GradientCheck::Disagrees:
+                    ADD_FAILURE() << "gradient (" << s.gradient.x << ", " << s.gradient.y << ", "
+                                  << s.gradient.z << ") disagrees with finite differences at ("
+                                  << p.x << ", " << p.y << ", " << p.z << ")";
+                    break;
             }
         }
         EXPECT_EQ(nonzero, 1000);

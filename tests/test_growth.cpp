@@ -20,7 +20,10 @@ using cambium::test::expectInputError;
 
 constexpr double kPi = 3.14159265358979323846;
 
-GrowthParameters populus() { return loadGrowthParameters(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json"); }
+GrowthParameters populus()
+{
+    return loadGrowthParameters(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+}
 
 const GrowthModel& populusModel()
 {
@@ -97,7 +100,8 @@ TEST(Growth, LostBranchesStayLostAndLeaveScars)
         for (size_t b = 0; b < m.branches().size(); ++b) {
             const GrowthBranch& br = m.branches()[b];
             if (m.growthTime(t) >= br.lost) {
-                EXPECT_FALSE(present.count((long long)b)) << "branch " << b << " lost in " << br.lost << ", t " << t;
+                EXPECT_FALSE(present.count((long long)b))
+                    << "branch " << b << " lost in " << br.lost << ", t " << t;
                 ++gone;
             }
         }
@@ -163,7 +167,8 @@ TEST(Growth, HigherOrdersFollowEq12And13AndStopBelowSmin)
         EXPECT_GE(b.scale, p.minScale);
         const GrowthBranch& parent = m.branches()[size_t(b.parent)];
         EXPECT_EQ(b.order, parent.order + 1);
-        EXPECT_LE(b.scale, parent.scale * 0.85 * 0.85 + 1e-12);  // max Gss * max Gbs of the bundled curves
+        EXPECT_LE(b.scale,
+                  parent.scale * 0.85 * 0.85 + 1e-12);  // max Gss * max Gbs of the bundled curves
         EXPECT_LE(b.lost, parent.lost);
         EXPECT_GT(b.birth, parent.birth);
     }
@@ -221,8 +226,10 @@ TEST(Growth, LateralsAreOnA137Point5DegreeSpiral)
     size_t pairs = 0;
     for (auto a = azimuthAtNode.begin(); std::next(a) != azimuthAtNode.end(); ++a) {
         const auto b = std::next(a);
-        const double measured = b->second - a->second, expected = (b->first - a->first) * p.phyllotaxis;
-        EXPECT_NEAR(angularDistance(measured - expected), 0.0, 1e-6) << "nodes " << a->first << ", " << b->first;
+        const double measured = b->second - a->second,
+                     expected = (b->first - a->first) * p.phyllotaxis;
+        EXPECT_NEAR(angularDistance(measured - expected), 0.0, 1e-6)
+            << "nodes " << a->first << ", " << b->first;
         ++pairs;
     }
     EXPECT_GT(pairs, 10u);
@@ -263,7 +270,8 @@ TEST(Growth, SameSeedSameTreeOtherSeedOtherTree)
     GrowthParameters q = populus();
     q.seed = 2;
     const GrowthModel c(q);
-    const Skeleton sa = a.skeleton(9.5, true), sb = b.skeleton(9.5, true), sc = c.skeleton(9.5, true);
+    const Skeleton sa = a.skeleton(9.5, true), sb = b.skeleton(9.5, true),
+                   sc = c.skeleton(9.5, true);
     ASSERT_EQ(sa.internodes.size(), sb.internodes.size());
     for (size_t i = 0; i < sa.internodes.size(); ++i) {
         ASSERT_EQ(sa.internodes[i].p1, sb.internodes[i].p1);
@@ -305,8 +313,8 @@ TEST(Growth, LeavesGrowAndFallWithinTheYear)
 {
     const GrowthModel& m = populusModel();
     auto leaves = [&](double t) { return m.stats(t, true).leaves; };
-    EXPECT_EQ(leaves(5.0), 0);      // winter: the year's leaves have fallen
-    EXPECT_GT(leaves(5.3), 100);    // early summer
+    EXPECT_EQ(leaves(5.0), 0);    // winter: the year's leaves have fallen
+    EXPECT_GT(leaves(5.3), 100);  // early summer
     EXPECT_GT(leaves(5.7), leaves(5.3));
     EXPECT_EQ(m.stats(5.5, false).leaves, 0);  // --no-leaves
     // Leaf size grows through the season.
@@ -331,7 +339,8 @@ TEST(Growth, TheMemoryEstimateCountsLeavesAsLeaves)
     const FieldProgram program = FieldProgram::compile(populusModel().tree(9.5, true));
     const double estimate = estimateBakeBytes(program, 0.01, 3.0);
     EXPECT_LT(estimate, 2e9);
-    EXPECT_GT(estimate, estimateBakeBytes(FieldProgram::compile(populusModel().tree(9.5, false)), 0.01, 3.0));
+    EXPECT_GT(estimate,
+              estimateBakeBytes(FieldProgram::compile(populusModel().tree(9.5, false)), 0.01, 3.0));
 }
 
 TEST(Growth, DormantSeasonsChangeNothing)
@@ -378,7 +387,8 @@ TEST(Growth, BadParametersAreNamedBeforeAnyWork)
     p.minScale = 0.1;
     p.maxInternodes = 20000;
     expectInputError([&] { GrowthModel m(p); }, "max_internodes", "exploding parameters");
-    const std::string base = readTextFile(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json", "test");
+    const std::string base =
+        readTextFile(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json", "test");
     auto replaced = [&](const std::string& from, const std::string& to) {
         std::string s = base;
         const size_t at = s.find(from);
@@ -387,7 +397,8 @@ TEST(Growth, BadParametersAreNamedBeforeAnyWork)
     };
     expectInputError(
         [&] {
-            parseGrowthParameters(replaced("\"growing_season\": 0.6", "\"growing_season\": 0"), "p.json");
+            parseGrowthParameters(replaced("\"growing_season\": 0.6", "\"growing_season\": 0"),
+                                  "p.json");
         },
         "growing_season", "season");
     expectInputError(

@@ -58,8 +58,9 @@ protected:
         clSetKernelArg(k, cl_uint(arg++), sizeof(cl_mem), &bprm);
         clSetKernelArg(k, cl_uint(arg++), sizeof(cl_mem), &bout);
         const size_t local = 1;
-        checkCL(clEnqueueNDRangeKernel(ctx_->queue(), k, 1, nullptr, &n, &local, 0, nullptr, nullptr),
-                "clEnqueueNDRangeKernel");
+        checkCL(
+            clEnqueueNDRangeKernel(ctx_->queue(), k, 1, nullptr, &n, &local, 0, nullptr, nullptr),
+            "clEnqueueNDRangeKernel");
         checkCL(clEnqueueReadBuffer(ctx_->queue(), bout, CL_TRUE, 0, out.size() * sizeof(float),
                                     out.data(), 0, nullptr, nullptr),
                 "clEnqueueReadBuffer");
@@ -90,8 +91,9 @@ std::vector<float> pointsFor(std::mt19937& rng, const std::vector<cb_vec3>& spec
 }
 
 /// |device - host| within rel * scale + abs.
-#define EXPECT_CLOSE(dev, host, rel, abs_, scale) \
-    EXPECT_LE(std::abs(double(dev) - (host)), (rel) * (scale) + (abs_)) << "host " << (host) << " device " << (dev)
+#define EXPECT_CLOSE(dev, host, rel, abs_, scale)                       \
+    EXPECT_LE(std::abs(double(dev) - (host)), (rel) * (scale) + (abs_)) \
+        << "host " << (host) << " device " << (dev)
 
 TEST_F(KernelParity, Primitives)
 {
@@ -99,17 +101,23 @@ TEST_F(KernelParity, Primitives)
     const double a[3] = {0.1, -0.2, 0.05}, b[3] = {0.6, 1.3, -0.2};
     const double r0 = 0.3, r1 = 0.12, sigma = 1.0, xT = 0.5, s = 1.0 / 0.3, support = 0.9;
     const double q0 = cb_convolution_density(r0, s, 0.5), q1 = cb_convolution_density(r1, s, 0.5);
-    const std::vector<float> prm = {float(a[0]), float(a[1]), float(a[2]), float(b[0]), float(b[1]),
-                                    float(b[2]), float(r0), float(r1), float(sigma), float(xT),
-                                    float(s), float(support), float(q0), float(q1)};
+    const std::vector<float> prm = {float(a[0]),  float(a[1]), float(a[2]), float(b[0]),
+                                    float(b[1]),  float(b[2]), float(r0),   float(r1),
+                                    float(sigma), float(xT),   float(s),    float(support),
+                                    float(q0),    float(q1)};
     const cb_vec3 A = cb_v3(a[0], a[1], a[2]), B = cb_v3(b[0], b[1], b[2]);
     cb_vec3 axis = cb_sub(B, A);
     const double len = cb_length(axis);
     axis = cb_scale(axis, 1.0 / len);
     // Adversarial points: on the skeleton, at the end points and end planes, on the surface.
-    const std::vector<cb_vec3> special = {A, B, cb_madd(A, axis, 0.5 * len), cb_madd(A, axis, -0.1),
-                                          cb_madd(B, axis, 0.2), cb_add(A, cb_v3(0.3, 0, 0)),
-                                          cb_add(A, cb_v3(0, 0, 0.6)), cb_add(B, cb_v3(0.12, 0, 0))};
+    const std::vector<cb_vec3> special = {A,
+                                          B,
+                                          cb_madd(A, axis, 0.5 * len),
+                                          cb_madd(A, axis, -0.1),
+                                          cb_madd(B, axis, 0.2),
+                                          cb_add(A, cb_v3(0.3, 0, 0)),
+                                          cb_add(A, cb_v3(0, 0, 0.6)),
+                                          cb_add(B, cb_v3(0.12, 0, 0))};
     const std::vector<float> pts = pointsFor(rng, special, 2000, -1.0, 2.0);
     const size_t n = pts.size() / 3;
     for (int prim = 0; prim < 3; ++prim) {
@@ -139,7 +147,8 @@ TEST_F(KernelParity, Operators)
 {
     std::mt19937 rng(21);
     const double T = 0.5, w = 0.2, att = 2.5, k = 0.3, n = 3.0;
-    std::vector<float> in = {0.5f, 0.5f, 0.3f, 0.3f, 0.7f, 0.2f, 0.0f, 0.0f, -0.4f, 0.9f, 1.2f, 0.31f};
+    std::vector<float> in = {0.5f, 0.5f, 0.3f,  0.3f, 0.7f, 0.2f,
+                             0.0f, 0.0f, -0.4f, 0.9f, 1.2f, 0.31f};
     std::uniform_real_distribution<double> u(-0.5, 1.3);
     for (int i = 0; i < 2000; ++i)
         in.push_back(float(u(rng)));
@@ -158,7 +167,8 @@ TEST_F(KernelParity, Operators)
         host[6] = cb_gbb(f0, f1, 0.3, &d);
         host[7] = d;
         for (int j = 0; j < 8; ++j)
-            EXPECT_CLOSE(dev[8 * i + size_t(j)], host[j], 1e-5, 1e-5, std::max(1.0, std::abs(host[j])))
+            EXPECT_CLOSE(dev[8 * i + size_t(j)], host[j], 1e-5, 1e-5,
+                         std::max(1.0, std::abs(host[j])))
                 << "input (" << f0 << ", " << f1 << ") output " << j;
     }
 }
@@ -169,10 +179,10 @@ TEST_F(KernelParity, Warps)
     const std::vector<std::vector<float>> params = {
         {0.1f, 0.0f, 0.2f, 0.5f, 1.6f, 0.1f, 1.0f, 0.0f, 0.3f, 1.3f},  // bend
         {0.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 1.1f},                    // twist
-        {0.0f, 0.2f, 0.0f, 0.0f, 1.0f, 0.0f, 1.5f, 1.0f, 0.4f},         // taper
+        {0.0f, 0.2f, 0.0f, 0.0f, 1.0f, 0.0f, 1.5f, 1.0f, 0.4f},        // taper
     };
-    const std::vector<cb_vec3> special = {cb_v3(0.1, 0.0, 0.2), cb_v3(0.5, 1.6, 0.1), cb_v3(0, 0.2, 0),
-                                          cb_v3(0, 1.7, 0)};
+    const std::vector<cb_vec3> special = {cb_v3(0.1, 0.0, 0.2), cb_v3(0.5, 1.6, 0.1),
+                                          cb_v3(0, 0.2, 0), cb_v3(0, 1.7, 0)};
     const std::vector<float> pts = pointsFor(rng, special, 2000, -1.5, 2.5);
     const size_t count = pts.size() / 3;
     for (int warp = 0; warp < 3; ++warp) {
@@ -184,21 +194,25 @@ TEST_F(KernelParity, Warps)
             double J[9];
             cb_vec3 q;
             if (warp == 0) {
-                q = cb_bend_apply(cb_bend_setup(cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]),
-                                                cb_v3(pr[6], pr[7], pr[8]), pr[9]),
-                                  p, J);
+                q = cb_bend_apply(
+                    cb_bend_setup(cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]),
+                                  cb_v3(pr[6], pr[7], pr[8]), pr[9]),
+                    p, J);
             } else if (warp == 1) {
                 cb_twist t{cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6]};
                 q = cb_twist_apply(t, p, J);
             } else {
-                cb_taper t{cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6], pr[7], pr[8]};
+                cb_taper t{cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6], pr[7],
+                           pr[8]};
                 q = cb_taper_apply(t, p, J);
             }
             const double host[3] = {q.x, q.y, q.z};
             for (int j = 0; j < 3; ++j)
-                EXPECT_CLOSE(dev[12 * i + size_t(j)], host[j], 2e-5, 2e-5, 1.0 + std::abs(host[j])) << " point " << i;
+                EXPECT_CLOSE(dev[12 * i + size_t(j)], host[j], 2e-5, 2e-5, 1.0 + std::abs(host[j]))
+                    << " point " << i;
             for (int j = 0; j < 9; ++j)
-                EXPECT_CLOSE(dev[12 * i + 3 + size_t(j)], J[j], 2e-4, 2e-4, 1.0 + std::abs(J[j])) << " point " << i;
+                EXPECT_CLOSE(dev[12 * i + 3 + size_t(j)], J[j], 2e-4, 2e-4, 1.0 + std::abs(J[j]))
+                    << " point " << i;
         }
     }
 }

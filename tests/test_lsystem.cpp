@@ -55,29 +55,34 @@ TEST(LSystem, KochCurveAndABracketedPlant)
 TEST(LSystem, ParametricProductionsAndConditions)
 {
     // ABOP 1.10: the example derivation of section 1.10.1.
-    const std::string text = "#define R 1.456\n"
-                             "Axiom: B(2)A(4,4)\n"
-                             "A(x,y) : y <= 3 --> A(x*2,x+y)\n"
-                             "A(x,y) : y > 3 --> B(x)A(x/y,0)\n"
-                             "B(x) : x < 1 --> C\n"
-                             "B(x) : x >= 1 --> B(x-1)\n";
+    const std::string text =
+        "#define R 1.456\n"
+        "Axiom: B(2)A(4,4)\n"
+        "A(x,y) : y <= 3 --> A(x*2,x+y)\n"
+        "A(x,y) : y > 3 --> B(x)A(x/y,0)\n"
+        "B(x) : x < 1 --> C\n"
+        "B(x) : x >= 1 --> B(x-1)\n";
     EXPECT_EQ(run(text, 1), "B(1)B(4)A(1,0)");
     EXPECT_EQ(run(text, 2), "B(0)B(3)A(2,1)");
     EXPECT_EQ(run(text, 3), "CB(2)A(4,3)");
     EXPECT_EQ(run(text, 4), "CB(1)A(8,7)");
     // Expressions: precedence, functions (degrees), constants, logic.
-    EXPECT_EQ(run("#define k 3\nAxiom: X(1)\nX(a) --> Y(a+2*k^2, -a^2, sin(90), max(a,k), a<2 && k>2 || 0)\n", 1),
+    EXPECT_EQ(run("#define k 3\nAxiom: X(1)\nX(a) --> Y(a+2*k^2, -a^2, sin(90), max(a,k), a<2 && "
+                  "k>2 || 0)\n",
+                  1),
               "Y(19,-1,1,3,1)");
 }
 
 TEST(LSystem, StochasticChoiceFollowsTheSeed)
 {
-    const std::string text = "Axiom: F\nF --> F[+F]F : 0.33\nF --> F[-F]F : 0.33\nF --> F[+F]F[-F] : 0.34\n";
+    const std::string text =
+        "Axiom: F\nF --> F[+F]F : 0.33\nF --> F[-F]F : 0.33\nF --> F[+F]F[-F] : 0.34\n";
     const std::string a = run(text, 5, 7), b = run(text, 5, 7), c = run(text, 5, 8);
     EXPECT_EQ(a, b);
     EXPECT_NE(a, c);
     // The choice follows the probabilities: over many modules, about a third each.
-    const LSystem sys = parseLSystem("Axiom: AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA\nA --> X : 1\nA --> Y : 3\n", "t");
+    const LSystem sys = parseLSystem(
+        "Axiom: AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA\nA --> X : 1\nA --> Y : 3\n", "t");
     size_t x = 0, y = 0;
     for (uint64_t seed = 0; seed < 100; ++seed)
         for (const Module& m : derive(sys, 1, seed, 1000)) {
@@ -116,8 +121,9 @@ TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
         derive(sys, 11, 1, 1024);
         FAIL() << "no error";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("grow.l: derivation step 11 would make 2048 modules, more than the limit "
-                                             "of 1024"),
+        EXPECT_NE(std::string(e.what()).find(
+                      "grow.l: derivation step 11 would make 2048 modules, more than the limit "
+                      "of 1024"),
                   std::string::npos)
             << e.what();
     }
@@ -132,11 +138,14 @@ TEST(LSystem, ErrorsNameTheLineAndColumn)
     expectError("Axiom: F]\n", "bad.l:1:9: ']' without a matching '['");
     expectError("Axiom: A\nA --> B[C\n", "bad.l:2:");
     expectError("Axiom: A(1)\nA(x) : x < --> A(x)\n", "bad.l:2:");
-    expectError("Axiom: A(1)\nA(x) --> A(y)\n", "bad.l:2:12: 'y' is neither a parameter of the predecessor nor a #define");
-    expectError("Axiom: A(1)\nA(x,y) --> A(x)\n", "bad.l:2:1: module A has 2 parameters here but 1 at line 1");
+    expectError("Axiom: A(1)\nA(x) --> A(y)\n",
+                "bad.l:2:12: 'y' is neither a parameter of the predecessor nor a #define");
+    expectError("Axiom: A(1)\nA(x,y) --> A(x)\n",
+                "bad.l:2:1: module A has 2 parameters here but 1 at line 1");
     expectError("Axiom: A(1)\nA(x) --> A(foo(x))\n", "unknown function 'foo'");
     expectError("Axiom: A\nA --> B : -1\n", "a probability must be positive");
-    expectError("Axiom: A\nderivation lenght: 3\n", "bad.l:2:1: unknown line 'derivation lenght: 3'");
+    expectError("Axiom: A\nderivation lenght: 3\n",
+                "bad.l:2:1: unknown line 'derivation lenght: 3'");
     expectError("A --> B\n", "bad.l: no 'Axiom:' line");
     expectError("Axiom: F(1,2)\n", "'F' takes at most one parameter");
 }
@@ -198,7 +207,8 @@ TEST(Turtle, DollarRollsTheLeftVectorToTheHorizontal)
     // a following + then turns within the plane of H and the horizontal L.
     const Skeleton s = turtle("Axiom: &(30)/(40)F$+(90)F\n");
     ASSERT_EQ(s.internodes.size(), 2u);
-    const glm::dvec3 H = s.internodes[0].p1 - s.internodes[0].p0, turned = s.internodes[1].p1 - s.internodes[1].p0;
+    const glm::dvec3 H = s.internodes[0].p1 - s.internodes[0].p0,
+                     turned = s.internodes[1].p1 - s.internodes[1].p0;
     // + by 90 gives H' = -L: horizontal, and perpendicular to H.
     EXPECT_NEAR(turned.y, 0.0, 1e-12);
     EXPECT_NEAR(glm::dot(turned, H), 0.0, 1e-12);
@@ -213,7 +223,8 @@ TEST(Turtle, TropismBendsTheHeadingByItsDefinition)
     ASSERT_EQ(s.internodes.size(), 2u);
     expectNear(s.internodes[0].p1 - s.internodes[0].p0, {0, 1, 0}, "first F: straight");
     // |H x T| = 1 for H = +y, T = +x: H turns by 0.3 rad towards +x.
-    expectNear(s.internodes[1].p1 - s.internodes[1].p0, {std::sin(0.3), std::cos(0.3), 0}, "second F");
+    expectNear(s.internodes[1].p1 - s.internodes[1].p0, {std::sin(0.3), std::cos(0.3), 0},
+               "second F");
 }
 
 TEST(Turtle, BadLengthsAndWidthsAreRefused)
@@ -265,14 +276,16 @@ TEST(Turtle, PolygonsBecomeLeafBladesFittedToThem)
     EXPECT_EQ(leaf.kind, Organ::Kind::Leaf);
     expectNear(leaf.p0, {0, 1, 0}, "blade base: where '{' started");
     expectNear(leaf.p1, {-1, 3, 0}, "blade tip: the farthest vertex");
-    EXPECT_NEAR(leaf.radius, 2.0 / std::sqrt(5.0), 1e-12);  // the other corners' distance from the diagonal
+    EXPECT_NEAR(leaf.radius, 2.0 / std::sqrt(5.0),
+                1e-12);  // the other corners' distance from the diagonal
     EXPECT_NEAR(std::abs(leaf.normal.z), 1.0, 1e-12);
     EXPECT_EQ(leaf.colour, paletteColour(parseLSystem("Axiom: F\n", "t.l"), 4));
     // '.' records vertices explicitly; G and g move without recording.
     const Skeleton dots = turtle("angle: 90\nAxiom: {.g(2).+g(1).+g(2).}\n");
     ASSERT_EQ(dots.organs.size(), 1u);
     expectNear(dots.organs[0].p1, {-1, 2, 0}, "dots: far corner");
-    EXPECT_THROW(turtle("angle: 90\nAxiom: {g(2)+g(1)+g(2)}\n"), InputError);  // g records nothing: one vertex
+    EXPECT_THROW(turtle("angle: 90\nAxiom: {g(2)+g(1)+g(2)}\n"),
+                 InputError);  // g records nothing: one vertex
 }
 
 TEST(Turtle, ABOPsBushIsAcceptedAndEveryLeafDrawn)
@@ -282,7 +295,8 @@ TEST(Turtle, ABOPsBushIsAcceptedAndEveryLeafDrawn)
     const LSystem sys = loadLSystem(CAMBIUM_SOURCE_DIR "/examples/lsystems/bush.l");
     const ModuleString str = derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules);
     const Skeleton s = interpretTurtle(sys, str);
-    const size_t leaves = size_t(std::count_if(str.begin(), str.end(), [](const Module& m) { return m.name == '{'; }));
+    const size_t leaves = size_t(
+        std::count_if(str.begin(), str.end(), [](const Module& m) { return m.name == '{'; }));
     EXPECT_GT(leaves, 1000u);
     EXPECT_EQ(s.organs.size(), leaves);
     // Each order thinner by the width increment (0.1).
@@ -294,13 +308,13 @@ TEST(Turtle, ABOPsBushIsAcceptedAndEveryLeafDrawn)
 
 TEST(Turtle, WhatIsOutsideTheSupportedSubsetIsRefused)
 {
-    EXPECT_THROW(turtle("Axiom: F~F\n"), InputError);   // predefined surfaces
-    EXPECT_THROW(turtle("Axiom: F@F\n"), InputError);   // @ commands
-    EXPECT_THROW(turtle("Axiom: {f}\n"), InputError);   // fewer than 3 vertices
-    EXPECT_THROW(turtle("Axiom: {ff|f}\n"), InputError); // no area
-    EXPECT_THROW(turtle("Axiom: {f+f+f\n"), InputError); // never closed
+    EXPECT_THROW(turtle("Axiom: F~F\n"), InputError);     // predefined surfaces
+    EXPECT_THROW(turtle("Axiom: F@F\n"), InputError);     // @ commands
+    EXPECT_THROW(turtle("Axiom: {f}\n"), InputError);     // fewer than 3 vertices
+    EXPECT_THROW(turtle("Axiom: {ff|f}\n"), InputError);  // no area
+    EXPECT_THROW(turtle("Axiom: {f+f+f\n"), InputError);  // never closed
     EXPECT_THROW(turtle("Axiom: f}\n"), InputError);
-    EXPECT_THROW(turtle("Axiom: f.\n"), InputError);    // a vertex outside a polygon
+    EXPECT_THROW(turtle("Axiom: f.\n"), InputError);  // a vertex outside a polygon
     EXPECT_THROW(parseLSystem("Axiom: F,F\n", "t.l"), InputError);
     EXPECT_THROW(parseLSystem("Axiom: F\nhomomorphism\nF --> G\n", "t.l"), InputError);
     EXPECT_THROW(parseLSystem("consider: F\nAxiom: F\n", "t.l"), InputError);
@@ -318,8 +332,8 @@ TEST(Turtle, ALeafAndAColouredBranchBakeIntoTheFieldWithTheirColours)
     // A green blade beside a red-indexed branch, beyond each other's
     // supports: inside each, the field is above the threshold and the colour
     // is its index's.
-    const LSystem sys = parseLSystem("angle: 90\nwidth: 0.2\nAxiom: F;(10)F[+(90);(4)f(4){f(2)+f(1)+f(2)+f(1)}]\n",
-                                     "t.l");
+    const LSystem sys = parseLSystem(
+        "angle: 90\nwidth: 0.2\nAxiom: F;(10)F[+(90);(4)f(4){f(2)+f(1)+f(2)+f(1)}]\n", "t.l");
     const Skeleton sk = interpretTurtle(sys, derive(sys, 0, 1, 1000));
     ASSERT_EQ(sk.organs.size(), 1u);
     BlobTree tree = buildTree(sk);

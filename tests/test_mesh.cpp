@@ -34,19 +34,22 @@ void expectClosedManifold(const TriangleMesh& m)
     for (const auto& [e, count] : directed) {
         ASSERT_EQ(count, 1) << "edge " << e.first << "-" << e.second << " used twice the same way";
         const auto back = directed.find({e.second, e.first});
-        ASSERT_TRUE(back != directed.end()) << "edge " << e.first << "-" << e.second << " on the border";
+        ASSERT_TRUE(back != directed.end())
+            << "edge " << e.first << "-" << e.second << " on the border";
     }
 }
 
 /// Vertices on the zero crossing of the trilinear level set, normals outward.
-void expectOnSurface(const TriangleMesh& m, const openvdb::FloatGrid& g, const glm::dvec3& centreOfMass)
+void expectOnSurface(const TriangleMesh& m, const openvdb::FloatGrid& g,
+                     const glm::dvec3& centreOfMass)
 {
     openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(g);
     const double h = g.voxelSize()[0];
     double worst = 0.0;
     for (size_t i = 0; i < m.points.size(); ++i) {
         worst = std::max(worst, std::abs(double(s.wsSample(m.points[i]))) / h);
-        const openvdb::Vec3d out = openvdb::Vec3d(m.points[i]) - openvdb::Vec3d(centreOfMass.x, centreOfMass.y, centreOfMass.z);
+        const openvdb::Vec3d out = openvdb::Vec3d(m.points[i]) -
+                                   openvdb::Vec3d(centreOfMass.x, centreOfMass.y, centreOfMass.z);
         ASSERT_GT(out.dot(openvdb::Vec3d(m.normals[i])), 0.0) << "vertex " << i;  // convex shapes
         ASSERT_NEAR(m.normals[i].length(), 1.0, 1e-5);
     }
@@ -100,8 +103,8 @@ TEST(Mesh, AdaptivityKeepsTheShapeWithFewerTriangles)
     for (double adaptivity : {0.05, 0.5}) {
         const TriangleMesh coarse = meshLevelSet(*g.surface, nullptr, adaptivity);
         const double v = meshVolume(coarse) / volume;
-        std::printf("adaptivity %.2f: %zu triangles (0: %zu), volume %.4f of the sphere's\n", adaptivity,
-                    coarse.triangles.size(), fine.triangles.size(), v);
+        std::printf("adaptivity %.2f: %zu triangles (0: %zu), volume %.4f of the sphere's\n",
+                    adaptivity, coarse.triangles.size(), fine.triangles.size(), v);
         EXPECT_LT(coarse.triangles.size(), fine.triangles.size() / 2);
         // Flat cells of up to a leaf (8 voxels) cut the sphere of radius 25
         // voxels: 1.7 % of its volume at 0.05 (1,356 triangles), 6 % at 0.5 (348).
@@ -136,7 +139,8 @@ TEST(Mesh, FilesReadBack)
     tree.finalize();
     const BakedGrids g = bakeTree(tree, 0.03);
     const TriangleMesh m = meshLevelSet(*g.surface, g.color.get());
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_mesh_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cambium_mesh_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string obj = (dir / "s.obj").string(), ply = (dir / "s.ply").string();
     writeMesh(m, obj);
@@ -197,7 +201,8 @@ TEST(Mesh, FilesReadBack)
                 ASSERT_NEAR(r.points[i][k], m.points[i][k], tol) << path << " point " << i;
                 ASSERT_NEAR(r.normals[i][k], m.normals[i][k], tol) << path << " normal " << i;
                 // Colours: 8 bits in PLY, 5 digits in OBJ.
-                ASSERT_NEAR(r.colors[i][k], m.colors[i][k], 0.5f / 255.0f + tol) << path << " colour " << i;
+                ASSERT_NEAR(r.colors[i][k], m.colors[i][k], 0.5f / 255.0f + tol)
+                    << path << " colour " << i;
             }
         for (size_t i = 0; i < m.triangles.size(); ++i)
             ASSERT_EQ(r.triangles[i], m.triangles[i]) << path << " triangle " << i;
@@ -208,7 +213,8 @@ TEST(Mesh, FilesReadBack)
 /// Writes `text` to a file of the temporary directory and reads it as a mesh.
 TriangleMesh readText(const std::string& name, const std::string& text)
 {
-    const auto path = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_" + name);
+    const auto path =
+        std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_" + name);
     {
         std::ofstream out(path, std::ios::binary);
         out << text;
@@ -221,19 +227,22 @@ TriangleMesh readText(const std::string& name, const std::string& text)
 }
 
 /// The unit cube [0,1]^3 as six outward quads, in OBJ and in ASCII PLY.
-const char* kCubeObj = "# a cube\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
-                       "vt 0 0\ng cube\ns off\n"
-                       "f 1 4 3 2\nf 5/1 6/1 7/1 8/1\nf 1 2 6 5\nf -5 -1 -2 -6\nf 1 5 8 4\nf 2 3 7 6\n";
-const char* kCubePly = "ply\nformat ascii 1.0\ncomment a cube\nelement vertex 8\nproperty float x\n"
-                       "property float y\nproperty float z\nproperty float red\nproperty float green\n"
-                       "property float blue\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
-                       "0 0 0 1 0 0\n1 0 0 1 0 0\n1 1 0 1 0 0\n0 1 0 1 0 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n"
-                       "1 1 1 0 0 1\n0 1 1 0 0 1\n"
-                       "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 3 7 6 2\n4 0 4 7 3\n4 1 2 6 5\n";
+const char* kCubeObj =
+    "# a cube\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+    "vt 0 0\ng cube\ns off\n"
+    "f 1 4 3 2\nf 5/1 6/1 7/1 8/1\nf 1 2 6 5\nf -5 -1 -2 -6\nf 1 5 8 4\nf 2 3 7 6\n";
+const char* kCubePly =
+    "ply\nformat ascii 1.0\ncomment a cube\nelement vertex 8\nproperty float x\n"
+    "property float y\nproperty float z\nproperty float red\nproperty float green\n"
+    "property float blue\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+    "0 0 0 1 0 0\n1 0 0 1 0 0\n1 1 0 1 0 0\n0 1 0 1 0 0\n0 0 1 0 0 1\n1 0 1 0 0 1\n"
+    "1 1 1 0 0 1\n0 1 1 0 0 1\n"
+    "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 3 7 6 2\n4 0 4 7 3\n4 1 2 6 5\n";
 
 TEST(Mesh, ReadsOtherToolsObjAndPly)
 {
-    for (const auto& [name, text] : {std::pair<const char*, const char*>{"cube.obj", kCubeObj}, {"cube.ply", kCubePly}}) {
+    for (const auto& [name, text] :
+         {std::pair<const char*, const char*>{"cube.obj", kCubeObj}, {"cube.ply", kCubePly}}) {
         const TriangleMesh m = readText(name, text);
         EXPECT_EQ(m.points.size(), 8u) << name;
         EXPECT_EQ(m.triangles.size(), 12u) << name;  // quads fanned
@@ -256,22 +265,29 @@ TEST(Mesh, ReadsOtherToolsObjAndPly)
 
 TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
 {
-    auto expectRefused = [](const std::string& name, const std::string& text, const std::string& message) {
+    auto expectRefused = [](const std::string& name, const std::string& text,
+                            const std::string& message) {
         test::expectInputError([&] { readText(name, text); }, message, name);
     };
-    expectRefused("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "a.obj:4: vertex index 4 out of range");
+    expectRefused("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+                  "a.obj:4: vertex index 4 out of range");
     expectRefused("b.obj", "v 0 0\n", "b.obj:1: 'v' expects 3 numbers");
-    expectRefused("c.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "c.obj:3: a face needs at least 3 vertices");
+    expectRefused("c.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n",
+                  "c.obj:3: a face needs at least 3 vertices");
     expectRefused("d.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "d.obj:4: bad face corner 'x'");
     expectRefused("e.obj", "# nothing\n", "the mesh has no faces");
-    expectRefused("f.ply", "ply\nformat binary_big_endian 1.0\nend_header\n", "binary_big_endian' is not read");
+    expectRefused("f.ply", "ply\nformat binary_big_endian 1.0\nend_header\n",
+                  "binary_big_endian' is not read");
     expectRefused("g.ply", "PLY\n", "not a PLY file");
-    expectRefused("h.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header");
+    expectRefused("h.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n",
+                  "no end_header");
     expectRefused("i.ply",
-                  "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float "
+                  "x\nproperty float y\n"
                   "property float z\nend_header\n1234",
                   "the file ends inside element 'vertex'");
-    expectRefused("j.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n",
+    expectRefused("j.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n",
                   "the vertex element has no x, y, z");
     expectRefused("k.stl", "solid\n", "unknown mesh format '.stl'");
     EXPECT_THROW(readMesh("/nonexistent/m.obj"), InputError);

@@ -40,7 +40,8 @@ TEST(Blend, IsCommutative)
 {
     std::mt19937 rng(4);
     BlobTree tree;
-    std::vector<int> kids = {tree.sphere({0, 0, 0}, 0.7), tree.cone({0.2, 0, 0}, {1, 1, 0}, 0.3, 0.1),
+    std::vector<int> kids = {tree.sphere({0, 0, 0}, 0.7),
+                             tree.cone({0.2, 0, 0}, {1, 1, 0}, 0.3, 0.1),
                              tree.segment({0, -1, 0}, {0, 0, 1}, 0.25),
                              tree.sphere({0.4, 0.2, 0}, 0.3, {-0.6, std::nullopt})};
     const int first = tree.op({NodeType::BLEND}, kids);
@@ -172,10 +173,12 @@ TEST(Pcm, DeformedFieldsMeetOnTheContactSurfaceAndDoNotInterpenetrate)
         EXPECT_FALSE(deformedA(p) > kT + 1e-12 && deformedB(p) > kT + 1e-12);
         // Walk along x to the contact surface f_a = f_b inside both objects.
         if (fa(p) > kT && fb(p) > kT) {
-            const double x = bisect([&](double t) {
-                const glm::dvec3 q(t, p.y, p.z);
-                return fa(q) - fb(q);
-            }, -1.0, 1.0);
+            const double x = bisect(
+                [&](double t) {
+                    const glm::dvec3 q(t, p.y, p.z);
+                    return fa(q) - fb(q);
+                },
+                -1.0, 1.0);
             const glm::dvec3 c(x, p.y, p.z);
             if (fa(c) > kT && fb(c) > kT) {
                 EXPECT_NEAR(deformedA(c), kT, 1e-9);
@@ -237,7 +240,8 @@ TEST(Pcm, FieldAndGradientAreContinuousAcrossTheRegionBorders)
             EXPECT_LT(glm::length(lo.gradient - hi.gradient), 1e-3) << "level " << level;
             // And the analytic gradient matches finite differences across the border.
             auto f = [&](const glm::dvec3& p) { return eval.value(p); };
-            EXPECT_EQ(checkGradient(f, c, eval.sample(c).gradient, 1e-5, 1e-4), GradientCheck::Agrees);
+            EXPECT_EQ(checkGradient(f, c, eval.sample(c).gradient, 1e-5, 1e-4),
+                      GradientCheck::Agrees);
             ++crossings;
         }
     }
@@ -248,7 +252,8 @@ TEST(Pcm, ThreeChildrenFollowEquation3)
 {
     std::mt19937 rng(8);
     BlobTree tree;
-    std::vector<int> kids = {tree.sphere({0, 0, 0}, 0.8), tree.cone({0.5, 0, 0}, {1.5, 0.5, 0}, 0.5, 0.3),
+    std::vector<int> kids = {tree.sphere({0, 0, 0}, 0.8),
+                             tree.cone({0.5, 0, 0}, {1.5, 0.5, 0}, 0.5, 0.3),
                              tree.segment({0, 0.6, 0.2}, {0.2, 1.4, 0}, 0.35)};
     Combiner pcm{NodeType::PCM};
     pcm.width = 0.3;
@@ -271,7 +276,8 @@ TEST(Pcm, ThreeChildrenFollowEquation3)
             if (j == strongest)
                 continue;
             const double sj = kT - f[j];
-            const double d = sj <= 0 ? sj : (sj < pcm.width ? sj * std::pow(1 - sj / pcm.width, 3.0) : 0.0);
+            const double d =
+                sj <= 0 ? sj : (sj < pcm.width ? sj * std::pow(1 - sj / pcm.width, 3.0) : 0.0);
             F += d;
         }
         EXPECT_NEAR(eval.value(p), F, 1e-12);
@@ -347,7 +353,8 @@ TEST(BetterBlend, RemapIsC1AndKeepsTheThreshold)
     for (double t = -0.95; t < 1.0; t += 0.01) {
         double d1, d2;
         const double e = 1e-7;
-        const double v1 = cb_better_blend_g(t - e, c, k, &d1), v2 = cb_better_blend_g(t + e, c, k, &d2);
+        const double v1 = cb_better_blend_g(t - e, c, k, &d1),
+                     v2 = cb_better_blend_g(t + e, c, k, &d2);
         EXPECT_NEAR(v1, v2, 12 * e);  // |g'| <= 2c / (c - k) = 5
         EXPECT_NEAR(d1, d2, 1e-5) << t;
         EXPECT_NEAR(cb_better_blend_g(t, c, k, &d), -cb_better_blend_g(-t, c, k, &d1), 1e-15);

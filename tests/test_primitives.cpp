@@ -107,7 +107,9 @@ TEST(Segment, IsACapsule)
     EXPECT_GT(checked, 1900);
     for (double z : {-0.3, 0.0, 1.7, 3.0, 3.2}) {
         const glm::dvec3 c(0, 0, std::clamp(z, 0.0, 3.0));
-        const glm::dvec3 dir = z < 0 ? glm::dvec3(0, 0, -1) : z > 3 ? glm::dvec3(0, 0, 1) : glm::dvec3(0.6, 0.8, 0);
+        const glm::dvec3 dir = z < 0   ? glm::dvec3(0, 0, -1)
+                               : z > 3 ? glm::dvec3(0, 0, 1)
+                                       : glm::dvec3(0.6, 0.8, 0);
         EXPECT_NEAR(eval.value(c + 0.4 * dir), 0.5, 1e-12) << z;
     }
 }
@@ -156,22 +158,22 @@ TEST(ConvolutionSegment, ClosedFormMatchesNumericalIntegration)
     for (double s : {0.5, 4.0, 12.0}) {
         for (auto [q0, q1] : {std::pair{1.0, 1.0}, {2.5, 0.4}, {0.2, 3.0}}) {
             std::vector<glm::dvec3> points = {
-                a + 0.5 * (b - a),                  // on the skeleton
-                a + 0.3 * (b - a) + 0.05 * side,    // near
-                a + 0.7 * (b - a) + 0.6 * side,     // beside
-                a - 0.2 * u + 0.1 * side,           // beyond the start
-                b + 0.4 * u,                        // beyond the end, on the axis
-                b + 1.5 * u - 0.9 * side,           // far beyond the end
-                a + 0.5 * (b - a) + 3.0 * side,     // far to the side
+                a + 0.5 * (b - a),                // on the skeleton
+                a + 0.3 * (b - a) + 0.05 * side,  // near
+                a + 0.7 * (b - a) + 0.6 * side,   // beside
+                a - 0.2 * u + 0.1 * side,         // beyond the start
+                b + 0.4 * u,                      // beyond the end, on the axis
+                b + 1.5 * u - 0.9 * side,         // far beyond the end
+                a + 0.5 * (b - a) + 3.0 * side,   // far to the side
             };
             for (const auto& p : points) {
                 cb_vec3 g;
-                const double closed =
-                    cb_convolution_raw(cb_v3(p.x, p.y, p.z), cb_v3(a.x, a.y, a.z), cb_v3(u.x, u.y, u.z),
-                                       len, q0, q1, s, &g);
+                const double closed = cb_convolution_raw(cb_v3(p.x, p.y, p.z), cb_v3(a.x, a.y, a.z),
+                                                         cb_v3(u.x, u.y, u.z), len, q0, q1, s, &g);
                 const double numeric = convolutionNumeric(p, a, b, q0, q1, s, 40000);
                 EXPECT_NEAR(closed, numeric, 1e-4 * std::abs(numeric))
-                    << "s " << s << " q " << q0 << "," << q1 << " p " << p.x << "," << p.y << "," << p.z;
+                    << "s " << s << " q " << q0 << "," << q1 << " p " << p.x << "," << p.y << ","
+                    << p.z;
             }
         }
     }
@@ -196,8 +198,10 @@ TEST(ConvolutionSegment, DensityRuleGivesTheRadiusAlongALongSegment)
     const double rMid = surfaceDistance(eval, 0.5, {0, 0, 0}, {0, 0, 1}, 0.9);
     // The radius where the density is halfway between the end densities.
     const double s = 1.0 / 0.3;
-    const double qMid = 0.5 * (cb_convolution_density(0.3, s, 0.5) + cb_convolution_density(0.1, s, 0.5));
-    const double rExpected = bisect([&](double r) { return cb_convolution_density(r, s, 0.5) - qMid; }, 0.0, 1.0);
+    const double qMid =
+        0.5 * (cb_convolution_density(0.3, s, 0.5) + cb_convolution_density(0.1, s, 0.5));
+    const double rExpected =
+        bisect([&](double r) { return cb_convolution_density(r, s, 0.5) - qMid; }, 0.0, 1.0);
     EXPECT_NEAR(rMid, rExpected, 2e-3 * rExpected);
 }
 
@@ -213,8 +217,8 @@ TEST(ConvolutionSegment, WindowEndsTheFieldAtTheSupport)
     cb_vec3 g;
     const Primitive& p = tree.node(tree.root()).prim();
     EXPECT_DOUBLE_EQ(eval.value({0.3, 0.5, 0}),
-                     cb_convolution_raw(cb_v3(0.3, 0.5, 0), cb_v3(0, 0, 0), cb_v3(0, 1, 0), 1.0, p.q0,
-                                        p.q1, p.kernelWidth, &g));
+                     cb_convolution_raw(cb_v3(0.3, 0.5, 0), cb_v3(0, 0, 0), cb_v3(0, 1, 0), 1.0,
+                                        p.q0, p.q1, p.kernelWidth, &g));
 }
 
 TEST(Colour, IsTheFieldWeightedMixOfThePrimitives)

@@ -21,7 +21,8 @@ using namespace cambium::test;
 void expectSameSample(const FieldSample& a, const FieldSample& b, double tol, const char* what)
 {
     EXPECT_NEAR(a.value, b.value, tol) << what;
-    EXPECT_LT(glm::length(a.gradient - b.gradient), tol * std::max(1.0, glm::length(b.gradient))) << what;
+    EXPECT_LT(glm::length(a.gradient - b.gradient), tol * std::max(1.0, glm::length(b.gradient)))
+        << what;
     EXPECT_LT(glm::length(a.color - b.color), 1e-9) << what;
 }
 
@@ -108,7 +109,8 @@ TEST(FieldProgram, ALeafNearOneTwigEvaluatesOnlyThatTwig)
     const FieldProgram prog = FieldProgram::compile(tree);
     EXPECT_EQ(prog.primitiveCount(), 200u);
     std::vector<Instr> spec;
-    const Interval iv = prog.specialize(prog.code(), Box({1.45, 0.4, 0.95}, {1.55, 0.5, 1.05}), &spec);
+    const Interval iv =
+        prog.specialize(prog.code(), Box({1.45, 0.4, 0.95}, {1.55, 0.5, 1.05}), &spec);
     ASSERT_EQ(spec.size(), 1u);
     EXPECT_EQ(spec[0].op, CB_CONE);
     EXPECT_TRUE(iv.contains(0.5));

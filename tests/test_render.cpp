@@ -37,11 +37,12 @@ double raySphere(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& c, 
 /// A small L-system tree: ABOP's sympodial tree (figure 2.7) after 5 steps, thicker.
 BlobTree smallLSystemTree()
 {
-    const LSystem sys = parseLSystem("#define r1 0.9\n#define r2 0.7\n#define wr 0.8\n"
-                                     "Axiom: A(1,0.6)\n"
-                                     "A(l,w) --> !(w)F(l)[&(5)B(l*r1,w*wr)]/(180)[&(65)B(l*r2,w*wr)]\n"
-                                     "B(l,w) --> !(w)F(l)[+(5)$B(l*r1,w*wr)][-(65)$B(l*r2,w*wr)]\n",
-                                     "sympodial.l");
+    const LSystem sys = parseLSystem(
+        "#define r1 0.9\n#define r2 0.7\n#define wr 0.8\n"
+        "Axiom: A(1,0.6)\n"
+        "A(l,w) --> !(w)F(l)[&(5)B(l*r1,w*wr)]/(180)[&(65)B(l*r2,w*wr)]\n"
+        "B(l,w) --> !(w)F(l)[+(5)$B(l*r1,w*wr)][-(65)$B(l*r2,w*wr)]\n",
+        "sympodial.l");
     return skeletonToBlend(interpretTurtle(sys, derive(sys, 5, 1, 100000)));
 }
 
@@ -78,16 +79,16 @@ BlobTree threeConeTree(bool coloured)
     return tree;
 }
 
-using Renderer = std::function<RenderImage(const openvdb::FloatGrid&, const openvdb::Vec3fGrid*, const Camera&,
-                                           int, int, int)>;
+using Renderer = std::function<RenderImage(const openvdb::FloatGrid&, const openvdb::Vec3fGrid*,
+                                           const Camera&, int, int, int)>;
 
 /// Both marches hit an analytic sphere level set where the ray does.
 void expectHitsAnAnalyticSphere(const Renderer& render, const char* what)
 {
     const double r = 0.8, h = 0.02;
     const glm::dvec3 c(0.1, -0.05, 0.2);
-    auto grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(float(r), openvdb::Vec3f(float(c.x), float(c.y), float(c.z)),
-                                                                        float(h), 3.0f);
+    auto grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+        float(r), openvdb::Vec3f(float(c.x), float(c.y), float(c.z)), float(h), 3.0f);
     Camera cam;
     cam.eye = c + glm::dvec3(0.7, 0.9, 3.2);
     cam.target = c;
@@ -118,11 +119,15 @@ void expectHitsAnAnalyticSphere(const Renderer& render, const char* what)
             ++checked;
             worst = std::max(worst, std::abs(double(img.depth[i]) - t) / h);
             const glm::dvec3 p = o + t * d, n = glm::normalize(p - c);
-            ASSERT_GT(n.x * img.normal[3 * i] + n.y * img.normal[3 * i + 1] + n.z * img.normal[3 * i + 2], 0.99);
+            ASSERT_GT(
+                n.x * img.normal[3 * i] + n.y * img.normal[3 * i + 1] + n.z * img.normal[3 * i + 2],
+                0.99);
         }
     EXPECT_GT(checked, 1000u);
-    std::printf("analytic sphere, %s: largest |t - exact| %.4f voxel over %zu pixels\n", what, worst, checked);
-    EXPECT_LT(worst, 0.1) << what << ": largest |t - exact| in voxels over " << checked << " pixels";
+    std::printf("analytic sphere, %s: largest |t - exact| %.4f voxel over %zu pixels\n", what,
+                worst, checked);
+    EXPECT_LT(worst, 0.1) << what << ": largest |t - exact| in voxels over " << checked
+                          << " pixels";
     EXPECT_GT(hits, checked);
 }
 
@@ -142,7 +147,8 @@ struct TraceComparison {
     double worstT = 0.0, worstNormal = 0.0, worstAlbedo = 0.0;  // voxels, 1 - cos, max channel
 };
 
-TraceComparison compareTraces(const std::vector<TraceHit>& a, const std::vector<TraceHit>& b, double h)
+TraceComparison compareTraces(const std::vector<TraceHit>& a, const std::vector<TraceHit>& b,
+                              double h)
 {
     TraceComparison c;
     for (size_t i = 0; i < a.size(); ++i) {
@@ -158,7 +164,8 @@ TraceComparison compareTraces(const std::vector<TraceHit>& a, const std::vector<
         c.worstT = std::max(c.worstT, e);
         c.worstNormal = std::max(c.worstNormal, 1.0 - double(glm::dot(a[i].normal, b[i].normal)));
         for (int k = 0; k < 3; ++k)
-            c.worstAlbedo = std::max(c.worstAlbedo, double(std::abs(a[i].albedo[k] - b[i].albedo[k])));
+            c.worstAlbedo =
+                std::max(c.worstAlbedo, double(std::abs(a[i].albedo[k] - b[i].albedo[k])));
     }
     return c;
 }
@@ -218,10 +225,12 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
         int added = 0;
         for (int i = 0; i < 100000 && added < 500; ++i) {
             const glm::dvec3 p = inBox();
-            const openvdb::Coord ijk = g.surface->transform().worldToIndexCellCentered(openvdb::Vec3d(p.x, p.y, p.z));
+            const openvdb::Coord ijk =
+                g.surface->transform().worldToIndexCellCentered(openvdb::Vec3d(p.x, p.y, p.z));
             const float v = acc.getValue(ijk);
             if (v > 0.5 * h && v < 2.0 * h) {
-                const glm::dvec3 d = glm::normalize(glm::normalize(mid - p) + 0.3 * test::randomUnit(rng));
+                const glm::dvec3 d =
+                    glm::normalize(glm::normalize(mid - p) + 0.3 * test::randomUnit(rng));
                 rays.push_back({p, d});
                 ++added;
             }
@@ -233,9 +242,12 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
     cpu.tracer()(rays, a);
     cl.trace(rays, b);
     const TraceComparison c = compareTraces(a, b, h);
-    std::printf("%s: %zu rays, %zu hit by both, masks differ on %zu, %zu beyond 0.1 voxel (worst %.3f voxel), "
-                "worst normal 1-cos %.2g, worst albedo %.3g\n",
-                what, rays.size(), c.both, c.maskDiffers, c.beyondTenth, c.worstT, c.worstNormal, c.worstAlbedo);
+    std::printf(
+        "%s: %zu rays, %zu hit by both, masks differ on %zu, %zu beyond 0.1 voxel (worst %.3f "
+        "voxel), "
+        "worst normal 1-cos %.2g, worst albedo %.3g\n",
+        what, rays.size(), c.both, c.maskDiffers, c.beyondTenth, c.worstT, c.worstNormal,
+        c.worstAlbedo);
     EXPECT_GT(c.both, 2000u) << what;
     EXPECT_EQ(c.maskDiffers, 0u) << what;
     // OpenVDB's intersector ends with one secant step between two samples of
@@ -260,8 +272,10 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
             worstCpu = std::max(worstCpu, std::abs(a[i].t - t) / h);
             worstCl = std::max(worstCl, std::abs(b[i].t - t) / h);
         }
-        std::printf("%s: largest |t - exact| over %zu rays: cpu intersector %.3f voxel, OpenCL march %.3f voxel\n", what,
-                    checked, worstCpu, worstCl);
+        std::printf(
+            "%s: largest |t - exact| over %zu rays: cpu intersector %.3f voxel, OpenCL march %.3f "
+            "voxel\n",
+            what, checked, worstCpu, worstCl);
         EXPECT_GT(checked, 5000u) << what;
         EXPECT_LT(worstCl, 0.1) << what;
     }
@@ -303,8 +317,11 @@ void expectMarchAgreesWithEmbree(const BlobTree& tree, double h, const char* wha
         close += e < 0.5;
         worst = std::max(worst, e);
     }
-    std::printf("%s: %zu pixels hit by both, %.3f %% within 0.5 voxel (worst %.2f), masks differ on %.3f %%\n", what,
-                both, 100.0 * double(close) / double(both), worst, 100.0 * double(differ) / double(W * H));
+    std::printf(
+        "%s: %zu pixels hit by both, %.3f %% within 0.5 voxel (worst %.2f), masks differ on %.3f "
+        "%%\n",
+        what, both, 100.0 * double(close) / double(both), worst,
+        100.0 * double(differ) / double(W * H));
     EXPECT_GT(both, 1000u) << what;
     EXPECT_GE(double(close), 0.99 * double(both)) << what;
     EXPECT_LT(double(differ), 0.005 * double(W * H)) << what;
@@ -322,12 +339,14 @@ TEST(Render, AMeshFileRendersAsTheMeshItWasWrittenFrom)
 {
     const BakedGrids g = test::bakeTree(capsuleScene(), 0.02);
     const TriangleMesh mesh = meshLevelSet(*g.surface);
-    const auto path = std::filesystem::temp_directory_path() / ("cambium_render_mesh_" + std::to_string(::getpid()) + ".ply");
+    const auto path = std::filesystem::temp_directory_path() /
+                      ("cambium_render_mesh_" + std::to_string(::getpid()) + ".ply");
     writeMesh(mesh, path.string());
     const TriangleMesh back = readMesh(path.string());
     std::filesystem::remove(path);
     const Camera cam = framingCamera(meshBounds(mesh), 1.0);
-    const RenderImage a = renderMeshEmbree(mesh, cam, 64, 64, 1), b = renderMeshEmbree(back, cam, 64, 64, 1);
+    const RenderImage a = renderMeshEmbree(mesh, cam, 64, 64, 1),
+                      b = renderMeshEmbree(back, cam, 64, 64, 1);
     size_t hits = 0;
     for (size_t i = 0; i < a.depth.size(); ++i) {
         ASSERT_EQ(a.depth[i], b.depth[i]) << "pixel " << i;
@@ -344,16 +363,19 @@ TEST(Render, TheDefaultCameraFramesTheBounds)
         for (double turn : {0.0, 90.0, 200.0}) {
             const int H = 100, W = int(std::round(H * aspect));
             const Camera cam = parseCamera(fmt::format("turntable:{}", turn), b, double(W) / H);
-            const glm::dvec3 w = glm::normalize(cam.target - cam.eye), u = glm::normalize(glm::cross(w, cam.up)),
-                             v = glm::cross(u, w);
+            const glm::dvec3 w = glm::normalize(cam.target - cam.eye),
+                             u = glm::normalize(glm::cross(w, cam.up)), v = glm::cross(u, w);
             const double t = std::tan(glm::radians(0.5 * cam.fovY));
             for (int k = 0; k < 8; ++k) {
-                const glm::dvec3 p(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z);
+                const glm::dvec3 p(k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y,
+                                   k & 4 ? b.hi.z : b.lo.z);
                 const glm::dvec3 e = p - cam.eye;
                 const double z = glm::dot(e, w);
                 ASSERT_GT(z, 0.0);
-                EXPECT_LE(std::abs(glm::dot(e, u) / z), t * W / H) << "aspect " << aspect << " turn " << turn;
-                EXPECT_LE(std::abs(glm::dot(e, v) / z), t) << "aspect " << aspect << " turn " << turn;
+                EXPECT_LE(std::abs(glm::dot(e, u) / z), t * W / H)
+                    << "aspect " << aspect << " turn " << turn;
+                EXPECT_LE(std::abs(glm::dot(e, v) / z), t)
+                    << "aspect " << aspect << " turn " << turn;
             }
         }
     EXPECT_THROW(parseCamera("orbit", b, 1.0), InputError);
@@ -372,8 +394,8 @@ TEST(Render, ALookCameraIsWhereItIsToldAndTheTargetIsInTheMiddle)
     cameraRay(cam, 300, 200, 150.0, 100.0, o, d);
     EXPECT_NEAR(glm::length(glm::cross(d, glm::normalize(cam.target - cam.eye))), 0.0, 1e-12);
     EXPECT_EQ(parseCamera("look:1,2,3:0,0,0", b, 1.0).fovY, 35.0);
-    for (const char* bad : {"look:1,2,3", "look:1,2,3:1,2,3", "look:0,5,0:0,0,0", "look:1,2,3:0,0,0:200",
-                            "look:1,2,x:0,0,0", "look:1,2,3:0,0,0:20:1"})
+    for (const char* bad : {"look:1,2,3", "look:1,2,3:1,2,3", "look:0,5,0:0,0,0",
+                            "look:1,2,3:0,0,0:200", "look:1,2,x:0,0,0", "look:1,2,3:0,0,0:20:1"})
         EXPECT_THROW(parseCamera(bad, b, 1.0), InputError) << bad;
 }
 
@@ -384,8 +406,10 @@ TEST(Render, ImagesReadBackWithTheirChannels)
     tree.finalize();
     const BakedGrids g = test::bakeTree(tree, 0.03);
     const Box bounds = activeWorldBounds(*g.surface);
-    const RenderImage img = renderLevelSetCpu(*g.surface, g.color.get(), framingCamera(bounds, 1.5), 60, 40, 2);
-    const auto dir = std::filesystem::temp_directory_path() / ("cambium_render_" + std::to_string(::getpid()));
+    const RenderImage img =
+        renderLevelSetCpu(*g.surface, g.color.get(), framingCamera(bounds, 1.5), 60, 40, 2);
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cambium_render_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string png = (dir / "s.png").string(), exr = (dir / "s.exr").string();
     writeImage(img, png);

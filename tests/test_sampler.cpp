@@ -154,7 +154,8 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
     std::vector<LeafJob> jobs;
     for (int i = 0; i < 27; ++i) {
         const int o[3] = {-12 + 8 * (i % 3), -12 + 8 * ((i / 3) % 3), -12 + 8 * (i / 9)};
-        const Box box(glm::dvec3(o[0], o[1], o[2]) * h, glm::dvec3(o[0] + 7, o[1] + 7, o[2] + 7) * h);
+        const Box box(glm::dvec3(o[0], o[1], o[2]) * h,
+                      glm::dvec3(o[0] + 7, o[1] + 7, o[2] + 7) * h);
         LeafJob job{{o[0], o[1], o[2]}, int32_t(pool.size()), 0};
         prog.specialize(prog.code(), box.padded(1e-6), &pool);
         job.codeLength = int32_t(pool.size()) - job.codeOffset;
@@ -201,7 +202,8 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
         for (int k = 0; k < 3; ++k) {
             const float ga = halfToFloat(sa[q].gradient[k]), gb = halfToFloat(sb[q].gradient[k]);
             ASSERT_NEAR(ga, gb, 2e-3 * std::max(1.0f, std::abs(ga))) << "query " << q;
-            ASSERT_NEAR(ga, r.gradient[k], 1e-3 * std::max(1.0, std::abs(r.gradient[k]))) << "query " << q;
+            ASSERT_NEAR(ga, r.gradient[k], 1e-3 * std::max(1.0, std::abs(r.gradient[k])))
+                << "query " << q;
             ASSERT_LE(std::abs(int(sa[q].color[k]) - int(sb[q].color[k])), 1) << "query " << q;
         }
     }

@@ -68,18 +68,22 @@ TEST_P(MalformedScene, GetsAMessageWithThePathAndTheProblem)
     EXPECT_NE(message.find(GetParam().expected), std::string::npos) << message;
 }
 
-#define CONE(extra) R"({"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": 0.3, "r1": 0.1)" extra "}"
+#define CONE(extra) \
+    R"({"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": 0.3, "r1": 0.1)" extra "}"
 
 INSTANTIATE_TEST_SUITE_P(
     Cases, MalformedScene,
     ::testing::Values(
-        BadCase{R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
+        BadCase{
+            R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 1},
                  {"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r0": -0.3, "r1": 0.1}]}})",
-                "root.children[1].r0: must be greater than 0 (got -0.3)"},
-        BadCase{R"({"root": {"type": "blend", "children": [{"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r1": 0.1}]}})",
-                "root.children[0].r0: missing"},
-        BadCase{R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 0}]}})",
-                "root.children[0].radius: must be greater than 0 (got 0)"},
+            "root.children[1].r0: must be greater than 0 (got -0.3)"},
+        BadCase{
+            R"({"root": {"type": "blend", "children": [{"type": "cone", "p0": [0,0,0], "p1": [0,2,0], "r1": 0.1}]}})",
+            "root.children[0].r0: missing"},
+        BadCase{
+            R"({"root": {"type": "blend", "children": [{"type": "sphere", "center": [0,0,0], "radius": 0}]}})",
+            "root.children[0].radius: must be greater than 0 (got 0)"},
         BadCase{R"({"root": {"type": "blnd", "children": []}})",
                 "root.type: unknown node type 'blnd' (did you mean 'blend'?)"},
         BadCase{R"({"root": {"type": "sphere", "center": [0, NaN, 0], "radius": 1}})",
@@ -94,19 +98,23 @@ INSTANTIATE_TEST_SUITE_P(
                 "root.radus: unknown field (did you mean 'radius'?)"},
         BadCase{R"({"root": {"type": "sphere", "center": [0, 0, 0], "radius": 1, "weight": 0}})",
                 "root.weight: must not be 0"},
-        BadCase{R"({"threshold": 1.5, "root": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})",
-                "threshold: must be between 0 and 1"},
+        BadCase{
+            R"({"threshold": 1.5, "root": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})",
+            "threshold: must be between 0 and 1"},
         BadCase{R"({"root": {"type": "blend", "children": []}})", "root.children: is empty"},
         BadCase{R"({"root": {"type": "union"}})", "root.children: missing"},
-        BadCase{R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [1,0,0], "angle": 20,
+        BadCase{
+            R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [1,0,0], "angle": 20,
                  "children": [)" CONE("") "," CONE("") "]}}",
-                "root.children: a 'bend' warps exactly one child (got 2)"},
-        BadCase{R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [0,2,0], "angle": 20,
+            "root.children: a 'bend' warps exactly one child (got 2)"},
+        BadCase{
+            R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [0,2,0], "angle": 20,
                  "children": [)" CONE("") "]}}",
-                "root.direction: must not be zero or parallel"},
-        BadCase{R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [1,0,0], "angle": 200,
+            "root.direction: must not be zero or parallel"},
+        BadCase{
+            R"({"root": {"type": "bend", "p0": [0,0,0], "p1": [0,1,0], "direction": [1,0,0], "angle": 200,
                  "children": [)" CONE("") "]}}",
-                "root.angle: must be less than 180 degrees"},
+            "root.angle: must be less than 180 degrees"},
         BadCase{R"({"root": {"type": "pcm", "width": 0.8, "children": [)" CONE("") "]}}",
                 "root.width: must not exceed the threshold 0.5"},
         BadCase{R"({"root": {"type": "pcm", "attenuation": 1, "children": [)" CONE("") "]}}",
@@ -116,27 +124,36 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{R"({"root": {"type": "better_blend", "k": 0.6, "children": [)" CONE("") "]}}",
                 "root.k: must be in [0, 0.5)"},
         BadCase{R"({"root": {"type": "gbb", "children": [)" CONE("") "]}}", "root.bound: missing"},
-        BadCase{R"({"root": {"type": "gbb", "bound": )" CONE("") R"(, "b1": {"type": "cone"}, "children": [)" CONE("") "]}}",
+        BadCase{R"({"root": {"type": "gbb", "bound": )" CONE(
+                    "") R"(, "b1": {"type": "cone"}, "children": [)" CONE("") "]}}",
                 "root.b1.type: 'cone' cannot blend"},
-        BadCase{R"({"root": {"type": "gbb", "bound": )" CONE("") R"(, "b1": {"type": "pcm", "width": -1}, "children": [)" CONE("") "]}}",
+        BadCase{R"({"root": {"type": "gbb", "bound": )" CONE(
+                    "") R"(, "b1": {"type": "pcm", "width": -1}, "children": [)" CONE("") "]}}",
                 "root.b1.width: must be greater than 0"},
         BadCase{R"({"root": {"type": "transform", "scale": 0, "children": [)" CONE("") "]}}",
                 "root.scale: must not be 0"},
-        BadCase{R"({"root": {"type": "transform", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,0,0],[0,0,0,1]], "children": [)" CONE("") "]}}",
-                "root.matrix: is singular"},
-        BadCase{R"({"root": {"type": "convolution_segment", "p0": [0,0,0], "p1": [0,0,0], "r0": 0.1, "r1": 0.1}})",
-                "root.p1: is equal to p0"},
-        BadCase{R"({"root": {"type": "convolution_segment", "p0": [0,0,0], "p1": [0,1,0], "r0": 0.1, "r1": 0.1, "support": 0.15}})",
-                "root.support: must be at least twice the largest radius"},
-        BadCase{R"({"root": {"type": "taper", "origin": [0,0,0], "axis": [0,1,0], "length": 1, "scale0": 1, "scale1": -2,
+        BadCase{
+            R"({"root": {"type": "transform", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,0,0],[0,0,0,1]], "children": [)" CONE(
+                "") "]}}",
+            "root.matrix: is singular"},
+        BadCase{
+            R"({"root": {"type": "convolution_segment", "p0": [0,0,0], "p1": [0,0,0], "r0": 0.1, "r1": 0.1}})",
+            "root.p1: is equal to p0"},
+        BadCase{
+            R"({"root": {"type": "convolution_segment", "p0": [0,0,0], "p1": [0,1,0], "r0": 0.1, "r1": 0.1, "support": 0.15}})",
+            "root.support: must be at least twice the largest radius"},
+        BadCase{
+            R"({"root": {"type": "taper", "origin": [0,0,0], "axis": [0,1,0], "length": 1, "scale0": 1, "scale1": -2,
                  "children": [)" CONE("") "]}}",
-                "root.scale1: must be greater than 0"},
-        BadCase{R"({"root": {"type": "blend", "children": [{"type": "blend", "children": [)" CONE(R"(, "color": [2, 0, 0])") "]}]}}",
+            "root.scale1: must be greater than 0"},
+        BadCase{R"({"root": {"type": "blend", "children": [{"type": "blend", "children": [)" CONE(
+                    R"(, "color": [2, 0, 0])") "]}]}}",
                 "root.children[0].children[0].color: must be three numbers in [0, 1]"},
         BadCase{R"([1, 2, 3])", "(top level): must be an object"},
         BadCase{R"({"root": 5})", "root: must be an object with a \"type\""},
         BadCase{R"({"threshold": 0.5})", "root: missing"},
-        BadCase{R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1})", "JSON syntax error"}));
+        BadCase{R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1})",
+                "JSON syntax error"}));
 
 TEST(SceneIo, OperatorDefaultsFitALowThreshold)
 {
@@ -154,7 +171,8 @@ TEST(SceneIo, MissingFileIsNamed)
         loadScene("/nonexistent/scene.json");
         FAIL();
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.json: cannot read"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.json: cannot read"),
+                  std::string::npos);
     }
 }
 

@@ -39,7 +39,8 @@ struct TempDir {
     std::string operator/(const std::string& name) const { return (path / name).string(); }
 };
 
-SequenceRequest sequence(const std::string& out, const std::string& frames, double fps, double h = 0.04)
+SequenceRequest sequence(const std::string& out, const std::string& frames, double fps,
+                         double h = 0.04)
 {
     openvdb::initialize();
     SequenceRequest r;
@@ -103,20 +104,23 @@ TEST(Sequence, FilesAreNamedPaddedAndConsistent)
     for (const auto& e : fs::directory_iterator(dir.path))
         names.push_back(e.path().filename().string());
     std::sort(names.begin(), names.end());
-    EXPECT_EQ(names, (std::vector<std::string>{"tree.0008.vdb", "tree.0010.vdb", "tree.0012.vdb"}));  // no temporaries
+    EXPECT_EQ(names, (std::vector<std::string>{"tree.0008.vdb", "tree.0010.vdb",
+                                               "tree.0012.vdb"}));  // no temporaries
     for (const FrameReport& f : r.frames) {
         EXPECT_EQ(f.outcome, FrameReport::Outcome::Baked);
         const openvdb::GridPtrVecPtr grids = readGrids(f.path);
         std::vector<std::string> gridNames;
         for (const auto& g : *grids) {
             gridNames.push_back(g->getName());
-            EXPECT_TRUE(g->transform() == *openvdb::math::Transform::createLinearTransform(0.04)) << f.path;
+            EXPECT_TRUE(g->transform() == *openvdb::math::Transform::createLinearTransform(0.04))
+                << f.path;
             EXPECT_EQ(g->metaValue<int64_t>("cambium_frame"), f.frame);
             EXPECT_DOUBLE_EQ(g->metaValue<double>("cambium_time"), double(f.frame));
         }
         std::sort(gridNames.begin(), gridNames.end());
         EXPECT_EQ(gridNames, (std::vector<std::string>{"Cd", "surface"}));
-        EXPECT_EQ(readSequenceKey(f.path), sequenceKey(sequence("", "", 1.0), readTextFile(kPopulus, "t"), 0.04));
+        EXPECT_EQ(readSequenceKey(f.path),
+                  sequenceKey(sequence("", "", 1.0), readTextFile(kPopulus, "t"), 0.04));
     }
     // The tree grows: more voxels every frame.
     EXPECT_LT(r.frames[0].stats.activeVoxels, r.frames[1].stats.activeVoxels);
@@ -135,13 +139,16 @@ TEST(Sequence, ResumeKeepsFinishedFramesAndRefusesOthers)
     const SequenceReport r = bakeSequence(again);
     ASSERT_EQ(r.frames.size(), 4u);
     for (const FrameReport& f : r.frames)
-        EXPECT_EQ(f.outcome, f.frame == 6 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped) << f.frame;
+        EXPECT_EQ(f.outcome,
+                  f.frame == 6 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped)
+            << f.frame;
     EXPECT_EQ(fs::last_write_time(dir / "p.05.vdb"), stamp);
     EXPECT_TRUE(fs::exists(dir / "p.06.vdb"));
     // Files from another bake (here another voxel size) are not taken for finished.
     SequenceRequest other = sequence(pattern, "4-7", 1.0, 0.05);
     other.resume = true;
-    expectInputError([&] { bakeSequence(other); }, "p.04.vdb exists from another bake", "other key");
+    expectInputError([&] { bakeSequence(other); }, "p.04.vdb exists from another bake",
+                     "other key");
 }
 
 TEST(Sequence, DormantFramesReuseGridsIdenticalToAFullBake)
@@ -268,8 +275,8 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     for (size_t i = 1; i < volume.size(); ++i) {
         change.push_back(std::abs(volume[i] - volume[i - 1]));
         if (std::getenv("CAMBIUM_VERBOSE"))
-            std::fprintf(stderr, "frame %lld volume %.4f change %+.4f\n", r.frames[i].frame, volume[i],
-                         volume[i] - volume[i - 1]);
+            std::fprintf(stderr, "frame %lld volume %.4f change %+.4f\n", r.frames[i].frame,
+                         volume[i], volume[i] - volume[i - 1]);
     }
     std::vector<double> growing;
     for (double c : change)
@@ -279,7 +286,8 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     std::nth_element(growing.begin(), growing.begin() + long(growing.size() / 2), growing.end());
     const double median = growing[growing.size() / 2];
     const double largest = *std::max_element(change.begin(), change.end());
-    EXPECT_LT(largest, 4.0 * median) << "largest change " << largest << ", median " << median;  // measured 2.9
+    EXPECT_LT(largest, 4.0 * median)
+        << "largest change " << largest << ", median " << median;  // measured 2.9
     // And it grows overall.
     EXPECT_GT(volume.back(), 1.3 * volume.front());
 }
@@ -289,16 +297,20 @@ TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)
     TempDir dir;
     expectInputError([&] { bakeSequence(sequence(dir / "a.####.vdb", "1-300", 10.0)); },
                      "frame 271 is year 27.1 at 10 frames a year", "past the last year");
-    expectInputError([&] { bakeSequence(sequence(dir / "a.vdb", "1-3", 1.0)); }, "a run of '#'", "no #");
-    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "1-3", 0.0)); }, "--fps-per-year", "fps");
+    expectInputError([&] { bakeSequence(sequence(dir / "a.vdb", "1-3", 1.0)); }, "a run of '#'",
+                     "no #");
+    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "1-3", 0.0)); }, "--fps-per-year",
+                     "fps");
     SequenceRequest scene = sequence(dir / "a.#.vdb", "1-3", 1.0);
     scene.bake.input = CAMBIUM_SOURCE_DIR "/examples/lsystems/sympodial.l";
-    expectInputError([&] { bakeSequence(scene); }, "--frames needs a growth parameter file", "not growth");
+    expectInputError([&] { bakeSequence(scene); }, "--frames needs a growth parameter file",
+                     "not growth");
     SequenceRequest junctions = sequence(dir / "a.#.vdb", "1-3", 1.0);
     junctions.bake.model.junctions = ModelOptions::Junctions::Blend;
-    expectInputError([&] { bakeSequence(junctions); }, "a growth parameter file sets its own", "junctions");
-    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "20-27", 1.0, 2e-4)); }, "would need about",
-                     "a voxel size needing terabytes");
+    expectInputError([&] { bakeSequence(junctions); }, "a growth parameter file sets its own",
+                     "junctions");
+    expectInputError([&] { bakeSequence(sequence(dir / "a.#.vdb", "20-27", 1.0, 2e-4)); },
+                     "would need about", "a voxel size needing terabytes");
     EXPECT_TRUE(fs::is_empty(dir.path));
 }
 
@@ -313,7 +325,8 @@ Skeleton junction(double age)
     sk.internodes = {
         internode(0, -1, {0, 0, 0}, {0, 2, 0}, 0.3, 0.28, age),
         internode(1, 0, {0, 2, 0}, {0, 4, 0}, 0.28, 0.25, age),
-        internode(2, 0, {0, 2, 0}, glm::dvec3(0, 2, 0) + 2.0 * glm::normalize(glm::dvec3(1, 1, 0)), 0.15, 0.12, age)};
+        internode(2, 0, {0, 2, 0}, glm::dvec3(0, 2, 0) + 2.0 * glm::normalize(glm::dvec3(1, 1, 0)),
+                  0.15, 0.12, age)};
     return sk;
 }
 
@@ -323,7 +336,8 @@ double crotchSurface(const BlobTree& tree)
 {
     const ReferenceEvaluator e(tree);
     const glm::dvec3 from(0.1, 2.2, 0.0), dir = glm::normalize(glm::dvec3(0.52, 0.855, 0.0));
-    return cambium::test::bisect([&](double s) { return e.sample(from + s * dir).value - 0.5; }, 0.0, 0.8);
+    return cambium::test::bisect([&](double s) { return e.sample(from + s * dir).value - 0.5; },
+                                 0.0, 0.8);
 }
 
 size_t gbbNodes(const BlobTree& tree)
@@ -345,7 +359,8 @@ TEST(Ridges, TheCrotchMovesContinuouslyFromBlendToPcmAsTheJunctionAges)
     const BlobTree summed = buildTree(junction(0.0), o);
     EXPECT_EQ(gbbNodes(summed), 0u);
     const double ridge = crotchSurface(buildTree(junction(-1.0), pcm));  // unknown age: PCM
-    ASSERT_GT(std::abs(young - ridge), 0.01) << "the blend and PCM crotches must differ for the test to mean anything";
+    ASSERT_GT(std::abs(young - ridge), 0.01)
+        << "the blend and PCM crotches must differ for the test to mean anything";
     double last = young, largestStep = 0.0;
     for (double age = 0.25; age <= 12.0; age += 0.25) {
         const BlobTree tree = buildTree(junction(age), o);
@@ -368,7 +383,8 @@ TEST(Ridges, TheCrotchMovesContinuouslyFromBlendToPcmAsTheJunctionAges)
         const BlobTree tree = buildTree(junction(age), o);
         return ReferenceEvaluator(tree).sample(p).color;
     };
-    const glm::dvec3 crotch = glm::dvec3(0.1, 2.2, 0.0) + last * glm::normalize(glm::dvec3(0.52, 0.855, 0.0));
+    const glm::dvec3 crotch =
+        glm::dvec3(0.1, 2.2, 0.0) + last * glm::normalize(glm::dvec3(0.52, 0.855, 0.0));
     const glm::dvec3 youngColour = colourAt(0.0, crotch), oldColour = colourAt(12.0, crotch);
     EXPECT_LT(oldColour.r, 0.9 * youngColour.r);
     const glm::dvec3 far(0.3, 0.8, 0.0);  // the trunk's side, far below the junction

@@ -45,15 +45,17 @@ TEST(TreeBuilder, ShorteningTheBasalInternodeRemovesTheBulge)
     // Two collinear internodes of equal radius r meeting at y = 1 (paper 001, 3.1).
     const double r = 0.1;
     Skeleton sk;
-    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r), internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r),
+                     internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
     const auto [minWith, maxWith] = radiusRange(buildTree(sk), 0.5, 1.5);
     const auto [minWithout, maxWithout] = radiusRange(skeletonToBlend(sk), 0.5, 1.5);
-    std::printf("joint of two cones of radius %.2f: with delta_A = 1.75 r the radius stays in [%.4f, %.4f] "
-                "(%+.1f %% / %+.1f %%); without, up to %.4f (%+.1f %%)\n",
-                r, minWith, maxWith, 100.0 * (minWith / r - 1.0), 100.0 * (maxWith / r - 1.0), maxWithout,
-                100.0 * (maxWithout / r - 1.0));
-    EXPECT_LT(maxWith / r - 1.0, 0.05);   // the bulge the papers call practically unnoticeable
-    EXPECT_GT(minWith / r - 1.0, -0.05);  // and no waist in its place
+    std::printf(
+        "joint of two cones of radius %.2f: with delta_A = 1.75 r the radius stays in [%.4f, %.4f] "
+        "(%+.1f %% / %+.1f %%); without, up to %.4f (%+.1f %%)\n",
+        r, minWith, maxWith, 100.0 * (minWith / r - 1.0), 100.0 * (maxWith / r - 1.0), maxWithout,
+        100.0 * (maxWithout / r - 1.0));
+    EXPECT_LT(maxWith / r - 1.0, 0.05);     // the bulge the papers call practically unnoticeable
+    EXPECT_GT(minWith / r - 1.0, -0.05);    // and no waist in its place
     EXPECT_GT(maxWithout / r - 1.0, 0.15);  // the plain sum bulges visibly
 }
 
@@ -68,8 +70,9 @@ TEST(TreeBuilder, AChainOfShortThickInternodesStaysFlat)
     for (int i = 0; i < 8; ++i)
         sk.internodes.push_back(internode(i, i - 1, {0, len * i, 0}, {0, len * (i + 1), 0}, r, r));
     const auto [lo, hi] = radiusRange(buildTree(sk), 2 * len, 6 * len);
-    std::printf("chain of internodes two radii long: radius in [%.4f, %.4f] (%+.1f %% / %+.1f %%)\n", lo, hi,
-                100.0 * (lo / r - 1.0), 100.0 * (hi / r - 1.0));
+    std::printf(
+        "chain of internodes two radii long: radius in [%.4f, %.4f] (%+.1f %% / %+.1f %%)\n", lo,
+        hi, 100.0 * (lo / r - 1.0), 100.0 * (hi / r - 1.0));
     EXPECT_LT(hi / r - 1.0, 0.05);
     EXPECT_GT(lo / r - 1.0, -0.05);
 }
@@ -79,7 +82,8 @@ TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
     // Paper 002: connected convolution segments are a polyline: no rules needed.
     const double r = 0.1;
     Skeleton sk;
-    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r), internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, r, r),
+                     internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
     TreeBuildOptions o;
     o.primitives = TreeBuildOptions::Primitives::Convolution;
     const BlobTree t = buildTree(sk, o);
@@ -99,9 +103,11 @@ TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
         lo = std::min(lo, ra);
         hi = std::max(hi, ra);
     }
-    std::printf("joint of two convolution segments of radius %.2f: the radius stays in [%.4f, %.4f], at most %.2f %% "
-                "from one long segment's\n",
-                r, lo, hi, 100.0 * worst);
+    std::printf(
+        "joint of two convolution segments of radius %.2f: the radius stays in [%.4f, %.4f], at "
+        "most %.2f %% "
+        "from one long segment's\n",
+        r, lo, hi, 100.0 * worst);
     EXPECT_LT(worst, 0.02);
     EXPECT_LT(hi / r - 1.0, 0.01);   // no bulge
     EXPECT_GT(lo / r - 1.0, -0.02);  // a waist of under 2 %
@@ -114,7 +120,8 @@ TEST(TreeBuilder, BetterBlendingJoinsConeTrunksAndConvolutionLateralsWithLessBul
     // trunk with the lateral's far field; better blending (eq. 6) keeps it.
     const double a = 60.0 * 3.14159265358979323846 / 180.0;
     Skeleton sk;
-    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.1), internode(1, 0, {0, 1, 0}, {0, 2, 0}, 0.1, 0.1),
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.1),
+                     internode(1, 0, {0, 1, 0}, {0, 2, 0}, 0.1, 0.1),
                      internode(2, 0, {0, 1, 0}, {std::sin(a), 1 + std::cos(a), 0}, 0.07, 0.05)};
     TreeBuildOptions o;
     o.primitives = TreeBuildOptions::Primitives::Mixed;
@@ -145,8 +152,9 @@ TEST(TreeBuilder, BetterBlendingJoinsConeTrunksAndConvolutionLateralsWithLessBul
         return hi / 0.1 - 1.0;
     };
     const double b = swelling(mixed), s = swelling(summed);
-    std::printf("trunk opposite a convolution lateral: %+.1f %% with better blending, %+.1f %% summed\n", 100.0 * b,
-                100.0 * s);
+    std::printf(
+        "trunk opposite a convolution lateral: %+.1f %% with better blending, %+.1f %% summed\n",
+        100.0 * b, 100.0 * s);
     EXPECT_LT(b, s);
     EXPECT_LT(b, 0.03);
 }
@@ -155,8 +163,9 @@ TEST(TreeBuilder, JunctionRulesFollowEquationsThreeSixAndSeven)
 {
     TreeBuildOptions pcm, smooth;
     smooth.junction = TreeBuildOptions::Junction::Smooth;
-    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08}, {0.06}), 1.75 * 0.06);             // eq. 3
-    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08, 0.05}, {0.07, 0.04}), 2.75 * 0.08 - 0.1);  // eq. 7
+    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08}, {0.06}), 1.75 * 0.06);  // eq. 3
+    EXPECT_DOUBLE_EQ(basalShortening(pcm, 0.1, {0.08, 0.05}, {0.07, 0.04}),
+                     2.75 * 0.08 - 0.1);  // eq. 7
     EXPECT_DOUBLE_EQ(basalShortening(smooth, 0.1, {0.08, 0.05}, {0.07, 0.04}), 1.75 * 0.07);
     // In the PCM tree the branches start delta_Bi = r_A - r_i from the branching point (eq. 6).
     Skeleton sk;
@@ -228,13 +237,16 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
         const BlobTree t = yJunction(mode);
         const auto [yl, nl] = crotchPoint(t, -e);
         const auto [yr, nr] = crotchPoint(t, e);
-        angle[k] = std::acos(std::clamp(glm::dot(nl, nr), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
+        angle[k] =
+            std::acos(std::clamp(glm::dot(nl, nr), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
         height[k] = crotchPoint(t, 0.0).first - 1.0;
         ++k;
     }
-    std::printf("crotch between two branches: normals 2x%.2f apart turn %.1f deg with PCM, %.1f deg with summation; "
-                "the crotch is %.3f (PCM) and %.3f (summation) above the branching point\n",
-                e, angle[0], angle[1], height[0], height[1]);
+    std::printf(
+        "crotch between two branches: normals 2x%.2f apart turn %.1f deg with PCM, %.1f deg with "
+        "summation; "
+        "the crotch is %.3f (PCM) and %.3f (summation) above the branching point\n",
+        e, angle[0], angle[1], height[0], height[1]);
     // The ridge is darker than the bark (PCM's darken, paper 000 section 3.2).
     {
         const BlobTree t = yJunction(TreeBuildOptions::Junction::Pcm);
@@ -265,7 +277,8 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
         uni.setRoot(uni.op({NodeType::BLEND}, {basal, uni.op({NodeType::UNION}, branches)}));
         uni.finalize();
         const double contact = crotchPoint(uni, 0.0).first - 1.0;
-        std::printf("the union of the same cones meets at %.3f above the branching point\n", contact);
+        std::printf("the union of the same cones meets at %.3f above the branching point\n",
+                    contact);
         EXPECT_LT(std::abs(height[0] - contact), 0.25 * std::abs(height[1] - contact));
     }
 }
@@ -301,7 +314,9 @@ TEST(TreeBuilder, ASawCutIsPlanarAfterBaking)
     const double h = 0.01;
     const double cut = cutFaceDeviation("Axiom: !(0.2)F(1)%\n", 0.07, h);
     const double cap = cutFaceDeviation("Axiom: !(0.2)F(1)\n", 0.07, h);
-    std::printf("saw cut: the baked face is within %.3f voxel of its plane (the uncut cap: %.1f voxels)\n", cut, cap);
+    std::printf(
+        "saw cut: the baked face is within %.3f voxel of its plane (the uncut cap: %.1f voxels)\n",
+        cut, cap);
     EXPECT_LT(cut, 0.1);
     EXPECT_GT(cap, 1.0);
 }
@@ -318,12 +333,17 @@ TEST(TreeBuilder, RegrowthSwellsAndClosesOverASawCut)
         o.regrowth = g;
         const BlobTree t = buildTree(sk, o);
         const ReferenceEvaluator ev(t);
-        const double rise = test::surfaceDistance(ev, t.threshold(), {0, 0.9, 0}, {0, 1, 0}, 0.5) - 0.1;  // over y = 1
+        const double rise = test::surfaceDistance(ev, t.threshold(), {0, 0.9, 0}, {0, 1, 0}, 0.5) -
+                            0.1;  // over y = 1
         double swell = 0.0;
         for (double y = 0.8; y <= 1.0; y += 0.002)
-            swell = std::max(swell, test::surfaceDistance(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
-        std::printf("regrowth %.1f: the surface rises %.4f over the cut, the branch swells %+.1f %% below it\n", g,
-                    rise, 100.0 * swell);
+            swell = std::max(
+                swell,
+                test::surfaceDistance(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
+        std::printf(
+            "regrowth %.1f: the surface rises %.4f over the cut, the branch swells %+.1f %% below "
+            "it\n",
+            g, rise, 100.0 * swell);
         if (g == 0.0) {
             EXPECT_NEAR(rise, 0.0, 1e-3);  // a bare, flat cut
             EXPECT_LT(swell, 0.005);
@@ -358,7 +378,8 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
         TreeBuildOptions o;
         o.scarWeight = w;
         const BlobTree t = buildTree(sk, o);
-        const double predicted = 0.1 - test::surfaceDistance(ReferenceEvaluator(t), t.threshold(), c, u, 0.4);
+        const double predicted =
+            0.1 - test::surfaceDistance(ReferenceEvaluator(t), t.threshold(), c, u, 0.4);
         const BakedGrids g = test::bakeTree(t, h);
         const WorldSampler<openvdb::FloatGrid> at(*g.surface);
         double in = 0.0, out = 0.4;
@@ -368,8 +389,9 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
             (at(openvdb::Vec3d(p.x, p.y, p.z)) < 0.0f ? in : out) = m;
         }
         const double baked = 0.1 - in;
-        std::printf("scar with weight %.1f: %.4f deep (evaluator), %.4f (baked), %.3f voxel apart\n", w, predicted,
-                    baked, std::abs(baked - predicted) / h);
+        std::printf(
+            "scar with weight %.1f: %.4f deep (evaluator), %.4f (baked), %.3f voxel apart\n", w,
+            predicted, baked, std::abs(baked - predicted) / h);
         EXPECT_NEAR(baked, predicted, 0.1 * h) << "weight " << w;
         EXPECT_GT(predicted, previous) << "a stronger negative field presses deeper";
         previous = predicted;
@@ -398,7 +420,8 @@ TEST(TreeBuilder, BentInternodesKeepTheirEnds)
     const ReferenceEvaluator eb(bent), es(straight);
     // The lateral's end cap is where it was: the surface beyond its tip.
     const glm::dvec3 tip(0.7, 1.7, 0), out = glm::normalize(glm::dvec3(0.7, 0.7, 0));
-    const double a = test::surfaceDistance(eb, 0.5, tip, out, 0.5), b = test::surfaceDistance(es, 0.5, tip, out, 0.5);
+    const double a = test::surfaceDistance(eb, 0.5, tip, out, 0.5),
+                 b = test::surfaceDistance(es, 0.5, tip, out, 0.5);
     EXPECT_NEAR(a, b, 0.004);
     // Its middle moved off the chord, away from the trunk's axis: it first
     // grows more directly away from the trunk (towards +x, below the chord).
@@ -414,7 +437,8 @@ TEST(TreeBuilder, BentInternodesKeepTheirEnds)
         return count ? sum / count : 1e9;
     };
     const double shifted = offCentre(eb), centred = offCentre(es);
-    std::printf("bend 0.4 rad: the internode's middle is %.4f off its chord (straight: %.4f)\n", shifted, centred);
+    std::printf("bend 0.4 rad: the internode's middle is %.4f off its chord (straight: %.4f)\n",
+                shifted, centred);
     EXPECT_NEAR(centred, 0.0, 0.002);
     // The configured amount: an arc turning by theta over the chord L departs
     // from it by (L / 2) tan(theta / 4) in the middle.
@@ -429,10 +453,11 @@ TEST(TreeBuilder, DepthStaysSmallOnLargeSkeletons)
     long long id = 0;
     for (int i = 0; i < 400; ++i) {
         const long long trunk = id++;
-        sk.internodes.push_back(internode(trunk, i == 0 ? -1 : trunk - 2, {0, 0.1 * i, 0}, {0, 0.1 * (i + 1), 0},
-                                          0.03, 0.03));
+        sk.internodes.push_back(internode(trunk, i == 0 ? -1 : trunk - 2, {0, 0.1 * i, 0},
+                                          {0, 0.1 * (i + 1), 0}, 0.03, 0.03));
         sk.internodes.push_back(internode(id++, trunk, {0, 0.1 * (i + 1), 0},
-                                          {0.1 * std::cos(i), 0.1 * (i + 1.5), 0.1 * std::sin(i)}, 0.01, 0.01));
+                                          {0.1 * std::cos(i), 0.1 * (i + 1.5), 0.1 * std::sin(i)},
+                                          0.01, 0.01));
     }
     const BlobTree t = buildTree(sk);
     EXPECT_NO_THROW(FieldProgram::compile(t));  // within the kernels' stack depth
@@ -455,7 +480,9 @@ TEST(TreeBuilder, ShortInternodesLoseAtMostHalfAndDegenerateOnesAreNamed)
         buildTree(sk);
         FAIL() << "no error";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("internode 3: its two ends coincide"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("internode 3: its two ends coincide"),
+                  std::string::npos)
+            << e.what();
     }
 }
 

@@ -90,7 +90,8 @@ TEST(TreeGenerator, IsATreeWhoseChildrenStartWhereTheirParentEnds)
         ASSERT_LT(tree[i].parent, tree[i].id);
         const Line& parent = tree[size_t(tree[i].parent)];
         for (size_t k = 0; k < 3; ++k)
-            EXPECT_EQ(tree[i].text[k], parent.text[k + 3]) << "internode " << i << " coordinate " << k;
+            EXPECT_EQ(tree[i].text[k], parent.text[k + 3])
+                << "internode " << i << " coordinate " << k;
     }
 }
 
@@ -114,7 +115,10 @@ Lineage lineage(const std::vector<Line>& tree)
 }
 
 /// Laterals per node at a branch order (the defaults: two, one from order 6).
-int lateralsAt(int order) { return order < 6 ? 2 : 1; }
+int lateralsAt(int order)
+{
+    return order < 6 ? 2 : 1;
+}
 
 TEST(TreeGenerator, GrowsBreadthFirstWithTwoLateralsBelowOrderSix)
 {
@@ -123,18 +127,21 @@ TEST(TreeGenerator, GrowsBreadthFirstWithTwoLateralsBelowOrderSix)
     int families = 0;
     for (size_t i = 1; i < tree.size();) {
         const long long parent = tree[i].parent;
-        ASSERT_TRUE(i == 1 || parent > tree[i - 1].parent) << "parents out of breadth-first order at " << i;
+        ASSERT_TRUE(i == 1 || parent > tree[i - 1].parent)
+            << "parents out of breadth-first order at " << i;
         size_t end = i;
         while (end < tree.size() && tree[end].parent == parent)
             ++end;
         if (end < tree.size()) {  // only the last family may be cut short
-            EXPECT_EQ(int(end - i), 1 + lateralsAt(l.order[size_t(parent)])) << "children of " << parent;
+            EXPECT_EQ(int(end - i), 1 + lateralsAt(l.order[size_t(parent)]))
+                << "children of " << parent;
             ++families;
         }
         i = end;
     }
     EXPECT_GT(families, 19999 / 3) << "families of two and three cover the tree";
-    EXPECT_GT(*std::max_element(l.order.begin(), l.order.end()), 6) << "the single-lateral orders are reached";
+    EXPECT_GT(*std::max_element(l.order.begin(), l.order.end()), 6)
+        << "the single-lateral orders are reached";
 }
 
 TEST(TreeGenerator, RadiiFollowThePipeModel)
@@ -153,7 +160,8 @@ TEST(TreeGenerator, RadiiFollowThePipeModel)
         // sixth decimal, so close to the threshold either branch may hold.
         const double thinned = std::max(n.r0() * std::sqrt(0.55), 0.012);
         if (std::abs(n.r0() - 0.016) <= kPrint)
-            EXPECT_TRUE(std::abs(n.r1() - thinned) <= 2 * kPrint || std::abs(n.r1() - n.r0()) <= 2 * kPrint);
+            EXPECT_TRUE(std::abs(n.r1() - thinned) <= 2 * kPrint ||
+                        std::abs(n.r1() - n.r0()) <= 2 * kPrint);
         else
             EXPECT_NEAR(n.r1(), n.r0() > 0.016 ? thinned : n.r0(), 2 * kPrint) << "internode " << i;
         if (i == 0)
@@ -165,7 +173,8 @@ TEST(TreeGenerator, RadiiFollowThePipeModel)
         } else {
             // A lateral gets an equal part of the other 45 % of the cross-section.
             const int laterals = lateralsAt(l.order[size_t(n.parent)]);
-            EXPECT_NEAR(n.r0(), std::max(parent.r0() * std::sqrt(0.45 / laterals), 0.012), 2 * kPrint)
+            EXPECT_NEAR(n.r0(), std::max(parent.r0() * std::sqrt(0.45 / laterals), 0.012),
+                        2 * kPrint)
                 << "internode " << i;
         }
     }
@@ -288,7 +297,8 @@ TEST(TreeGenerator, MatchesTheReferenceScriptToTheByte)
 
     for (int n : {1000, 20000}) {
         std::string reference;
-        ASSERT_TRUE(runCommand("python3 " + quoted + " --internodes " + std::to_string(n), reference))
+        ASSERT_TRUE(
+            runCommand("python3 " + quoted + " --internodes " + std::to_string(n), reference))
             << "the reference generator failed for " << n << " internodes";
         TreeGeneratorOptions options;
         options.internodes = n;

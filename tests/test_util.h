@@ -19,8 +19,8 @@
 namespace cambium::test {
 
 /// An internode of a hand-made skeleton (age: years since it began, or unknown).
-inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0, double r1,
-                           double age = -1.0)
+inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0,
+                           double r1, double age = -1.0)
 {
     Internode n;
     n.id = id;
@@ -91,7 +91,8 @@ void expectInputError(F&& f, const std::string& message, const std::string& what
         f();
         ADD_FAILURE() << what << ": no error, expected " << message;
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << what << ": " << e.what();
+        EXPECT_NE(std::string(e.what()).find(message), std::string::npos)
+            << what << ": " << e.what();
     }
 }
 

@@ -91,11 +91,18 @@ TEST(Bend, BulgesTowardsTheBendDirectionAndKeepsTheRadius)
     const glm::dvec3 mid = b.arcPoint(0.5);
     const double sagitta = p.rho * (1.0 - std::cos(0.5 * b.angle));
     EXPECT_NEAR(glm::dot(mid - 0.5 * (b.p0 + b.p1), v), sagitta, 1e-12);
-    EXPECT_GT(glm::dot(glm::dvec3(1, 0, 0), v), 0.0);  // v is the given direction made perpendicular
+    EXPECT_GT(glm::dot(glm::dvec3(1, 0, 0), v),
+              0.0);  // v is the given direction made perpendicular
     // Across the bent axis the surface stays at the radius.
     for (double s : {0.1, 0.5, 0.9}) {
         EXPECT_NEAR(surfaceDistance(eval, 0.5, b.arcPoint(s), w, 0.5), b.r, 1e-9);
-        EXPECT_NEAR(surfaceDistance(eval, 0.5, b.arcPoint(s), glm::normalize(b.arcPoint(s) - (b.p0 + 0.5 * p.len * glm::dvec3(p.u.x, p.u.y, p.u.z) - p.rho * p.ch * v)), 0.5), b.r, 1e-9);
+        EXPECT_NEAR(
+            surfaceDistance(eval, 0.5, b.arcPoint(s),
+                            glm::normalize(b.arcPoint(s) -
+                                           (b.p0 + 0.5 * p.len * glm::dvec3(p.u.x, p.u.y, p.u.z) -
+                                            p.rho * p.ch * v)),
+                            0.5),
+            b.r, 1e-9);
     }
 }
 
@@ -151,7 +158,9 @@ TEST(WarpBounds, ContainEveryPointWhoseChildIsPositive)
         tree.bend({0.1, 0, 0}, {0.2, 1.5, 0.1}, {0, 0, 1}, -0.4, seg),
         tree.twist({0, 0, 0}, {0.2, 1, 0}, 1.3, seg),
         tree.taper({0, 0.5, 0}, {0, 1, 0}, 1.0, 2.0, 0.3, seg),
-        tree.transform(glm::rotate(glm::scale(glm::dmat4(1.0), glm::dvec3(1, 2, 0.5)), 0.9, glm::dvec3(0, 0, 1)), seg),
+        tree.transform(glm::rotate(glm::scale(glm::dmat4(1.0), glm::dvec3(1, 2, 0.5)), 0.9,
+                                   glm::dvec3(0, 0, 1)),
+                       seg),
     };
     tree.setRoot(warps[0]);
     tree.finalize();
@@ -165,7 +174,8 @@ TEST(WarpBounds, ContainEveryPointWhoseChildIsPositive)
             const glm::dvec3 p = randomIn(rng, wide.lo, wide.hi);
             if (eval.sample(w, p).value > 0.0) {
                 ++positive;
-                ASSERT_TRUE(box.contains(p)) << typeName(tree.node(w).type) << " at " << p.x << "," << p.y << "," << p.z;
+                ASSERT_TRUE(box.contains(p))
+                    << typeName(tree.node(w).type) << " at " << p.x << "," << p.y << "," << p.z;
             }
         }
         EXPECT_GT(positive, 20) << typeName(tree.node(w).type);

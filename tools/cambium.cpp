@@ -16,8 +16,8 @@ namespace {
 
 /// The commands, in the order `cambium --help` lists them.
 const cambium::AddCommand kCommands[] = {
-    cambium::addInfoCommand,  cambium::addEvalCommand,    cambium::addBakeCommand,
-    cambium::addMeshCommand,  cambium::addRenderCommand,  cambium::addBenchCommand,
+    cambium::addInfoCommand,    cambium::addEvalCommand,   cambium::addBakeCommand,
+    cambium::addMeshCommand,    cambium::addRenderCommand, cambium::addBenchCommand,
     cambium::addLSystemCommand, cambium::addGrowthCommand, cambium::addVersionCommand,
 };
 
@@ -25,7 +25,8 @@ const cambium::AddCommand kCommands[] = {
 
 int main(int argc, char** argv)
 {
-    CLI::App app{"cambium: bake BlobTree implicit models of growing plants into OpenVDB level sets"};
+    CLI::App app{
+        "cambium: bake BlobTree implicit models of growing plants into OpenVDB level sets"};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("cambium ") + cambium::version());
     cambium::Action action;
@@ -42,7 +43,8 @@ int main(int argc, char** argv)
         known = known || (argc >= 2 && c->get_name() == argv[1]);
     }
     if (argc >= 2 && argv[1][0] != '-' && !known) {
-        std::fprintf(stderr, "cambium: error: unknown command '%s' (the commands: %s)\n", argv[1], names.c_str());
+        std::fprintf(stderr, "cambium: error: unknown command '%s' (the commands: %s)\n", argv[1],
+                     names.c_str());
         return 2;
     }
     try {

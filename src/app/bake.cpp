@@ -18,14 +18,19 @@ void printTimings(const BakeStats& s)
 {
     const BakeTimings& t = s.timings;
     fmt::print(stderr,
-               "timings: topology {:.3f} s; values {:.3f} s; neighbours {:.3f} s, inside bits {:.3f} s, sign "
-               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points); propagation and leaves {:.3f} s "
-               "(thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s (x {:.3f}, y {:.3f}, z {:.3f}), "
-               "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, tree {:.3f} s, "
+               "timings: topology {:.3f} s; values {:.3f} s; neighbours {:.3f} s, inside bits "
+               "{:.3f} s, sign "
+               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points); propagation "
+               "and leaves {:.3f} s "
+               "(thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s (x {:.3f}, y "
+               "{:.3f}, z {:.3f}), "
+               "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, "
+               "tree {:.3f} s, "
                "flood fill {:.3f} s\n",
-               s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges, t.surfaceSamples,
-               s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps, t.sweepAxis[0], t.sweepAxis[1],
-               t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves, s.candidateLeaves, t.freeing, t.tree, t.floodFill);
+               s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
+               t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
+               t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
+               s.candidateLeaves, t.freeing, t.tree, t.floodFill);
 }
 
 int runBakeCommand(const BakeRequest& req, bool timings)
@@ -40,14 +45,17 @@ int runBakeCommand(const BakeRequest& req, bool timings)
     const BakeReport r = runBake(req, callbacks);
     bar.clear();
     const BakeStats& s = r.stats;
-    fmt::print("baked {}: {} leaves ({} sampled), {} active voxels, {:.2f} s ({:.3g} M voxels/s; topology {:.2f} s, "
-               "sampling {:.2f} s, assembly {:.2f} s), peak memory {:.0f} MB, voxel size {:g}{}, "
-               "device {}, {:.1f} instructions per leaf\n",
-               req.output, formatCount(double(s.activeLeaves)), formatCount(double(s.candidateLeaves)),
-               formatCount(double(s.activeVoxels)), s.seconds, double(s.activeVoxels) / s.seconds * 1e-6,
-               s.topologySeconds, s.samplingSeconds, s.assemblySeconds, r.peakMemoryBytes / 1e6, s.voxelSize,
-               r.autoVoxelSize ? fmt::format(" (auto: 512 voxels across {:.4g})", r.extent) : "", r.device,
-               s.meanProgramLength);
+    fmt::print(
+        "baked {}: {} leaves ({} sampled), {} active voxels, {:.2f} s ({:.3g} M voxels/s; topology "
+        "{:.2f} s, "
+        "sampling {:.2f} s, assembly {:.2f} s), peak memory {:.0f} MB, voxel size {:g}{}, "
+        "device {}, {:.1f} instructions per leaf\n",
+        req.output, formatCount(double(s.activeLeaves)), formatCount(double(s.candidateLeaves)),
+        formatCount(double(s.activeVoxels)), s.seconds, double(s.activeVoxels) / s.seconds * 1e-6,
+        s.topologySeconds, s.samplingSeconds, s.assemblySeconds, r.peakMemoryBytes / 1e6,
+        s.voxelSize,
+        r.autoVoxelSize ? fmt::format(" (auto: 512 voxels across {:.4g})", r.extent) : "", r.device,
+        s.meanProgramLength);
     if (timings)
         printTimings(s);
     return 0;
@@ -66,32 +74,41 @@ void addBakeCommand(CLI::App& app, Action& action)
     };
     auto o = std::make_shared<Options>();
     BakeRequest& bake = o->sequence.bake;
-    auto* cmd = app.add_subcommand(
-        "bake", "Bake a scene, L-system, skeleton or grown tree into a narrow-band OpenVDB level set (.vdb), or a "
-                "growing tree into a sequence of them");
+    auto* cmd = app.add_subcommand("bake",
+                                   "Bake a scene, L-system, skeleton or grown tree into a "
+                                   "narrow-band OpenVDB level set (.vdb), or a "
+                                   "growing tree into a sequence of them");
     cmd->add_option("input", bake.input,
-                    "Scene (.json), growth parameters (.json with \"curves\"), L-system (.l) or skeleton file")
+                    "Scene (.json), growth parameters (.json with \"curves\"), L-system (.l) or "
+                    "skeleton file")
         ->required();
     addModelFlags(cmd, o->model);
     cmd->add_option("-o,--output", bake.output, "Output .vdb file")->required();
     auto* voxelOpt = cmd->add_option("--voxel-size", o->voxelSize,
                                      "Voxel size in world units (default: 512 voxels across the "
                                      "surface bounds)");
-    cmd->add_option("--half-width", bake.halfWidth, "Narrow-band half-width in voxels")->capture_default_str();
+    cmd->add_option("--half-width", bake.halfWidth, "Narrow-band half-width in voxels")
+        ->capture_default_str();
     cmd->add_option("--device", o->device, "opencl or cpu")->capture_default_str();
     cmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     cmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
-    cmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 4096));
-    cmd->add_flag("--timings", o->timings,
-                  "Print the time of each stage of the bake on stderr (also with CAMBIUM_TIMING set)");
+    cmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)")
+        ->check(CLI::Range(1, 4096));
+    cmd->add_flag(
+        "--timings", o->timings,
+        "Print the time of each stage of the bake on stderr (also with CAMBIUM_TIMING set)");
     SequenceRequest& seq = o->sequence;
-    cmd->add_option("--frames", seq.frames,
-                    "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
-                    "(out/populus.####.vdb), frame f at year f / fps-per-year")
+    cmd->add_option(
+           "--frames", seq.frames,
+           "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
+           "(out/populus.####.vdb), frame f at year f / fps-per-year")
         ->excludes(o->model.timeOption);
-    cmd->add_option("--fps-per-year", seq.fpsPerYear, "Frames per year of growth")->capture_default_str();
-    cmd->add_flag("--resume", seq.resume, "Keep the frames an interrupted run of the same bake finished");
-    cmd->add_option("--jobs", seq.jobs, "Frames baked at once (default: as many as cores and memory allow)")
+    cmd->add_option("--fps-per-year", seq.fpsPerYear, "Frames per year of growth")
+        ->capture_default_str();
+    cmd->add_flag("--resume", seq.resume,
+                  "Keep the frames an interrupted run of the same bake finished");
+    cmd->add_option("--jobs", seq.jobs,
+                    "Frames baked at once (default: as many as cores and memory allow)")
         ->check(CLI::Range(1, 4096));
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {

@@ -25,62 +25,72 @@ Skeleton benchTree(int internodes)
 {
     TreeGeneratorOptions o;
     o.internodes = internodes;
-    return parseSkeleton(generateBenchSkeleton(o), fmt::format("benchmark tree of {} internodes", internodes));
+    return parseSkeleton(generateBenchSkeleton(o),
+                         fmt::format("benchmark tree of {} internodes", internodes));
 }
 
 void printBakeTable(const BakeBenchResult& c)
 {
-    fmt::print("\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels; "
-               "median of {} runs\n",
-               c.label, formatCount(double(c.primitives)), c.voxelSize, c.halfWidth, formatCount(c.boxVoxels),
-               c.repeats);
-    fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels", "M voxels/s",
-               "peak MB", "time/(a)");
+    fmt::print(
+        "\n{}: {} primitives, voxel size {:g}, half-width {:g}, bounding box {} voxels; "
+        "median of {} runs\n",
+        c.label, formatCount(double(c.primitives)), c.voxelSize, c.halfWidth,
+        formatCount(c.boxVoxels), c.repeats);
+    fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels",
+               "M voxels/s", "peak MB", "time/(a)");
     for (const BakeBenchRow& r : c.rows) {
         const bool dense = r.method.rfind("(c)", 0) == 0;
-        fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10.0f} {:>10.2f}\n", r.method,
-                   fmt::format("{}{:.3g}", r.estimated ? "~" : "", r.seconds),
-                   dense ? "(dense)" : formatCount(r.activeVoxels),
-                   dense ? std::string("-") : fmt::format("{:.3g}", r.activeVoxels / r.seconds * 1e-6),
-                   r.peakBytes / 1e6, r.seconds / c.rows[0].seconds);
+        fmt::print(
+            "{:<48} {:>10} {:>15} {:>12} {:>10.0f} {:>10.2f}\n", r.method,
+            fmt::format("{}{:.3g}", r.estimated ? "~" : "", r.seconds),
+            dense ? "(dense)" : formatCount(r.activeVoxels),
+            dense ? std::string("-") : fmt::format("{:.3g}", r.activeVoxels / r.seconds * 1e-6),
+            r.peakBytes / 1e6, r.seconds / c.rows[0].seconds);
     }
 }
 
 void printMeshTable(const MeshBenchResult& r)
 {
     const double perMillion = r.seconds / (double(r.triangles) * 1e-6);
-    fmt::print("\n{} at voxel size {:g} ({} active voxels): meshing, median of {} runs\n", r.label, r.voxelSize,
-               r.activeVoxels, r.runs);
-    fmt::print("{:<52} {:>12} {:>10} {:>14} {:>16}\n", "method", "triangles", "seconds", "M triangles/s",
-               "s per M tri");
-    fmt::print("{:<52} {:>12} {:>10.3g} {:>14.3g} {:>16.3g}\n", "cambium mesh (volumeToMesh, normals, Cd colours)",
-               r.triangles, r.seconds, double(r.triangles) / r.seconds * 1e-6, perMillion);
-    fmt::print("{:<52} {:>12} {:>10} {:>14} {:>16.4g}\n", "paper 002, table 1 (a million triangles)", "1,000,000",
-               "347.8", "0.00288", 347.8);
+    fmt::print("\n{} at voxel size {:g} ({} active voxels): meshing, median of {} runs\n", r.label,
+               r.voxelSize, r.activeVoxels, r.runs);
+    fmt::print("{:<52} {:>12} {:>10} {:>14} {:>16}\n", "method", "triangles", "seconds",
+               "M triangles/s", "s per M tri");
+    fmt::print("{:<52} {:>12} {:>10.3g} {:>14.3g} {:>16.3g}\n",
+               "cambium mesh (volumeToMesh, normals, Cd colours)", r.triangles, r.seconds,
+               double(r.triangles) / r.seconds * 1e-6, perMillion);
+    fmt::print("{:<52} {:>12} {:>10} {:>14} {:>16.4g}\n",
+               "paper 002, table 1 (a million triangles)", "1,000,000", "347.8", "0.00288", 347.8);
     fmt::print("paper's time per million triangles over cambium's: {:.0f}\n", 347.8 / perMillion);
 }
 
 void printRenderTable(const RenderBenchResult& r)
 {
     const double rays = double(r.width) * double(r.height);
-    fmt::print("\n{} at voxel size {:g} ({} active voxels, {} triangles): a {} x {} image, 1 sample per pixel, "
-               "{:.1f} % of rays hit; median of {} runs\n",
-               r.label, r.voxelSize, r.activeVoxels, r.triangles, r.width, r.height, 100.0 * r.coverage, r.runs);
-    fmt::print("{:<58} {:>10} {:>10} {:>14} {:>16}\n", "method", "seconds", "M rays/s", "768x768 (s)",
-               "1536x2048x9 (s)");
+    fmt::print(
+        "\n{} at voxel size {:g} ({} active voxels, {} triangles): a {} x {} image, 1 sample per "
+        "pixel, "
+        "{:.1f} % of rays hit; median of {} runs\n",
+        r.label, r.voxelSize, r.activeVoxels, r.triangles, r.width, r.height, 100.0 * r.coverage,
+        r.runs);
+    fmt::print("{:<58} {:>10} {:>10} {:>14} {:>16}\n", "method", "seconds", "M rays/s",
+               "768x768 (s)", "1536x2048x9 (s)");
     auto row = [&](const std::string& name, double s) {
         const double rate = rays / s;
-        fmt::print("{:<58} {:>10.3g} {:>10.3g} {:>14.3g} {:>16.3g}\n", name, s, rate * 1e-6, 768.0 * 768.0 / rate,
-                   1536.0 * 2048.0 * 9.0 / rate);
+        fmt::print("{:<58} {:>10.3g} {:>10.3g} {:>14.3g} {:>16.3g}\n", name, s, rate * 1e-6,
+                   768.0 * 768.0 / rate, 1536.0 * 2048.0 * 9.0 / rate);
     };
     row("OpenCL NanoVDB HDDA march (PoCL)", r.opencl);
     row("CPU level-set march (OpenVDB LevelSetRayIntersector, TBB)", r.march);
     row("Embree 3 on the volumeToMesh triangles (streams, TBB)", r.embree);
-    fmt::print("{:<58} {:>10} {:>10} {:>14} {:>16}\n", "papers 000/003 (their renderer)", "-", "-", "430", "~3600");
+    fmt::print("{:<58} {:>10} {:>10} {:>14} {:>16}\n", "papers 000/003 (their renderer)", "-", "-",
+               "430", "~3600");
     fmt::print("OpenCL march over CPU intersector: {:.2f}x\n", r.march / r.opencl);
-    fmt::print("(Not counted above: the NanoVDB copy ({:.0f} MB) and kernel build took {:.3g} s, the intersector's "
-               "set-up {:.3g} s, Embree's mesh {:.3g} s and its BVH {:.3g} s.)\n",
-               r.gridBytes * 1e-6, r.openclSetup, r.marchSetup, r.meshSeconds, r.bvhSeconds);
+    fmt::print(
+        "(Not counted above: the NanoVDB copy ({:.0f} MB) and kernel build took {:.3g} s, the "
+        "intersector's "
+        "set-up {:.3g} s, Embree's mesh {:.3g} s and its BVH {:.3g} s.)\n",
+        r.gridBytes * 1e-6, r.openclSetup, r.marchSetup, r.meshSeconds, r.bvhSeconds);
 }
 
 /// Runs f in a fresh temporary directory, removed afterwards (also when f
@@ -105,30 +115,38 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
     if (req.years.empty())
         throw InputError("--years: give at least one year");
     const int lastYear = *std::max_element(req.years.begin(), req.years.end());
-    const char* paper = "\npaper 000, year 27: 181,692 primitives, 22,220 operators, 1.4 GB to ray trace the last "
-                        "frame\n";
+    const char* paper =
+        "\npaper 000, year 27: 181,692 primitives, 22,220 operators, 1.4 GB to ray trace the last "
+        "frame\n";
     GrowthBenchCallbacks callbacks;
     callbacks.setup = [&](const GrowthBenchSetup& s) {
-        fmt::print("{}: {} branches grown over {} years (global phase {:.3f} s); voxel size {:g}, {}, device {}\n\n",
-                   req.parameters, s.branches, s.years, s.globalSeconds, req.voxelSize,
-                   req.leaves ? "with leaves" : "no leaves", s.device);
-        fmt::print("| year | internodes | primitives | operators | model s | bake s | write s | active voxels | "
-                   "file MB | peak MB |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        fmt::print(
+            "{}: {} branches grown over {} years (global phase {:.3f} s); voxel size {:g}, {}, "
+            "device {}\n\n",
+            req.parameters, s.branches, s.years, s.globalSeconds, req.voxelSize,
+            req.leaves ? "with leaves" : "no leaves", s.device);
+        fmt::print(
+            "| year | internodes | primitives | operators | model s | bake s | write s | active "
+            "voxels | "
+            "file MB | peak MB |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     };
     callbacks.year = [&](const GrowthBenchYear& y) {
-        fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | {:.0f} |\n", y.year, y.internodes,
-                   y.primitives, y.operators, y.modelSeconds, y.bakeSeconds, y.writeSeconds, y.activeVoxels,
-                   y.fileBytes / 1e6, y.peakBytes / 1e6);
+        fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | {:.0f} |\n",
+                   y.year, y.internodes, y.primitives, y.operators, y.modelSeconds, y.bakeSeconds,
+                   y.writeSeconds, y.activeVoxels, y.fileBytes / 1e6, y.peakBytes / 1e6);
         if (y.year == lastYear)
             fmt::print("{}", paper);
         std::fflush(stdout);
     };
     callbacks.sequence = [&](const GrowthBenchSequence& q) {
-        fmt::print("\nwhole sequence: {} frames ({:g} a year, {} reused whole; of the baked frames' {} leaves {:.0f} % "
-                   "unchanged, not sampled) in {:.1f} s, {} at once, {:.0f} MB of files, peak memory {:.0f} MB\n",
-                   q.frames, req.fpsPerYear, q.reused, q.leaves,
-                   100.0 * double(q.reusedLeaves) / double(std::max<size_t>(q.leaves, 1)), q.seconds, q.jobs,
-                   q.fileBytes / 1e6, q.peakBytes / 1e6);
+        fmt::print(
+            "\nwhole sequence: {} frames ({:g} a year, {} reused whole; of the baked frames' {} "
+            "leaves {:.0f} % "
+            "unchanged, not sampled) in {:.1f} s, {} at once, {:.0f} MB of files, peak memory "
+            "{:.0f} MB\n",
+            q.frames, req.fpsPerYear, q.reused, q.leaves,
+            100.0 * double(q.reusedLeaves) / double(std::max<size_t>(q.leaves, 1)), q.seconds,
+            q.jobs, q.fileBytes / 1e6, q.peakBytes / 1e6);
     };
     return withBenchDirectory([&](const std::string& dir) { runGrowthBench(req, dir, callbacks); });
 }
@@ -151,11 +169,15 @@ void addBenchCommand(CLI::App& app, Action& action)
     bench->require_subcommand(1);
 
     auto* bake = bench->add_subcommand(
-        "bake", "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
-                "ParticlesToLevelSet, on generated trees (the statistics of ../shared/bench/gen_skeleton.py)");
-    bake->add_option("--case", o->cases, "INTERNODES:VOXEL_SIZE (repeatable)")->capture_default_str();
+        "bake",
+        "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
+        "ParticlesToLevelSet, on generated trees (the statistics of "
+        "../shared/bench/gen_skeleton.py)");
+    bake->add_option("--case", o->cases, "INTERNODES:VOXEL_SIZE (repeatable)")
+        ->capture_default_str();
     bake->add_flag("--skip-cpu", o->skipCpu, "Leave out the CPU path");
-    bake->add_option("--repeat", o->repeats, "Runs of each method, in turn; the table shows medians")
+    bake->add_option("--repeat", o->repeats,
+                     "Runs of each method, in turn; the table shows medians")
         ->capture_default_str()
         ->check(CLI::Range(1, 100));
     bake->callback([o, &action] {
@@ -178,44 +200,55 @@ void addBenchCommand(CLI::App& app, Action& action)
     });
 
     auto useOptions = [o](CLI::App* cmd) {
-        cmd->add_option("--internodes", o->internodes, "Internodes of the generated tree")->capture_default_str();
-        cmd->add_option("--voxel-size", o->voxelSize, "Voxel size of the bake")->capture_default_str();
+        cmd->add_option("--internodes", o->internodes, "Internodes of the generated tree")
+            ->capture_default_str();
+        cmd->add_option("--voxel-size", o->voxelSize, "Voxel size of the bake")
+            ->capture_default_str();
         cmd->add_option("--repeat", o->repeats, "Runs of each method; the table shows medians")
             ->capture_default_str()
             ->check(CLI::Range(1, 100));
     };
     auto label = [](int n) { return fmt::format("tree of {} internodes", n); };
-    auto* mesh = bench->add_subcommand("mesh", "Meshing a baked benchmark tree, against paper 002's figure");
+    auto* mesh =
+        bench->add_subcommand("mesh", "Meshing a baked benchmark tree, against paper 002's figure");
     useOptions(mesh);
     mesh->callback([o, label, &action] {
         action = [o, label] {
-            printMeshTable(runMeshBench(benchTree(o->internodes), label(o->internodes), o->voxelSize, o->repeats));
+            printMeshTable(runMeshBench(benchTree(o->internodes), label(o->internodes),
+                                        o->voxelSize, o->repeats));
             return 0;
         };
     });
-    auto* render = bench->add_subcommand(
-        "render", "Rendering a baked benchmark tree: the OpenCL and CPU level-set marches and Embree on its mesh, "
-                  "against the papers' figures");
+    auto* render = bench->add_subcommand("render",
+                                         "Rendering a baked benchmark tree: the OpenCL and CPU "
+                                         "level-set marches and Embree on its mesh, "
+                                         "against the papers' figures");
     useOptions(render);
     render->add_option("--width", o->width, "Image width")->capture_default_str();
     render->add_option("--height", o->height, "Image height")->capture_default_str();
     render->callback([o, label, &action] {
         action = [o, label] {
-            printRenderTable(runRenderBench(benchTree(o->internodes), label(o->internodes), o->voxelSize, o->width,
-                                            o->height, o->repeats));
+            printRenderTable(runRenderBench(benchTree(o->internodes), label(o->internodes),
+                                            o->voxelSize, o->width, o->height, o->repeats));
             return 0;
         };
     });
 
     GrowthBenchRequest& g = o->growth;
     g.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
-    auto* growth = bench->add_subcommand(
-        "growth", "The growth model's tree by year (internodes, primitives, operators, bake time and memory) and a "
-                  "whole sequence, against paper 000's year 27");
-    growth->add_option("--parameters", g.parameters, "Growth parameter file")->capture_default_str();
-    growth->add_option("--years", g.years, "Years to measure")->capture_default_str()->delimiter(',');
+    auto* growth = bench->add_subcommand("growth",
+                                         "The growth model's tree by year (internodes, primitives, "
+                                         "operators, bake time and memory) and a "
+                                         "whole sequence, against paper 000's year 27");
+    growth->add_option("--parameters", g.parameters, "Growth parameter file")
+        ->capture_default_str();
+    growth->add_option("--years", g.years, "Years to measure")
+        ->capture_default_str()
+        ->delimiter(',');
     growth->add_option("--voxel-size", g.voxelSize, "Voxel size")->capture_default_str();
-    growth->add_option("--fps-per-year", g.fpsPerYear, "Frame rate of the whole sequence (0: leave it out)")
+    growth
+        ->add_option("--fps-per-year", g.fpsPerYear,
+                     "Frame rate of the whole sequence (0: leave it out)")
         ->capture_default_str();
     growth->add_option("--device", o->growthDevice, "opencl or cpu")->capture_default_str();
     growth->add_flag("--leaves", g.leaves, "Grow leaves (frames at year ends have none)");

@@ -24,24 +24,31 @@ ModelOptions ModelFlags::options() const
 
 void addModelFlags(CLI::App* cmd, ModelFlags& flags)
 {
-    cmd->add_option("--junctions", flags.junctions,
-                    "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
-                    "(the rules, summation only) or blend (a cone per internode, summed); default pcm for "
-                    "L-systems, blend for skeleton files");
-    cmd->add_option("--bend", flags.bendDegrees,
-                    "Bend lateral internodes by this many degrees, keeping their ends (pcm, smooth)");
-    cmd->add_option("--primitives", flags.primitives,
-                    "cone (papers 001/003), convolution (segments with linear density, paper 002) or mixed "
-                    "(cone axes, convolution laterals, better blending between)")
+    cmd->add_option(
+        "--junctions", flags.junctions,
+        "L-systems and skeletons: pcm (the papers' junction rules, PCM between branches), smooth "
+        "(the rules, summation only) or blend (a cone per internode, summed); default pcm for "
+        "L-systems, blend for skeleton files");
+    cmd->add_option(
+        "--bend", flags.bendDegrees,
+        "Bend lateral internodes by this many degrees, keeping their ends (pcm, smooth)");
+    cmd->add_option(
+           "--primitives", flags.primitives,
+           "cone (papers 001/003), convolution (segments with linear density, paper 002) or mixed "
+           "(cone axes, convolution laterals, better blending between)")
         ->capture_default_str();
     cmd->add_option("--regrowth", flags.regrowth,
                     "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
     cmd->add_flag("--no-leaves", flags.noLeaves, "Growth parameter files: leave the leaves out");
-    flags.timeOption = cmd->add_option("--time", flags.time,
-                                       "Growth parameter files: the tree at this time in years (default: the last)");
+    flags.timeOption = cmd->add_option(
+        "--time", flags.time,
+        "Growth parameter files: the tree at this time in years (default: the last)");
 }
 
-std::string formatVec(const glm::dvec3& v) { return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x, v.y, v.z); }
+std::string formatVec(const glm::dvec3& v)
+{
+    return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x, v.y, v.z);
+}
 
 void printNotice(const std::string& line)
 {
@@ -51,7 +58,10 @@ void printNotice(const std::string& line)
 
 ProgressBar::ProgressBar() : tty_(::isatty(2) != 0) {}
 
-ProgressBar::~ProgressBar() { clear(); }
+ProgressBar::~ProgressBar()
+{
+    clear();
+}
 
 void ProgressBar::operator()(const char* stage, double fraction)
 {

@@ -18,13 +18,16 @@ int runEval(const std::string& scenePath, const std::vector<double>& xyz)
 {
     const glm::dvec3 p(xyz[0], xyz[1], xyz[2]);
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
-        throw InputError(fmt::format("eval: the point {} must have finite coordinates", formatVec(p)));
+        throw InputError(
+            fmt::format("eval: the point {} must have finite coordinates", formatVec(p)));
     const BlobTree tree = loadModel(scenePath);
     const ReferenceEvaluator eval(tree);
     const FieldSample s = eval.sample(p);
     fmt::print("point     {}\n", formatVec(p));
     fmt::print("field     {:.9g}  ({} at threshold {})\n", s.value,
-               s.value > tree.threshold() ? "inside" : (s.value < tree.threshold() ? "outside" : "on the surface"),
+               s.value > tree.threshold()
+                   ? "inside"
+                   : (s.value < tree.threshold() ? "outside" : "on the surface"),
                tree.threshold());
     fmt::print("gradient  {}  |grad| {:.6g}\n", formatVec(s.gradient), glm::length(s.gradient));
     fmt::print("colour    {}\n", formatVec(s.color));
@@ -40,8 +43,9 @@ void addEvalCommand(CLI::App& app, Action& action)
         std::vector<double> point;
     };
     auto o = std::make_shared<Options>();
-    auto* cmd = app.add_subcommand("eval", "Evaluate a scene's field, gradient and colour at a point "
-                                           "(CPU reference evaluator)");
+    auto* cmd = app.add_subcommand("eval",
+                                   "Evaluate a scene's field, gradient and colour at a point "
+                                   "(CPU reference evaluator)");
     cmd->add_option("scene", o->scene, "Scene (JSON) or skeleton")->required();
     cmd->add_option("point", o->point, "x y z")->required()->expected(3);
     cmd->callback([o, &action] { action = [o] { return runEval(o->scene, o->point); }; });

@@ -35,13 +35,13 @@ void printGrowthStats(const GrowthModel& model, const Skeleton& sk, const Growth
         internodes += in;
     }
     fmt::print("  all  {:>8}  {:>10}\n", branches, internodes);
-    fmt::print("organs: {} leaves, {} buds, {} bud scale scar rings, {} scars\n", s.leaves, s.buds, s.rings,
-               sk.scars.size());
-    fmt::print("shoots: {} grown, {} with their metamer count moved by the {:g} degree rule\n", s.shoots,
-               s.shootsAdjusted, model.params().longestSeparation);
+    fmt::print("organs: {} leaves, {} buds, {} bud scale scar rings, {} scars\n", s.leaves, s.buds,
+               s.rings, sk.scars.size());
+    fmt::print("shoots: {} grown, {} with their metamer count moved by the {:g} degree rule\n",
+               s.shoots, s.shootsAdjusted, model.params().longestSeparation);
     const TreeStats ts = computeStats(buildTree(sk, model.buildOptions()));
-    fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives, ts.operators, ts.warps,
-               ts.depth);
+    fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives,
+               ts.operators, ts.warps, ts.depth);
     for (const auto& [type, count] : ts.countByType)
         fmt::print("  {:<14} {}\n", typeName(type), count);
 }
@@ -62,8 +62,10 @@ int runGrowthCommand(const GrowthRequest& req)
     if (!req.printStats && req.printSkeleton)
         return 0;
     const GrowthStats s = model.stats(t, sk);
-    fmt::print("{} at t = {:g} (year {} of {}): height {:.3f}, {} branches grown in all ({} lost so far)\n",
-               req.input, t, growthYear(t), p.years, s.height, model.branches().size(), s.lostBranches);
+    fmt::print(
+        "{} at t = {:g} (year {} of {}): height {:.3f}, {} branches grown in all ({} lost so "
+        "far)\n",
+        req.input, t, growthYear(t), p.years, s.height, model.branches().size(), s.lostBranches);
     if (req.printStats)
         printGrowthStats(model, sk, s);
     return 0;
@@ -80,12 +82,15 @@ void addGrowthCommand(CLI::App& app, Action& action)
     };
     auto o = std::make_shared<Options>();
     GrowthRequest& req = o->request;
-    auto* cmd = app.add_subcommand("growth", "Grow a tree from a growth parameter file (docs/growth-format.md) "
-                                             "and print its counts or skeleton at a time");
+    auto* cmd =
+        app.add_subcommand("growth",
+                           "Grow a tree from a growth parameter file (docs/growth-format.md) "
+                           "and print its counts or skeleton at a time");
     cmd->add_option("input", req.input, "Growth parameter file (.json)")->required();
     auto* yearOpt = cmd->add_option("--year", o->year, "The end of this year (default: the last)");
-    auto* timeOpt = cmd->add_option("--time", o->time, "Any time in years, e.g. 3.5 (mid-season of year 4)")
-                        ->excludes(yearOpt);
+    auto* timeOpt =
+        cmd->add_option("--time", o->time, "Any time in years, e.g. 3.5 (mid-season of year 4)")
+            ->excludes(yearOpt);
     cmd->add_option("--seed", req.seed, "Seed of the stochastic orientation (default: the file's)")
         ->check(CLI::NonNegativeNumber);
     cmd->add_flag("--no-leaves", o->noLeaves, "Leave the leaves out");

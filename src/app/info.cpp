@@ -47,7 +47,8 @@ void addInfoCommand(CLI::App& app, Action& action)
     auto o = std::make_shared<Options>();
     auto* cmd = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     cmd->add_option("scene", o->scene,
-                    "Scene (JSON, docs/scene-format.md), growth parameters (docs/growth-format.md), L-system (.l, "
+                    "Scene (JSON, docs/scene-format.md), growth parameters "
+                    "(docs/growth-format.md), L-system (.l, "
                     "docs/lsystem-format.md) or skeleton (docs/skeleton-format.md)")
         ->required();
     addModelFlags(cmd, o->model);

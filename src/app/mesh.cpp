@@ -30,18 +30,24 @@ struct MeshRequest {
 int runMeshCommand(const MeshRequest& req)
 {
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
-        throw InputError(fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
-    forEachFile(req.input, req.output, req.frames, checkMeshOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = Clock::now();
-        const LevelSetGrids f = readLevelSet(in, req.grid);
-        const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
-        writeMesh(mesh, out);
-        const double s = secondsSince(start);
-        fmt::print("meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M triangles/s), area {:.6g}, "
-                   "volume {:.6g}\n",
-                   in, out, mesh.points.size(), mesh.triangles.size(), f.color ? ", colours from Cd" : "", s,
-                   double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
-    });
+        throw InputError(
+            fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
+    forEachFile(req.input, req.output, req.frames, checkMeshOutput,
+                [&](const std::string& in, const std::string& out) {
+                    const auto start = Clock::now();
+                    const LevelSetGrids f = readLevelSet(in, req.grid);
+                    const TriangleMesh mesh =
+                        meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
+                    writeMesh(mesh, out);
+                    const double s = secondsSince(start);
+                    fmt::print(
+                        "meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M "
+                        "triangles/s), area {:.6g}, "
+                        "volume {:.6g}\n",
+                        in, out, mesh.points.size(), mesh.triangles.size(),
+                        f.color ? ", colours from Cd" : "", s,
+                        double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
+                });
     return 0;
 }
 
@@ -50,11 +56,13 @@ int runMeshCommand(const MeshRequest& req)
 void addMeshCommand(CLI::App& app, Action& action)
 {
     auto req = std::make_shared<MeshRequest>();
-    auto* cmd = app.add_subcommand("mesh", "Polygonise a baked level set (OpenVDB's volumeToMesh) into "
-                                           "an OBJ or binary PLY mesh");
+    auto* cmd = app.add_subcommand("mesh",
+                                   "Polygonise a baked level set (OpenVDB's volumeToMesh) into "
+                                   "an OBJ or binary PLY mesh");
     cmd->add_option("input", req->input, "Input .vdb file")->required();
     cmd->add_option("-o,--output", req->output, "Output mesh (.obj or .ply)")->required();
-    cmd->add_option("--adaptivity", req->adaptivity, "0: uniform triangles; up to 1: fewer where the surface is flat")
+    cmd->add_option("--adaptivity", req->adaptivity,
+                    "0: uniform triangles; up to 1: fewer where the surface is flat")
         ->capture_default_str();
     cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
     cmd->add_option("--frames", req->frames,

@@ -31,19 +31,23 @@ struct RenderRequest {
 int runRenderCommand(const RenderRequest& req)
 {
     if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
-        throw InputError(fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
-                                     req.height));
+        throw InputError(
+            fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
+                        req.height));
     if (req.spp < 1 || req.spp > 4096)
         throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
     // The picture's channels, the pixels converted for the file, and its
     // encoded bytes: about 128 bytes a pixel at most.
-    const double bytes = 128.0 * double(req.width) * double(req.height), have = availableMemoryBytes();
+    const double bytes = 128.0 * double(req.width) * double(req.height),
+                 have = availableMemoryBytes();
     if (!(bytes <= have))
-        throw InputError(fmt::format("--width {} --height {}: a picture this large needs about {} of memory, and this "
-                                     "machine has {} available",
-                                     req.width, req.height, formatBytes(bytes), formatBytes(have)));
+        throw InputError(fmt::format(
+            "--width {} --height {}: a picture this large needs about {} of memory, and this "
+            "machine has {} available",
+            req.width, req.height, formatBytes(bytes), formatBytes(have)));
     const Device device = parseDevice(req.device);
-    parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);  // the spec, before any work
+    parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)),
+                1.0);  // the spec, before any work
     if (!req.mesh.empty() && (!req.input.empty() || req.viaMesh))
         throw InputError("--mesh renders a mesh file instead of a .vdb: give one or the other");
     if (req.mesh.empty() && req.input.empty())
@@ -59,52 +63,60 @@ int runRenderCommand(const RenderRequest& req)
         if (std::filesystem::exists(last))
             sequenceBounds = storedActiveBounds(last, req.grid);
     }
-    forEachFile(meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput, [&](const std::string& in, const std::string& out) {
-        const auto start = Clock::now();
-        const double aspect = double(req.width) / double(req.height);
-        RenderImage img;
-        const char* how;
-        if (meshFile) {
-            const TriangleMesh mesh = readMesh(in);
-            img = renderMeshEmbree(mesh, parseCamera(req.camera, meshBounds(mesh), aspect), req.width, req.height,
-                                   req.spp);
-            how = "Embree on the mesh's triangles, reading included";
-        } else {
-            const LevelSetGrids f = readLevelSet(in, req.grid);
-            const Box bounds = activeWorldBounds(*f.surface);
-            if (bounds.empty())
-                throw InputError(fmt::format("{}: the level set has no active voxels: nothing to see", in));
-            const Camera cam =
-                parseCamera(req.camera, sequenceBounds && !sequenceBounds->empty() ? *sequenceBounds : bounds, aspect);
-            if (req.viaMesh) {
-                img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width, req.height, req.spp);
-                how = "Embree on the volumeToMesh triangles, meshing included";
-            } else if (device == Device::Cpu) {
-                img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height, req.spp);
-                how = "OpenVDB's level-set ray intersector";
+    forEachFile(
+        meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput,
+        [&](const std::string& in, const std::string& out) {
+            const auto start = Clock::now();
+            const double aspect = double(req.width) / double(req.height);
+            RenderImage img;
+            const char* how;
+            if (meshFile) {
+                const TriangleMesh mesh = readMesh(in);
+                img = renderMeshEmbree(mesh, parseCamera(req.camera, meshBounds(mesh), aspect),
+                                       req.width, req.height, req.spp);
+                how = "Embree on the mesh's triangles, reading included";
             } else {
-                how = marcher ? "OpenCL NanoVDB march, conversion included"
-                              : "OpenCL NanoVDB march, conversion and kernel build included";
-                img = withOpenCLHint("render", [&] {
-                    if (marcher)
-                        marcher->load(*f.surface, f.color.get());
-                    else
-                        marcher = std::make_unique<OpenCLMarcher>(*f.surface, f.color.get());
-                    return marcher->render(cam, req.width, req.height, req.spp);
-                });
+                const LevelSetGrids f = readLevelSet(in, req.grid);
+                const Box bounds = activeWorldBounds(*f.surface);
+                if (bounds.empty())
+                    throw InputError(
+                        fmt::format("{}: the level set has no active voxels: nothing to see", in));
+                const Camera cam = parseCamera(
+                    req.camera,
+                    sequenceBounds && !sequenceBounds->empty() ? *sequenceBounds : bounds, aspect);
+                if (req.viaMesh) {
+                    img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width,
+                                           req.height, req.spp);
+                    how = "Embree on the volumeToMesh triangles, meshing included";
+                } else if (device == Device::Cpu) {
+                    img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height,
+                                            req.spp);
+                    how = "OpenVDB's level-set ray intersector";
+                } else {
+                    how = marcher ? "OpenCL NanoVDB march, conversion included"
+                                  : "OpenCL NanoVDB march, conversion and kernel build included";
+                    img = withOpenCLHint("render", [&] {
+                        if (marcher)
+                            marcher->load(*f.surface, f.color.get());
+                        else
+                            marcher = std::make_unique<OpenCLMarcher>(*f.surface, f.color.get());
+                        return marcher->render(cam, req.width, req.height, req.spp);
+                    });
+                }
             }
-        }
-        writeImage(img, out);
-        const double s = secondsSince(start);
-        size_t covered = 0;
-        for (float a : img.alpha)
-            covered += a > 0.0f;
-        fmt::print("rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the surface, {:.2f} s "
-                   "({:.3g} M rays/s, {})\n",
-                   in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
-                   100.0 * double(covered) / double(img.alpha.size()), s,
-                   double(req.width) * req.height * req.spp / s * 1e-6, how);
-    });
+            writeImage(img, out);
+            const double s = secondsSince(start);
+            size_t covered = 0;
+            for (float a : img.alpha)
+                covered += a > 0.0f;
+            fmt::print(
+                "rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the "
+                "surface, {:.2f} s "
+                "({:.3g} M rays/s, {})\n",
+                in, out, req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
+                100.0 * double(covered) / double(img.alpha.size()), s,
+                double(req.width) * req.height * req.spp / s * 1e-6, how);
+        });
     return 0;
 }
 
@@ -113,10 +125,12 @@ int runRenderCommand(const RenderRequest& req)
 void addRenderCommand(CLI::App& app, Action& action)
 {
     auto req = std::make_shared<RenderRequest>();
-    auto* cmd = app.add_subcommand("render", "Ray-march a baked level set into a picture (.png) or "
-                                             "channels for tools (.exr)");
+    auto* cmd = app.add_subcommand("render",
+                                   "Ray-march a baked level set into a picture (.png) or "
+                                   "channels for tools (.exr)");
     cmd->add_option("input", req->input, "Input .vdb file");
-    cmd->add_option("--mesh", req->mesh, "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
+    cmd->add_option("--mesh", req->mesh,
+                    "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
     cmd->add_option("-o,--output", req->output, "Output image (.png or .exr)")->required();
     cmd->add_option("--width", req->width, "Image width in pixels")->capture_default_str();
     cmd->add_option("--height", req->height, "Image height in pixels")->capture_default_str();
@@ -125,12 +139,15 @@ void addRenderCommand(CLI::App& app, Action& action)
                     "auto (a three-quarter view), turntable:ANGLE or look:EX,EY,EZ:TX,TY,TZ[:FOV]")
         ->capture_default_str();
     cmd->add_option("--device", req->device,
-                    "opencl (NanoVDB's HDDA in an OpenCL kernel) or cpu (OpenVDB's level-set ray intersector)")
+                    "opencl (NanoVDB's HDDA in an OpenCL kernel) or cpu (OpenVDB's level-set ray "
+                    "intersector)")
         ->capture_default_str();
     cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
-    cmd->add_flag("--via-mesh", req->viaMesh, "Mesh the level set and trace the triangles with Embree (the cross-check)");
-    cmd->add_option("--frames", req->frames,
-                    "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#'");
+    cmd->add_flag("--via-mesh", req->viaMesh,
+                  "Mesh the level set and trace the triangles with Embree (the cross-check)");
+    cmd->add_option(
+        "--frames", req->frames,
+        "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#'");
     cmd->callback([req, &action] { action = [req] { return runRenderCommand(*req); }; });
 }
 

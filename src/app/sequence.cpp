@@ -12,20 +12,21 @@ namespace cambium {
 
 int runSequenceCommand(const SequenceRequest& request)
 {
-    const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)", "kept (--resume)",
-                             "empty (nothing a voxel thick yet)"};
+    const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)",
+                             "kept (--resume)", "empty (nothing a voxel thick yet)"};
     SequenceCallbacks callbacks;
     callbacks.notice = printNotice;
     size_t doneFrames = 0;
     const size_t total = parseFrames(request.frames).size();
     callbacks.done = [&](const FrameReport& f) {
         ++doneFrames;
-        fmt::print("[{}/{}] frame {} (year {:.3g}) {}: {}", doneFrames, total, f.frame, f.time, f.path,
-                   outcome[int(f.outcome)]);
+        fmt::print("[{}/{}] frame {} (year {:.3g}) {}: {}", doneFrames, total, f.frame, f.time,
+                   f.path, outcome[int(f.outcome)]);
         if (f.outcome == FrameReport::Outcome::Baked) {
             fmt::print(", {} active voxels", formatCount(double(f.stats.activeVoxels)));
             if (f.stats.reusedLeaves)
-                fmt::print(" ({} of {} leaves unchanged, not sampled)", formatCount(double(f.stats.reusedLeaves)),
+                fmt::print(" ({} of {} leaves unchanged, not sampled)",
+                           formatCount(double(f.stats.reusedLeaves)),
                            formatCount(double(f.stats.candidateLeaves)));
         }
         fmt::print(", {:.2f} s\n", f.seconds);
@@ -34,15 +35,17 @@ int runSequenceCommand(const SequenceRequest& request)
     const SequenceReport r = bakeSequence(request, callbacks);
     size_t baked = 0, reused = 0, kept = 0, empty = 0;
     for (const FrameReport& f : r.frames)
-        ++(f.outcome == FrameReport::Outcome::Baked    ? baked
-           : f.outcome == FrameReport::Outcome::Reused ? reused
+        ++(f.outcome == FrameReport::Outcome::Baked     ? baked
+           : f.outcome == FrameReport::Outcome::Reused  ? reused
            : f.outcome == FrameReport::Outcome::Skipped ? kept
                                                         : empty);
-    fmt::print("sequence {}: {} frames ({} baked, {} reused, {} kept, {} empty) in {:.1f} s, {} at once, voxel size "
-               "{:g}{}, device {}, peak memory {:.0f} MB\n",
-               request.bake.output, r.frames.size(), baked, reused, kept, empty, r.seconds, r.jobs, r.voxelSize,
-               r.autoVoxelSize ? " (auto: 512 voxels across the last frame)" : "", r.device,
-               r.peakMemoryBytes / 1e6);
+    fmt::print(
+        "sequence {}: {} frames ({} baked, {} reused, {} kept, {} empty) in {:.1f} s, {} at once, "
+        "voxel size "
+        "{:g}{}, device {}, peak memory {:.0f} MB\n",
+        request.bake.output, r.frames.size(), baked, reused, kept, empty, r.seconds, r.jobs,
+        r.voxelSize, r.autoVoxelSize ? " (auto: 512 voxels across the last frame)" : "", r.device,
+        r.peakMemoryBytes / 1e6);
     return 0;
 }
 

@@ -27,8 +27,9 @@ int runVersion()
 
 void addVersionCommand(CLI::App& app, Action& action)
 {
-    auto* cmd = app.add_subcommand("version", "Print the versions of cambium, its libraries and the "
-                                              "OpenCL devices found");
+    auto* cmd = app.add_subcommand("version",
+                                   "Print the versions of cambium, its libraries and the "
+                                   "OpenCL devices found");
     cmd->callback([&action] { action = [] { return runVersion(); }; });
 }
 

@@ -19,7 +19,8 @@ float bandBackground(double h, double W)
     return background;
 }
 
-void createGrids(BakedGrids& out, double h, float background, const openvdb::Vec3f& colourBackground)
+void createGrids(BakedGrids& out, double h, float background,
+                 const openvdb::Vec3f& colourBackground)
 {
     out.surface = openvdb::FloatGrid::create(background);
     out.color = openvdb::Vec3fGrid::create(colourBackground);
@@ -39,7 +40,8 @@ void addFog(BakedGrids& out)
     out.density->setName(kDensityGrid);
 }
 
-void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats, BakeTimings& timings)
+void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
+                   BakeTimings& timings)
 {
     // Through accessors: consecutive leaves mostly share their internal
     // nodes (depth-first order), which the accessors keep at hand.
@@ -64,7 +66,8 @@ void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats, 
 BakedGrids emptyLevelSet(const BakeOptions& opt)
 {
     BakedGrids out;
-    createGrids(out, opt.voxelSize, bandBackground(opt.voxelSize, opt.halfWidth), openvdb::Vec3f(0.0f));
+    createGrids(out, opt.voxelSize, bandBackground(opt.voxelSize, opt.halfWidth),
+                openvdb::Vec3f(0.0f));
     if (opt.fog)
         addFog(out);
     out.stats.voxelSize = opt.voxelSize;

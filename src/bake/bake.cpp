@@ -25,7 +25,8 @@ namespace cambium {
 void checkBakeOptions(const BakeRequest& req)
 {
     if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
-        throw InputError(fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
+        throw InputError(
+            fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
 }
 
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
@@ -33,52 +34,58 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     VoxelPlan plan;
     const Box bounds = program.positiveBounds();
     if (bounds.empty())
-        throw InputError(fmt::format("{}: the model has no surface: its field is nowhere above the "
-                                     "threshold (empty scene, or only negative fields)",
-                                     req.input));
+        throw InputError(
+            fmt::format("{}: the model has no surface: its field is nowhere above the "
+                        "threshold (empty scene, or only negative fields)",
+                        req.input));
     const glm::dvec3 size = bounds.size();
     plan.extent = std::max({size.x, size.y, size.z});
-    const double far = std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
-                                 std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
+    const double far =
+        std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
+                  std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
     if (!std::isfinite(plan.extent) || !std::isfinite(far) || far > 1e15)
-        throw InputError(fmt::format("{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
-                                     "cannot be baked",
-                                     req.input, far));
+        throw InputError(fmt::format(
+            "{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
+            "cannot be baked",
+            req.input, far));
     if (req.voxelSize) {
         plan.voxelSize = *req.voxelSize;
         if (!(plan.voxelSize >= kMinVoxelSize && plan.voxelSize <= 1e9))
-            throw InputError(fmt::format("--voxel-size must be a number from {:g} to 1e9 (got {})", kMinVoxelSize,
-                                         plan.voxelSize));
+            throw InputError(fmt::format("--voxel-size must be a number from {:g} to 1e9 (got {})",
+                                         kMinVoxelSize, plan.voxelSize));
     } else {
         plan.voxelSize = autoVoxelSize(program);
         plan.automatic = true;
         if (!(plan.voxelSize >= kMinVoxelSize))
-            throw InputError(fmt::format("{}: the surface is only {:.3g} across: 512 voxels across it would be "
-                                         "smaller than {:g}; scale the model up",
-                                         req.input, plan.extent, kMinVoxelSize));
+            throw InputError(
+                fmt::format("{}: the surface is only {:.3g} across: 512 voxels across it would be "
+                            "smaller than {:g}; scale the model up",
+                            req.input, plan.extent, kMinVoxelSize));
     }
     const double h = plan.voxelSize;
     // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
     const double span = (far + req.halfWidth * h) / h;
     if (!(span < 1e9))
-        throw InputError(fmt::format("{}: the surface reaches {:.4g} from the origin, {:.3g} voxels of {:g}: beyond "
-                                     "OpenVDB's index space (about 2e9 voxels each way); move the model nearer the "
-                                     "origin or use a larger --voxel-size",
-                                     req.input, far, span, h));
+        throw InputError(fmt::format(
+            "{}: the surface reaches {:.4g} from the origin, {:.3g} voxels of {:g}: beyond "
+            "OpenVDB's index space (about 2e9 voxels each way); move the model nearer the "
+            "origin or use a larger --voxel-size",
+            req.input, far, span, h));
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth);
     const double have = availableMemoryBytes();
     if (!(plan.bytes <= have))
         throw InputError(fmt::format(
-            "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across ({:.3g} "
+            "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across "
+            "({:.3g} "
             "voxels), and this machine has {} available: use a larger --voxel-size",
             h, formatBytes(plan.bytes), plan.extent, plan.extent / h, formatBytes(have)));
     return plan;
 }
 
-
 std::unique_ptr<FieldSampler> makeSampler(Device device)
 {
-    return device == Device::Cpu ? makeCpuSampler() : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
+    return device == Device::Cpu ? makeCpuSampler()
+                                 : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
 }
 
 BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
@@ -103,9 +110,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
             thin += 2.0 * r < plan.voxelSize;
         }
     if (thin && callbacks.notice)
-        callbacks.notice(fmt::format("{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
-                               "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
-                               thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
+        callbacks.notice(fmt::format(
+            "{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
+            "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
+            thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
 
     const ThreadLimit threads(req.threads);
     std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);
@@ -118,9 +126,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.progress = callbacks.progress;
     const BakedGrids grids = bakeLevelSet(program, *sampler, opt);
     if (grids.stats.activeVoxels == 0)
-        throw InputError(fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
-                                     "nothing to bake (use a smaller --voxel-size)",
-                                     req.input, plan.voxelSize));
+        throw InputError(
+            fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
+                        "nothing to bake (use a smaller --voxel-size)",
+                        req.input, plan.voxelSize));
     VdbFileInfo info;
     info.scene = req.input;
     info.threshold = tree.threshold();

@@ -16,15 +16,15 @@ namespace cambium {
 
 /// One bake: a model file to one .vdb file.
 struct BakeRequest {
-    std::string input;                 ///< scene, L-system, skeleton or growth parameter file
-    ModelOptions model;                ///< how L-systems and skeletons are built
-    std::string output;                ///< .vdb path (a sequence: a pattern with a run of '#')
-    std::optional<double> voxelSize;   ///< default: 512 voxels across the surface bounds
-    double halfWidth = 3.0;            ///< voxels
+    std::string input;                ///< scene, L-system, skeleton or growth parameter file
+    ModelOptions model;               ///< how L-systems and skeletons are built
+    std::string output;               ///< .vdb path (a sequence: a pattern with a run of '#')
+    std::optional<double> voxelSize;  ///< default: 512 voxels across the surface bounds
+    double halfWidth = 3.0;           ///< voxels
     Device device = Device::OpenCL;
     bool fog = false;
     bool half = false;
-    int threads = 0;                   ///< 0: all cores
+    int threads = 0;  ///< 0: all cores
 };
 
 /// How a bake talks to whoever runs it (the library never prints).
@@ -47,8 +47,8 @@ void checkBakeOptions(const BakeRequest& request);
 struct VoxelPlan {
     double voxelSize = 0.0;
     bool automatic = false;
-    double extent = 0.0;     ///< largest extent of the surface bounds
-    double bytes = 0.0;      ///< estimated memory of one bake
+    double extent = 0.0;  ///< largest extent of the surface bounds
+    double bytes = 0.0;   ///< estimated memory of one bake
 };
 /// The smallest voxel size baked: OpenVDB's transforms refuse a voxel whose
 /// volume is below 3e-15 (h < 1.44e-5).
@@ -62,7 +62,7 @@ std::unique_ptr<FieldSampler> makeSampler(Device device);
 struct BakeReport {
     BakeStats stats;
     bool autoVoxelSize = false;
-    double extent = 0.0;       ///< largest extent of the surface bounds
+    double extent = 0.0;  ///< largest extent of the surface bounds
     double peakMemoryBytes = 0.0;
     std::string device;
 };

@@ -13,12 +13,16 @@ namespace cambium {
 
 namespace {
 
-uint64_t packOrigin(const int32_t* o) { return nodeKey(o[0], o[1], o[2], 3); }
+uint64_t packOrigin(const int32_t* o)
+{
+    return nodeKey(o[0], o[1], o[2], 3);
+}
 
 }  // namespace
 
-void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo, double h,
-                     LeafValueCache& cache, uint16_t* value, size_t& reused, const Progress& progress)
+void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo,
+                     double h, LeafValueCache& cache, uint16_t* value, size_t& reused,
+                     const Progress& progress)
 {
     const size_t n = topo.leaves.size();
     std::vector<std::array<uint64_t, 2>> keys(n);
@@ -29,7 +33,8 @@ void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const B
         const LeafJob& job = topo.leaves[l];
         std::vector<double>& canonical = scratch.local();
         canonical.clear();
-        program.canonical(Code(topo.pool.data() + job.codeOffset, size_t(job.codeLength)), canonical);
+        program.canonical(Code(topo.pool.data() + job.codeOffset, size_t(job.codeLength)),
+                          canonical);
         keys[l] = hash128(canonical.data(), canonical.size());
         if (!usable)
             return;

@@ -17,8 +17,8 @@ double autoVoxelSize(const FieldProgram& program, double voxels)
     return extent > 0.0 ? extent / voxels : 0.0;
 }
 
-void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, double h, uint16_t* value,
-                      const Progress& progress)
+void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, double h,
+                      uint16_t* value, const Progress& progress)
 {
     const size_t n = leaves.size();
     for (size_t b0 = 0; b0 < n; b0 += kBatchLeaves) {
@@ -57,7 +57,8 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler, cons
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
     if (opt.reuse)
-        sampleWithReuse(program, sampler, topo, h, *opt.reuse, value.get(), st.reusedLeaves, progress);
+        sampleWithReuse(program, sampler, topo, h, *opt.reuse, value.get(), st.reusedLeaves,
+                        progress);
     else
         sampleLeafValues(sampler, topo.leaves, h, value.get(), progress);
     tm.values = secondsSince(t);
@@ -81,9 +82,9 @@ BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler, cons
 
     // 4. Propagation into signed distances and grid leaves, tile by tile.
     const auto uniform = program.uniformColor();
-    const BandLeaves leaves =
-        propagate({topo.leaves, value.get(), nb, surface, samples.get(), h, W, background, uniform.has_value()},
-                  progress, tm);
+    const BandLeaves leaves = propagate({topo.leaves, value.get(), nb, surface, samples.get(), h, W,
+                                         background, uniform.has_value()},
+                                        progress, tm);
 
     // 5. The grids.  A model of one colour has that colour wherever the
     // surface is: its Cd grid is that colour as the background, without

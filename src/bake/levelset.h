@@ -24,16 +24,17 @@ namespace cambium {
 /// each: the values; the hash instead of the ~0.8 KB canonical program).
 struct LeafValueCache {
     double voxelSize = 0.0;
-    std::unordered_map<uint64_t, size_t> slot;    ///< packed leaf origin -> entry
+    std::unordered_map<uint64_t, size_t> slot;      ///< packed leaf origin -> entry
     std::vector<std::array<uint64_t, 2>> programs;  ///< hashes of the canonical leaf programs
-    std::vector<uint16_t> values;                 ///< 512 per entry
+    std::vector<uint16_t> values;                   ///< 512 per entry
 };
 
 struct BakeOptions {
     double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
     double halfWidth = 3.0;  ///< narrow-band half-width in voxels
     bool fog = false;        ///< also make a `density` fog volume
-    LeafValueCache* reuse = nullptr;  ///< values of unchanged leaves from an earlier bake (sequences)
+    LeafValueCache* reuse =
+        nullptr;  ///< values of unchanged leaves from an earlier bake (sequences)
     /// Called with a stage name and the fraction done; may be called from
     /// several threads at once.
     std::function<void(const char* stage, double fraction)> progress;
@@ -42,23 +43,24 @@ struct BakeOptions {
 /// Where a bake's time went, stage by stage (seconds; thread time where
 /// noted), for `cambium bake --timings`.
 struct BakeTimings {
-    double values = 0.0;          ///< sampling every voxel of the candidate leaves
+    double values = 0.0;  ///< sampling every voxel of the candidate leaves
     double neighbours = 0.0, insideBits = 0.0, signChanges = 0.0;  ///< finding the surface voxels
     double surfaceSamples = 0.0;  ///< sampling gradients and colours there
     double propagation = 0.0;     ///< propagation and grid leaves, wall time
-    double halos = 0.0, points = 0.0, sweeps = 0.0, sweepAxis[3] = {0.0, 0.0, 0.0}, leaves = 0.0;  ///< thread time
+    double halos = 0.0, points = 0.0, sweeps = 0.0, sweepAxis[3] = {0.0, 0.0, 0.0},
+           leaves = 0.0;  ///< thread time
     double freeing = 0.0, tree = 0.0, floodFill = 0.0;
     size_t tiles = 0, tileLeaves = 0;  ///< 64^3 tiles, and their leaves with halos
 };
 
 struct BakeStats {
     double voxelSize = 0.0;
-    size_t boxesTested = 0;      ///< interval tests during the topology search
-    size_t candidateLeaves = 0;  ///< leaves sampled
-    size_t activeLeaves = 0;     ///< leaves holding band voxels
-    size_t reusedLeaves = 0;     ///< sampled leaves whose values came from BakeOptions::reuse
-    size_t activeVoxels = 0;     ///< voxels in the band
-    size_t surfacePoints = 0;    ///< voxels next to a sign change (the first layer)
+    size_t boxesTested = 0;          ///< interval tests during the topology search
+    size_t candidateLeaves = 0;      ///< leaves sampled
+    size_t activeLeaves = 0;         ///< leaves holding band voxels
+    size_t reusedLeaves = 0;         ///< sampled leaves whose values came from BakeOptions::reuse
+    size_t activeVoxels = 0;         ///< voxels in the band
+    size_t surfacePoints = 0;        ///< voxels next to a sign change (the first layer)
     double meanProgramLength = 0.0;  ///< instructions per leaf program
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
     BakeTimings timings;

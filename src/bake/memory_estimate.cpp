@@ -35,13 +35,16 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
             a = 4.0 * M_PI * q[CB_SPHERE_RADIUS] * q[CB_SPHERE_RADIUS];
         else if (in.op == CB_SEGMENT || in.op == CB_CONE)
             a = M_PI * (q[CB_CONE_R0] + q[CB_CONE_R1]) * q[CB_CONE_LEN] +
-                2.0 * M_PI * std::max(q[CB_CONE_R0], q[CB_CONE_R1]) * std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
+                2.0 * M_PI * std::max(q[CB_CONE_R0], q[CB_CONE_R1]) *
+                    std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
         else if (in.op == CB_CONVOLUTION_SEGMENT) {
-            const double r = q[CB_CONV_SUPPORT] / 3.0;  // its window is three times its largest radius
+            const double r =
+                q[CB_CONV_SUPPORT] / 3.0;  // its window is three times its largest radius
             a = 2.0 * M_PI * r * q[CB_CONV_LEN] + 2.0 * M_PI * r * r;
         }
         if (a >= 0.0)
-            area += std::min({a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
+            area += std::min(
+                {a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
     }
     // Band voxels; about three sampled voxels per band voxel, each holding its
     // value (4 bytes), propagation state (8) and a share of the surface points

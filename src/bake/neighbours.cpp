@@ -72,12 +72,15 @@ std::vector<LeafNeighbours> findNeighbours(const std::vector<LeafJob>& leaves)
         for (size_t l = tileFirst[ti]; l < tileFirst[ti + 1]; ++l) {
             const int32_t* o = leaves[l].origin;
             for (int k = 0; k < 27; ++k) {
-                const int x = o[0] + 8 * (k % 3 - 1), y = o[1] + 8 * ((k / 3) % 3 - 1), z = o[2] + 8 * (k / 9 - 1);
-                const bool same = (x >> 7) == (o[0] >> 7) && (y >> 7) == (o[1] >> 7) && (z >> 7) == (o[2] >> 7);
+                const int x = o[0] + 8 * (k % 3 - 1), y = o[1] + 8 * ((k / 3) % 3 - 1),
+                          z = o[2] + 8 * (k / 9 - 1);
+                const bool same =
+                    (x >> 7) == (o[0] >> 7) && (y >> 7) == (o[1] >> 7) && (z >> 7) == (o[2] >> 7);
                 const int32_t tile = same ? int32_t(ti) : findTile(x, y, z);
                 nb[l][size_t(k)] = tile < 0 ? -1
-                                            : dense[size_t(tile) * 4096 + size_t(((x >> 3) & 15) + 16 * ((y >> 3) & 15) +
-                                                                                 256 * ((z >> 3) & 15))];
+                                            : dense[size_t(tile) * 4096 +
+                                                    size_t(((x >> 3) & 15) + 16 * ((y >> 3) & 15) +
+                                                           256 * ((z >> 3) & 15))];
             }
         }
     });

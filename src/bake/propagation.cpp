@@ -42,8 +42,8 @@ struct Chains {
 #define CB_SWEEP_LINES 1
 #include "bake/sweep.inc"
 
-void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
-               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis, int32_t* srcAll,
+               float* const pos[3], float limit2, std::vector<float>& turned)
 {
     sweepAxis8(rows, local, axis, srcAll, pos, limit2, turned);
 }
@@ -60,8 +60,8 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
 #include "bake/sweep.inc"
 
 /// `turned`: scratch for the x-sweeps' transposed chains.
-void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis,
-               int32_t* srcAll, float* const pos[3], float limit2, std::vector<float>& turned)
+void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis, int32_t* srcAll,
+               float* const pos[3], float limit2, std::vector<float>& turned)
 {
     static const bool avx512 = __builtin_cpu_supports("x86-64-v4");
     if (avx512)
@@ -130,7 +130,8 @@ void buildChains(const std::vector<LeafJob>& jobs, int axis, std::vector<int>& t
             hi[k] = std::max(hi[k], j.origin[k] >> 3);
         }
     const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-    const size_t nu = size_t(hi[axis] - lo[axis] + 1), nv = size_t(hi[a] - lo[a] + 1), nw = size_t(hi[b] - lo[b] + 1);
+    const size_t nu = size_t(hi[axis] - lo[axis] + 1), nv = size_t(hi[a] - lo[a] + 1),
+                 nw = size_t(hi[b] - lo[b] + 1);
     table.assign(nu * nv * nw, -1);
     for (size_t i = 0; i < jobs.size(); ++i) {
         const int* o = jobs[i].origin;
@@ -154,12 +155,13 @@ void buildChains(const std::vector<LeafJob>& jobs, int axis, std::vector<int>& t
 struct TileScratch {
     std::vector<int32_t> leaves, src;  // src: each voxel's nearest surface point (tile-local index)
     std::vector<float> pos[3];         // its position: the sweeps carry it along without lookups
-    std::vector<std::array<uint8_t, 3>> rgb;  // the colours of the tile's points (with its halo's; 0: none)
-    std::vector<float> nrm[3];         // their normals, as planes (gathered by index)
-    std::vector<float> turned;         // the x-sweeps' transposed chains
-    std::vector<LeafJob> local;        // the tile's leaves, then its halo
-    Chains rows[3];                    // the chains along each axis
-    std::vector<int> table;            // (building them)
+    std::vector<std::array<uint8_t, 3>>
+        rgb;                     // the colours of the tile's points (with its halo's; 0: none)
+    std::vector<float> nrm[3];   // their normals, as planes (gathered by index)
+    std::vector<float> turned;   // the x-sweeps' transposed chains
+    std::vector<LeafJob> local;  // the tile's leaves, then its halo
+    Chains rows[3];              // the chains along each axis
+    std::vector<int> table;      // (building them)
 };
 
 /// Propagation over the tiles (64^3 voxels: octants of the topology's tiles,
@@ -171,7 +173,11 @@ struct TileScratch {
 class Propagation {
 public:
     Propagation(const PropagationInput& in, BandLeaves& out)
-        : in_(in), out_(out), first_(in.surface.first), edges_(in.surface.edges.get()), invH_(float(1.0 / in.voxelSize)),
+        : in_(in),
+          out_(out),
+          first_(in.surface.first),
+          edges_(in.surface.edges.get()),
+          invH_(float(1.0 / in.voxelSize)),
           limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
     {
     }
@@ -192,7 +198,8 @@ public:
         leavesNs += size_t(secondsSince(tLeaves) * 1e9);
     }
 
-    std::atomic<size_t> axisNs[3] = {0, 0, 0}, haloNs{0}, pointsNs{0}, sweepNs{0}, leavesNs{0}, localLeaves{0};
+    std::atomic<size_t> axisNs[3] = {0, 0, 0}, haloNs{0}, pointsNs{0}, sweepNs{0}, leavesNs{0},
+                        localLeaves{0};
 
 private:
     /// A surface voxel's point (leaf l's k-th): computed where a tile needs
@@ -218,12 +225,14 @@ private:
             dist = ed.t;
             if (!(g2 > 0.0f)) {
                 const int* dir = kFaceDirections[ed.dir];
-                nrm = (inside ? 1.0f : -1.0f) * glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
+                nrm = (inside ? 1.0f : -1.0f) *
+                      glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
             }
         }
         // Closest point: from outside, inwards along -n; from inside, outwards.
-        const glm::vec3 cp = glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
-                                       float(o[2] + (i >> 6))) + (inside ? dist : -dist) * nrm;
+        const glm::vec3 cp =
+            glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)), float(o[2] + (i >> 6))) +
+            (inside ? dist : -dist) * nrm;
         SurfacePoint sp;
         for (int c = 0; c < 3; ++c) {
             sp.p[c] = cp[c];
@@ -243,10 +252,12 @@ private:
         // only neighbours with points join the halo.
         for (size_t l = t0; l < t1; ++l)
             for (int32_t m : in_.nb[l])
-                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1) && first_[size_t(m) + 1] > first_[size_t(m)])
+                if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1) &&
+                    first_[size_t(m) + 1] > first_[size_t(m)])
                     S.leaves.push_back(m);
         std::sort(S.leaves.begin() + long(t1 - t0), S.leaves.end());
-        S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()), S.leaves.end());
+        S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()),
+                       S.leaves.end());
         localLeaves += S.leaves.size();
     }
 
@@ -323,18 +334,20 @@ private:
             const int32_t* src = S.src.data() + k * kLeafVoxels;
             const size_t at = k * kLeafVoxels;
             const int active = leafDistances(o, in_.value + l * kLeafVoxels, S.pos[0].data() + at,
-                                             S.pos[1].data() + at, S.pos[2].data() + at, src, S.nrm[0].data(),
-                                             S.nrm[1].data(), S.nrm[2].data(), float(in_.voxelSize), background, sd,
-                                             on);
+                                             S.pos[1].data() + at, S.pos[2].data() + at, src,
+                                             S.nrm[0].data(), S.nrm[1].data(), S.nrm[2].data(),
+                                             float(in_.voxelSize), background, sd, on);
             out_.active[l] = size_t(active);
             if (!active)
                 continue;
             const openvdb::Coord origin(o[0], o[1], o[2]);
             // (PartialCreate: the buffer is allocated by data() and not filled:
             // every value is written below.)
-            auto* sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin, background, false);
+            auto* sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin,
+                                                            background, false);
             auto* cl = in_.uniformColor ? nullptr
-                                        : new openvdb::Vec3fTree::LeafNodeType(origin, openvdb::Vec3f(0.0f), false);
+                                        : new openvdb::Vec3fTree::LeafNodeType(
+                                              origin, openvdb::Vec3f(0.0f), false);
             float* sv = sl->buffer().data();
             openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
             // VDB leaves index x slowest: offset = 64 x + 8 y + z, so mask

@@ -13,7 +13,10 @@
 
 namespace cambium {
 
-uint16_t floatToHalf(float f) { return openvdb::math::internal::half(f).bits(); }
+uint16_t floatToHalf(float f)
+{
+    return openvdb::math::internal::half(f).bits();
+}
 
 namespace {
 
@@ -38,13 +41,13 @@ public:
             const LeafJob& job = leaves[l];
             const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
             for (int i = 0; i < kLeafVoxels; ++i)  // F - T in float, as the kernel
-                out[(l - begin) * kLeafVoxels + size_t(i)] =
-                    floatToHalf(float(program_->evaluate(code, voxelPosition(job, i, h)).value) - T);
+                out[(l - begin) * kLeafVoxels + size_t(i)] = floatToHalf(
+                    float(program_->evaluate(code, voxelPosition(job, i, h)).value) - T);
         });
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
-                       double h, SurfaceSample* out) override
+    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
+                       size_t count, double h, SurfaceSample* out) override
     {
         tbb::parallel_for(size_t(0), count, [&](size_t q) {
             const LeafJob& job = leaves[size_t(queries[q].leaf)];
@@ -87,7 +90,8 @@ public:
         program_ = ctx_.build(source, options + " -D CB_LANES=8");
         // Values 16 points wide: one interpreter dispatch per two rows (0.35 s
         // -> 0.22 s on the 20k-internode tree; one AVX-512 register, two AVX2).
-        valuesProgram_ = ctx_.build(source, options + " -D CB_LANES=16 -D CB_GRADIENT=0 -D CB_COLOR=0");
+        valuesProgram_ =
+            ctx_.build(source, options + " -D CB_LANES=16 -D CB_GRADIENT=0 -D CB_COLOR=0");
         cl_int err;
         valuesKernel_ = clCreateKernel(valuesProgram_, "sample_values", &err);
         checkCL(err, "clCreateKernel(sample_values)");
@@ -125,7 +129,8 @@ public:
             return;
         const size_t n = end - begin;
         cl_mem code = pool_.get(), params = params_.get();
-        cl_mem table = table_.upload(ctx_, leaves.data() + begin, n * sizeof(LeafJob), CL_MEM_READ_ONLY);
+        cl_mem table =
+            table_.upload(ctx_, leaves.data() + begin, n * sizeof(LeafJob), CL_MEM_READ_ONLY);
         const size_t bytes = n * kLeafVoxels * sizeof(uint16_t);
         // Aligned output (parallelArray's) is written in place: a CPU device
         // uses it as it is, where a copy would cost a pass over all values.
@@ -133,7 +138,8 @@ public:
         cl_mem result;
         if (inPlace) {
             cl_int err;
-            result = clCreateBuffer(ctx_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, bytes, out, &err);
+            result = clCreateBuffer(ctx_.context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, bytes,
+                                    out, &err);
             checkCL(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
         } else {
             result = out_.reserve(ctx_, bytes, CL_MEM_WRITE_ONLY);
@@ -142,15 +148,15 @@ public:
         setArgs(valuesKernel_, code, params, table, hf, result);
         // An explicit local size: PoCL recompiles for every new global size otherwise.
         const size_t local = 32, global = 32 * n;  // two rows per work-item
-        cl_int status = clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global, &local, 0,
-                                               nullptr, nullptr);
+        cl_int status = clEnqueueNDRangeKernel(ctx_.queue(), valuesKernel_, 1, nullptr, &global,
+                                               &local, 0, nullptr, nullptr);
         if (inPlace) {
             // Mapping makes the host memory hold the results (a no-op where
             // the device works in it); the buffer goes, the memory stays ours.
             void* p = nullptr;
             if (status == CL_SUCCESS)
-                p = clEnqueueMapBuffer(ctx_.queue(), result, CL_TRUE, CL_MAP_READ, 0, bytes, 0, nullptr,
-                                       nullptr, &status);
+                p = clEnqueueMapBuffer(ctx_.queue(), result, CL_TRUE, CL_MAP_READ, 0, bytes, 0,
+                                       nullptr, nullptr, &status);
             if (p)
                 clEnqueueUnmapMemObject(ctx_.queue(), result, p, 0, nullptr, nullptr);
             clFinish(ctx_.queue());
@@ -159,12 +165,13 @@ public:
             return;
         }
         checkCL(status, "clEnqueueNDRangeKernel(sample_values)");
-        checkCL(clEnqueueReadBuffer(ctx_.queue(), result, CL_TRUE, 0, bytes, out, 0, nullptr, nullptr),
-                "clEnqueueReadBuffer");
+        checkCL(
+            clEnqueueReadBuffer(ctx_.queue(), result, CL_TRUE, 0, bytes, out, 0, nullptr, nullptr),
+            "clEnqueueReadBuffer");
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
-                       double h, SurfaceSample* out) override
+    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
+                       size_t count, double h, SurfaceSample* out) override
     {
         if (count == 0)
             return;
@@ -180,14 +187,17 @@ public:
         const size_t runs = runStart.size() - 1;
         std::vector<size_t> firstChunk(runs + 1, 0);
         for (size_t r = 0; r < runs; ++r)
-            firstChunk[r + 1] = firstChunk[r] + (runStart[r + 1] - runStart[r] + kChunk - 1) / kChunk;
+            firstChunk[r + 1] =
+                firstChunk[r] + (runStart[r + 1] - runStart[r] + kChunk - 1) / kChunk;
         const size_t local = 8;  // work-items (chunks) per work-group
         const size_t chunks = (firstChunk[runs] + local - 1) / local * local;  // whole work-groups
         const size_t stride = kChunk * chunks;
         chunkLeaf_.reserve(ctx_, chunks * sizeof(int32_t), CL_MEM_READ_ONLY);
         chunkVoxels_.reserve(ctx_, stride * sizeof(uint16_t), CL_MEM_READ_ONLY);
-        auto* cLeaf = static_cast<int32_t*>(chunkLeaf_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, chunks * sizeof(int32_t)));
-        auto* cVox = static_cast<uint16_t*>(chunkVoxels_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, stride * sizeof(uint16_t)));
+        auto* cLeaf = static_cast<int32_t*>(
+            chunkLeaf_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, chunks * sizeof(int32_t)));
+        auto* cVox = static_cast<uint16_t*>(
+            chunkVoxels_.map(ctx_, CL_MAP_WRITE_INVALIDATE_REGION, stride * sizeof(uint16_t)));
         tbb::parallel_for(size_t(0), runs, [&](size_t r) {
             const size_t q0 = runStart[r], q1 = runStart[r + 1];
             for (size_t c = firstChunk[r]; c < firstChunk[r + 1]; ++c) {
@@ -205,7 +215,8 @@ public:
         chunkLeaf_.unmap(ctx_, cLeaf);
         chunkVoxels_.unmap(ctx_, cVox);
         cl_mem code = pool_.get(), params = params_.get();
-        cl_mem table = table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
+        cl_mem table =
+            table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
         cl_mem cl = chunkLeaf_.get(), cv = chunkVoxels_.get();
         cl_mem grad = out_.reserve(ctx_, 3 * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
         cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
@@ -215,7 +226,8 @@ public:
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), surfaceKernel_, 1, nullptr, &chunks, &local, 0,
                                        nullptr, nullptr),
                 "clEnqueueNDRangeKernel(sample_surface)");
-        const auto* g = static_cast<const uint16_t*>(out_.map(ctx_, CL_MAP_READ, 3 * stride * sizeof(uint16_t)));
+        const auto* g = static_cast<const uint16_t*>(
+            out_.map(ctx_, CL_MAP_READ, 3 * stride * sizeof(uint16_t)));
         const auto* c = static_cast<const uint8_t*>(out2_.map(ctx_, CL_MAP_READ, 3 * stride));
         tbb::parallel_for(size_t(0), runs, [&](size_t r) {
             for (size_t q = runStart[r]; q < runStart[r + 1]; ++q) {
@@ -239,7 +251,8 @@ public:
                 in[c * stride + i] = float(points[i][c]);
         cl_mem codeMem = code_.upload(ctx_, code.data, code.size * sizeof(Instr), CL_MEM_READ_ONLY);
         cl_mem pts = table_.upload(ctx_, in.data(), in.size() * sizeof(float), CL_MEM_READ_ONLY);
-        cl_mem result = out_.reserve(ctx_, kSampleChannels * stride * sizeof(float), CL_MEM_WRITE_ONLY);
+        cl_mem result =
+            out_.reserve(ctx_, kSampleChannels * stride * sizeof(float), CL_MEM_WRITE_ONLY);
         cl_mem params = params_.get();
         const int length = int(code.size), st = int(stride);
         setArgs(pointsKernel_, codeMem, length, params, pts, st, result);
@@ -269,7 +282,13 @@ private:
 
 }  // namespace
 
-std::unique_ptr<FieldSampler> makeOpenCLSampler() { return std::make_unique<OpenCLSampler>(); }
-std::unique_ptr<FieldSampler> makeCpuSampler() { return std::make_unique<CpuSampler>(); }
+std::unique_ptr<FieldSampler> makeOpenCLSampler()
+{
+    return std::make_unique<OpenCLSampler>();
+}
+std::unique_ptr<FieldSampler> makeCpuSampler()
+{
+    return std::make_unique<CpuSampler>();
+}
 
 }  // namespace cambium

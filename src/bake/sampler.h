@@ -53,7 +53,10 @@ inline float halfToFloat(uint16_t h)
 /// float -> IEEE half, rounded to nearest even.
 uint16_t floatToHalf(float f);
 /// Whether a half is positive and not zero (F - T > 0: inside).
-inline bool halfPositive(uint16_t h) { return int16_t(h) > 0; }
+inline bool halfPositive(uint16_t h)
+{
+    return int16_t(h) > 0;
+}
 
 /// A leaf to sample: its origin in voxel index space and its program, a
 /// range of a shared code pool.
@@ -78,8 +81,8 @@ public:
                               double voxelSize, uint16_t* out) = 0;
     /// Gradient and colour at the queried voxels, `count` queries grouped by
     /// leaf, into out[0, count).
-    virtual void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries, size_t count,
-                               double voxelSize, SurfaceSample* out) = 0;
+    virtual void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
+                               size_t count, double voxelSize, SurfaceSample* out) = 0;
     /// Evaluates `code` at arbitrary points (tests and diagnostics):
     /// out = 7 planes of points.size() floats.
     virtual std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) = 0;

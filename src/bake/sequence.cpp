@@ -26,7 +26,6 @@ namespace cambium {
 
 namespace {
 
-
 /// Frames in runs of one growth year: a worker takes a run and bakes it in
 /// order, so that a dormant frame finds its predecessor's grids.
 std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
@@ -47,9 +46,9 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
 
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
-    const std::string options =
-        fmt::format("h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize, req.bake.halfWidth,
-                    req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half);
+    const std::string options = fmt::format(
+        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize, req.bake.halfWidth,
+        req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half);
     return fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
 }
 
@@ -61,16 +60,20 @@ SequencePlan planSequence(const SequenceRequest& request)
     checkBakeOptions(req);
     checkModelOptions(req.model);
     if (!isGrowthParameterFile(req.input))
-        throw InputError(fmt::format("{}: --frames needs a growth parameter file (a .json with \"curves\", "
-                                     "docs/growth-format.md)",
-                                     req.input));
+        throw InputError(
+            fmt::format("{}: --frames needs a growth parameter file (a .json with \"curves\", "
+                        "docs/growth-format.md)",
+                        req.input));
     checkGrowthOptions(req.input, req.model);
-    if (!(std::isfinite(request.fpsPerYear) && request.fpsPerYear > 0.0 && request.fpsPerYear <= 1e6))
-        throw InputError(fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
+    if (!(std::isfinite(request.fpsPerYear) && request.fpsPerYear > 0.0 &&
+          request.fpsPerYear <= 1e6))
+        throw InputError(
+            fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
     if (!isFramePattern(req.output))
-        throw InputError(fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
-                                     "out/tree.####.vdb",
-                                     req.output));
+        throw InputError(
+            fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
+                        "out/tree.####.vdb",
+                        req.output));
     plan.frames = parseFrames(request.frames);
     const std::string text = readTextFile(req.input, "growth parameter file");
     plan.model = std::make_shared<const GrowthModel>(parseGrowthParameters(text, req.input));
@@ -79,9 +82,10 @@ SequencePlan planSequence(const SequenceRequest& request)
     for (long long f : plan.frames) {
         const double t = double(f) / request.fpsPerYear;
         if (!(t >= 0.0 && t <= years))
-            throw InputError(fmt::format("frame {} is year {:g} at {:g} frames a year, outside the tree's 0 to {} "
-                                         "years ({})",
-                                         f, t, request.fpsPerYear, years, req.input));
+            throw InputError(fmt::format(
+                "frame {} is year {:g} at {:g} frames a year, outside the tree's 0 to {} "
+                "years ({})",
+                f, t, request.fpsPerYear, years, req.input));
         plan.times.push_back(t);
         plan.paths.push_back(framePath(req.output, f));
         checkOutputPath(plan.paths.back(), plan.paths.size() == 1);
@@ -92,11 +96,13 @@ SequencePlan planSequence(const SequenceRequest& request)
     const TreeBuildOptions build = model.buildOptions();
     const Skeleton last = model.skeleton(plan.times.back(), req.model.leaves);
     if (last.internodes.empty())
-        throw InputError(fmt::format("{}: the tree has not begun to grow by year {:g} (the last frame): nothing "
-                                     "to bake",
-                                     req.input, plan.times.back()));
+        throw InputError(
+            fmt::format("{}: the tree has not begun to grow by year {:g} (the last frame): nothing "
+                        "to bake",
+                        req.input, plan.times.back()));
     const FieldProgram lastProgram = FieldProgram::compile(buildTree(last, build));
-    VoxelPlan voxels = planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
+    VoxelPlan voxels =
+        planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
     if (req.model.leaves) {
         // Wood only grows, but leaves come and go within a year: the last
         // year's frames in leaf may need more than the last frame.
@@ -107,8 +113,9 @@ SequencePlan planSequence(const SequenceRequest& request)
             if (growthYear(plan.times[i]) == lastYear) {
                 const Skeleton sk = model.skeleton(plan.times[i], true);
                 if (!sk.internodes.empty())
-                    voxels.bytes = std::max(voxels.bytes,
-                                            planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
+                    voxels.bytes = std::max(
+                        voxels.bytes,
+                        planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
             }
     }
     plan.voxelSize = voxels.voxelSize;
@@ -141,9 +148,10 @@ std::vector<bool> finishedFrames(const SequencePlan& plan, size_t first, size_t 
                 continue;
             }
             if (found != plan.key)
-                throw InputError(fmt::format("{} exists from another bake (other parameters or options): remove "
-                                             "it, or bake without --resume to overwrite it",
-                                             plan.paths[i]));
+                throw InputError(
+                    fmt::format("{} exists from another bake (other parameters or options): remove "
+                                "it, or bake without --resume to overwrite it",
+                                plan.paths[i]));
             finished[i] = true;
         }
     return finished;
@@ -153,8 +161,8 @@ std::vector<bool> finishedFrames(const SequencePlan& plan, size_t first, size_t 
 struct FrameBaker {
     const SequencePlan& plan;
     FieldSampler* sampler;
-    LeafValueCache cache;                 // the last baked frame's leaves: unchanged ones are not sampled again
-    std::optional<FieldProgram> previous; // the last frame baked in this group
+    LeafValueCache cache;  // the last baked frame's leaves: unchanged ones are not sampled again
+    std::optional<FieldProgram> previous;  // the last frame baked in this group
     BakedGrids grids;
 
     /// Bakes (or reuses) frame i and writes its file.
@@ -177,7 +185,8 @@ struct FrameBaker {
                 fr.outcome = FrameReport::Outcome::Reused;
             } else {
                 grids = bakeLevelSet(program, *sampler, opt);
-                fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked : FrameReport::Outcome::Empty;
+                fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked
+                                                      : FrameReport::Outcome::Empty;
                 previous = std::move(program);
             }
         }
@@ -196,20 +205,23 @@ struct FrameBaker {
 
 }  // namespace
 
-SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last, const SequenceCallbacks& callbacks)
+SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
+                           const SequenceCallbacks& callbacks)
 {
     const auto start = Clock::now();
     if (!(first < last && last <= plan.frames.size()))
-        throw InputError(fmt::format("frames [{}, {}) are not a range of the plan's {} frames", first, last,
-                                     plan.frames.size()));
+        throw InputError(fmt::format("frames [{}, {}) are not a range of the plan's {} frames",
+                                     first, last, plan.frames.size()));
     const SequenceRequest& request = plan.request;
     const BakeRequest& req = request.bake;
     SequenceReport report;
     report.voxelSize = plan.voxelSize;
     report.autoVoxelSize = plan.autoVoxelSize;
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    const int byMemory = int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytesPerFrame, 1.0))));
-    report.jobs = std::max(1, std::min({request.jobs > 0 ? request.jobs : cores, byMemory, int(last - first)}));
+    const int byMemory =
+        int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytesPerFrame, 1.0))));
+    report.jobs = std::max(
+        1, std::min({request.jobs > 0 ? request.jobs : cores, byMemory, int(last - first)}));
     auto notice = [&](const std::string& line) {
         if (callbacks.notice)
             callbacks.notice(line);
@@ -220,8 +232,8 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last, 
     // are removed.
     const bool whole = first == 0 && last == plan.frames.size();
     const OutputLock outputLock(whole ? req.output
-                                      : fmt::format("{}.frames-{}-{}", req.output, plan.frames[first],
-                                                    plan.frames[last - 1]));
+                                      : fmt::format("{}.frames-{}-{}", req.output,
+                                                    plan.frames[first], plan.frames[last - 1]));
     for (const std::string& tmp : staleTemporaries(req.output))
         if (std::filesystem::remove(tmp))
             notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
@@ -252,7 +264,8 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last, 
     std::mutex mutex;
     auto worker = [&](int w) {
         try {
-            FrameBaker baker{plan, samplers.empty() ? nullptr : samplers[size_t(w)].get(), {}, {}, {}};
+            FrameBaker baker{
+                plan, samplers.empty() ? nullptr : samplers[size_t(w)].get(), {}, {}, {}};
             for (size_t r; !failed && (r = next++) < groups.size();) {
                 baker.previous.reset();
                 baker.grids = {};  // (the last group's grids are not kept through this one)

@@ -24,28 +24,28 @@ struct SequenceRequest {
     /// frame number), voxel size (default: 512 voxels across the last
     /// frame), half-width, device, fog, half, threads; model.leaves.
     BakeRequest bake;
-    std::string frames;      ///< FIRST-LAST[:STEP]; frame f is year f / fpsPerYear
+    std::string frames;  ///< FIRST-LAST[:STEP]; frame f is year f / fpsPerYear
     double fpsPerYear = 1.0;
-    bool resume = false;     ///< keep the frames a previous run of the same bake finished
-    int jobs = 0;            ///< frames baked at once; 0: as many as cores and memory allow
+    bool resume = false;  ///< keep the frames a previous run of the same bake finished
+    int jobs = 0;         ///< frames baked at once; 0: as many as cores and memory allow
 };
 
 /// Everything a sequence is, decided before any frame is baked.
 struct SequencePlan {
     SequenceRequest request;
     std::shared_ptr<const GrowthModel> model;
-    std::vector<long long> frames;      ///< in the order of --frames
-    std::vector<double> times;          ///< years, one per frame
-    std::vector<std::string> paths;     ///< files, one per frame
-    double voxelSize = 0.0;             ///< the whole sequence's (the last frame sizes it)
+    std::vector<long long> frames;   ///< in the order of --frames
+    std::vector<double> times;       ///< years, one per frame
+    std::vector<std::string> paths;  ///< files, one per frame
+    double voxelSize = 0.0;          ///< the whole sequence's (the last frame sizes it)
     bool autoVoxelSize = false;
-    double bytesPerFrame = 0.0;         ///< estimated memory of the largest frame's bake
+    double bytesPerFrame = 0.0;  ///< estimated memory of the largest frame's bake
     double threshold = 0.5;
     /// Reuse groups: frames of one growth year, in order (indices into
     /// frames).  A worker bakes a group in order, so that a dormant frame
     /// finds its predecessor's grids and unchanged leaves.
     std::vector<std::vector<size_t>> groups;
-    std::string key;                    ///< sequenceKey: what --resume compares
+    std::string key;  ///< sequenceKey: what --resume compares
 };
 
 /// Validates everything (parameters, frames and their times, output pattern,
@@ -55,14 +55,14 @@ SequencePlan planSequence(const SequenceRequest& request);
 
 struct FrameReport {
     long long frame = 0;
-    double time = 0.0;       ///< years
+    double time = 0.0;  ///< years
     std::string path;
     /// Baked: sampled.  Reused: its BlobTree is the previous frame's (a
     /// dormant season): the previous grids written again.  Skipped: --resume
     /// found it finished.  Empty: nothing thicker than a voxel yet.
     enum class Outcome { Baked, Reused, Skipped, Empty } outcome = Outcome::Baked;
     BakeStats stats;
-    double seconds = 0.0;    ///< building, baking and writing
+    double seconds = 0.0;  ///< building, baking and writing
 };
 
 struct SequenceReport {
@@ -94,11 +94,13 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
                            const SequenceCallbacks& callbacks = {});
 
 /// planSequence, then runSequence of every frame.
-SequenceReport bakeSequence(const SequenceRequest& request, const SequenceCallbacks& callbacks = {});
+SequenceReport bakeSequence(const SequenceRequest& request,
+                            const SequenceCallbacks& callbacks = {});
 
 /// The key a sequence's files carry (file metadata `cambium_sequence`): a
 /// hash of the parameter file's text and every option that changes a frame.
 /// --resume keeps a finished frame only when its key matches.
-std::string sequenceKey(const SequenceRequest& request, const std::string& parameterText, double voxelSize);
+std::string sequenceKey(const SequenceRequest& request, const std::string& parameterText,
+                        double voxelSize);
 
 }  // namespace cambium

@@ -3,11 +3,15 @@
 //
 //   1. topology            bake/topology.cpp      leaves that can hold band voxels
 //   2. values              bake/levelset.cpp      every voxel of those leaves
-//                          bake/leaf_cache.cpp    (or, in sequences, the unchanged leaves' values reused)
+//                          bake/leaf_cache.cpp    (or, in sequences, the unchanged leaves' values
+//                          reused)
 //   3. neighbours          bake/neighbours.cpp    each leaf's 26 neighbours
-//      surface voxels      bake/surface_voxels.cpp the voxels next to a sign change, then their gradients
-//   4. propagation         bake/propagation.cpp   surface points swept through the band, tile by tile,
-//                                                 into signed distances and grid leaves (bake/sweep.inc)
+//      surface voxels      bake/surface_voxels.cpp the voxels next to a sign change, then their
+//      gradients
+//   4. propagation         bake/propagation.cpp   surface points swept through the band, tile by
+//   tile,
+//                                                 into signed distances and grid leaves
+//                                                 (bake/sweep.inc)
 //   5. assembly            bake/assembly.cpp      the grids: leaves, flood fill, fog
 //   memory estimate        bake/memory_estimate.cpp
 #pragma once
@@ -31,13 +35,17 @@ constexpr int kBatchLeaves = 4096;
 
 /// A voxel's index in a leaf's values: x + 8 y + 64 z (VDB leaves order x
 /// slowest instead: 64 x + 8 y + z).
-inline int vox(int x, int y, int z) { return x + 8 * y + 64 * z; }
+inline int vox(int x, int y, int z)
+{
+    return x + 8 * y + 64 * z;
+}
 
 /// One key for the node of size 2^log2 holding voxel (x, y, z): its
 /// coordinates, 21 bits each.
 inline uint64_t nodeKey(int x, int y, int z, int log2)
 {
-    return (uint64_t(uint32_t(x >> log2) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(y >> log2) & 0x1FFFFF) << 21) |
+    return (uint64_t(uint32_t(x >> log2) & 0x1FFFFF) << 42) |
+           (uint64_t(uint32_t(y >> log2) & 0x1FFFFF) << 21) |
            uint64_t(uint32_t(z >> log2) & 0x1FFFFF);
 }
 
@@ -52,27 +60,31 @@ using Progress = std::function<void(const char* stage, double fraction)>;
 
 /// Every voxel's F - T (half floats, kLeafVoxels per leaf, in the leaves'
 /// order) into `value`, in batches.
-void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, double h, uint16_t* value,
-                      const Progress& progress);
+void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, double h,
+                      uint16_t* value, const Progress& progress);
 
 /// The same with a cache: leaves whose canonical program the cache holds for
 /// their origin get its values, the rest are sampled; the cache then holds
 /// this bake's leaves.  `reused`: how many leaves were not sampled.
-void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo, double h,
-                     LeafValueCache& cache, uint16_t* value, size_t& reused, const Progress& progress);
+void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo,
+                     double h, LeafValueCache& cache, uint16_t* value, size_t& reused,
+                     const Progress& progress);
 
 // --- 3. neighbours and surface voxels -------------------------------------------
 
 /// A leaf's neighbours, indexed (dx + 1) + 3 (dy + 1) + 9 (dz + 1) for the
 /// leaf at offset (dx, dy, dz) leaves; -1 where there is none.
 using LeafNeighbours = std::array<int32_t, 27>;
-constexpr int neighbourSlot(int dx, int dy, int dz) { return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1); }
+constexpr int neighbourSlot(int dx, int dy, int dz)
+{
+    return (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1);
+}
 /// The six face neighbours' slots.
 constexpr int kNeighbourXPlus = neighbourSlot(1, 0, 0), kNeighbourXMinus = neighbourSlot(-1, 0, 0),
               kNeighbourYPlus = neighbourSlot(0, 1, 0), kNeighbourYMinus = neighbourSlot(0, -1, 0),
               kNeighbourZPlus = neighbourSlot(0, 0, 1), kNeighbourZMinus = neighbourSlot(0, 0, -1);
-static_assert(kNeighbourXPlus == 14 && kNeighbourXMinus == 12 && kNeighbourYPlus == 16 && kNeighbourYMinus == 10 &&
-                  kNeighbourZPlus == 22 && kNeighbourZMinus == 4,
+static_assert(kNeighbourXPlus == 14 && kNeighbourXMinus == 12 && kNeighbourYPlus == 16 &&
+                  kNeighbourYMinus == 10 && kNeighbourZPlus == 22 && kNeighbourZMinus == 4,
               "the slots of the face neighbours");
 
 /// Every leaf's neighbours, found through the 128^3 tiles the topology
@@ -127,7 +139,7 @@ struct PropagationInput {
     const SurfaceSample* samples;  ///< the sampler's answers to surface.queries
     double voxelSize, halfWidth;
     float background;
-    bool uniformColor;             ///< one colour everywhere: no colour per point
+    bool uniformColor;  ///< one colour everywhere: no colour per point
 };
 
 /// Stage 4, tile by tile: each tile's surface points swept through its
@@ -141,12 +153,14 @@ BandLeaves propagate(const PropagationInput& in, const Progress& progress, BakeT
 float bandBackground(double h, double halfWidth);
 
 /// The grids without voxels: names, class, transform.
-void createGrids(BakedGrids& out, double h, float background, const openvdb::Vec3f& colourBackground);
+void createGrids(BakedGrids& out, double h, float background,
+                 const openvdb::Vec3f& colourBackground);
 
 /// The band leaves into the grids (which take them over), the tiles above
 /// them flood-filled; counts into the stats, the flood fill's time into
 /// timings.floodFill.
-void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats, BakeTimings& timings);
+void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
+                   BakeTimings& timings);
 
 /// `density`: the level set as OpenVDB's fog volume.
 void addFog(BakedGrids& out);

@@ -10,7 +10,8 @@
 
 namespace cambium {
 
-const int kFaceDirections[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+const int kFaceDirections[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                   {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
 
 SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16_t* value,
                                 const std::vector<LeafNeighbours>& nb, BakeTimings& timings)
@@ -35,7 +36,8 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
     // inside bits; a missing neighbour leaf (no surface within a voxel of it)
     // counts as the same side.  Returns how many voxels have one.
     auto crossings = [&](size_t l, uint64_t across[8][6]) {
-        constexpr uint64_t col0 = 0x0101010101010101ull, col7 = col0 << 7, row0 = 0xFFull, row7 = row0 << 56;
+        constexpr uint64_t col0 = 0x0101010101010101ull, col7 = col0 << 7, row0 = 0xFFull,
+                           row7 = row0 << 56;
         const auto& M = insideBits[l];
         auto plane = [&](int k, int z) -> const uint64_t* {
             const int32_t m = nb[l][size_t(k)];
@@ -103,12 +105,16 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
                 // does not reads the voxel itself and is ignored.
 #pragma GCC unroll 6
                 for (int k = 0; k < 6; ++k) {
-                    const bool cross = (d[k] >> bit) & 1;  // a neighbour leaf exists where it is set
+                    const bool cross =
+                        (d[k] >> bit) & 1;  // a neighbour leaf exists where it is set
                     const int* dir = kFaceDirections[k];
                     const int nx = x + dir[0], ny = y + dir[1], nz = z + dir[2];
-                    const int ox = nx < 0 ? -1 : (nx > 7), oy = ny < 0 ? -1 : (ny > 7), oz = nz < 0 ? -1 : (nz > 7);
-                    const int32_t nl = (ox | oy | oz) ? nb[l][size_t(neighbourSlot(ox, oy, oz))] : int32_t(l);
-                    const size_t at = cross ? size_t(nl) * kLeafVoxels + size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))
+                    const int ox = nx < 0 ? -1 : (nx > 7), oy = ny < 0 ? -1 : (ny > 7),
+                              oz = nz < 0 ? -1 : (nz > 7);
+                    const int32_t nl =
+                        (ox | oy | oz) ? nb[l][size_t(neighbourSlot(ox, oy, oz))] : int32_t(l);
+                    const size_t at = cross ? size_t(nl) * kLeafVoxels +
+                                                  size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))
                                             : l * kLeafVoxels + size_t(i);
                     const float fu = halfToFloat(value[at]);
                     const float tc = cross ? fv / (fv - fu) : INFINITY;

@@ -61,7 +61,10 @@ struct Coarse {
     std::vector<Instr> code;
 };
 
-long long floorDiv(long long a, long long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+long long floorDiv(long long a, long long b)
+{
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
 
 }  // namespace
 
@@ -115,7 +118,8 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
                 if (child.o[k] > hi[k])
                     return;  // beyond the box: left empty
             ++search.boxes;
-            const Interval iv = program.specialize(parent.code, search.centres(child.o, half).padded(search.pad), &child.code);
+            const Interval iv = program.specialize(
+                parent.code, search.centres(child.o, half).padded(search.pad), &child.code);
             if (!iv.contains(search.T))
                 child.code.clear();
         });
@@ -130,7 +134,8 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
     tbb::enumerable_thread_specific<Search::Scratch> scratch;
     std::atomic<size_t> done{0};
     tbb::parallel_for(size_t(0), tiles, [&](size_t t) {
-        search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), tileLeaves[t], tilePools[t]);
+        search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), tileLeaves[t],
+                       tilePools[t]);
         const size_t d = ++done;
         if (progress)
             progress(double(d) / double(tiles));

@@ -26,7 +26,6 @@ namespace cambium {
 
 namespace {
 
-
 double residentBytes()
 {
     std::ifstream in("/proc/self/statm");
@@ -91,8 +90,8 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
             const double len = glm::length(axis);
             cb_vec3 g;
             f += cb_cone_field(cb_v3(p.x, p.y, p.z), cb_v3(n.p0.x, n.p0.y, n.p0.z),
-                               cb_v3(axis.x / len, axis.y / len, axis.z / len), len, n.r0, n.r1, 1.0,
-                               0.5, &g);
+                               cb_v3(axis.x / len, axis.y / len, axis.z / len), len, n.r0, n.r1,
+                               1.0, 0.5, &g);
         }
         out[v] = float(f);
     });
@@ -102,7 +101,8 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
 
 }  // namespace
 
-std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu, int repeats,
+std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu,
+                                          int repeats,
                                           const std::function<void(const BakeBenchResult&)>& done)
 {
     std::vector<BakeBenchResult> all;
@@ -136,7 +136,8 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         rows.push_back({"(a) cambium, OpenCL on PoCL"});
         if (!skipCpu)
             rows.push_back({"(b) cambium, CPU path (TBB)"});
-        rows.push_back({fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", formatCount(sp.size()))});
+        rows.push_back(
+            {fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", formatCount(sp.size()))});
         std::vector<std::vector<double>> times(rows.size());
         for (int rep = 0; rep < repeats; ++rep) {
             for (size_t m = 0; m < rows.size(); ++m) {
@@ -150,7 +151,8 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
                             grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
                             grid->setGridClass(openvdb::GRID_LEVEL_SET);
                             openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
-                            raster.setRmin(1.0);  // thin twigs would vanish under the default 1.5 voxels
+                            raster.setRmin(
+                                1.0);  // thin twigs would vanish under the default 1.5 voxels
                             raster.rasterizeSpheres(sp);
                             raster.finalize(true);
                         },
@@ -178,7 +180,8 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
             r.peakBytes = voxels * sizeof(float);  // the dense grid it would fill
             rows.insert(rows.end() - 1, r);
         }
-        BakeBenchResult result{c.label, skeleton.internodes.size(), h, c.halfWidth, boxVoxels, repeats, rows};
+        BakeBenchResult result{
+            c.label, skeleton.internodes.size(), h, c.halfWidth, boxVoxels, repeats, rows};
         if (done)
             done(result);
         all.push_back(std::move(result));

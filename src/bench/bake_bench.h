@@ -11,8 +11,8 @@
 namespace cambium {
 
 struct BakeBenchCase {
-    Skeleton skeleton;         ///< e.g. generateBenchSkeleton's
-    std::string label;         ///< e.g. "1k internodes"
+    Skeleton skeleton;  ///< e.g. generateBenchSkeleton's
+    std::string label;  ///< e.g. "1k internodes"
     double voxelSize = 0.01;
     double halfWidth = 3.0;
 };
@@ -20,9 +20,9 @@ struct BakeBenchCase {
 struct BakeBenchRow {
     std::string method;
     double seconds = 0.0;
-    bool estimated = false;    ///< extrapolated from a timed part
+    bool estimated = false;  ///< extrapolated from a timed part
     double activeVoxels = 0.0;
-    double peakBytes = 0.0;    ///< peak resident memory during the run
+    double peakBytes = 0.0;  ///< peak resident memory during the run
 };
 
 /// One case's table.
@@ -30,7 +30,7 @@ struct BakeBenchResult {
     std::string label;
     size_t primitives = 0;
     double voxelSize = 0.0, halfWidth = 0.0;
-    double boxVoxels = 0.0;    ///< voxels of the bounding box (what (c) evaluates)
+    double boxVoxels = 0.0;  ///< voxels of the bounding box (what (c) evaluates)
     int repeats = 0;
     std::vector<BakeBenchRow> rows;  ///< (a), (b) unless skipped, (c), (d)
 };
@@ -42,8 +42,8 @@ struct BakeBenchResult {
 /// internode (minimum radius lowered to 1 voxel).  (a), (b) and (d) run in
 /// turn `repeats` times and report their median.  `done` gets each case's
 /// table as it is finished.
-std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu = false,
-                                          int repeats = 3,
-                                          const std::function<void(const BakeBenchResult&)>& done = {});
+std::vector<BakeBenchResult> runBakeBench(
+    const std::vector<BakeBenchCase>& cases, bool skipCpu = false, int repeats = 3,
+    const std::function<void(const BakeBenchResult&)>& done = {});
 
 }  // namespace cambium

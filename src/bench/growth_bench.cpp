@@ -18,7 +18,8 @@
 
 namespace cambium {
 
-void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir, const GrowthBenchCallbacks& callbacks)
+void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
+                    const GrowthBenchCallbacks& callbacks)
 {
     std::vector<int> years = req.years;
     std::sort(years.begin(), years.end());
@@ -27,7 +28,8 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir, const
     const double global = secondsSince(t0);
     for (int y : years)
         if (y < 1 || y > model.params().years)
-            throw InputError(fmt::format("--years: {} is outside the tree's 1 to {} years", y, model.params().years));
+            throw InputError(fmt::format("--years: {} is outside the tree's 1 to {} years", y,
+                                         model.params().years));
     std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);
     if (callbacks.setup)
         callbacks.setup({model.branches().size(), model.params().years, global, sampler->name()});
@@ -51,9 +53,9 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir, const
         writeVdb(grids, path, info);
         const double writeSeconds = secondsSince(t0);
         if (callbacks.year)
-            callbacks.year({y, sk.internodes.size(), ts.primitives, ts.operators, grids.stats.activeVoxels,
-                            modelSeconds, bakeSeconds, writeSeconds, double(std::filesystem::file_size(path)),
-                            peakMemoryBytes()});
+            callbacks.year({y, sk.internodes.size(), ts.primitives, ts.operators,
+                            grids.stats.activeVoxels, modelSeconds, bakeSeconds, writeSeconds,
+                            double(std::filesystem::file_size(path)), peakMemoryBytes()});
         std::filesystem::remove(path);
     }
     if (req.fpsPerYear <= 0.0)
@@ -80,7 +82,8 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir, const
         bytes += double(std::filesystem::file_size(f.path));
     }
     if (callbacks.sequence)
-        callbacks.sequence({r.frames.size(), reused, leaves, reusedLeaves, r.seconds, bytes, r.peakMemoryBytes, r.jobs});
+        callbacks.sequence({r.frames.size(), reused, leaves, reusedLeaves, r.seconds, bytes,
+                            r.peakMemoryBytes, r.jobs});
 }
 
 }  // namespace cambium

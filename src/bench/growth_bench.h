@@ -13,10 +13,10 @@
 namespace cambium {
 
 struct GrowthBenchRequest {
-    std::string parameters;           ///< growth parameter file
+    std::string parameters;  ///< growth parameter file
     std::vector<int> years{5, 10, 20, 27};
     double voxelSize = 0.01;
-    double fpsPerYear = 1.0;          ///< the whole sequence's frame rate (0: no sequence)
+    double fpsPerYear = 1.0;  ///< the whole sequence's frame rate (0: no sequence)
     Device device = Device::OpenCL;
     bool leaves = false;
 };

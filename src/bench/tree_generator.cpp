@@ -79,7 +79,8 @@ struct Bud {
 std::string generateBenchSkeleton(const TreeGeneratorOptions& options)
 {
     if (options.laterals < 1)
-        throw InputError(fmt::format("the tree generator needs at least 1 lateral per node, got {}", options.laterals));
+        throw InputError(fmt::format("the tree generator needs at least 1 lateral per node, got {}",
+                                     options.laterals));
 
     // Python seeds with the magnitude of a negative seed; every int's fits 32 bits.
     Mt19937 rng;
@@ -107,12 +108,14 @@ std::string generateBenchSkeleton(const TreeGeneratorOptions& options)
         const double jz = rng.uniform(-0.08, 0.08);
         Vec3 d = normalized({bud.direction.x + jx, bud.direction.y + jy, bud.direction.z + jz});
         d = normalized({d.x, d.y + 0.05, d.z});
-        const Vec3 p1{bud.p0.x + bud.length * d.x, bud.p0.y + bud.length * d.y, bud.p0.z + bud.length * d.z};
+        const Vec3 p1{bud.p0.x + bud.length * d.x, bud.p0.y + bud.length * d.y,
+                      bud.p0.z + bud.length * d.z};
 
         const int lateralCount = bud.order < 6 ? options.laterals : 1;
         const double apicalRadius = bud.r0 > 0.016 ? bud.r0 * std::sqrt(share) : bud.r0;
         const double r1 = std::max(apicalRadius, minRadius);
-        fmt::format_to(std::back_inserter(out), "{} {} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f}\n", id,
+        fmt::format_to(std::back_inserter(out),
+                       "{} {} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f} {:.6f}\n", id,
                        bud.parent, bud.p0.x, bud.p0.y, bud.p0.z, p1.x, p1.y, p1.z, bud.r0, r1);
 
         queue.push_back({id, p1, d, r1, bud.length * 0.92, bud.order, bud.phase + 137.5});
@@ -120,7 +123,8 @@ std::string generateBenchSkeleton(const TreeGeneratorOptions& options)
         // Laterals around the stem at the golden angle, each tilted away from
         // the stem by the branching angle give or take ten degrees.
         const Vec3 axis = perpendicular(d);
-        const double lateralRadius = std::max(bud.r0 * std::sqrt((1.0 - share) / double(lateralCount)), minRadius);
+        const double lateralRadius =
+            std::max(bud.r0 * std::sqrt((1.0 - share) / double(lateralCount)), minRadius);
         for (int k = 0; k < lateralCount; ++k) {
             const double around = (bud.phase + 137.5 * double(k + 1)) * kDegree;
             const Vec3 side = rotated(axis, d, around);
@@ -128,7 +132,8 @@ std::string generateBenchSkeleton(const TreeGeneratorOptions& options)
             const Vec3 lateral = normalized({std::cos(tilt) * d.x + std::sin(tilt) * side.x,
                                              std::cos(tilt) * d.y + std::sin(tilt) * side.y,
                                              std::cos(tilt) * d.z + std::sin(tilt) * side.z});
-            queue.push_back({id, p1, lateral, lateralRadius, bud.length * 0.7, bud.order + 1, bud.phase});
+            queue.push_back(
+                {id, p1, lateral, lateralRadius, bud.length * 0.7, bud.order + 1, bud.phase});
         }
     }
     return fmt::to_string(out);

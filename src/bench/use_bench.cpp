@@ -20,7 +20,6 @@ namespace cambium {
 
 namespace {
 
-
 BakedGrids bakeSkeleton(const Skeleton& skeleton, double h)
 {
     const FieldProgram program = FieldProgram::compile(skeletonToBlend(skeleton));
@@ -32,7 +31,8 @@ BakedGrids bakeSkeleton(const Skeleton& skeleton, double h)
 
 }  // namespace
 
-MeshBenchResult runMeshBench(const Skeleton& skeleton, const std::string& label, double h, int repeats)
+MeshBenchResult runMeshBench(const Skeleton& skeleton, const std::string& label, double h,
+                             int repeats)
 {
     const BakedGrids g = bakeSkeleton(skeleton, h);
     std::vector<double> times;
@@ -46,8 +46,8 @@ MeshBenchResult runMeshBench(const Skeleton& skeleton, const std::string& label,
     return {label, h, g.stats.activeVoxels, int(times.size()), triangles, medianOf(times)};
 }
 
-RenderBenchResult runRenderBench(const Skeleton& skeleton, const std::string& label, double h, int width,
-                                 int height, int repeats)
+RenderBenchResult runRenderBench(const Skeleton& skeleton, const std::string& label, double h,
+                                 int width, int height, int repeats)
 {
     const BakedGrids g = bakeSkeleton(skeleton, h);
     const Camera cam = framingCamera(activeWorldBounds(*g.surface), double(width) / double(height));

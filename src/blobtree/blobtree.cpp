@@ -36,7 +36,10 @@ const std::vector<TypeInfo>& typeTable()
     return table;
 }
 
-bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite(const glm::dvec3& v)
+{
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
 
 void requireFinite(const glm::dvec3& v, const char* field)
 {
@@ -57,7 +60,10 @@ void requirePositive(double v, const char* field)
         throw ParameterError(field, fmt::format("must be greater than 0 (got {})", v));
 }
 
-cb_vec3 toCb(const glm::dvec3& v) { return cb_v3(v.x, v.y, v.z); }
+cb_vec3 toCb(const glm::dvec3& v)
+{
+    return cb_v3(v.x, v.y, v.z);
+}
 
 /// A warp's axis: finite, nonzero, returned normalized.
 cb_vec3 unitAxis(const glm::dvec3& axis)
@@ -198,9 +204,9 @@ int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, dou
     p.support = o.support.value_or(3.0 * rmax);
     requirePositive(p.support, "support");
     if (p.support < 2.0 * rmax)
-        throw ParameterError(
-            "support", fmt::format("must be at least twice the largest radius, {} (got {})",
-                                   2.0 * rmax, p.support));
+        throw ParameterError("support",
+                             fmt::format("must be at least twice the largest radius, {} (got {})",
+                                         2.0 * rmax, p.support));
     p.q0 = cb_convolution_density(r0, p.kernelWidth, T_);
     p.q1 = cb_convolution_density(r1, p.kernelWidth, T_);
     return add(NodeType::CONVOLUTION_SEGMENT, p);
@@ -209,41 +215,43 @@ int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, dou
 void BlobTree::validate(const Combiner& c) const
 {
     switch (c.type) {
-    case NodeType::BLEND:
-    case NodeType::UNION:
-    case NodeType::INTERSECTION:
-    case NodeType::DIFFERENCE:
-        return;
-    case NodeType::RICCI:
-        requireFinite(c.n, "n");
-        if (!(c.n >= 1.0))
-            throw ParameterError("n", fmt::format("must be at least 1 (got {})", c.n));
-        if (c.n > 256.0)
-            throw ParameterError("n", fmt::format("must be at most 256 (got {}); a large n is a union", c.n));
-        return;
-    case NodeType::PCM:
-        requirePositive(c.width, "width");
-        if (c.width > T_)
-            throw ParameterError("width",
-                                 fmt::format("must not exceed the threshold {} (got {}): the "
-                                             "propagation region must end where fields do",
-                                             T_, c.width));
-        requireFinite(c.attenuation, "attenuation");
-        if (!(c.attenuation > 1.0))
-            throw ParameterError("attenuation",
-                                 fmt::format("must be greater than 1 for a C1 bulge (got {})",
-                                             c.attenuation));
-        requireFinite(c.darken, "darken");
-        if (!(c.darken >= 0.0 && c.darken <= 1.0))
-            throw ParameterError("darken", fmt::format("must be in [0, 1] (got {})", c.darken));
-        return;
-    case NodeType::BETTER_BLEND:
-        requireFinite(c.k, "k");
-        if (!(c.k >= 0.0 && c.k < T_))
-            throw ParameterError("k", fmt::format("must be in [0, {}) (got {})", T_, c.k));
-        return;
-    default:
-        throw ParameterError("type", fmt::format("'{}' is not a blending operator", typeName(c.type)));
+        case NodeType::BLEND:
+        case NodeType::UNION:
+        case NodeType::INTERSECTION:
+        case NodeType::DIFFERENCE:
+            return;
+        case NodeType::RICCI:
+            requireFinite(c.n, "n");
+            if (!(c.n >= 1.0))
+                throw ParameterError("n", fmt::format("must be at least 1 (got {})", c.n));
+            if (c.n > 256.0)
+                throw ParameterError(
+                    "n", fmt::format("must be at most 256 (got {}); a large n is a union", c.n));
+            return;
+        case NodeType::PCM:
+            requirePositive(c.width, "width");
+            if (c.width > T_)
+                throw ParameterError("width",
+                                     fmt::format("must not exceed the threshold {} (got {}): the "
+                                                 "propagation region must end where fields do",
+                                                 T_, c.width));
+            requireFinite(c.attenuation, "attenuation");
+            if (!(c.attenuation > 1.0))
+                throw ParameterError(
+                    "attenuation",
+                    fmt::format("must be greater than 1 for a C1 bulge (got {})", c.attenuation));
+            requireFinite(c.darken, "darken");
+            if (!(c.darken >= 0.0 && c.darken <= 1.0))
+                throw ParameterError("darken", fmt::format("must be in [0, 1] (got {})", c.darken));
+            return;
+        case NodeType::BETTER_BLEND:
+            requireFinite(c.k, "k");
+            if (!(c.k >= 0.0 && c.k < T_))
+                throw ParameterError("k", fmt::format("must be in [0, {}) (got {})", T_, c.k));
+            return;
+        default:
+            throw ParameterError("type",
+                                 fmt::format("'{}' is not a blending operator", typeName(c.type)));
     }
 }
 
@@ -251,7 +259,8 @@ int BlobTree::op(const Combiner& c, std::vector<int> children)
 {
     validate(c);
     if (children.empty())
-        throw ParameterError("children", fmt::format("a '{}' needs at least one child", typeName(c.type)));
+        throw ParameterError("children",
+                             fmt::format("a '{}' needs at least one child", typeName(c.type)));
     for (int ch : children)
         checkChild(ch, "children");
     return add(c.type, c, std::move(children));
@@ -301,8 +310,8 @@ int BlobTree::transform(const glm::dmat4& m, int child)
     return add(NodeType::TRANSFORM, t, {child});
 }
 
-int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& dir,
-                   double angle, int child)
+int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& dir, double angle,
+                   int child)
 {
     checkChild(child, "children");
     requireFinite(p0, "p0");

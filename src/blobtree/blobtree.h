@@ -37,12 +37,14 @@ const std::vector<NodeType>& allNodeTypes();
 
 /// How an n-ary operator (or one side of a GBB) combines its children's fields.
 struct Combiner {
-    NodeType type = NodeType::BLEND;  ///< BLEND, RICCI, UNION, INTERSECTION, DIFFERENCE, PCM, BETTER_BLEND
-    double n = 2.0;                   ///< ricci exponent, >= 1
-    double width = 0.25;              ///< pcm propagation width in field units, in (0, T]
-    double attenuation = 2.0;         ///< pcm bulge attenuation exponent, > 1
-    double k = 0.3;                   ///< better_blend cut-off, in [0, T)
-    double darken = 0.0;              ///< pcm: how much the ridge darkens the colour, in [0, 1] (fully where |deformation| >= width / 10)
+    NodeType type =
+        NodeType::BLEND;       ///< BLEND, RICCI, UNION, INTERSECTION, DIFFERENCE, PCM, BETTER_BLEND
+    double n = 2.0;            ///< ricci exponent, >= 1
+    double width = 0.25;       ///< pcm propagation width in field units, in (0, T]
+    double attenuation = 2.0;  ///< pcm bulge attenuation exponent, > 1
+    double k = 0.3;            ///< better_blend cut-off, in [0, T)
+    double darken = 0.0;  ///< pcm: how much the ridge darkens the colour, in [0, 1] (fully where
+                          ///< |deformation| >= width / 10)
 };
 
 /// Parameters of a primitive.  Radii are surface radii of the isolated
@@ -142,8 +144,8 @@ public:
 
 private:
     int add(NodeType type, NodeParams params, std::vector<int> children = {});
-    int addSkeletal(NodeType type, const glm::dvec3& p0, const glm::dvec3& p1, double r0,
-                    double r1, const PrimitiveOptions& o);
+    int addSkeletal(NodeType type, const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
+                    const PrimitiveOptions& o);
     static Primitive primitive(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
                                double weight);
     void checkChild(int child, const char* field) const;

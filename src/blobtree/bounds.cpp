@@ -10,7 +10,10 @@ namespace cambium {
 
 namespace {
 
-glm::dvec3 toGlm(const cb_vec3& v) { return {v.x, v.y, v.z}; }
+glm::dvec3 toGlm(const cb_vec3& v)
+{
+    return {v.x, v.y, v.z};
+}
 
 Box segmentBox(const glm::dvec3& a, const glm::dvec3& b, double pad)
 {
@@ -62,28 +65,28 @@ Box warpImage(const Node& n, const Box& box)
     if (box.empty())
         return box;
     switch (n.type) {
-    case NodeType::TRANSFORM:
-        return affineImage(box, std::get<TransformParams>(n.params).forward);
-    case NodeType::BEND:
-        return bendImage(std::get<cb_bend>(n.params), box);
-    case NodeType::TWIST: {
-        // A twist turns points about its axis: height and distance are kept.
-        const cb_twist& t = std::get<cb_twist>(n.params);
-        const glm::dvec3 o = toGlm(t.o), a = toGlm(t.a);
-        double hmin, hmax, rmax;
-        axialExtent(box, o, a, hmin, hmax, rmax);
-        return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
-    }
-    case NodeType::TAPER: {
-        // A taper scales distances from its axis by at most max(scale0, scale1).
-        const cb_taper& t = std::get<cb_taper>(n.params);
-        const glm::dvec3 o = toGlm(t.o), a = toGlm(t.a);
-        double hmin, hmax, rmax;
-        axialExtent(box, o, a, hmin, hmax, rmax);
-        return cylinderBox(o + hmin * a, o + hmax * a, a, rmax * std::max(t.scale0, t.scale1));
-    }
-    default:
-        return box;
+        case NodeType::TRANSFORM:
+            return affineImage(box, std::get<TransformParams>(n.params).forward);
+        case NodeType::BEND:
+            return bendImage(std::get<cb_bend>(n.params), box);
+        case NodeType::TWIST: {
+            // A twist turns points about its axis: height and distance are kept.
+            const cb_twist& t = std::get<cb_twist>(n.params);
+            const glm::dvec3 o = toGlm(t.o), a = toGlm(t.a);
+            double hmin, hmax, rmax;
+            axialExtent(box, o, a, hmin, hmax, rmax);
+            return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
+        }
+        case NodeType::TAPER: {
+            // A taper scales distances from its axis by at most max(scale0, scale1).
+            const cb_taper& t = std::get<cb_taper>(n.params);
+            const glm::dvec3 o = toGlm(t.o), a = toGlm(t.a);
+            double hmin, hmax, rmax;
+            axialExtent(box, o, a, hmin, hmax, rmax);
+            return cylinderBox(o + hmin * a, o + hmax * a, a, rmax * std::max(t.scale0, t.scale1));
+        }
+        default:
+            return box;
     }
 }
 
@@ -96,40 +99,40 @@ std::vector<NodeBounds> computeBounds(const BlobTree& tree)
         const Node& n = tree.node(int(i));
         NodeBounds& b = out[i];
         switch (kindOf(n.type)) {
-        case NodeKind::Primitive: {
-            const Primitive& p = n.prim();
-            const double reach = n.type == NodeType::CONVOLUTION_SEGMENT
-                                     ? p.support
-                                     : cb_skeletal_reach(std::max(p.r0, p.r1), p.sigma, xT);
-            b.support = segmentBox(p.p0, p.p1, reach);
-            if (p.weight > 0.0)
-                b.positive = b.support;
-            break;
-        }
-        case NodeKind::Operator: {
-            for (int c : n.children)
-                b.support.expand(out[size_t(c)].support);
-            const NodeType how = n.type == NodeType::GBB ? NodeType::GBB : n.combiner().type;
-            if (how == NodeType::INTERSECTION) {
-                b.positive = out[size_t(n.children[0])].positive;
-                for (int c : n.children)
-                    b.positive = b.positive.intersected(out[size_t(c)].positive);
-            } else if (how == NodeType::DIFFERENCE) {
-                b.positive = out[size_t(n.children[0])].positive;
-            } else {
-                // Sums, Ricci, PCM, better blending and union are positive only
-                // where some child is (PCM's bulge needs f_other > T - width >= 0).
-                // A GBB is a convex mix of two such combinations; an intersection
-                // or difference inside it is bounded by the union too.
-                for (int c : n.children)
-                    b.positive.expand(out[size_t(c)].positive);
+            case NodeKind::Primitive: {
+                const Primitive& p = n.prim();
+                const double reach = n.type == NodeType::CONVOLUTION_SEGMENT
+                                         ? p.support
+                                         : cb_skeletal_reach(std::max(p.r0, p.r1), p.sigma, xT);
+                b.support = segmentBox(p.p0, p.p1, reach);
+                if (p.weight > 0.0)
+                    b.positive = b.support;
+                break;
             }
-            break;
-        }
-        case NodeKind::Warp:
-            b.support = warpImage(n, out[size_t(n.children[0])].support);
-            b.positive = warpImage(n, out[size_t(n.children[0])].positive);
-            break;
+            case NodeKind::Operator: {
+                for (int c : n.children)
+                    b.support.expand(out[size_t(c)].support);
+                const NodeType how = n.type == NodeType::GBB ? NodeType::GBB : n.combiner().type;
+                if (how == NodeType::INTERSECTION) {
+                    b.positive = out[size_t(n.children[0])].positive;
+                    for (int c : n.children)
+                        b.positive = b.positive.intersected(out[size_t(c)].positive);
+                } else if (how == NodeType::DIFFERENCE) {
+                    b.positive = out[size_t(n.children[0])].positive;
+                } else {
+                    // Sums, Ricci, PCM, better blending and union are positive only
+                    // where some child is (PCM's bulge needs f_other > T - width >= 0).
+                    // A GBB is a convex mix of two such combinations; an intersection
+                    // or difference inside it is bounded by the union too.
+                    for (int c : n.children)
+                        b.positive.expand(out[size_t(c)].positive);
+                }
+                break;
+            }
+            case NodeKind::Warp:
+                b.support = warpImage(n, out[size_t(n.children[0])].support);
+                b.positive = warpImage(n, out[size_t(n.children[0])].positive);
+                break;
         }
     }
     return out;

@@ -27,23 +27,35 @@ constexpr double kDegree = M_PI / 180.0;
 std::vector<std::string> fieldsOf(NodeType t)
 {
     switch (t) {
-    case NodeType::SPHERE: return {"center", "radius", "support", "weight"};
-    case NodeType::SEGMENT: return {"p0", "p1", "radius", "support", "weight"};
-    case NodeType::CONE: return {"p0", "p1", "r0", "r1", "support", "weight"};
-    case NodeType::CONVOLUTION_SEGMENT:
-        return {"p0", "p1", "r0", "r1", "kernel_width", "support", "weight"};
-    case NodeType::BLEND:
-    case NodeType::UNION:
-    case NodeType::INTERSECTION:
-    case NodeType::DIFFERENCE: return {"children"};
-    case NodeType::RICCI: return {"children", "n"};
-    case NodeType::PCM: return {"children", "width", "attenuation", "darken"};
-    case NodeType::BETTER_BLEND: return {"children", "k"};
-    case NodeType::GBB: return {"children", "bound", "b1", "b2"};
-    case NodeType::TRANSFORM: return {"children", "translate", "rotate", "scale", "matrix"};
-    case NodeType::BEND: return {"children", "p0", "p1", "direction", "angle"};
-    case NodeType::TWIST: return {"children", "origin", "axis", "rate"};
-    case NodeType::TAPER: return {"children", "origin", "axis", "length", "scale0", "scale1"};
+        case NodeType::SPHERE:
+            return {"center", "radius", "support", "weight"};
+        case NodeType::SEGMENT:
+            return {"p0", "p1", "radius", "support", "weight"};
+        case NodeType::CONE:
+            return {"p0", "p1", "r0", "r1", "support", "weight"};
+        case NodeType::CONVOLUTION_SEGMENT:
+            return {"p0", "p1", "r0", "r1", "kernel_width", "support", "weight"};
+        case NodeType::BLEND:
+        case NodeType::UNION:
+        case NodeType::INTERSECTION:
+        case NodeType::DIFFERENCE:
+            return {"children"};
+        case NodeType::RICCI:
+            return {"children", "n"};
+        case NodeType::PCM:
+            return {"children", "width", "attenuation", "darken"};
+        case NodeType::BETTER_BLEND:
+            return {"children", "k"};
+        case NodeType::GBB:
+            return {"children", "bound", "b1", "b2"};
+        case NodeType::TRANSFORM:
+            return {"children", "translate", "rotate", "scale", "matrix"};
+        case NodeType::BEND:
+            return {"children", "p0", "p1", "direction", "angle"};
+        case NodeType::TWIST:
+            return {"children", "origin", "axis", "rate"};
+        case NodeType::TAPER:
+            return {"children", "origin", "axis", "length", "scale0", "scale1"};
     }
     return {};
 }
@@ -134,14 +146,15 @@ private:
     {
         object(j, path, "must be an object with a \"type\"");
         const std::string tpath = jsonPath(path, "type");
-        const std::string name = string(required(j, "type", path, "every node needs a type"), tpath);
+        const std::string name =
+            string(required(j, "type", path, "every node needs a type"), tpath);
         if (auto type = typeFromName(name))
             return *type;
         std::vector<std::string> names;
         for (NodeType k : allNodeTypes())
             names.push_back(typeName(k));
-        fail(tpath, fmt::format("unknown node type '{}'{}; known types: {}", name, didYouMean(name, names),
-                                joinWords(names)));
+        fail(tpath, fmt::format("unknown node type '{}'{}; known types: {}", name,
+                                didYouMean(name, names), joinWords(names)));
     }
 
     std::vector<int> children(const json& j, const std::string& path, NodeType t)
@@ -169,7 +182,8 @@ private:
         const bool parts = j.contains("translate") || j.contains("rotate") || j.contains("scale");
         if (j.contains("matrix")) {
             if (parts)
-                fail(jsonPath(path, "matrix"), "give either a matrix or translate/rotate/scale, not both");
+                fail(jsonPath(path, "matrix"),
+                     "give either a matrix or translate/rotate/scale, not both");
             const json& m = j["matrix"];
             const std::string mpath = jsonPath(path, "matrix");
             if (!m.is_array() || m.size() != 4)
@@ -225,68 +239,72 @@ private:
         int index = -1;
         try {
             switch (t) {
-            case NodeType::SPHERE: {
-                PrimitiveOptions o;
-                o.weight = optNumber(j, "weight", path).value_or(1.0);
-                o.support = optNumber(j, "support", path);
-                index = tree_.sphere(reqVec3(j, "center", path), reqNumber(j, "radius", path), o);
-                break;
-            }
-            case NodeType::SEGMENT:
-            case NodeType::CONE: {
-                PrimitiveOptions o;
-                o.weight = optNumber(j, "weight", path).value_or(1.0);
-                o.support = optNumber(j, "support", path);
-                const glm::dvec3 p0 = reqVec3(j, "p0", path), p1 = reqVec3(j, "p1", path);
-                index = t == NodeType::SEGMENT
-                            ? tree_.segment(p0, p1, reqNumber(j, "radius", path), o)
-                            : tree_.cone(p0, p1, reqNumber(j, "r0", path), reqNumber(j, "r1", path), o);
-                break;
-            }
-            case NodeType::CONVOLUTION_SEGMENT: {
-                ConvolutionOptions o;
-                o.weight = optNumber(j, "weight", path).value_or(1.0);
-                o.kernelWidth = optNumber(j, "kernel_width", path);
-                o.support = optNumber(j, "support", path);
-                index = tree_.convolutionSegment(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
-                                                 reqNumber(j, "r0", path), reqNumber(j, "r1", path), o);
-                break;
-            }
-            case NodeType::GBB: {
-                const int bound =
-                    node(required(j, "bound", path, "a gbb needs a bounding field"), jsonPath(path, "bound"));
-                Combiner b1{NodeType::PCM}, b2{NodeType::BLEND};
-                if (j.contains("b1"))
-                    b1 = combinerSpec(j["b1"], jsonPath(path, "b1"));
-                if (j.contains("b2"))
-                    b2 = combinerSpec(j["b2"], jsonPath(path, "b2"));
-                index = tree_.gbb(bound, kids, b1, b2);
-                break;
-            }
-            case NodeType::TRANSFORM:
-                index = tree_.transform(transformMatrix(j, path), kids[0]);
-                break;
-            case NodeType::BEND:
-                index = tree_.bend(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
-                                   reqVec3(j, "direction", path),
-                                   reqNumber(j, "angle", path) * kDegree, kids[0]);
-                break;
-            case NodeType::TWIST:
-                index = tree_.twist(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
-                                    reqNumber(j, "rate", path) * kDegree, kids[0]);
-                break;
-            case NodeType::TAPER:
-                index = tree_.taper(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
-                                    reqNumber(j, "length", path), reqNumber(j, "scale0", path),
-                                    reqNumber(j, "scale1", path), kids[0]);
-                break;
-            default: {
-                Combiner c;
-                c.type = t;
-                combinerParams(j, path, c);
-                index = tree_.op(c, kids);
-                break;
-            }
+                case NodeType::SPHERE: {
+                    PrimitiveOptions o;
+                    o.weight = optNumber(j, "weight", path).value_or(1.0);
+                    o.support = optNumber(j, "support", path);
+                    index =
+                        tree_.sphere(reqVec3(j, "center", path), reqNumber(j, "radius", path), o);
+                    break;
+                }
+                case NodeType::SEGMENT:
+                case NodeType::CONE: {
+                    PrimitiveOptions o;
+                    o.weight = optNumber(j, "weight", path).value_or(1.0);
+                    o.support = optNumber(j, "support", path);
+                    const glm::dvec3 p0 = reqVec3(j, "p0", path), p1 = reqVec3(j, "p1", path);
+                    index = t == NodeType::SEGMENT
+                                ? tree_.segment(p0, p1, reqNumber(j, "radius", path), o)
+                                : tree_.cone(p0, p1, reqNumber(j, "r0", path),
+                                             reqNumber(j, "r1", path), o);
+                    break;
+                }
+                case NodeType::CONVOLUTION_SEGMENT: {
+                    ConvolutionOptions o;
+                    o.weight = optNumber(j, "weight", path).value_or(1.0);
+                    o.kernelWidth = optNumber(j, "kernel_width", path);
+                    o.support = optNumber(j, "support", path);
+                    index = tree_.convolutionSegment(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
+                                                     reqNumber(j, "r0", path),
+                                                     reqNumber(j, "r1", path), o);
+                    break;
+                }
+                case NodeType::GBB: {
+                    const int bound =
+                        node(required(j, "bound", path, "a gbb needs a bounding field"),
+                             jsonPath(path, "bound"));
+                    Combiner b1{NodeType::PCM}, b2{NodeType::BLEND};
+                    if (j.contains("b1"))
+                        b1 = combinerSpec(j["b1"], jsonPath(path, "b1"));
+                    if (j.contains("b2"))
+                        b2 = combinerSpec(j["b2"], jsonPath(path, "b2"));
+                    index = tree_.gbb(bound, kids, b1, b2);
+                    break;
+                }
+                case NodeType::TRANSFORM:
+                    index = tree_.transform(transformMatrix(j, path), kids[0]);
+                    break;
+                case NodeType::BEND:
+                    index = tree_.bend(reqVec3(j, "p0", path), reqVec3(j, "p1", path),
+                                       reqVec3(j, "direction", path),
+                                       reqNumber(j, "angle", path) * kDegree, kids[0]);
+                    break;
+                case NodeType::TWIST:
+                    index = tree_.twist(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
+                                        reqNumber(j, "rate", path) * kDegree, kids[0]);
+                    break;
+                case NodeType::TAPER:
+                    index = tree_.taper(reqVec3(j, "origin", path), reqVec3(j, "axis", path),
+                                        reqNumber(j, "length", path), reqNumber(j, "scale0", path),
+                                        reqNumber(j, "scale1", path), kids[0]);
+                    break;
+                default: {
+                    Combiner c;
+                    c.type = t;
+                    combinerParams(j, path, c);
+                    index = tree_.op(c, kids);
+                    break;
+                }
             }
             if (j.contains("color"))
                 tree_.setColor(index, vec3(j["color"], jsonPath(path, "color")));

@@ -22,9 +22,15 @@ TreeStats computeStats(const BlobTree& tree)
         const Node& n = tree.node(int(i));
         ++s.countByType[n.type];
         switch (kindOf(n.type)) {
-        case NodeKind::Primitive: ++s.primitives; break;
-        case NodeKind::Operator: ++s.operators; break;
-        case NodeKind::Warp: ++s.warps; break;
+            case NodeKind::Primitive:
+                ++s.primitives;
+                break;
+            case NodeKind::Operator:
+                ++s.operators;
+                break;
+            case NodeKind::Warp:
+                ++s.warps;
+                break;
         }
         s.depth = std::max(s.depth, depth[i]);
         auto visit = [&](int c) { depth[size_t(c)] = std::max(depth[size_t(c)], depth[i] + 1); };

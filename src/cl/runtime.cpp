@@ -28,7 +28,8 @@ std::string infoString(Query query, Handle h, Param what)
 
 void throwOpenCLHint(const OpenCLError& e, const char* action)
 {
-    throw InputError(fmt::format("{}\n(use --device cpu to {} on the CPU without OpenCL)", e.what(), action));
+    throw InputError(
+        fmt::format("{}\n(use --device cpu to {} on the CPU without OpenCL)", e.what(), action));
 }
 
 void checkCL(cl_int status, const char* what)
@@ -76,7 +77,8 @@ OpenCLContext::OpenCLContext()
                 break;
             }
         if (!found)
-            throw OpenCLError(fmt::format("CAMBIUM_OPENCL_DEVICE='{}' matches no OpenCL device", want));
+            throw OpenCLError(
+                fmt::format("CAMBIUM_OPENCL_DEVICE='{}' matches no OpenCL device", want));
     }
     cl_int err = CL_SUCCESS;
     context_ = clCreateContext(nullptr, 1, &info_.deviceId, nullptr, nullptr, &err);
@@ -109,7 +111,8 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
         clGetProgramBuildInfo(program, info_.deviceId, CL_PROGRAM_BUILD_LOG, 0, nullptr, &n);
         std::string log(n, '\0');
         if (n)
-            clGetProgramBuildInfo(program, info_.deviceId, CL_PROGRAM_BUILD_LOG, n, log.data(), nullptr);
+            clGetProgramBuildInfo(program, info_.deviceId, CL_PROGRAM_BUILD_LOG, n, log.data(),
+                                  nullptr);
         clReleaseProgram(program);
         throw OpenCLError(fmt::format("OpenCL kernel build failed on {} (error {}):\n{}",
                                       info_.device, err, log));

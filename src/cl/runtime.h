@@ -78,7 +78,8 @@ public:
     {
         reserve(ctx, bytes, flags);
         if (bytes)
-            checkCL(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr, nullptr),
+            checkCL(clEnqueueWriteBuffer(ctx.queue(), mem_, CL_TRUE, 0, bytes, data, 0, nullptr,
+                                         nullptr),
                     "clEnqueueWriteBuffer");
         return mem_;
     }
@@ -88,13 +89,15 @@ public:
     void* map(const OpenCLContext& ctx, cl_map_flags flags, size_t bytes)
     {
         cl_int err;
-        void* p = clEnqueueMapBuffer(ctx.queue(), mem_, CL_TRUE, flags, 0, bytes, 0, nullptr, nullptr, &err);
+        void* p = clEnqueueMapBuffer(ctx.queue(), mem_, CL_TRUE, flags, 0, bytes, 0, nullptr,
+                                     nullptr, &err);
         checkCL(err, "clEnqueueMapBuffer");
         return p;
     }
     void unmap(const OpenCLContext& ctx, void* p)
     {
-        checkCL(clEnqueueUnmapMemObject(ctx.queue(), mem_, p, 0, nullptr, nullptr), "clEnqueueUnmapMemObject");
+        checkCL(clEnqueueUnmapMemObject(ctx.queue(), mem_, p, 0, nullptr, nullptr),
+                "clEnqueueUnmapMemObject");
     }
     cl_mem reserve(const OpenCLContext& ctx, size_t bytes, cl_mem_flags flags)
     {

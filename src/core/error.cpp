@@ -16,7 +16,8 @@ uint64_t checkInputFile(const std::string& path, const char* what)
     if (path.empty())
         throw InputError(fmt::format("the {} path is empty", what));
     if (::stat(path.c_str(), &st) != 0)
-        throw InputError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
+        throw InputError(
+            fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
     if (S_ISDIR(st.st_mode))
         throw InputError(fmt::format("{}: is a directory, not a {}", path, what));
     if (!S_ISREG(st.st_mode))
@@ -28,18 +29,19 @@ std::string readTextFile(const std::string& path, const char* what)
 {
     const uint64_t size = checkInputFile(path, what);
     if (size > kMaxTextFileBytes)
-        throw InputError(fmt::format("{}: {:.3g} GB is more than a {} can be (at most {} GB)", path, double(size) / 1e9,
-                                     what, kMaxTextFileBytes >> 30));
+        throw InputError(fmt::format("{}: {:.3g} GB is more than a {} can be (at most {} GB)", path,
+                                     double(size) / 1e9, what, kMaxTextFileBytes >> 30));
     std::ifstream in(path, std::ios::binary);
     if (!in)
-        throw InputError(fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
+        throw InputError(
+            fmt::format("{}: cannot read the {}: {}", path, what, std::strerror(errno)));
     std::string text(size, '\0');
     in.read(text.data(), std::streamsize(size));
     text.resize(size_t(in.gcount()));
     if (text.find('\0') != std::string::npos) {
         if (text.size() >= 4 && std::memcmp(text.data(), "\x20\x42\x44\x56", 4) == 0)
-            throw InputError(fmt::format("{}: is a .vdb file (a baked level set), not a {}: mesh or render it", path,
-                                         what));
+            throw InputError(fmt::format(
+                "{}: is a .vdb file (a baked level set), not a {}: mesh or render it", path, what));
         throw InputError(fmt::format("{}: a binary file, not a {} (a text file)", path, what));
     }
     return text;

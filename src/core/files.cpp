@@ -96,11 +96,14 @@ protected:
 
     int sync() override { return flushBuffer() ? 0 : -1; }
 
-    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir,
+                     std::ios_base::openmode which) override
     {
         if (!(which & std::ios_base::out) || !flushBuffer())
             return pos_type(off_type(-1));
-        const int whence = dir == std::ios_base::beg ? SEEK_SET : dir == std::ios_base::cur ? SEEK_CUR : SEEK_END;
+        const int whence = dir == std::ios_base::beg   ? SEEK_SET
+                           : dir == std::ios_base::cur ? SEEK_CUR
+                                                       : SEEK_END;
         const off_t at = ::lseek(fd_, off_t(off), whence);
         if (at < 0) {
             error_ = errno;
@@ -217,9 +220,10 @@ std::string checkOutputPath(const std::string& path, bool probe)
         // Written through: the link stays, its target gets the new file.
         char* real = ::realpath(path.c_str(), nullptr);
         if (!real)
-            throw InputError(fmt::format("{}: a symbolic link whose target cannot be followed ({}): cambium writes "
-                                         "through a link to an existing file only",
-                                         path, std::strerror(errno)));
+            throw InputError(fmt::format(
+                "{}: a symbolic link whose target cannot be followed ({}): cambium writes "
+                "through a link to an existing file only",
+                path, std::strerror(errno)));
         target = real;
         std::free(real);
     }
@@ -227,17 +231,20 @@ std::string checkOutputPath(const std::string& path, bool probe)
         if (S_ISDIR(st.st_mode))
             throw InputError(fmt::format("{}: is a directory, not an output file", path));
         if (!S_ISREG(st.st_mode))
-            throw InputError(fmt::format("{}: is a {}, not a regular file: cambium writes only regular files",
-                                         path, fileKind(st.st_mode)));
+            throw InputError(
+                fmt::format("{}: is a {}, not a regular file: cambium writes only regular files",
+                            path, fileKind(st.st_mode)));
     } else if (errno != ENOENT) {
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
+        throw InputError(
+            fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     }
     if (!probe)
         return target;
     const std::string test = fmt::format("{}.probe-{}", target, ::getpid());
     const int fd = ::open(test.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd < 0)
-        throw InputError(fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
+        throw InputError(
+            fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     ::close(fd);
     ::unlink(test.c_str());
     return target;
@@ -308,7 +315,9 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
 
 void writeFile(const std::string& path, const void* data, size_t size)
 {
-    writeFile(path, [&](std::ostream& out) { out.write(static_cast<const char*>(data), std::streamsize(size)); });
+    writeFile(path, [&](std::ostream& out) {
+        out.write(static_cast<const char*>(data), std::streamsize(size));
+    });
 }
 
 void installCleanupOnSignals()
@@ -328,12 +337,14 @@ void installCleanupOnSignals()
 std::vector<std::string> staleTemporaries(const std::string& pattern)
 {
     const std::string dir = directoryOf(pattern);
-    const std::string name = pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
+    const std::string name =
+        pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
     if (name.find('#') == std::string::npos)
         return {};
     const auto [first, last] = frameRun(name);
     const size_t hashes = last - first;
-    const std::string prefix = name.substr(0, first), suffix = name.substr(first + hashes) + ".tmp-";
+    const std::string prefix = name.substr(0, first),
+                      suffix = name.substr(first + hashes) + ".tmp-";
     std::vector<std::string> found;
     DIR* d = ::opendir(dir.c_str());
     if (!d)
@@ -344,17 +355,19 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
     };
     while (const dirent* e = ::readdir(d)) {
         const std::string f = e->d_name;
-        if (f.size() < prefix.size() + hashes + suffix.size() + 1 || f.compare(0, prefix.size(), prefix) != 0)
+        if (f.size() < prefix.size() + hashes + suffix.size() + 1 ||
+            f.compare(0, prefix.size(), prefix) != 0)
             continue;
         const size_t tmp = f.rfind(suffix);
-        if (tmp == std::string::npos || tmp < prefix.size() + hashes || !digits(f, prefix.size(), tmp) ||
-            !digits(f, tmp + suffix.size(), f.size()))
+        if (tmp == std::string::npos || tmp < prefix.size() + hashes ||
+            !digits(f, prefix.size(), tmp) || !digits(f, tmp + suffix.size(), f.size()))
             continue;
         // A process that is still running and is a cambium may still be writing it.
         const std::string pid = f.substr(tmp + suffix.size());
         std::ifstream comm("/proc/" + pid + "/comm");
         std::string command;
-        if (pid.size() < 10 && std::stoll(pid) != ::getpid() && comm >> command && command == "cambium")
+        if (pid.size() < 10 && std::stoll(pid) != ::getpid() && comm >> command &&
+            command == "cambium")
             continue;
         found.push_back(dir + "/" + f);
     }
@@ -368,7 +381,8 @@ OutputLock::OutputLock(const std::string& pattern) : path_(pattern + ".lock")
     for (;;) {
         fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
         if (fd_ < 0)
-            throw InputError(fmt::format("{}: cannot create the lock file: {}", path_, std::strerror(errno)));
+            throw InputError(
+                fmt::format("{}: cannot create the lock file: {}", path_, std::strerror(errno)));
         if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
             const int e = errno;
             char text[32] = {};
@@ -378,25 +392,26 @@ OutputLock::OutputLock(const std::string& pattern) : path_(pattern + ".lock")
             if (e != EWOULDBLOCK)
                 throw InputError(fmt::format("{}: cannot lock: {}", path_, std::strerror(e)));
             const std::string holder = n > 0 ? std::string(text, size_t(n)) : "";
-            throw InputError(fmt::format("{}: another cambium{} is writing this sequence (lock {}): wait for it "
-                                         "to end, or stop it",
-                                         pattern,
-                                         holder.find_first_not_of("0123456789\n") == std::string::npos &&
-                                                 !holder.empty()
-                                             ? fmt::format(" (pid {})", holder.substr(0, holder.find('\n')))
-                                             : "",
-                                         path_));
+            throw InputError(fmt::format(
+                "{}: another cambium{} is writing this sequence (lock {}): wait for it "
+                "to end, or stop it",
+                pattern,
+                holder.find_first_not_of("0123456789\n") == std::string::npos && !holder.empty()
+                    ? fmt::format(" (pid {})", holder.substr(0, holder.find('\n')))
+                    : "",
+                path_));
         }
         // The holder before us may have removed the file after we opened it:
         // then our lock is on a file nobody else sees.  Try again.
         struct stat mine, named;
-        if (::fstat(fd_, &mine) == 0 && ::stat(path_.c_str(), &named) == 0 && mine.st_ino == named.st_ino &&
-            mine.st_dev == named.st_dev)
+        if (::fstat(fd_, &mine) == 0 && ::stat(path_.c_str(), &named) == 0 &&
+            mine.st_ino == named.st_ino && mine.st_dev == named.st_dev)
             break;
         ::close(fd_);
     }
     const std::string pid = fmt::format("{}\n", ::getpid());
-    if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != ssize_t(pid.size())) {
+    if (::ftruncate(fd_, 0) != 0 ||
+        ::pwrite(fd_, pid.data(), pid.size(), 0) != ssize_t(pid.size())) {
         // The lock holds without the pid; only the message naming it suffers.
     }
     guard_ = std::make_unique<RemoveOnSignal>(path_);
@@ -409,11 +424,15 @@ OutputLock::~OutputLock()
     ::close(fd_);
 }
 
-std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind)
+std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,
+                       const char* kind)
 {
     const size_t dot = path.rfind('.'), slash = path.rfind('/');
-    std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash) ? "" : path.substr(dot + 1);
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+    std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash)
+                          ? ""
+                          : path.substr(dot + 1);
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char ch) { return char(std::tolower(ch)); });
     if (std::find(allowed.begin(), allowed.end(), ext) != allowed.end())
         return ext;
     std::string list;

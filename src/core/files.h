@@ -88,6 +88,7 @@ private:
 
 /// The lower-case extension of `path` (without the dot) when it is one of
 /// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (use .A or .B)".
-std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed, const char* kind);
+std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,
+                       const char* kind);
 
 }  // namespace cambium

@@ -11,7 +11,10 @@
 
 namespace cambium {
 
-bool isFramePattern(const std::string& pattern) { return pattern.find('#') != std::string::npos; }
+bool isFramePattern(const std::string& pattern)
+{
+    return pattern.find('#') != std::string::npos;
+}
 
 std::pair<size_t, size_t> frameRun(const std::string& pattern)
 {
@@ -22,33 +25,39 @@ std::pair<size_t, size_t> frameRun(const std::string& pattern)
     while (b < pattern.size() && pattern[b] == '#')
         ++b;
     if (pattern.find('#', b) != std::string::npos)
-        throw InputError(fmt::format("{}: more than one run of '#' (one frame number per name)", pattern));
+        throw InputError(
+            fmt::format("{}: more than one run of '#' (one frame number per name)", pattern));
     return {a, b};
 }
 
 std::string framePath(const std::string& pattern, long long frame)
 {
     const auto [a, b] = frameRun(pattern);
-    const std::string digits = frame < 0 ? fmt::format("-{:0{}}", -frame, b - a) : fmt::format("{:0{}}", frame, b - a);
+    const std::string digits =
+        frame < 0 ? fmt::format("-{:0{}}", -frame, b - a) : fmt::format("{:0{}}", frame, b - a);
     return pattern.substr(0, a) + digits + pattern.substr(b);
 }
 
 std::vector<long long> parseFrames(const std::string& range, const std::string& option)
 {
-    static const std::regex form(R"(\s*(-?\d{1,15})\s*(?:-\s*(-?\d{1,15})\s*(?::\s*(\d{1,15})\s*)?)?)");
+    static const std::regex form(
+        R"(\s*(-?\d{1,15})\s*(?:-\s*(-?\d{1,15})\s*(?::\s*(\d{1,15})\s*)?)?)");
     std::smatch m;
     if (!std::regex_match(range, m, form))
-        throw InputError(fmt::format("{} {}: expected FRAME, FIRST-LAST or FIRST-LAST:STEP", option, range));
+        throw InputError(
+            fmt::format("{} {}: expected FRAME, FIRST-LAST or FIRST-LAST:STEP", option, range));
     const long long first = std::stoll(m[1]);
     const long long last = m[2].matched ? std::stoll(m[2]) : first;
     const long long step = m[3].matched ? std::stoll(m[3]) : 1;
     if (last < first || step < 1)
-        throw InputError(fmt::format("{} {}: the last frame must not come before the first, and the step must be "
-                                     "at least 1",
-                                     option, range));
+        throw InputError(fmt::format(
+            "{} {}: the last frame must not come before the first, and the step must be "
+            "at least 1",
+            option, range));
     if ((last - first) / step >= kMaxFrames)
-        throw InputError(fmt::format("{} {}: {} frames, more than cambium plans at once ({}); split the range", option,
-                                     range, (last - first) / step + 1, kMaxFrames));
+        throw InputError(
+            fmt::format("{} {}: {} frames, more than cambium plans at once ({}); split the range",
+                        option, range, (last - first) / step + 1, kMaxFrames));
     std::vector<long long> frames;
     for (long long f = first; f <= last; f += step)
         frames.push_back(f);
@@ -65,15 +74,18 @@ void forEachFile(const std::string& input, const std::string& output, const std:
         return;
     }
     if (!isFramePattern(input) || !isFramePattern(output) || frames.empty())
-        throw InputError(fmt::format("a sequence needs an input and an output with a run of '#' for the frame "
-                                     "number, and --frames (e.g. out/tree.####.vdb --frames 1-10 -o {})",
-                                     isFramePattern(output) ? output : "out/tree.####" +
-                                         std::filesystem::path(output).extension().string()));
+        throw InputError(fmt::format(
+            "a sequence needs an input and an output with a run of '#' for the frame "
+            "number, and --frames (e.g. out/tree.####.vdb --frames 1-10 -o {})",
+            isFramePattern(output)
+                ? output
+                : "out/tree.####" + std::filesystem::path(output).extension().string()));
     const std::vector<long long> list = parseFrames(frames);
     for (long long f : list) {
         const std::string in = framePath(input, f);
         if (!std::filesystem::exists(in))
-            throw InputError(fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
+            throw InputError(
+                fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
     }
     checkOutput(framePath(output, list.front()));
     for (long long f : list)

@@ -25,7 +25,8 @@ constexpr long long kMaxFrames = 1'000'000;
 
 /// The frames of a range "A", "A-B" or "A-B:STEP" (A <= B, STEP >= 1), in
 /// order.  Throws InputError naming `option` for anything else.
-std::vector<long long> parseFrames(const std::string& range, const std::string& option = "--frames");
+std::vector<long long> parseFrames(const std::string& range,
+                                   const std::string& option = "--frames");
 
 /// Runs one(input, output) for a single file, or, when input or output holds
 /// a run of `#` or `frames` is given, for every frame of `frames` with the

@@ -25,28 +25,30 @@ public:
     bool operator()(int /*depth*/, json::parse_event_t event, json& parsed)
     {
         switch (event) {
-        case json::parse_event_t::object_start:
-        case json::parse_event_t::array_start:
-            if (frames_.size() >= size_t(kMaxJsonDepth))
-                fail(fmt::format("nested more than {} levels deep", kMaxJsonDepth));
-            frames_.push_back({event == json::parse_event_t::array_start, 0, {}, {}});
-            break;
-        case json::parse_event_t::key: {
-            Frame& f = frames_.back();
-            f.key = parsed.get<std::string>();
-            if (!f.keys.insert(f.key).second)
-                fail(fmt::format("duplicate key '{}' (JSON keeps one of them silently: remove the other)", f.key),
-                     false);
-            break;
-        }
-        case json::parse_event_t::value:
-            elementDone();
-            break;
-        case json::parse_event_t::object_end:
-        case json::parse_event_t::array_end:
-            frames_.pop_back();
-            elementDone();
-            break;
+            case json::parse_event_t::object_start:
+            case json::parse_event_t::array_start:
+                if (frames_.size() >= size_t(kMaxJsonDepth))
+                    fail(fmt::format("nested more than {} levels deep", kMaxJsonDepth));
+                frames_.push_back({event == json::parse_event_t::array_start, 0, {}, {}});
+                break;
+            case json::parse_event_t::key: {
+                Frame& f = frames_.back();
+                f.key = parsed.get<std::string>();
+                if (!f.keys.insert(f.key).second)
+                    fail(fmt::format("duplicate key '{}' (JSON keeps one of them silently: remove "
+                                     "the other)",
+                                     f.key),
+                         false);
+                break;
+            }
+            case json::parse_event_t::value:
+                elementDone();
+                break;
+            case json::parse_event_t::object_end:
+            case json::parse_event_t::array_end:
+                frames_.pop_back();
+                elementDone();
+                break;
         }
         return true;
     }
@@ -94,7 +96,8 @@ json parseJson(const std::string& text, const std::string& source)
 {
     JsonPath path(source);
     try {
-        return json::parse(text, std::ref(path), /*allow_exceptions=*/true, /*ignore_comments=*/true);
+        return json::parse(text, std::ref(path), /*allow_exceptions=*/true,
+                           /*ignore_comments=*/true);
     } catch (const json::exception& e) {
         // e.what() reads "[json.exception.parse_error.101] parse error at line L, column C: ..."
         std::string what = e.what();
@@ -103,11 +106,13 @@ json parseJson(const std::string& text, const std::string& source)
             what = what.substr(bracket + 2);
         // A number too large for a double ("number overflow parsing '1e999'")
         // comes without a position: find the literal in the text.
-        const auto q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
+        const auto q0 = what.find('\''),
+                   q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
         if (what.find(" at line ") == std::string::npos && q1 != std::string::npos) {
             const auto at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
             if (at != std::string::npos) {
-                const size_t line = size_t(std::count(text.begin(), text.begin() + long(at), '\n')) + 1;
+                const size_t line =
+                    size_t(std::count(text.begin(), text.begin() + long(at), '\n')) + 1;
                 const auto lineStart = text.rfind('\n', at);
                 const size_t column = at - (lineStart == std::string::npos ? 0 : lineStart + 1) + 1;
                 what += fmt::format(" at line {}, column {}", line, column);
@@ -120,15 +125,22 @@ json parseJson(const std::string& text, const std::string& source)
 const char* jsonKind(const json& j)
 {
     switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    default: return "something else";
+        case json::value_t::null:
+            return "null";
+        case json::value_t::boolean:
+            return "a boolean";
+        case json::value_t::string:
+            return "a string";
+        case json::value_t::array:
+            return "an array";
+        case json::value_t::object:
+            return "an object";
+        case json::value_t::number_integer:
+        case json::value_t::number_unsigned:
+        case json::value_t::number_float:
+            return "a number";
+        default:
+            return "something else";
     }
 }
 
@@ -185,8 +197,9 @@ void JsonValidator::fail(const std::string& path, const std::string& what) const
     throw InputError(fmt::format("{}: {}: {}", source_, path, what));
 }
 
-void JsonValidator::checkKeys(const json& obj, const std::string& path, const std::vector<std::string>& allowed,
-                              const char* noun, const char* listedIn) const
+void JsonValidator::checkKeys(const json& obj, const std::string& path,
+                              const std::vector<std::string>& allowed, const char* noun,
+                              const char* listedIn) const
 {
     for (auto it = obj.begin(); it != obj.end(); ++it) {
         const std::string& key = it.key();
@@ -195,12 +208,13 @@ void JsonValidator::checkKeys(const json& obj, const std::string& path, const st
         // A long list is better left to the format's document than spelled out.
         const std::string where = listedIn ? fmt::format(" ({} lists them)", listedIn)
                                            : fmt::format("; allowed here: {}", joinWords(allowed));
-        fail(jsonPath(path, key), fmt::format("unknown {}{}{}", noun, didYouMean(key, allowed), where));
+        fail(jsonPath(path, key),
+             fmt::format("unknown {}{}{}", noun, didYouMean(key, allowed), where));
     }
 }
 
-const json& JsonValidator::required(const json& obj, const std::string& key, const std::string& path,
-                                    const char* why) const
+const json& JsonValidator::required(const json& obj, const std::string& key,
+                                    const std::string& path, const char* why) const
 {
     if (!obj.contains(key))
         fail(jsonPath(path, key), why ? fmt::format("missing: {}", why) : std::string("missing"));
@@ -214,11 +228,12 @@ const json& JsonValidator::object(const json& j, const std::string& path, const 
     return j;
 }
 
-const json& JsonValidator::array(const json& j, const std::string& path, size_t size, const char* what) const
+const json& JsonValidator::array(const json& j, const std::string& path, size_t size,
+                                 const char* what) const
 {
     if (!j.is_array() || j.size() != size)
-        fail(path,
-             fmt::format("{} (got {}{})", what, jsonKind(j), j.is_array() ? fmt::format(" of {}", j.size()) : ""));
+        fail(path, fmt::format("{} (got {}{})", what, jsonKind(j),
+                               j.is_array() ? fmt::format(" of {}", j.size()) : ""));
     return j;
 }
 
@@ -240,14 +255,16 @@ double JsonValidator::number(const json& j, const std::string& path, double lo, 
     return v;
 }
 
-std::optional<double> JsonValidator::optNumber(const json& obj, const std::string& key, const std::string& path) const
+std::optional<double> JsonValidator::optNumber(const json& obj, const std::string& key,
+                                               const std::string& path) const
 {
     if (!obj.contains(key))
         return std::nullopt;
     return number(obj[key], jsonPath(path, key));
 }
 
-double JsonValidator::reqNumber(const json& obj, const std::string& key, const std::string& path) const
+double JsonValidator::reqNumber(const json& obj, const std::string& key,
+                                const std::string& path) const
 {
     return number(required(obj, key, path), jsonPath(path, key));
 }

@@ -56,15 +56,17 @@ public:
     /// "; allowed here: A, B, ..." or, when `listedIn` is given (a document
     /// listing them, for long lists), " (LISTEDIN lists them)".  The
     /// suggestion is there only when an allowed key is close.
-    void checkKeys(const nlohmann::json& obj, const std::string& path, const std::vector<std::string>& allowed,
-                   const char* noun = "field", const char* listedIn = nullptr) const;
+    void checkKeys(const nlohmann::json& obj, const std::string& path,
+                   const std::vector<std::string>& allowed, const char* noun = "field",
+                   const char* listedIn = nullptr) const;
 
     /// Member `key` of `obj`; "PATH.KEY: missing" (or "missing: WHY") without it.
-    const nlohmann::json& required(const nlohmann::json& obj, const std::string& key, const std::string& path,
-                                   const char* why = nullptr) const;
+    const nlohmann::json& required(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path, const char* why = nullptr) const;
 
     /// `j` when it is an object, else "PATH: WHAT (got KIND)".
-    const nlohmann::json& object(const nlohmann::json& j, const std::string& path, const char* what) const;
+    const nlohmann::json& object(const nlohmann::json& j, const std::string& path,
+                                 const char* what) const;
 
     /// `j` when it is an array of `size` values, else "PATH: WHAT (got KIND)"
     /// (for an array, "an array of N").
@@ -83,7 +85,8 @@ public:
                                     const std::string& path) const;
 
     /// Member `key` of `obj` as a number; "PATH.KEY: missing" without it.
-    double reqNumber(const nlohmann::json& obj, const std::string& key, const std::string& path) const;
+    double reqNumber(const nlohmann::json& obj, const std::string& key,
+                     const std::string& path) const;
 
     /// `j` as a string: "must be a string (got KIND)".
     std::string string(const nlohmann::json& j, const std::string& path) const;

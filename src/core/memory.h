@@ -49,7 +49,8 @@ ParallelArray<T> parallelArray(size_t n)
 {
     static_assert(std::is_trivial_v<T>, "parallelArray holds trivial types only");
     const size_t size = n * sizeof(T);
-    ParallelArray<T> a(static_cast<T*>(::operator new[](std::max<size_t>(size, 1), std::align_val_t(kParallelArrayAlignment))),
+    ParallelArray<T> a(static_cast<T*>(::operator new[](std::max<size_t>(size, 1),
+                                                        std::align_val_t(kParallelArrayAlignment))),
                        ParallelRelease<T>{size});
     constexpr size_t page = 4096;
     char* bytes = reinterpret_cast<char*>(a.get());

@@ -39,7 +39,8 @@ public:
         seed(19650218u);
         int i = 1, j = 0;
         for (int k = kN > length ? kN : length; k > 0; --k) {
-            state_[i] = (state_[i] ^ ((state_[i - 1] ^ (state_[i - 1] >> 30)) * 1664525u)) + key[j] + uint32_t(j);
+            state_[i] = (state_[i] ^ ((state_[i - 1] ^ (state_[i - 1] >> 30)) * 1664525u)) +
+                        key[j] + uint32_t(j);
             if (++i >= kN) {
                 state_[0] = state_[kN - 1];
                 i = 1;
@@ -48,7 +49,8 @@ public:
                 j = 0;
         }
         for (int k = kN - 1; k > 0; --k) {
-            state_[i] = (state_[i] ^ ((state_[i - 1] ^ (state_[i - 1] >> 30)) * 1566083941u)) - uint32_t(i);
+            state_[i] =
+                (state_[i] ^ ((state_[i - 1] ^ (state_[i - 1] >> 30)) * 1566083941u)) - uint32_t(i);
             if (++i >= kN) {
                 state_[0] = state_[kN - 1];
                 i = 1;
@@ -107,7 +109,8 @@ private:
 /// engine; this is for seeded models that must grow the same tree everywhere.
 inline double uniformCanonical(std::mt19937_64& g)
 {
-    static_assert(std::mt19937_64::min() == 0 && std::mt19937_64::max() == ~uint64_t(0), "a full 64-bit engine");
+    static_assert(std::mt19937_64::min() == 0 && std::mt19937_64::max() == ~uint64_t(0),
+                  "a full 64-bit engine");
     // libstdc++ scales by a long double 2^64 stored into a double: a power of
     // two either way, so the division is exact and long double plays no part.
     const double ret = double(g()) / 18446744073709551616.0;

@@ -49,7 +49,8 @@ ThreadLimit::ThreadLimit(int threads)
 {
     if (threads <= 0)
         return;
-    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                     size_t(threads));
     const std::string n = std::to_string(threads);
     ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
     ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
@@ -65,7 +66,10 @@ std::string formatCount(double count)
     return s;
 }
 
-const char* deviceName(Device device) { return device == Device::Cpu ? "cpu" : "opencl"; }
+const char* deviceName(Device device)
+{
+    return device == Device::Cpu ? "cpu" : "opencl";
+}
 
 Device parseDevice(const std::string& name)
 {

@@ -18,12 +18,12 @@ std::string formatBytes(double bytes);
 /// "1,234,567": a count with thousands separated (rounded to a whole number).
 std::string formatCount(double count);
 
-
 /// Limits TBB and PoCL to `threads` (0: no limit) while it lives.
 class ThreadLimit {
 public:
     explicit ThreadLimit(int threads);
     ~ThreadLimit();
+
 private:
     std::unique_ptr<tbb::global_control> control_;
 };

@@ -12,7 +12,10 @@
 
 namespace cambium {
 
-const char* version() { return CAMBIUM_VERSION; }
+const char* version()
+{
+    return CAMBIUM_VERSION;
+}
 
 std::vector<std::pair<std::string, std::string>> dependencyVersions()
 {

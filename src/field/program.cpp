@@ -39,9 +39,15 @@ public:
         const Node& n = tree_.node(index);
         current_ = index;
         switch (kindOf(n.type)) {
-        case NodeKind::Primitive: emitPrimitive(n); break;
-        case NodeKind::Operator: emitOperator(index, n); break;
-        case NodeKind::Warp: emitWarp(index, n); break;
+            case NodeKind::Primitive:
+                emitPrimitive(n);
+                break;
+            case NodeKind::Operator:
+                emitOperator(index, n);
+                break;
+            case NodeKind::Warp:
+                emitWarp(index, n);
+                break;
         }
     }
 
@@ -75,44 +81,44 @@ private:
         const glm::dvec3 u = len > 0.0 ? axis / len : glm::dvec3(0.0);
         int at;
         switch (n.type) {
-        case NodeType::SPHERE: {
-            at = newBlock(CB_SPHERE_SIZE);
-            double* q = blockAt(at);
-            put3(q + CB_SPHERE_CENTER, p.p0);
-            q[CB_SPHERE_RADIUS] = p.r0;
-            q[CB_SPHERE_SIGMA] = p.sigma;
-            q[CB_SPHERE_WEIGHT] = p.weight;
-            put3(q + CB_SPHERE_RGB, n.shade);
-            break;
-        }
-        case NodeType::SEGMENT:
-        case NodeType::CONE: {
-            at = newBlock(CB_CONE_SIZE);
-            double* q = blockAt(at);
-            put3(q + CB_CONE_P0, p.p0);
-            put3(q + CB_CONE_AXIS, u);
-            q[CB_CONE_LEN] = len;
-            q[CB_CONE_R0] = p.r0;
-            q[CB_CONE_R1] = p.r1;
-            q[CB_CONE_SIGMA] = p.sigma;
-            q[CB_CONE_WEIGHT] = p.weight;
-            put3(q + CB_CONE_RGB, n.shade);
-            break;
-        }
-        default: {  // CONVOLUTION_SEGMENT
-            at = newBlock(CB_CONV_SIZE);
-            double* q = blockAt(at);
-            put3(q + CB_CONV_P0, p.p0);
-            put3(q + CB_CONV_AXIS, u);
-            q[CB_CONV_LEN] = len;
-            q[CB_CONV_Q0] = p.q0;
-            q[CB_CONV_Q1] = p.q1;
-            q[CB_CONV_KERNEL_WIDTH] = p.kernelWidth;
-            q[CB_CONV_SUPPORT] = p.support;
-            q[CB_CONV_WEIGHT] = p.weight;
-            put3(q + CB_CONV_RGB, n.shade);
-            break;
-        }
+            case NodeType::SPHERE: {
+                at = newBlock(CB_SPHERE_SIZE);
+                double* q = blockAt(at);
+                put3(q + CB_SPHERE_CENTER, p.p0);
+                q[CB_SPHERE_RADIUS] = p.r0;
+                q[CB_SPHERE_SIGMA] = p.sigma;
+                q[CB_SPHERE_WEIGHT] = p.weight;
+                put3(q + CB_SPHERE_RGB, n.shade);
+                break;
+            }
+            case NodeType::SEGMENT:
+            case NodeType::CONE: {
+                at = newBlock(CB_CONE_SIZE);
+                double* q = blockAt(at);
+                put3(q + CB_CONE_P0, p.p0);
+                put3(q + CB_CONE_AXIS, u);
+                q[CB_CONE_LEN] = len;
+                q[CB_CONE_R0] = p.r0;
+                q[CB_CONE_R1] = p.r1;
+                q[CB_CONE_SIGMA] = p.sigma;
+                q[CB_CONE_WEIGHT] = p.weight;
+                put3(q + CB_CONE_RGB, n.shade);
+                break;
+            }
+            default: {  // CONVOLUTION_SEGMENT
+                at = newBlock(CB_CONV_SIZE);
+                double* q = blockAt(at);
+                put3(q + CB_CONV_P0, p.p0);
+                put3(q + CB_CONV_AXIS, u);
+                q[CB_CONV_LEN] = len;
+                q[CB_CONV_Q0] = p.q0;
+                q[CB_CONV_Q1] = p.q1;
+                q[CB_CONV_KERNEL_WIDTH] = p.kernelWidth;
+                q[CB_CONV_SUPPORT] = p.support;
+                q[CB_CONV_WEIGHT] = p.weight;
+                put3(q + CB_CONV_RGB, n.shade);
+                break;
+            }
         }
         code_.push_back({int(n.type), at, 0, box(current_)});
         ++primitives;
@@ -161,49 +167,50 @@ private:
     {
         int at;
         switch (n.type) {
-        case NodeType::TRANSFORM: {
-            const auto& inv = std::get<TransformParams>(n.params).inverse;
-            static_assert(std::extent_v<decltype(cb_affine::m)> == CB_AFFINE_SIZE - CB_AFFINE_M);
-            at = newBlock(CB_AFFINE_SIZE);
-            std::copy(std::begin(inv.m), std::end(inv.m), blockAt(at) + CB_AFFINE_M);
-            break;
-        }
-        case NodeType::BEND: {
-            const cb_bend& b = std::get<cb_bend>(n.params);
-            at = newBlock(CB_BEND_SIZE);
-            double* w = blockAt(at);
-            put3(w + CB_BEND_P0, b.p0);
-            put3(w + CB_BEND_U, b.u);
-            put3(w + CB_BEND_V, b.v);
-            put3(w + CB_BEND_W, b.w);
-            w[CB_BEND_LEN] = b.len;
-            w[CB_BEND_THETA] = b.theta;
-            w[CB_BEND_RHO] = b.rho;
-            w[CB_BEND_CH] = b.ch;
-            w[CB_BEND_SH] = b.sh;
-            w[CB_BEND_LSCALE] = b.lscale;
-            break;
-        }
-        case NodeType::TWIST: {
-            const cb_twist& t = std::get<cb_twist>(n.params);
-            at = newBlock(CB_TWIST_SIZE);
-            double* w = blockAt(at);
-            put3(w + CB_TWIST_ORIGIN, t.o);
-            put3(w + CB_TWIST_AXIS, t.a);
-            w[CB_TWIST_RATE] = t.rate;
-            break;
-        }
-        default: {
-            const cb_taper& t = std::get<cb_taper>(n.params);
-            at = newBlock(CB_TAPER_SIZE);
-            double* w = blockAt(at);
-            put3(w + CB_TAPER_ORIGIN, t.o);
-            put3(w + CB_TAPER_AXIS, t.a);
-            w[CB_TAPER_LEN] = t.len;
-            w[CB_TAPER_SCALE0] = t.scale0;
-            w[CB_TAPER_SCALE1] = t.scale1;
-            break;
-        }
+            case NodeType::TRANSFORM: {
+                const auto& inv = std::get<TransformParams>(n.params).inverse;
+                static_assert(std::extent_v<decltype(cb_affine::m)> ==
+                              CB_AFFINE_SIZE - CB_AFFINE_M);
+                at = newBlock(CB_AFFINE_SIZE);
+                std::copy(std::begin(inv.m), std::end(inv.m), blockAt(at) + CB_AFFINE_M);
+                break;
+            }
+            case NodeType::BEND: {
+                const cb_bend& b = std::get<cb_bend>(n.params);
+                at = newBlock(CB_BEND_SIZE);
+                double* w = blockAt(at);
+                put3(w + CB_BEND_P0, b.p0);
+                put3(w + CB_BEND_U, b.u);
+                put3(w + CB_BEND_V, b.v);
+                put3(w + CB_BEND_W, b.w);
+                w[CB_BEND_LEN] = b.len;
+                w[CB_BEND_THETA] = b.theta;
+                w[CB_BEND_RHO] = b.rho;
+                w[CB_BEND_CH] = b.ch;
+                w[CB_BEND_SH] = b.sh;
+                w[CB_BEND_LSCALE] = b.lscale;
+                break;
+            }
+            case NodeType::TWIST: {
+                const cb_twist& t = std::get<cb_twist>(n.params);
+                at = newBlock(CB_TWIST_SIZE);
+                double* w = blockAt(at);
+                put3(w + CB_TWIST_ORIGIN, t.o);
+                put3(w + CB_TWIST_AXIS, t.a);
+                w[CB_TWIST_RATE] = t.rate;
+                break;
+            }
+            default: {
+                const cb_taper& t = std::get<cb_taper>(n.params);
+                at = newBlock(CB_TAPER_SIZE);
+                double* w = blockAt(at);
+                put3(w + CB_TAPER_ORIGIN, t.o);
+                put3(w + CB_TAPER_AXIS, t.a);
+                w[CB_TAPER_LEN] = t.len;
+                w[CB_TAPER_SCALE0] = t.scale0;
+                w[CB_TAPER_SCALE1] = t.scale1;
+                break;
+            }
         }
         code_.push_back({CB_I_WARP, at, int(n.type), box(index)});
         emit(n.children[0]);
@@ -224,7 +231,10 @@ double wyvill(double x)
     return cb_wyvill(x, &dw);
 }
 
-glm::dvec3 load3(const double* p) { return {p[0], p[1], p[2]}; }
+glm::dvec3 load3(const double* p)
+{
+    return {p[0], p[1], p[2]};
+}
 
 double pointBoxDistance(const glm::dvec3& p, const Box& b)
 {
@@ -240,7 +250,8 @@ double segmentBoxMaxDistance(const glm::dvec3& a, const glm::dvec3& b, const Box
     const double l2 = glm::dot(ab, ab), inv = l2 > 0.0 ? 1.0 / l2 : 0.0;
     double m2 = 0.0;
     for (int i = 0; i < 8; ++i) {
-        const glm::dvec3 c(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y, i & 4 ? box.hi.z : box.lo.z);
+        const glm::dvec3 c(i & 1 ? box.hi.x : box.lo.x, i & 2 ? box.hi.y : box.lo.y,
+                           i & 4 ? box.hi.z : box.lo.z);
         const double t = std::clamp(glm::dot(c - a, ab) * inv, 0.0, 1.0);
         const glm::dvec3 e = c - (a + t * ab);
         m2 = std::max(m2, glm::dot(e, e));
@@ -266,7 +277,10 @@ Interval skeletalInterval(double dmin, double dmax, double rmin, double rmax, do
 
 /// PCM deformation bounds over f in [a, b] (cb_pcm_deformation: T - f inside,
 /// a bump of height at most w k^k/(k+1)^(k+1) just outside, 0 beyond).
-double pcmMinD(double b, double T) { return b > T ? T - b : 0.0; }
+double pcmMinD(double b, double T)
+{
+    return b > T ? T - b : 0.0;
+}
 double pcmMaxD(double a, double b, double T, double w, double k)
 {
     if (a >= T)
@@ -288,57 +302,58 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
     const int type = int(op[CB_OP_TYPE]);
     Interval r;
     switch (type) {
-    case CB_BLEND:
-        for (const auto& i : iv) {
-            r.lo += i.lo;
-            r.hi += i.hi;
+        case CB_BLEND:
+            for (const auto& i : iv) {
+                r.lo += i.lo;
+                r.hi += i.hi;
+            }
+            return r;
+        case CB_RICCI: {
+            double slo = 0.0, shi = 0.0;
+            for (const auto& i : iv) {
+                slo += std::pow(std::max(i.lo, 0.0), op[CB_OP_N]);
+                shi += std::pow(std::max(i.hi, 0.0), op[CB_OP_N]);
+            }
+            return {std::pow(slo, 1.0 / op[CB_OP_N]), std::pow(shi, 1.0 / op[CB_OP_N])};
         }
-        return r;
-    case CB_RICCI: {
-        double slo = 0.0, shi = 0.0;
-        for (const auto& i : iv) {
-            slo += std::pow(std::max(i.lo, 0.0), op[CB_OP_N]);
-            shi += std::pow(std::max(i.hi, 0.0), op[CB_OP_N]);
+        case CB_UNION:
+            r = {-kInf, -kInf};
+            for (const auto& i : iv) {
+                r.lo = std::max(r.lo, i.lo);
+                r.hi = std::max(r.hi, i.hi);
+            }
+            return r;
+        case CB_INTERSECTION:
+        case CB_DIFFERENCE:
+            r = {kInf, kInf};
+            for (size_t j = 0; j < iv.size(); ++j) {
+                Interval i = iv[j];
+                if (type == CB_DIFFERENCE && j > 0)
+                    i = {2.0 * T - i.hi, 2.0 * T - i.lo};
+                r.lo = std::min(r.lo, i.lo);
+                r.hi = std::min(r.hi, i.hi);
+            }
+            return r;
+        case CB_PCM: {
+            r = {-kInf, -kInf};
+            double dlo = 0.0, dhi = 0.0;
+            for (const auto& i : iv) {
+                r.lo = std::max(r.lo, i.lo);
+                r.hi = std::max(r.hi, i.hi);
+                dlo += std::min(0.0, pcmMinD(i.hi, T));
+                dhi +=
+                    std::max(0.0, pcmMaxD(i.lo, i.hi, T, op[CB_OP_WIDTH], op[CB_OP_ATTENUATION]));
+            }
+            return {r.lo + dlo, r.hi + dhi};
         }
-        return {std::pow(slo, 1.0 / op[CB_OP_N]), std::pow(shi, 1.0 / op[CB_OP_N])};
-    }
-    case CB_UNION:
-        r = {-kInf, -kInf};
-        for (const auto& i : iv) {
-            r.lo = std::max(r.lo, i.lo);
-            r.hi = std::max(r.hi, i.hi);
-        }
-        return r;
-    case CB_INTERSECTION:
-    case CB_DIFFERENCE:
-        r = {kInf, kInf};
-        for (size_t j = 0; j < iv.size(); ++j) {
-            Interval i = iv[j];
-            if (type == CB_DIFFERENCE && j > 0)
-                i = {2.0 * T - i.hi, 2.0 * T - i.lo};
-            r.lo = std::min(r.lo, i.lo);
-            r.hi = std::min(r.hi, i.hi);
-        }
-        return r;
-    case CB_PCM: {
-        r = {-kInf, -kInf};
-        double dlo = 0.0, dhi = 0.0;
-        for (const auto& i : iv) {
-            r.lo = std::max(r.lo, i.lo);
-            r.hi = std::max(r.hi, i.hi);
-            dlo += std::min(0.0, pcmMinD(i.hi, T));
-            dhi += std::max(0.0, pcmMaxD(i.lo, i.hi, T, op[CB_OP_WIDTH], op[CB_OP_ATTENUATION]));
-        }
-        return {r.lo + dlo, r.hi + dhi};
-    }
-    case CB_BETTER_BLEND:
-        for (const auto& i : iv) {  // g is non-decreasing
-            r.lo += betterBlendG(i.lo, T, op[CB_OP_K]);
-            r.hi += betterBlendG(i.hi, T, op[CB_OP_K]);
-        }
-        return r;
-    default:
-        return {-kInf, kInf};
+        case CB_BETTER_BLEND:
+            for (const auto& i : iv) {  // g is non-decreasing
+                r.lo += betterBlendG(i.lo, T, op[CB_OP_K]);
+                r.hi += betterBlendG(i.hi, T, op[CB_OP_K]);
+            }
+            return r;
+        default:
+            return {-kInf, kInf};
     }
 }
 
@@ -351,52 +366,54 @@ void droppable(const double* op, const std::vector<Interval>& iv, double T, std:
     const size_t n = iv.size();
     drop.assign(n, 0);
     switch (type) {
-    case CB_BLEND:
-        for (size_t i = 0; i < n; ++i)
-            drop[i] = iv[i].isZero();
-        break;
-    case CB_RICCI:
-        for (size_t i = 0; i < n; ++i)
-            drop[i] = iv[i].hi <= 0.0;
-        break;
-    case CB_BETTER_BLEND:
-        for (size_t i = 0; i < n; ++i)
-            drop[i] = iv[i].lo >= -op[CB_OP_K] && iv[i].hi <= op[CB_OP_K];
-        break;
-    case CB_UNION:
-    case CB_PCM: {
-        // Keep the child with the largest lower bound; a child that stays
-        // below it is never the maximum, not even in a tie (ties would pick the
-        // colour by child order).  PCM weighs colours by |f| over all children,
-        // so it drops only children that are zero as well (D(0) = 0 since
-        // width <= T).
-        size_t best = 0;
-        for (size_t i = 1; i < n; ++i)
-            if (iv[i].lo > iv[best].lo)
-                best = i;
-        for (size_t i = 0; i < n; ++i)
-            drop[i] = i != best && iv[i].hi < iv[best].lo && (type == CB_UNION || iv[i].isZero());
-        break;
-    }
-    case CB_INTERSECTION:
-    case CB_DIFFERENCE: {
-        std::vector<Interval> t = iv;
-        if (type == CB_DIFFERENCE)
+        case CB_BLEND:
+            for (size_t i = 0; i < n; ++i)
+                drop[i] = iv[i].isZero();
+            break;
+        case CB_RICCI:
+            for (size_t i = 0; i < n; ++i)
+                drop[i] = iv[i].hi <= 0.0;
+            break;
+        case CB_BETTER_BLEND:
+            for (size_t i = 0; i < n; ++i)
+                drop[i] = iv[i].lo >= -op[CB_OP_K] && iv[i].hi <= op[CB_OP_K];
+            break;
+        case CB_UNION:
+        case CB_PCM: {
+            // Keep the child with the largest lower bound; a child that stays
+            // below it is never the maximum, not even in a tie (ties would pick the
+            // colour by child order).  PCM weighs colours by |f| over all children,
+            // so it drops only children that are zero as well (D(0) = 0 since
+            // width <= T).
+            size_t best = 0;
             for (size_t i = 1; i < n; ++i)
-                t[i] = {2.0 * T - iv[i].hi, 2.0 * T - iv[i].lo};
-        size_t best = 0;
-        for (size_t i = 1; i < n; ++i)
-            if (t[i].hi < t[best].hi)
-                best = i;
-        // The solid being cut (child 0 of a difference) is always kept: it gives
-        // the colour, so a cutter may tie with the minimum and still go; an
-        // intersection's child must stay strictly above it (ties pick colours).
-        for (size_t i = type == CB_DIFFERENCE ? 1 : 0; i < n; ++i)
-            drop[i] = i != best && (type == CB_DIFFERENCE ? t[i].lo >= t[best].hi : t[i].lo > t[best].hi);
-        break;
-    }
-    default:
-        break;
+                if (iv[i].lo > iv[best].lo)
+                    best = i;
+            for (size_t i = 0; i < n; ++i)
+                drop[i] =
+                    i != best && iv[i].hi < iv[best].lo && (type == CB_UNION || iv[i].isZero());
+            break;
+        }
+        case CB_INTERSECTION:
+        case CB_DIFFERENCE: {
+            std::vector<Interval> t = iv;
+            if (type == CB_DIFFERENCE)
+                for (size_t i = 1; i < n; ++i)
+                    t[i] = {2.0 * T - iv[i].hi, 2.0 * T - iv[i].lo};
+            size_t best = 0;
+            for (size_t i = 1; i < n; ++i)
+                if (t[i].hi < t[best].hi)
+                    best = i;
+            // The solid being cut (child 0 of a difference) is always kept: it gives
+            // the colour, so a cutter may tie with the minimum and still go; an
+            // intersection's child must stay strictly above it (ties pick colours).
+            for (size_t i = type == CB_DIFFERENCE ? 1 : 0; i < n; ++i)
+                drop[i] = i != best &&
+                          (type == CB_DIFFERENCE ? t[i].lo >= t[best].hi : t[i].lo > t[best].hi);
+            break;
+        }
+        default:
+            break;
     }
 }
 
@@ -404,13 +421,16 @@ void droppable(const double* op, const std::vector<Interval>& iv, double T, std:
 bool collapsesToChild(const double* op, const Interval& iv)
 {
     switch (int(op[CB_OP_TYPE])) {
-    case CB_BLEND:
-    case CB_UNION:
-    case CB_INTERSECTION:
-    case CB_DIFFERENCE:
-    case CB_PCM: return true;
-    case CB_RICCI: return iv.lo >= 0.0;
-    default: return false;
+        case CB_BLEND:
+        case CB_UNION:
+        case CB_INTERSECTION:
+        case CB_DIFFERENCE:
+        case CB_PCM:
+            return true;
+        case CB_RICCI:
+            return iv.lo >= 0.0;
+        default:
+            return false;
     }
 }
 
@@ -443,7 +463,9 @@ double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& 
         const double x = a[k] + t * d[k];
         return x < box.lo[k] ? x - box.lo[k] : (x > box.hi[k] ? x - box.hi[k] : 0.0);
     };
-    auto slope = [&](double t) { return d.x * excess(0, t) + d.y * excess(1, t) + d.z * excess(2, t); };
+    auto slope = [&](double t) {
+        return d.x * excess(0, t) + d.y * excess(1, t) + d.z * excess(2, t);
+    };
     auto value = [&](double t) {
         const double ex = excess(0, t), ey = excess(1, t), ez = excess(2, t);
         return ex * ex + ey * ey + ez * ez;
@@ -483,8 +505,14 @@ double segmentBoxDistance2(const glm::dvec3& a, const glm::dvec3& b, const Box& 
     return value(1.0);
 }
 
-int FieldProgram::maxStackDepth() { return CB_STACK_DEPTH; }
-int FieldProgram::maxWarpDepth() { return CB_WARP_DEPTH; }
+int FieldProgram::maxStackDepth()
+{
+    return CB_STACK_DEPTH;
+}
+int FieldProgram::maxWarpDepth()
+{
+    return CB_WARP_DEPTH;
+}
 
 void FieldProgram::canonical(Code code, std::vector<double>& out) const
 {
@@ -494,21 +522,32 @@ void FieldProgram::canonical(Code code, std::vector<double>& out) const
         const Instr& in = code.data[i];
         size_t size = 0;
         switch (in.op) {
-        case CB_SPHERE: size = CB_SPHERE_SIZE; break;
-        case CB_SEGMENT:
-        case CB_CONE: size = CB_CONE_SIZE; break;
-        case CB_CONVOLUTION_SEGMENT: size = CB_CONV_SIZE; break;
-        case CB_I_CONST: size = CB_CONST_SIZE; break;
-        case CB_I_OPEN:
-        case CB_I_ACC:
-        case CB_I_CLOSE: size = in.b == CB_GBB ? CB_GBB_SIZE : CB_OP_SIZE; break;
-        case CB_I_WARP:
-            size = in.b == CB_TRANSFORM ? CB_AFFINE_SIZE
-                   : in.b == CB_BEND    ? CB_BEND_SIZE
-                   : in.b == CB_TWIST   ? CB_TWIST_SIZE
-                                        : CB_TAPER_SIZE;
-            break;
-        default: break;  // UNWARP reads no parameters
+            case CB_SPHERE:
+                size = CB_SPHERE_SIZE;
+                break;
+            case CB_SEGMENT:
+            case CB_CONE:
+                size = CB_CONE_SIZE;
+                break;
+            case CB_CONVOLUTION_SEGMENT:
+                size = CB_CONV_SIZE;
+                break;
+            case CB_I_CONST:
+                size = CB_CONST_SIZE;
+                break;
+            case CB_I_OPEN:
+            case CB_I_ACC:
+            case CB_I_CLOSE:
+                size = in.b == CB_GBB ? CB_GBB_SIZE : CB_OP_SIZE;
+                break;
+            case CB_I_WARP:
+                size = in.b == CB_TRANSFORM ? CB_AFFINE_SIZE
+                       : in.b == CB_BEND    ? CB_BEND_SIZE
+                       : in.b == CB_TWIST   ? CB_TWIST_SIZE
+                                            : CB_TAPER_SIZE;
+                break;
+            default:
+                break;  // UNWARP reads no parameters
         }
         out.push_back(in.op);
         out.push_back(in.b);
@@ -548,7 +587,10 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     return prog;
 }
 
-double FieldProgram::threshold() const { return params_[CB_P_T]; }
+double FieldProgram::threshold() const
+{
+    return params_[CB_P_T];
+}
 
 std::vector<float> FieldProgram::paramsFloat() const
 {
@@ -562,12 +604,24 @@ void FieldProgram::depths(Code code, int& stack, int& warps)
     for (size_t i = 0; i < code.size; ++i) {
         const Instr& in = code.data[i];
         switch (in.op) {
-        case CB_I_OPEN: top += in.b == CB_GBB ? 2 : 1; break;
-        case CB_I_ACC: --top; break;
-        case CB_I_CLOSE: top -= in.b == CB_GBB ? 2 : 0; break;
-        case CB_I_WARP: ++w; break;
-        case CB_I_UNWARP: --w; break;
-        default: ++top; break;  // primitives and constants push
+            case CB_I_OPEN:
+                top += in.b == CB_GBB ? 2 : 1;
+                break;
+            case CB_I_ACC:
+                --top;
+                break;
+            case CB_I_CLOSE:
+                top -= in.b == CB_GBB ? 2 : 0;
+                break;
+            case CB_I_WARP:
+                ++w;
+                break;
+            case CB_I_UNWARP:
+                --w;
+                break;
+            default:
+                ++top;
+                break;  // primitives and constants push
         }
         stack = std::max(stack, top);
         warps = std::max(warps, w);
@@ -593,41 +647,47 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
     const double xT = params_[CB_P_XT];
     double dmin, dmax;
     switch (in.op) {
-    case CB_SPHERE: {
-        const glm::dvec3 c = load3(q + CB_SPHERE_CENTER);
-        const double r = q[CB_SPHERE_RADIUS], sigma = q[CB_SPHERE_SIGMA];
-        dmin = pointBoxDistance(c, box);
-        if (beyondSupport(dmin, r, sigma, xT))
-            return {0.0, 0.0};  // the farthest corner need not be found
-        dmax = segmentBoxMaxDistance(c, c, box);
-        return skeletalInterval(dmin, dmax, r, r, sigma, xT, q[CB_SPHERE_WEIGHT]);
-    }
-    case CB_SEGMENT:
-    case CB_CONE: {
-        const glm::dvec3 a = load3(q + CB_CONE_P0), b = a + q[CB_CONE_LEN] * load3(q + CB_CONE_AXIS);
-        const double rmin = std::min(q[CB_CONE_R0], q[CB_CONE_R1]), rmax = std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
-        dmin = std::sqrt(segmentBoxDistance2(a, b, box));
-        if (beyondSupport(dmin, rmax, q[CB_CONE_SIGMA], xT))
-            return {0.0, 0.0};
-        dmax = segmentBoxMaxDistance(a, b, box);
-        return skeletalInterval(dmin, dmax, rmin, rmax, q[CB_CONE_SIGMA], xT, q[CB_CONE_WEIGHT]);
-    }
-    default: {  // convolution segment
-        const glm::dvec3 a = load3(q + CB_CONV_P0), b = a + q[CB_CONV_LEN] * load3(q + CB_CONV_AXIS);
-        const double s = q[CB_CONV_KERNEL_WIDTH], support = q[CB_CONV_SUPPORT], weight = q[CB_CONV_WEIGHT];
-        dmin = std::sqrt(segmentBoxDistance2(a, b, box));
-        if (dmin >= support)
-            return {0.0, 0.0};
-        // Every kernel value is at most 1/(1 + s^2 (dmin^2 + tau^2))^2 for the
-        // distance tau along the axis from the closest point, so the integral
-        // is at most that of an infinite line at distance dmin; the window is
-        // at most W(dmin).
-        const double P2 = 1.0 + s * s * dmin * dmin;
-        double dW;
-        const double W = cb_wyvill(2.0 * dmin / support - 1.0, &dW);
-        const double top = std::max(q[CB_CONV_Q0], q[CB_CONV_Q1]) * M_PI / (2.0 * s * P2 * std::sqrt(P2)) * W;
-        return weight > 0.0 ? Interval{0.0, weight * top} : Interval{weight * top, 0.0};
-    }
+        case CB_SPHERE: {
+            const glm::dvec3 c = load3(q + CB_SPHERE_CENTER);
+            const double r = q[CB_SPHERE_RADIUS], sigma = q[CB_SPHERE_SIGMA];
+            dmin = pointBoxDistance(c, box);
+            if (beyondSupport(dmin, r, sigma, xT))
+                return {0.0, 0.0};  // the farthest corner need not be found
+            dmax = segmentBoxMaxDistance(c, c, box);
+            return skeletalInterval(dmin, dmax, r, r, sigma, xT, q[CB_SPHERE_WEIGHT]);
+        }
+        case CB_SEGMENT:
+        case CB_CONE: {
+            const glm::dvec3 a = load3(q + CB_CONE_P0),
+                             b = a + q[CB_CONE_LEN] * load3(q + CB_CONE_AXIS);
+            const double rmin = std::min(q[CB_CONE_R0], q[CB_CONE_R1]),
+                         rmax = std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
+            dmin = std::sqrt(segmentBoxDistance2(a, b, box));
+            if (beyondSupport(dmin, rmax, q[CB_CONE_SIGMA], xT))
+                return {0.0, 0.0};
+            dmax = segmentBoxMaxDistance(a, b, box);
+            return skeletalInterval(dmin, dmax, rmin, rmax, q[CB_CONE_SIGMA], xT,
+                                    q[CB_CONE_WEIGHT]);
+        }
+        default: {  // convolution segment
+            const glm::dvec3 a = load3(q + CB_CONV_P0),
+                             b = a + q[CB_CONV_LEN] * load3(q + CB_CONV_AXIS);
+            const double s = q[CB_CONV_KERNEL_WIDTH], support = q[CB_CONV_SUPPORT],
+                         weight = q[CB_CONV_WEIGHT];
+            dmin = std::sqrt(segmentBoxDistance2(a, b, box));
+            if (dmin >= support)
+                return {0.0, 0.0};
+            // Every kernel value is at most 1/(1 + s^2 (dmin^2 + tau^2))^2 for the
+            // distance tau along the axis from the closest point, so the integral
+            // is at most that of an infinite line at distance dmin; the window is
+            // at most W(dmin).
+            const double P2 = 1.0 + s * s * dmin * dmin;
+            double dW;
+            const double W = cb_wyvill(2.0 * dmin / support - 1.0, &dW);
+            const double top =
+                std::max(q[CB_CONV_Q0], q[CB_CONV_Q1]) * M_PI / (2.0 * s * P2 * std::sqrt(P2)) * W;
+            return weight > 0.0 ? Interval{0.0, weight * top} : Interval{weight * top, 0.0};
+        }
     }
 }
 
@@ -637,7 +697,8 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
     if (in.b == CB_TRANSFORM)
         return affineImage(box, w + CB_AFFINE_M);
     if (in.b == CB_BEND) {
-        const glm::dvec3 p0 = load3(w + CB_BEND_P0), u = load3(w + CB_BEND_U), v = load3(w + CB_BEND_V);
+        const glm::dvec3 p0 = load3(w + CB_BEND_P0), u = load3(w + CB_BEND_U),
+                         v = load3(w + CB_BEND_V);
         const glm::dvec3 ax = load3(w + CB_BEND_W);
         const double len = w[CB_BEND_LEN], theta = w[CB_BEND_THETA], rho = w[CB_BEND_RHO];
         const double ch = w[CB_BEND_CH], sh = w[CB_BEND_SH], ls = w[CB_BEND_LSCALE];
@@ -671,11 +732,13 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
             }
             parts.push_back({0.0, len, rmin - rho, rmax - rho});
             // Before p0 and after p1: rigid motions (scaled along the tangent).
-            auto linear = [&](double ox, double j00, double j01, double j10, double j11, double a0) {
+            auto linear = [&](double ox, double j00, double j01, double j10, double j11,
+                              double a0) {
                 double a[4] = {kInf, -kInf, kInf, -kInf};
                 for (double x : {x0, x1})
                     for (double y : {y0, y1}) {
-                        const double av = a0 + j00 * (x - ox) + j01 * y, yv = j10 * (x - ox) + j11 * y;
+                        const double av = a0 + j00 * (x - ox) + j01 * y,
+                                     yv = j10 * (x - ox) + j11 * y;
                         a[0] = std::min(a[0], av);
                         a[1] = std::max(a[1], av);
                         a[2] = std::min(a[2], yv);
@@ -772,8 +835,9 @@ OperatorReduction reduceOperator(const double* block, bool gbb, const Interval& 
 /// what remains of it: the constant 0 when no child is left, the one child
 /// left when the combiner would pass it through unchanged, else OPEN (reading
 /// the block at `a`, support box `supportBox`) and the kept children.
-void rebuildOperator(const OperatorReduction& r, int a, int supportBox, NodeScratch::Child boundCode, size_t start,
-                     NodeScratch& scratch, std::vector<Instr>& out)
+void rebuildOperator(const OperatorReduction& r, int a, int supportBox,
+                     NodeScratch::Child boundCode, size_t start, NodeScratch& scratch,
+                     std::vector<Instr>& out)
 {
     const auto& kids = scratch.kids;
     auto& segment = scratch.segment;
@@ -807,7 +871,8 @@ void rebuildOperator(const OperatorReduction& r, int a, int supportBox, NodeScra
 
 }  // namespace
 
-Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const
+Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                            size_t depth) const
 {
     const Instr head = in.data[pos];
     if (head.op == CB_I_CONST) {
@@ -833,12 +898,14 @@ Interval FieldProgram::node(Code in, size_t& pos, const Box& box, std::vector<In
     return operatorNode(in, pos, box, out, depth);
 }
 
-Interval FieldProgram::primitiveNode(const Instr& head, const Box& box, std::vector<Instr>* out) const
+Interval FieldProgram::primitiveNode(const Instr& head, const Box& box,
+                                     std::vector<Instr>* out) const
 {
     // Most primitives of a big tree are far from a given box: their
     // support box says so before any distance is computed.
-    const Interval iv = subtreeSupport_[size_t(head.c)].intersected(box).empty() ? Interval{0.0, 0.0}
-                                                                                  : primitiveInterval(head, box);
+    const Interval iv = subtreeSupport_[size_t(head.c)].intersected(box).empty()
+                            ? Interval{0.0, 0.0}
+                            : primitiveInterval(head, box);
     if (iv.isZero())
         emitZero(out);
     else if (out)
@@ -846,7 +913,8 @@ Interval FieldProgram::primitiveNode(const Instr& head, const Box& box, std::vec
     return iv;
 }
 
-Interval FieldProgram::warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const
+Interval FieldProgram::warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                                size_t depth) const
 {
     const Instr head = in.data[pos++];
     const size_t start = out ? out->size() : 0;

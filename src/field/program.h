@@ -92,14 +92,17 @@ private:
     /// specialize() of the subtree at in[pos]: its bounds over `box`, its
     /// specialised code appended to *out, pos moved past it.  `depth` picks
     /// the working lists of this level of the recursion.
-    Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
+    Interval node(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                  size_t depth) const;
     /// node() for a primitive.
     Interval primitiveNode(const Instr& head, const Box& box, std::vector<Instr>* out) const;
     /// node() for WARP subtree UNWARP: a warp over a zero subtree is zero.
-    Interval warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
+    Interval warpNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                      size_t depth) const;
     /// node() for an operator: its children specialised, those it can do
     /// without on the box removed, the operator collapsed where it can be.
-    Interval operatorNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out, size_t depth) const;
+    Interval operatorNode(Code in, size_t& pos, const Box& box, std::vector<Instr>* out,
+                          size_t depth) const;
     Interval primitiveInterval(const Instr& in, const Box& box) const;
     Box warpChildBox(const Instr& in, const Box& box) const;
 

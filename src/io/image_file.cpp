@@ -36,7 +36,8 @@ void writeImage(const RenderImage& img, const std::string& path)
     {
         auto out = OIIO::ImageOutput::create(path);  // the plugin by the name's extension
         if (!out || !out->supports("ioproxy"))
-            throw std::runtime_error(out ? "OpenImageIO cannot encode ." + ext + " into memory" : OIIO::geterror());
+            throw std::runtime_error(out ? "OpenImageIO cannot encode ." + ext + " into memory"
+                                         : OIIO::geterror());
         OIIO::Filesystem::IOVecOutput memory(bytes);
         const size_t n = size_t(img.width) * size_t(img.height);
         std::vector<float> px;

@@ -10,9 +10,10 @@ namespace cambium {
 /// A rendered image: rows top to bottom.
 struct RenderImage {
     int width = 0, height = 0;
-    std::vector<float> rgb;     ///< linear colour, 3 per pixel
-    std::vector<float> alpha;   ///< fraction of a pixel's samples that hit the surface
-    std::vector<float> depth;   ///< distance to the hit along the pixel's central ray, +inf where it misses
+    std::vector<float> rgb;    ///< linear colour, 3 per pixel
+    std::vector<float> alpha;  ///< fraction of a pixel's samples that hit the surface
+    std::vector<float>
+        depth;  ///< distance to the hit along the pixel's central ray, +inf where it misses
     std::vector<float> normal;  ///< unit normal at that hit, 3 per pixel (0 where it misses)
 };
 

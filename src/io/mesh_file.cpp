@@ -20,18 +20,21 @@ namespace {
 
 [[noreturn]] void fail(const std::string& path, size_t line, const std::string& what)
 {
-    throw InputError(line ? fmt::format("{}:{}: {}", path, line, what) : fmt::format("{}: {}", path, what));
+    throw InputError(line ? fmt::format("{}:{}: {}", path, line, what)
+                          : fmt::format("{}: {}", path, what));
 }
 
 /// Fans a polygon (indices into the points, checked) into triangles.
-void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::string& path, size_t line)
+void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::string& path,
+                size_t line)
 {
     if (poly.size() < 3)
         fail(path, line, fmt::format("a face needs at least 3 vertices (got {})", poly.size()));
     for (int64_t v : poly)
         if (v < 0 || size_t(v) >= m.points.size())
-            fail(path, line, fmt::format("vertex index {} out of range (the file has {} vertices so far)", v + 1,
-                                         m.points.size()));
+            fail(path, line,
+                 fmt::format("vertex index {} out of range (the file has {} vertices so far)",
+                             v + 1, m.points.size()));
     for (size_t k = 1; k + 1 < poly.size(); ++k)
         m.triangles.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
 }
@@ -56,7 +59,9 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
             while (n < 6 && s >> x[n])
                 ++n;
             if (n < 3 || (tag == "v" && n != 3 && n != 6) || (tag == "vn" && n != 3))
-                fail(path, line, fmt::format("'{}' expects 3 numbers{}", tag, tag == "v" ? " (or 6 with a colour)" : ""));
+                fail(path, line,
+                     fmt::format("'{}' expects 3 numbers{}", tag,
+                                 tag == "v" ? " (or 6 with a colour)" : ""));
             if (tag == "vn") {
                 normals.emplace_back(x[0], x[1], x[2]);
                 continue;
@@ -79,12 +84,14 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                 const int64_t vi = v > 0 ? v - 1 : int64_t(m.points.size()) + v;
                 poly.push_back(vi);
                 const auto slash1 = corner.find('/');
-                const auto slash2 = slash1 == std::string::npos ? slash1 : corner.find('/', slash1 + 1);
+                const auto slash2 =
+                    slash1 == std::string::npos ? slash1 : corner.find('/', slash1 + 1);
                 if (slash2 != std::string::npos && slash2 + 1 < corner.size()) {
                     const long n = std::strtol(corner.c_str() + slash2 + 1, &end, 10);
                     if (n == 0 || *end != '\0')
                         fail(path, line, fmt::format("bad normal index in '{}'", corner));
-                    cornerNormals.emplace_back(size_t(vi), n > 0 ? n - 1 : int64_t(normals.size()) + n);
+                    cornerNormals.emplace_back(size_t(vi),
+                                               n > 0 ? n - 1 : int64_t(normals.size()) + n);
                 }
             }
             addPolygon(m, poly, path, line);
@@ -97,7 +104,9 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
         m.normals.assign(m.points.size(), openvdb::Vec3s(0.0f));
         for (const auto& [p, n] : cornerNormals) {
             if (n < 0 || size_t(n) >= normals.size())
-                fail(path, 0, fmt::format("normal index {} out of range ({} normals)", n + 1, normals.size()));
+                fail(path, 0,
+                     fmt::format("normal index {} out of range ({} normals)", n + 1,
+                                 normals.size()));
             m.normals[p] = normals[size_t(n)];
         }
     }
@@ -125,10 +134,14 @@ PlyType plyType(const std::string& name, const std::string& path, size_t line)
     static const struct {
         const char *name, *alias;
         PlyType type;
-    } types[] = {{"char", "int8", {1, false, readAs<int8_t>}},     {"uchar", "uint8", {1, false, readAs<uint8_t>}},
-                 {"short", "int16", {2, false, readAs<int16_t>}},  {"ushort", "uint16", {2, false, readAs<uint16_t>}},
-                 {"int", "int32", {4, false, readAs<int32_t>}},    {"uint", "uint32", {4, false, readAs<uint32_t>}},
-                 {"float", "float32", {4, true, readAs<float>}}, {"double", "float64", {8, true, readAs<double>}}};
+    } types[] = {{"char", "int8", {1, false, readAs<int8_t>}},
+                 {"uchar", "uint8", {1, false, readAs<uint8_t>}},
+                 {"short", "int16", {2, false, readAs<int16_t>}},
+                 {"ushort", "uint16", {2, false, readAs<uint16_t>}},
+                 {"int", "int32", {4, false, readAs<int32_t>}},
+                 {"uint", "uint32", {4, false, readAs<uint32_t>}},
+                 {"float", "float32", {4, true, readAs<float>}},
+                 {"double", "float64", {8, true, readAs<double>}}};
     for (const auto& t : types)
         if (name == t.name || name == t.alias)
             return t.type;
@@ -174,7 +187,8 @@ PlyHeader readPlyHeader(std::istream& in, const std::string& path)
             s >> h.format;
             if (h.format != "ascii" && h.format != "binary_little_endian")
                 fail(path, line,
-                     fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)", h.format));
+                     fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)",
+                                 h.format));
         } else if (tag == "element") {
             PlyElement e;
             if (!(s >> e.name >> e.count))
@@ -207,7 +221,8 @@ PlyHeader readPlyHeader(std::istream& in, const std::string& path)
 /// Reads the items of element `e` (ASCII lines or binary records) into `m`:
 /// the vertices' positions, normals and colours, the faces' polygons; the
 /// values of other elements are read past.
-void readPlyElement(std::istream& in, const std::string& path, const PlyElement& e, bool ascii, TriangleMesh& m)
+void readPlyElement(std::istream& in, const std::string& path, const PlyElement& e, bool ascii,
+                    TriangleMesh& m)
 {
     std::string text;
     std::vector<double> values;
@@ -235,7 +250,9 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
         std::istringstream s;
         if (ascii) {
             if (!std::getline(in, text))
-                fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item, e.count));
+                fail(path, 0,
+                     fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
+                                 e.count));
             s.str(text);
         }
         for (size_t k = 0; k < e.properties.size(); ++k) {
@@ -248,8 +265,9 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
                 } else {
                     char buf[8];
                     if (!in.read(buf, t.size))
-                        fail(path, 0, fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
-                                                  e.count));
+                        fail(path, 0,
+                             fmt::format("the file ends inside element '{}' ({} of {})", e.name,
+                                         item, e.count));
                     v = t.read(buf);
                 }
                 return v;
@@ -268,12 +286,14 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
             }
         }
         if (e.name == "vertex") {
-            m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]), float(values[size_t(z)]));
+            m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]),
+                                  float(values[size_t(z)]));
             if (nx >= 0 && ny >= 0 && nz >= 0)
                 m.normals.emplace_back(float(values[size_t(nx)]), float(values[size_t(ny)]),
                                        float(values[size_t(nz)]));
             if (colours)
-                m.colors.emplace_back(float(values[size_t(r)] * colourScale), float(values[size_t(g)] * colourScale),
+                m.colors.emplace_back(float(values[size_t(r)] * colourScale),
+                                      float(values[size_t(g)] * colourScale),
                                       float(values[size_t(b)] * colourScale));
         } else if (e.name == "face") {
             addPolygon(m, poly, path, 0);
@@ -297,7 +317,8 @@ std::vector<openvdb::Vec3s> vertexNormals(const TriangleMesh& m)
 {
     std::vector<openvdb::Vec3s> n(m.points.size(), openvdb::Vec3s(0.0f));
     for (const auto& t : m.triangles) {
-        const openvdb::Vec3s c = (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
+        const openvdb::Vec3s c =
+            (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
         for (uint32_t v : t)
             n[v] += c;
     }
@@ -330,7 +351,10 @@ TriangleMesh readMesh(const std::string& path)
 
 namespace {
 
-uint8_t toByte(float v) { return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); }
+uint8_t toByte(float v)
+{
+    return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
+}
 
 void writeObj(const TriangleMesh& m, std::ostream& out)
 {
@@ -341,24 +365,25 @@ void writeObj(const TriangleMesh& m, std::ostream& out)
             buf.clear();
         }
     };
-    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} triangles\n", m.points.size(),
-                   m.triangles.size());
+    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} triangles\n",
+                   m.points.size(), m.triangles.size());
     for (size_t i = 0; i < m.points.size(); ++i) {
         const auto& p = m.points[i];
         if (m.colors.empty())
             fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g}\n", p[0], p[1], p[2]);
         else
-            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g} {:.4g} {:.4g} {:.4g}\n", p[0], p[1], p[2],
-                           m.colors[i][0], m.colors[i][1], m.colors[i][2]);
+            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g} {:.4g} {:.4g} {:.4g}\n",
+                           p[0], p[1], p[2], m.colors[i][0], m.colors[i][1], m.colors[i][2]);
         drain(false);
     }
     for (const auto& nrm : m.normals) {
-        fmt::format_to(std::back_inserter(buf), "vn {:.5g} {:.5g} {:.5g}\n", nrm[0], nrm[1], nrm[2]);
+        fmt::format_to(std::back_inserter(buf), "vn {:.5g} {:.5g} {:.5g}\n", nrm[0], nrm[1],
+                       nrm[2]);
         drain(false);
     }
     for (const auto& t : m.triangles) {  // OBJ counts from 1
-        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", t[0] + 1, t[0] + 1, t[1] + 1, t[1] + 1,
-                       t[2] + 1, t[2] + 1);
+        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", t[0] + 1, t[0] + 1,
+                       t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
         drain(false);
     }
     drain(true);
@@ -373,7 +398,8 @@ void writePly(const TriangleMesh& m, std::ostream& out)
         << "property float nx\nproperty float ny\nproperty float nz\n";
     if (rgb)
         out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-    out << "element face " << m.triangles.size() << "\nproperty list uchar uint vertex_indices\nend_header\n";
+    out << "element face " << m.triangles.size()
+        << "\nproperty list uchar uint vertex_indices\nend_header\n";
     static_assert(sizeof(float) == 4 && sizeof(uint32_t) == 4, "PLY float and uint are 4 bytes");
     // x86 and ARM are little-endian: the values are written as they are.
     std::vector<char> buf;
@@ -408,7 +434,8 @@ void checkMeshOutput(const std::string& path)
 void writeMesh(const TriangleMesh& mesh, const std::string& path)
 {
     const std::string ext = fileFormat(path, {"obj", "ply"}, "mesh");
-    writeFile(path, [&](std::ostream& out) { ext == "obj" ? writeObj(mesh, out) : writePly(mesh, out); });
+    writeFile(path,
+              [&](std::ostream& out) { ext == "obj" ? writeObj(mesh, out) : writePly(mesh, out); });
 }
 
 }  // namespace cambium

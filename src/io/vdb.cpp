@@ -45,8 +45,9 @@ protected:
     }
     pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
     {
-        const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? off_type(pos_)
-                                                                                          : off_type(data_.size());
+        const off_type base = dir == std::ios_base::beg   ? 0
+                              : dir == std::ios_base::cur ? off_type(pos_)
+                                                          : off_type(data_.size());
         if (base + off < 0 || size_t(base + off) > data_.size())
             return pos_type(off_type(-1));
         pos_ = size_t(base + off);
@@ -69,7 +70,8 @@ const char kChecksumKey[] = "cambium_checksum";
 /// but on the checked writer's stream instead of an unchecked std::ofstream.
 class StreamArchive : public openvdb::io::Archive {
 public:
-    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids, const openvdb::MetaMap& meta) const
+    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids,
+                 const openvdb::MetaMap& meta) const
     {
         write(os, grids, /*seekable=*/true, meta);
     }
@@ -80,9 +82,9 @@ public:
 void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
     openvdb::GridCPtrVec out;
-    for (openvdb::GridBase::Ptr g : {openvdb::GridBase::Ptr(grids.surface),
-                                     openvdb::GridBase::Ptr(grids.color),
-                                     openvdb::GridBase::Ptr(grids.density)}) {
+    for (openvdb::GridBase::Ptr g :
+         {openvdb::GridBase::Ptr(grids.surface), openvdb::GridBase::Ptr(grids.color),
+          openvdb::GridBase::Ptr(grids.density)}) {
         if (!g)
             continue;
         g->addStatsMetadata();  // Arnold and others read these
@@ -112,13 +114,15 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
         archive.writeTo(os, out, fileMeta);
     }
     std::vector<char>& bytes = memory.data();
-    const std::string entry = std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14) + placeholder;
+    const std::string entry =
+        std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14) + placeholder;
     const auto at = std::search(bytes.begin(), bytes.end(), entry.begin(), entry.end());
     if (at == bytes.end())
         throw std::runtime_error("the checksum's place was not found in the file OpenVDB wrote");
     const size_t value = size_t(at - bytes.begin()) + entry.size() - placeholder.size();
     Checksum64 sum;
-    sum.update(bytes.data() + value + placeholder.size(), bytes.size() - value - placeholder.size());
+    sum.update(bytes.data() + value + placeholder.size(),
+               bytes.size() - value - placeholder.size());
     const std::string digest = fmt::format("{:016x}", sum.value());
     std::memcpy(bytes.data() + value, digest.data(), digest.size());
     writeFile(path, bytes.data(), bytes.size());
@@ -130,10 +134,12 @@ namespace {
 /// is left of the file before anything is read or allocated.
 class VdbReader {
 public:
-    VdbReader(const std::string& path, uint64_t size) : path_(path), size_(size), in_(path, std::ios::binary)
+    VdbReader(const std::string& path, uint64_t size)
+        : path_(path), size_(size), in_(path, std::ios::binary)
     {
         if (!in_)
-            throw InputError(fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
+            throw InputError(
+                fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
     }
     uint64_t at() const { return at_; }
     uint64_t left() const { return size_ - at_; }
@@ -150,7 +156,8 @@ public:
         need(n, what);
         in_.read(out, std::streamsize(n));
         if (!in_)
-            throw InputError(fmt::format("{}: cannot read the .vdb file at byte {} ({})", path_, at_, what));
+            throw InputError(
+                fmt::format("{}: cannot read the .vdb file at byte {} ({})", path_, at_, what));
         at_ += n;
     }
     /// A length-prefixed string of at most `limit` bytes.
@@ -182,9 +189,10 @@ private:
     void need(uint64_t n, const char* what) const
     {
         if (n > left())
-            throw InputError(fmt::format("{}: a truncated .vdb file: {} at byte {} needs {} bytes, the file has {} "
-                                         "in all",
-                                         path_, what, at_, n, size_));
+            throw InputError(fmt::format(
+                "{}: a truncated .vdb file: {} at byte {} needs {} bytes, the file has {} "
+                "in all",
+                path_, what, at_, n, size_));
     }
 
     std::string path_;
@@ -201,15 +209,18 @@ VdbSummary inspectVdb(const std::string& path)
     VdbReader r(path, s.bytes);
     constexpr int64_t kMagic = 0x56444220;
     if (s.bytes < 8 || r.value<int64_t>("magic number") != kMagic)
-        throw InputError(fmt::format("{}: not a .vdb file (it does not begin with OpenVDB's magic number)", path));
+        throw InputError(fmt::format(
+            "{}: not a .vdb file (it does not begin with OpenVDB's magic number)", path));
     s.fileVersion = r.value<uint32_t>("file version");
     if (s.fileVersion < 222 || s.fileVersion > 1000)
-        r.damaged(fmt::format("file format version {} (cambium reads 222 and later)", s.fileVersion));
+        r.damaged(
+            fmt::format("file format version {} (cambium reads 222 and later)", s.fileVersion));
     r.skip(8, "library version");
     if (r.value<char>("grid offsets flag") != 1)
-        throw InputError(fmt::format("{}: a .vdb stream without grid offsets: cambium reads .vdb files written "
-                                     "to disk (with io::File)",
-                                     path));
+        throw InputError(
+            fmt::format("{}: a .vdb stream without grid offsets: cambium reads .vdb files written "
+                        "to disk (with io::File)",
+                        path));
     r.skip(36, "UUID");
 
     constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
@@ -226,19 +237,23 @@ VdbSummary inspectVdb(const std::string& path)
             const std::string type = r.string("metadata type", kNameLimit);
             const uint32_t n = r.value<uint32_t>("metadata size");
             if (r.at() + n > end && end == s.bytes)
-                throw InputError(fmt::format("{}: a truncated .vdb file: metadata '{}' at byte {} needs {} bytes, the "
-                                             "file has {} in all",
-                                             path, name, r.at(), n, s.bytes));
+                throw InputError(fmt::format(
+                    "{}: a truncated .vdb file: metadata '{}' at byte {} needs {} bytes, the "
+                    "file has {} in all",
+                    path, name, r.at(), n, s.bytes));
             if (r.at() + n > end)
-                r.damaged(fmt::format("metadata '{}' of {} bytes at byte {} runs past its block", name, n, r.at()));
+                r.damaged(fmt::format("metadata '{}' of {} bytes at byte {} runs past its block",
+                                      name, n, r.at()));
             // OpenVDB reads a value of a fixed-size type by its type, not by
             // the size written before it: the two must agree.
             static const std::map<std::string, uint32_t> fixed = {
-                {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},  {"double", 8},  {"vec2i", 8},
-                {"vec2s", 8},  {"vec2d", 16}, {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
+                {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},
+                {"double", 8}, {"vec2i", 8},  {"vec2s", 8},  {"vec2d", 16},
+                {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
                 {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64}, {"mat4d", 128}};
             if (const auto f = fixed.find(type); f != fixed.end() && f->second != n)
-                r.damaged(fmt::format("metadata '{}' of type {} has {} bytes, not {}", name, type, n, f->second));
+                r.damaged(fmt::format("metadata '{}' of type {} has {} bytes, not {}", name, type,
+                                      n, f->second));
             if (type == "__delayedload" && n > 0) {
                 // OpenVDB sizes per-leaf arrays by the count it holds.
                 if (n < 8)
@@ -246,7 +261,8 @@ VdbSummary inspectVdb(const std::string& path)
                 const uint32_t count = r.value<uint32_t>("delayed-load count");
                 const uint32_t packed = r.value<uint32_t>("delayed-load size");
                 if (count > s.bytes || packed > n - 8)
-                    r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count, packed));
+                    r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count,
+                                          packed));
                 r.skip(n - 8, "metadata value");
                 continue;
             }
@@ -274,12 +290,14 @@ VdbSummary inspectVdb(const std::string& path)
         const int64_t block = r.value<int64_t>("grid block offset");
         g.end = r.value<int64_t>("grid end offset");
         if (g.begin != int64_t(r.at()) || block < g.begin || g.end < block)
-            r.damaged(fmt::format("grid '{}' has offsets {}, {}, {} that do not follow its descriptor at byte {}",
-                                  g.name, g.begin, block, g.end, r.at()));
+            r.damaged(fmt::format(
+                "grid '{}' has offsets {}, {}, {} that do not follow its descriptor at byte {}",
+                g.name, g.begin, block, g.end, r.at()));
         if (uint64_t(g.end) > s.bytes)
-            throw InputError(fmt::format("{}: a truncated .vdb file: grid '{}' ends at byte {}, the file has {} "
-                                         "bytes",
-                                         path, g.name, g.end, s.bytes));
+            throw InputError(
+                fmt::format("{}: a truncated .vdb file: grid '{}' ends at byte {}, the file has {} "
+                            "bytes",
+                            path, g.name, g.end, s.bytes));
         // The grid's compression word, metadata and transform's map type,
         // within its block.
         r.skip(4, "grid compression flags");
@@ -307,9 +325,10 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
         sum.update(chunk.data(), size_t(in.gcount()));
     }
     if (fmt::format("{:016x}", sum.value()) != expected->second)
-        throw InputError(fmt::format("{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
-                                     "into it (changed or corrupted since)",
-                                     path));
+        throw InputError(fmt::format(
+            "{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
+            "into it (changed or corrupted since)",
+            path));
     return true;
 }
 
@@ -341,15 +360,16 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
         if (g->getName() == grid) {
             out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
             if (!out.surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
-                throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,
-                                             g->valueType(), openvdb::GridBase::gridClassToString(g->getGridClass())));
+                throw InputError(fmt::format(
+                    "{}: grid '{}' is a {} {}, not a float level set", path, grid, g->valueType(),
+                    openvdb::GridBase::gridClassToString(g->getGridClass())));
         }
         if (g->getName() == kColorGrid)
             out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
     }
     if (!out.surface)
-        throw InputError(
-            fmt::format("{}: no grid named '{}' (it holds: {})", path, grid, names.empty() ? "no grids" : names));
+        throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
+                                     names.empty() ? "no grids" : names));
     return out;
 }
 

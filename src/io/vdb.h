@@ -12,13 +12,14 @@
 namespace cambium {
 
 struct VdbFileInfo {
-    std::string scene;      ///< the source the grids were baked from
+    std::string scene;  ///< the source the grids were baked from
     double threshold = 0.5;
     double halfWidth = 3.0;
-    long long frame = 0;    ///< growth frame number (0 for a single bake)
-    double time = 0.0;      ///< model time of the frame
-    bool half = false;      ///< store floats as 16-bit halves
-    std::string sequence;   ///< a sequence's key (file metadata `cambium_sequence`), empty for a single bake
+    long long frame = 0;  ///< growth frame number (0 for a single bake)
+    double time = 0.0;    ///< model time of the frame
+    bool half = false;    ///< store floats as 16-bit halves
+    std::string
+        sequence;  ///< a sequence's key (file metadata `cambium_sequence`), empty for a single bake
 };
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
@@ -32,13 +33,13 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
 
 /// What the structure of a .vdb file says, read without reading any grid.
 struct VdbSummary {
-    uint64_t bytes = 0;                           ///< file size
+    uint64_t bytes = 0;  ///< file size
     uint32_t fileVersion = 0;
-    std::map<std::string, std::string> strings;   ///< the file's string metadata
-    uint64_t checksumEnd = 0;                     ///< where the bytes `cambium_checksum` covers begin (0: none)
+    std::map<std::string, std::string> strings;  ///< the file's string metadata
+    uint64_t checksumEnd = 0;  ///< where the bytes `cambium_checksum` covers begin (0: none)
     struct Grid {
         std::string name, type;
-        int64_t begin = 0, end = 0;               ///< byte range in the file
+        int64_t begin = 0, end = 0;  ///< byte range in the file
     };
     std::vector<Grid> grids;
 };

@@ -18,7 +18,8 @@ public:
     Curve() = default;
     /// Control points (x, y), x strictly increasing from 0 to 1, y finite.
     /// InputError (naming `where`) otherwise.
-    Curve(std::vector<std::pair<double, double>> points, Interpolation interpolation, const std::string& where);
+    Curve(std::vector<std::pair<double, double>> points, Interpolation interpolation,
+          const std::string& where);
 
     /// A constant function.
     static Curve constant(double y);

@@ -16,7 +16,10 @@ namespace cambium {
 
 namespace {
 
-double radians(double deg) { return deg * kDegree; }
+double radians(double deg)
+{
+    return deg * kDegree;
+}
 
 /// Angular distance in degrees, in [0, 180].
 double angularDistance(double deg)
@@ -74,7 +77,8 @@ std::vector<double> GrowthModel::branchSupports(double t) const
     return support;
 }
 
-std::vector<double> GrowthModel::metamerSupports(size_t bi, double t, const std::vector<double>& support,
+std::vector<double> GrowthModel::metamerSupports(size_t bi, double t,
+                                                 const std::vector<double>& support,
                                                  std::vector<double>& lengths) const
 {
     const GrowthBranch& b = branches_[bi];
@@ -94,8 +98,8 @@ std::vector<double> GrowthModel::metamerSupports(size_t bi, double t, const std:
 
 double GrowthModel::radiusOf(double support) const
 {
-    return p_.tipRadius +
-           (p_.baseRadius - p_.tipRadius) * std::pow(std::max(support, 0.0) / supportRef_, p_.thickening);
+    return p_.tipRadius + (p_.baseRadius - p_.tipRadius) *
+                              std::pow(std::max(support, 0.0) / supportRef_, p_.thickening);
 }
 
 bool GrowthModel::separationHolds(int first, int m, int previous) const
@@ -118,8 +122,8 @@ void GrowthModel::grow()
     trunk.lost = Y + 1;
     trunk.length.push_back(0.0);
     for (int y = 1; y <= Y; ++y)  // Gh, with eq. 5
-        trunk.length.push_back(
-            std::max(p_.trunkLength * p_.Gh(double(y) / Y), trunk.length.back() + p_.minShootLength));
+        trunk.length.push_back(std::max(p_.trunkLength * p_.Gh(double(y) / Y),
+                                        trunk.length.back() + p_.minShootLength));
     branches_.push_back(std::move(trunk));
 
     long long internodes = 0;
@@ -154,10 +158,13 @@ void GrowthModel::grow()
                 first += s.metamers;
                 internodes += s.metamers;
                 if (double(internodes) > p_.maxInternodes)
-                    throw InputError(fmt::format(
-                        "{}: the parameters grow more than {:.0f} internodes (max_internodes) — reached at a "
-                        "branch of order {} in year {}: raise min_scale, lower Gss or Gm, or raise max_internodes",
-                        p_.name.empty() ? "growth parameters" : p_.name, p_.maxInternodes, b.order, y));
+                    throw InputError(
+                        fmt::format("{}: the parameters grow more than {:.0f} internodes "
+                                    "(max_internodes) — reached at a "
+                                    "branch of order {} in year {}: raise min_scale, lower Gss or "
+                                    "Gm, or raise max_internodes",
+                                    p_.name.empty() ? "growth parameters" : p_.name,
+                                    p_.maxInternodes, b.order, y));
                 b.shoots.push_back(s);
             }
         }
@@ -183,11 +190,13 @@ void GrowthModel::grow()
                 c.azimuth = radians(c.node * p_.phyllotaxis) + b.azimuth0;
                 c.scale = sb;
                 c.birth = birth;
-                c.lost = std::min(birth + std::max(1, int(std::lround(p_.Ga(sb)))), b.lost);  // eq. 11
+                c.lost =
+                    std::min(birth + std::max(1, int(std::lround(p_.Ga(sb)))), b.lost);  // eq. 11
                 c.length.push_back(0.0);
                 for (int y = birth; y < c.lost && y <= Y; ++y) {
                     const double lp = b.lengthAt(y), xy = std::min(1.0, x / lp), ty = double(y) / Y;
-                    double ld = lp * ((1.0 - ty) * p_.Gs1(xy) + ty * p_.Gs2(xy)) * sb;  // eq. 6, scaled by s_b
+                    double ld = lp * ((1.0 - ty) * p_.Gs1(xy) + ty * p_.Gs2(xy)) *
+                                sb;  // eq. 6, scaled by s_b
                     if (c.order >= 2)
                         ld /= 0.5 * c.order + 1.0;  // eq. 12
                     c.length.push_back(std::max(ld, c.length.back() + p_.minShootLength));  // eq. 7
@@ -243,9 +252,15 @@ TreeBuildOptions GrowthModel::buildOptions() const
     return o;
 }
 
-BlobTree GrowthModel::tree(double t, bool leaves) const { return buildTree(skeleton(t, leaves), buildOptions()); }
+BlobTree GrowthModel::tree(double t, bool leaves) const
+{
+    return buildTree(skeleton(t, leaves), buildOptions());
+}
 
-int growthYear(double t) { return std::max(1, int(std::ceil(t))); }
+int growthYear(double t)
+{
+    return std::max(1, int(std::ceil(t)));
+}
 
 double GrowthModel::growthTime(double time) const
 {
@@ -335,7 +350,9 @@ private:
         double v = b.lost == year_ ? 1.0 - smoothstep(0.0, 1.0, u_) : 1.0;
         if (parent && visible_[size_t(b.parent)] < grown_[size_t(b.parent)]) {
             const double lp = grown_[size_t(b.parent)];
-            v = std::min(v, std::clamp((visible_[size_t(b.parent)] - b.position) / (lp - b.position), 0.0, 1.0));
+            v = std::min(
+                v, std::clamp((visible_[size_t(b.parent)] - b.position) / (lp - b.position), 0.0,
+                              1.0));
         }
         const double L = grown_[bi];
         visible_[bi] = L * v;
@@ -355,7 +372,8 @@ private:
         start.base = at.p;
         start.parentId = at.id;
         start.parentRadius = at.r;
-        const glm::dvec3 across = std::cos(b.azimuth) * at.u + std::sin(b.azimuth) * glm::cross(at.h, at.u);
+        const glm::dvec3 across =
+            std::cos(b.azimuth) * at.u + std::sin(b.azimuth) * glm::cross(at.h, at.u);
         start.h0 = glm::normalize(std::cos(alpha_) * at.h + std::sin(alpha_) * across);
         const glm::dvec3 c = glm::cross(start.h0, at.h);
         start.axis = glm::length(c) > 1e-9 ? glm::normalize(c) : anyPerpendicular(start.h0);
@@ -397,7 +415,8 @@ private:
         for (int c : b.laterals) {
             const GrowthBranch& lb = branches_[size_t(c)];
             broken[size_t(lb.node)] = broken[size_t(lb.node)] || t_ > lb.birth - 1;
-            junction[size_t(lb.node)] = junction[size_t(lb.node)] || (t_ > lb.birth - 1 && t_ < lb.lost);
+            junction[size_t(lb.node)] =
+                junction[size_t(lb.node)] || (t_ > lb.birth - 1 && t_ < lb.lost);
         }
 
         std::vector<NodeFrame>& out = nodes_[bi];
@@ -461,11 +480,12 @@ private:
     /// The heading `h` of a metamer whose middle is `sNominal` along branch
     /// `b` of length L (eq. 9: towards the parent's direction, and the
     /// seeded variation), and `across`, the reference across it.
-    void metamerFrame(const GrowthBranch& b, const Start& start, bool hasParent, double sNominal, double L,
-                      double sTheta, glm::dvec3& h, glm::dvec3& across) const
+    void metamerFrame(const GrowthBranch& b, const Start& start, bool hasParent, double sNominal,
+                      double L, double sTheta, glm::dvec3& h, glm::dvec3& across) const
     {
         const double x = std::clamp(sNominal / L, 0.0, 1.0);
-        const double theta = hasParent ? radians((1.0 - sTheta) * p_.Go1(x) + sTheta * p_.Go2(x)) : 0.0;
+        const double theta =
+            hasParent ? radians((1.0 - sTheta) * p_.Go1(x) + sTheta * p_.Go2(x)) : 0.0;
         const double n1 = noise_ * (0.6 * std::sin(2 * kPi * sNominal / wave1_ + b.phase[0]) +
                                     0.4 * std::sin(2 * kPi * sNominal / wave2_ + b.phase[1]));
         const double n2 = noise_ * (0.6 * std::sin(2 * kPi * sNominal / wave1_ + b.phase[2]) +
@@ -512,8 +532,8 @@ private:
     /// This year's organs at the node atop metamer k of shoot s (internode
     /// `in`): a leaf and a lateral bud growing; last year's buds that did not
     /// break fade.
-    void addNodeOrgans(const GrowthBranch& b, const GrowthShoot& s, int k, const Internode& in, const glm::dvec3& h,
-                       const glm::dvec3& across, bool broken, bool growing)
+    void addNodeOrgans(const GrowthBranch& b, const GrowthShoot& s, int k, const Internode& in,
+                       const glm::dvec3& h, const glm::dvec3& across, bool broken, bool growing)
     {
         const int j = s.firstMetamer + k;
         const double az = b.azimuth0 + radians(j * p_.phyllotaxis);
@@ -533,7 +553,8 @@ private:
             sk_.organs.push_back(o);
         }
         if (leaves_ && p_.leaves && s.year == year_ && growing) {
-            const double size = p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(grownFor) * (1.0 - fall_);
+            const double size =
+                p_.Gl(double(k + 1) / s.metamers) * p_.leafGrowth(grownFor) * (1.0 - fall_);
             if (size > 1e-3 * p_.tipRadius) {
                 const glm::dvec3 d = glm::normalize(side + 0.5 * h);
                 glm::dvec3 up = glm::dvec3(0, 1, 0) - d * d.y;
@@ -574,7 +595,10 @@ Skeleton GrowthModel::skeleton(double time, bool leaves) const
     return SkeletonDrawer(*this, time, leaves).draw();
 }
 
-GrowthStats GrowthModel::stats(double t, bool leaves) const { return stats(t, skeleton(t, leaves)); }
+GrowthStats GrowthModel::stats(double t, bool leaves) const
+{
+    return stats(t, skeleton(t, leaves));
+}
 
 GrowthStats GrowthModel::stats(double t, const Skeleton& sk) const
 {

@@ -37,27 +37,30 @@ struct GrowthShoot {
 
 struct GrowthBranch {
     int order = 0;
-    int parent = -1;       ///< branch index, -1 for the trunk
-    int node = -1;         ///< the parent's metamer at whose top it grows
-    double position = 0.0; ///< x: its distance along the parent from the parent's base
-    double azimuth0 = 0.0; ///< radians: azimuth of its first metamer's lateral (phyllotaxis start)
-    double azimuth = 0.0;  ///< radians: its direction around the parent's axis
-    double scale = 1.0;    ///< s_b (eq. 10, 13, 15)
-    int birth = 1;         ///< the year of its first shoot
+    int parent = -1;        ///< branch index, -1 for the trunk
+    int node = -1;          ///< the parent's metamer at whose top it grows
+    double position = 0.0;  ///< x: its distance along the parent from the parent's base
+    double azimuth0 = 0.0;  ///< radians: azimuth of its first metamer's lateral (phyllotaxis start)
+    double azimuth = 0.0;   ///< radians: its direction around the parent's axis
+    double scale = 1.0;     ///< s_b (eq. 10, 13, 15)
+    int birth = 1;          ///< the year of its first shoot
     /// The year over which it is lost (it dies back, then leaves a scar);
     /// greater than the tree's years when it lives to the end.
     int lost = 0;
-    std::vector<double> length;         ///< length[k]: l_{birth - 1 + k} (length[0] = 0)
-    std::vector<GrowthShoot> shoots;    ///< one per year it grows, in order
-    std::vector<int> laterals;          ///< branch indices of its laterals, by node
-    double phase[4] = {0, 0, 0, 0};     ///< stochastic orientation (seeded)
-    std::vector<double> finalRadius;    ///< each metamer's base radius at the end (or at its loss)
+    std::vector<double> length;       ///< length[k]: l_{birth - 1 + k} (length[0] = 0)
+    std::vector<GrowthShoot> shoots;  ///< one per year it grows, in order
+    std::vector<int> laterals;        ///< branch indices of its laterals, by node
+    double phase[4] = {0, 0, 0, 0};   ///< stochastic orientation (seeded)
+    std::vector<double> finalRadius;  ///< each metamer's base radius at the end (or at its loss)
 
     /// The last year it grows.
     int lastYear() const { return birth - 1 + int(length.size()) - 1; }
     /// l_y (0 before its birth, its last length after it stops growing).
     double lengthAt(int year) const;
-    int metamers() const { return shoots.empty() ? 0 : shoots.back().firstMetamer + shoots.back().metamers; }
+    int metamers() const
+    {
+        return shoots.empty() ? 0 : shoots.back().firstMetamer + shoots.back().metamers;
+    }
 };
 
 /// The year a time falls in: year y is (y - 1, y], and t = 0 is in year 1.
@@ -66,12 +69,13 @@ int growthYear(double t);
 /// Counts for `cambium growth --print-stats`.
 struct GrowthStats {
     double time = 0.0;
-    std::map<int, long long> branchesByOrder;   ///< living (or dying) branches
+    std::map<int, long long> branchesByOrder;  ///< living (or dying) branches
     std::map<int, long long> internodesByOrder;
     long long lostBranches = 0;  ///< shed so far (scars)
     long long leaves = 0, buds = 0, rings = 0;
-    long long shoots = 0, shootsAdjusted = 0;  ///< grown by then; of them, moved by the 40 degree rule
-    double height = 0.0;         ///< the trunk's length
+    long long shoots = 0,
+              shootsAdjusted = 0;  ///< grown by then; of them, moved by the 40 degree rule
+    double height = 0.0;           ///< the trunk's length
 };
 
 class GrowthModel {
@@ -119,7 +123,8 @@ private:
     /// metamer's length at t into `lengths`.
     std::vector<double> metamerSupports(size_t bi, double t, const std::vector<double>& support,
                                         std::vector<double>& lengths) const;
-    /// Radius from supported length: tip_radius + (base_radius - tip_radius) (S / S_ref)^thickening.
+    /// Radius from supported length: tip_radius + (base_radius - tip_radius) (S /
+    /// S_ref)^thickening.
     double radiusOf(double support) const;
     /// How far metamer k of shoot s is through its own growth at growth
     /// time t, in [0, 1]: the metamers start one after the other, base

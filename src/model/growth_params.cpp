@@ -64,8 +64,9 @@ public:
         const json root = parseJson(text, source());
         object(root, "(top level)", "must be an object");
         if (!root.contains("curves") || !root["curves"].is_object())
-            fail("curves", "missing: an object with the graphically defined functions (is this a growth "
-                           "parameter file? docs/growth-format.md)");
+            fail("curves",
+                 "missing: an object with the graphically defined functions (is this a growth "
+                 "parameter file? docs/growth-format.md)");
         checkKeys(root, "", topLevelKeys(), "key", "docs/growth-format.md");
         GrowthParameters p;
         readScalars(root, p);
@@ -90,7 +91,8 @@ private:
         const json& v = array(obj.at(key), key, 3, "must be [r, g, b]");
         glm::dvec3 c;
         for (int k = 0; k < 3; ++k) {
-            if (!v[size_t(k)].is_number() || !(v[size_t(k)].get<double>() >= 0.0 && v[size_t(k)].get<double>() <= 1.0))
+            if (!v[size_t(k)].is_number() ||
+                !(v[size_t(k)].get<double>() >= 0.0 && v[size_t(k)].get<double>() <= 1.0))
                 fail(fmt::format("{}[{}]", key, k), "must be a number from 0 to 1");
             c[k] = v[size_t(k)].get<double>();
         }
@@ -119,7 +121,8 @@ private:
         p.baseRadius = numberOr(root, "base_radius", p.baseRadius, 1e-9, 1e6);
         p.tipRadius = numberOr(root, "tip_radius", p.tipRadius, 1e-9, 1e6);
         if (!(p.tipRadius <= p.baseRadius))
-            fail("tip_radius", fmt::format("must not exceed base_radius ({} > {})", p.tipRadius, p.baseRadius));
+            fail("tip_radius",
+                 fmt::format("must not exceed base_radius ({} > {})", p.tipRadius, p.baseRadius));
         p.thickening = numberOr(root, "thickening", p.thickening, 0, 2);
         p.growingSeason = numberOr(root, "growing_season", p.growingSeason, 0.05, 1);
         p.shootSpread = numberOr(root, "shoot_spread", p.shootSpread, 0, 0.99);
@@ -139,11 +142,19 @@ private:
     /// The graphically defined functions: every one, and no other.
     void readCurves(const json& curves, GrowthParameters& p) const
     {
-        const std::map<std::string, Curve*> named = {
-            {"Gh", &p.Gh},   {"Gs1", &p.Gs1}, {"Gs2", &p.Gs2}, {"Go1", &p.Go1},
-            {"Go2", &p.Go2}, {"Gbs", &p.Gbs}, {"Ga", &p.Ga},   {"Gm", &p.Gm},
-            {"Gl", &p.Gl},   {"Gss", &p.Gss}, {"internode_growth", &p.internodeGrowth},
-            {"leaf_growth", &p.leafGrowth},   {"bud_growth", &p.budGrowth}};
+        const std::map<std::string, Curve*> named = {{"Gh", &p.Gh},
+                                                     {"Gs1", &p.Gs1},
+                                                     {"Gs2", &p.Gs2},
+                                                     {"Go1", &p.Go1},
+                                                     {"Go2", &p.Go2},
+                                                     {"Gbs", &p.Gbs},
+                                                     {"Ga", &p.Ga},
+                                                     {"Gm", &p.Gm},
+                                                     {"Gl", &p.Gl},
+                                                     {"Gss", &p.Gss},
+                                                     {"internode_growth", &p.internodeGrowth},
+                                                     {"leaf_growth", &p.leafGrowth},
+                                                     {"bud_growth", &p.budGrowth}};
         std::vector<std::string> names;
         for (const auto& [key, curve] : named)
             names.push_back(key);
@@ -165,7 +176,8 @@ private:
             for (const auto& [x, y] : c.points())
                 if (!(y >= lo && y <= hi))
                     fail(fmt::format("curves.{}", key),
-                         fmt::format("values must be between {} and {} (a point has {})", lo, hi, y));
+                         fmt::format("values must be between {} and {} (a point has {})", lo, hi,
+                                     y));
         };
         within(p.Gh, "Gh", 0, 1);
         within(p.Gs1, "Gs1", 0, 10);
@@ -183,11 +195,13 @@ private:
         // An organ starts from nothing and ends its year at its full size:
         // otherwise it would pop in, or the lengths at year ends would not be
         // eq. 7's.
-        for (const auto& [c, key] : {std::pair{&p.internodeGrowth, "internode_growth"},
-                                     std::pair{&p.leafGrowth, "leaf_growth"}, std::pair{&p.budGrowth, "bud_growth"}})
+        for (const auto& [c, key] :
+             {std::pair{&p.internodeGrowth, "internode_growth"},
+              std::pair{&p.leafGrowth, "leaf_growth"}, std::pair{&p.budGrowth, "bud_growth"}})
             if (c->points().front().second != 0.0 || c->points().back().second != 1.0)
                 fail(fmt::format("curves.{}", key),
-                     fmt::format("must start at 0 and end at 1 (fraction of full size; it goes from {} to {})",
+                     fmt::format("must start at 0 and end at 1 (fraction of full size; it goes "
+                                 "from {} to {})",
                                  c->points().front().second, c->points().back().second));
     }
 };
@@ -210,8 +224,9 @@ double timeOfLife(const GrowthParameters& p, std::optional<double> t, const std:
     if (!t)
         return double(p.years);
     if (!(*t >= 0.0 && *t <= p.years))
-        throw InputError(fmt::format("{}: {} must be between 0 and {} years, the tree's life (got {})", source, option,
-                                     p.years, *t));
+        throw InputError(
+            fmt::format("{}: {} must be between 0 and {} years, the tree's life (got {})", source,
+                        option, p.years, *t));
     return *t;
 }
 

@@ -29,31 +29,36 @@ struct GrowthParameters {
     double baseRadius = 0.25;       ///< trunk radius at its base at y_max
     double tipRadius = 0.004;       ///< radius of a shoot's tip
     double thickening = 0.7;        ///< secondary growth: radius exponent of the supported length
-    double growingSeason = 0.6;     ///< fraction of each year in which shoots grow and bark ages; dormant after
-    double shootSpread = 0.5;       ///< fraction of the year over which a shoot's metamers start growing, base first
-    double budRadius = 0.008;       ///< a full-grown bud's radius
-    double scarRing = 0.3;          ///< weight of a new bud scale scar ring (0: none)
-    double scarYears = 6.0;         ///< years over which a scar ring fades
-    double ridgeYears = 8.0;        ///< years over which a junction's bark ridge forms (GBB from blend to PCM)
-    double ridgeRadius = 4.0;       ///< the ridge's bounding field reaches this many lateral radii from the junction
-    double leafFall = 0.85;         ///< time of year at which leaves begin to fall (gone 0.1 later)
-    double maxInternodes = 3e6;     ///< refuse parameters that grow more internodes than this
+    double growingSeason =
+        0.6;  ///< fraction of each year in which shoots grow and bark ages; dormant after
+    double shootSpread =
+        0.5;  ///< fraction of the year over which a shoot's metamers start growing, base first
+    double budRadius = 0.008;  ///< a full-grown bud's radius
+    double scarRing = 0.3;     ///< weight of a new bud scale scar ring (0: none)
+    double scarYears = 6.0;    ///< years over which a scar ring fades
+    double ridgeYears =
+        8.0;  ///< years over which a junction's bark ridge forms (GBB from blend to PCM)
+    double ridgeRadius =
+        4.0;  ///< the ridge's bounding field reaches this many lateral radii from the junction
+    double leafFall = 0.85;      ///< time of year at which leaves begin to fall (gone 0.1 later)
+    double maxInternodes = 3e6;  ///< refuse parameters that grow more internodes than this
     bool leaves = true;
     glm::dvec3 bark{0.36, 0.30, 0.24};
     glm::dvec3 leaf{0.25, 0.45, 0.15};
 
     // The graphically defined functions of eq. 5-15 and section 4.3.
-    Curve Gh;   ///< trunk length by time t_y, relative to trunkLength
-    Curve Gs1;  ///< young silhouette: order-1 length / parent length by position x_y
-    Curve Gs2;  ///< mature silhouette
-    Curve Go1;  ///< heading (degrees) along a branch of length 0, by position
-    Curve Go2;  ///< heading (degrees) along a branch of length l_max
-    Curve Gbs;  ///< branch scale factor by x_max
-    Curve Ga;   ///< age (years) at which a branch is lost, by its scale factor
-    Curve Gm;   ///< metamers in a shoot by its relative length q = ls / ls_max
-    Curve Gl;   ///< leaf size by position along the shoot
-    Curve Gss;  ///< lateral scale by position along the shoot
-    Curve internodeGrowth;  ///< fraction of its final length an internode has, by time within its year
+    Curve Gh;               ///< trunk length by time t_y, relative to trunkLength
+    Curve Gs1;              ///< young silhouette: order-1 length / parent length by position x_y
+    Curve Gs2;              ///< mature silhouette
+    Curve Go1;              ///< heading (degrees) along a branch of length 0, by position
+    Curve Go2;              ///< heading (degrees) along a branch of length l_max
+    Curve Gbs;              ///< branch scale factor by x_max
+    Curve Ga;               ///< age (years) at which a branch is lost, by its scale factor
+    Curve Gm;               ///< metamers in a shoot by its relative length q = ls / ls_max
+    Curve Gl;               ///< leaf size by position along the shoot
+    Curve Gss;              ///< lateral scale by position along the shoot
+    Curve internodeGrowth;  ///< fraction of its final length an internode has, by time within its
+                            ///< year
     Curve leafGrowth;       ///< fraction of its size a leaf has, by time within its year
     Curve budGrowth;        ///< fraction of its size a bud has, by time within its year
 };
@@ -66,8 +71,8 @@ GrowthParameters loadGrowthParameters(const std::string& path);
 
 /// `t`, or the last year when it is not given.  InputError naming `source`
 /// and `option` unless it lies in [0, years].
-double timeOfLife(const GrowthParameters& params, std::optional<double> t, const std::string& source,
-                  const std::string& option);
+double timeOfLife(const GrowthParameters& params, std::optional<double> t,
+                  const std::string& source, const std::string& option);
 
 /// Whether `path` is a growth parameter file rather than a scene: a .json
 /// whose top-level object has "curves".  False for anything unreadable (the

@@ -19,7 +19,8 @@ namespace {
 
 bool endsWith(const std::string& s, const std::string& suffix)
 {
-    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+    return s.size() >= suffix.size() &&
+           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 /// The tree builder's options for junction rules Pcm or Smooth.
@@ -49,14 +50,16 @@ ModelOptions::Primitives parsePrimitives(const std::string& name)
     using P = ModelOptions::Primitives;
     if (name == "cone" || name == "convolution" || name == "mixed")
         return name == "cone" ? P::Cone : name == "convolution" ? P::Convolution : P::Mixed;
-    throw InputError(fmt::format("--primitives must be cone, convolution or mixed (got '{}')", name));
+    throw InputError(
+        fmt::format("--primitives must be cone, convolution or mixed (got '{}')", name));
 }
 
 void checkModelOptions(const ModelOptions& o)
 {
     const bool blend = o.junctions == ModelOptions::Junctions::Blend;
     if (!(std::abs(o.bendDegrees) < 90.0))
-        throw InputError(fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
+        throw InputError(
+            fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
     if (o.bendDegrees != 0.0 && blend)
         throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
     if (o.primitives != ModelOptions::Primitives::Cone && blend)
@@ -66,10 +69,12 @@ void checkModelOptions(const ModelOptions& o)
 
 void checkGrowthOptions(const std::string& path, const ModelOptions& o)
 {
-    if (o.junctions || o.bendDegrees != 0.0 || o.primitives != ModelOptions::Primitives::Cone || o.regrowth != 0.0)
-        throw InputError(fmt::format("{}: --junctions, --bend, --primitives and --regrowth are for L-systems and "
-                                     "skeletons; a growth parameter file sets its own (docs/growth-format.md)",
-                                     path));
+    if (o.junctions || o.bendDegrees != 0.0 || o.primitives != ModelOptions::Primitives::Cone ||
+        o.regrowth != 0.0)
+        throw InputError(fmt::format(
+            "{}: --junctions, --bend, --primitives and --regrowth are for L-systems and "
+            "skeletons; a growth parameter file sets its own (docs/growth-format.md)",
+            path));
 }
 
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
@@ -81,7 +86,8 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
         const double t = timeOfLife(model.params(), o.time, path, "--time");
         const Skeleton sk = model.skeleton(t, o.leaves);
         if (sk.internodes.empty())
-            throw InputError(fmt::format("{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
+            throw InputError(fmt::format(
+                "{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
         return buildTree(sk, model.buildOptions());
     }
     if (endsWith(path, ".json"))
@@ -92,9 +98,10 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
         const LSystem sys = loadLSystem(path);
         sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
         if (sk.internodes.empty())
-            throw InputError(fmt::format("{}: after {} derivation steps the string draws no internode (no F): "
-                                         "nothing to bake",
-                                         path, sys.derivationLength));
+            throw InputError(
+                fmt::format("{}: after {} derivation steps the string draws no internode (no F): "
+                            "nothing to bake",
+                            path, sys.derivationLength));
     } else {
         sk = loadSkeleton(path);
     }

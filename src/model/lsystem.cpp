@@ -19,7 +19,26 @@ namespace cambium {
 // --- expressions ------------------------------------------------------------
 
 struct Expr {
-    enum Op { Const, Var, Neg, Not, Add, Sub, Mul, Div, Pow, Lt, Le, Gt, Ge, Eq, Ne, And, Or, Call } op = Const;
+    enum Op {
+        Const,
+        Var,
+        Neg,
+        Not,
+        Add,
+        Sub,
+        Mul,
+        Div,
+        Pow,
+        Lt,
+        Le,
+        Gt,
+        Ge,
+        Eq,
+        Ne,
+        And,
+        Or,
+        Call
+    } op = Const;
     double value = 0.0;
     int var = -1;  ///< Var: the formal parameter's index; Call: the function's in kFunctions
     std::vector<std::shared_ptr<const Expr>> kids;
@@ -29,7 +48,6 @@ namespace {
 
 using ExprPtr = std::shared_ptr<const Expr>;
 using Rng = std::mt19937_64;
-
 
 /// The functions expressions may call (trigonometry in degrees, as cpfg);
 /// `ran` (no `f`) draws from the derivation's seeded generator.
@@ -63,24 +81,42 @@ double evaluate(const Expr& e, const std::vector<double>& vars, Rng& rng)
 {
     auto k = [&](size_t i) { return evaluate(*e.kids[i], vars, rng); };
     switch (e.op) {
-    case Expr::Const: return e.value;
-    case Expr::Var: return vars[size_t(e.var)];
-    case Expr::Neg: return -k(0);
-    case Expr::Not: return k(0) == 0.0 ? 1.0 : 0.0;
-    case Expr::Add: return k(0) + k(1);
-    case Expr::Sub: return k(0) - k(1);
-    case Expr::Mul: return k(0) * k(1);
-    case Expr::Div: return k(0) / k(1);
-    case Expr::Pow: return std::pow(k(0), k(1));
-    case Expr::Lt: return k(0) < k(1);
-    case Expr::Le: return k(0) <= k(1);
-    case Expr::Gt: return k(0) > k(1);
-    case Expr::Ge: return k(0) >= k(1);
-    case Expr::Eq: return k(0) == k(1);
-    case Expr::Ne: return k(0) != k(1);
-    case Expr::And: return k(0) != 0.0 && k(1) != 0.0;
-    case Expr::Or: return k(0) != 0.0 || k(1) != 0.0;
-    case Expr::Call: break;
+        case Expr::Const:
+            return e.value;
+        case Expr::Var:
+            return vars[size_t(e.var)];
+        case Expr::Neg:
+            return -k(0);
+        case Expr::Not:
+            return k(0) == 0.0 ? 1.0 : 0.0;
+        case Expr::Add:
+            return k(0) + k(1);
+        case Expr::Sub:
+            return k(0) - k(1);
+        case Expr::Mul:
+            return k(0) * k(1);
+        case Expr::Div:
+            return k(0) / k(1);
+        case Expr::Pow:
+            return std::pow(k(0), k(1));
+        case Expr::Lt:
+            return k(0) < k(1);
+        case Expr::Le:
+            return k(0) <= k(1);
+        case Expr::Gt:
+            return k(0) > k(1);
+        case Expr::Ge:
+            return k(0) >= k(1);
+        case Expr::Eq:
+            return k(0) == k(1);
+        case Expr::Ne:
+            return k(0) != k(1);
+        case Expr::And:
+            return k(0) != 0.0 && k(1) != 0.0;
+        case Expr::Or:
+            return k(0) != 0.0 || k(1) != 0.0;
+        case Expr::Call:
+            break;
     }
     const Function& f = kFunctions[e.var];
     if (!f.f) {
@@ -101,7 +137,8 @@ struct Place {
 
 [[noreturn]] void fail(const Place& at, size_t offset, const std::string& what)
 {
-    throw InputError(fmt::format("{}:{}:{}: {}", *at.source, at.line, at.column + int(offset), what));
+    throw InputError(
+        fmt::format("{}:{}:{}: {}", *at.source, at.line, at.column + int(offset), what));
 }
 
 /// Recursive descent over one expression (C-like precedence, ^ for power).
@@ -134,7 +171,8 @@ private:
         const size_t n = std::strlen(tok);
         if (s_.compare(pos_, n, tok) == 0) {
             // '<' must not take the first character of "<=", and so on.
-            if (n == 1 && pos_ + 1 < s_.size() && s_[pos_ + 1] == '=' && std::strchr("<>=!", tok[0]))
+            if (n == 1 && pos_ + 1 < s_.size() && s_[pos_ + 1] == '=' &&
+                std::strchr("<>=!", tok[0]))
                 return false;
             pos_ += n;
             return true;
@@ -179,7 +217,8 @@ private:
         ExprPtr l = binary(i + 1);
         for (;;) {
             const auto& ops = level(i);
-            const auto it = std::find_if(ops.begin(), ops.end(), [&](const Binary& b) { return eat(b.token); });
+            const auto it =
+                std::find_if(ops.begin(), ops.end(), [&](const Binary& b) { return eat(b.token); });
             if (it == ops.end())
                 return l;
             l = node(it->op, {l, binary(i + 1)});
@@ -225,7 +264,8 @@ private:
         }
         if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
             const size_t start = pos_;
-            while (pos_ < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_'))
+            while (pos_ < s_.size() &&
+                   (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_'))
                 ++pos_;
             const std::string name = s_.substr(start, pos_ - start);
             if (eat("(")) {
@@ -245,8 +285,9 @@ private:
                         fail(at_, pos_, fmt::format("missing ')' after the arguments of {}", name));
                 }
                 if (int(e->kids.size()) != arity)
-                    fail(at_, start, fmt::format("{} takes {} argument{} (got {})", name, arity, arity == 1 ? "" : "s",
-                                                 e->kids.size()));
+                    fail(at_, start,
+                         fmt::format("{} takes {} argument{} (got {})", name, arity,
+                                     arity == 1 ? "" : "s", e->kids.size()));
                 return e;
             }
             for (size_t i = 0; i < formals_.size(); ++i)
@@ -258,7 +299,8 @@ private:
                 }
             if (const auto it = defines_.find(name); it != defines_.end())
                 return constant(it->second);
-            fail(at_, start, fmt::format("'{}' is neither a parameter of the predecessor nor a #define", name));
+            fail(at_, start,
+                 fmt::format("'{}' is neither a parameter of the predecessor nor a #define", name));
         }
         fail(at_, pos_, fmt::format("unexpected '{}' in the expression '{}'", c, s_));
     }
@@ -273,7 +315,10 @@ private:
 // --- module strings -----------------------------------------------------------
 
 /// The symbols the turtle interprets (turtle.cpp), each with an optional single parameter.
-bool isTurtleSymbol(char c) { return c != 0 && std::strchr("FfGg+-&^\\/|$![]%#';{}.", c) != nullptr; }
+bool isTurtleSymbol(char c)
+{
+    return c != 0 && std::strchr("FfGg+-&^\\/|$![]%#';{}.", c) != nullptr;
+}
 
 /// Splits `text` at top-level commas (outside parentheses).
 std::vector<std::pair<std::string, size_t>> splitArgs(const std::string& text, size_t offset)
@@ -308,7 +353,9 @@ void scanModules(const std::string& text, const Place& at, F&& module)
             continue;
         }
         if (c == ',')
-            fail(at, i, "unexpected ',' (cpfg's colour-index decrement is not supported: set the index with ;(n))");
+            fail(at, i,
+                 "unexpected ',' (cpfg's colour-index decrement is not supported: set the index "
+                 "with ;(n))");
         if (c == '(' || c == ')')
             fail(at, i, fmt::format("unexpected '{}'", c));
         if (c == '[')
@@ -417,9 +464,11 @@ public:
                 double index = -1.0;
                 glm::dvec3 c;
                 if (!(v >> index >> c.r >> c.g >> c.b) || !(index >= 0.0 && index <= 255.0) ||
-                    std::trunc(index) != index || !(c.r >= 0.0 && c.r <= 1.0 && c.g >= 0.0 && c.g <= 1.0 &&
-                                                    c.b >= 0.0 && c.b <= 1.0))
-                    fail(vat, 0, "color: expected an index from 0 to 255 and red, green, blue from 0 to 1");
+                    std::trunc(index) != index ||
+                    !(c.r >= 0.0 && c.r <= 1.0 && c.g >= 0.0 && c.g <= 1.0 && c.b >= 0.0 &&
+                      c.b <= 1.0))
+                    fail(vat, 0,
+                         "color: expected an index from 0 to 255 and red, green, blue from 0 to 1");
                 system_.colours[int(index)] = c;
             } else if (key == "seed") {
                 system_.seed = uint64_t(number(value, vat, 0, 9e15));
@@ -427,19 +476,27 @@ public:
                 std::istringstream v(value);
                 for (double& x : system_.tropism)
                     if (!(v >> x) || !std::isfinite(x))
-                        fail(vat, 0, "tropism: expected four numbers, the direction (x y z) and the strength e");
+                        fail(vat, 0,
+                             "tropism: expected four numbers, the direction (x y z) and the "
+                             "strength e");
             } else if (key == "lsystem" || key == "endlsystem") {
                 // cpfg structure lines: one L-system per file here; nothing to do.
-            } else if (key == "homomorphism" || key == "endhomomorphism" || key == "decomposition" ||
-                       key == "enddecomposition" || key == "consider" || key == "group" || key == "endgroup") {
-                fail(at, 0, fmt::format("cpfg's '{}' is not supported (docs/lsystem-format.md lists what is): its "
-                                        "productions would be read as ordinary ones",
-                                        key));
+            } else if (key == "homomorphism" || key == "endhomomorphism" ||
+                       key == "decomposition" || key == "enddecomposition" || key == "consider" ||
+                       key == "group" || key == "endgroup") {
+                fail(at, 0,
+                     fmt::format(
+                         "cpfg's '{}' is not supported (docs/lsystem-format.md lists what is): its "
+                         "productions would be read as ordinary ones",
+                         key));
             } else {
-                fail(at, 0, fmt::format("unknown line '{}' (expected #define, Axiom:, derivation length:, ignore:, "
-                                        "angle:, step:, width:, width increment:, color:, tropism:, seed: or a "
-                                        "production with -->)",
-                                        t));
+                fail(
+                    at, 0,
+                    fmt::format(
+                        "unknown line '{}' (expected #define, Axiom:, derivation length:, ignore:, "
+                        "angle:, step:, width:, width increment:, color:, tropism:, seed: or a "
+                        "production with -->)",
+                        t));
             }
         }
         if (!haveAxiom)
@@ -475,7 +532,8 @@ private:
     {
         const double v = constant(text, at);
         if (!(v >= lo && v <= hi))
-            fail(at, 0, fmt::format("'{}' is {}: expected a number from {} to {}", trim(text), v, lo, hi));
+            fail(at, 0,
+                 fmt::format("'{}' is {}: expected a number from {} to {}", trim(text), v, lo, hi));
         return v;
     }
 
@@ -496,50 +554,61 @@ private:
     {
         if (isTurtleSymbol(name)) {
             if (count > 1)
-                fail(at, offset, fmt::format("'{}' takes at most one parameter (got {})", name, count));
+                fail(at, offset,
+                     fmt::format("'{}' takes at most one parameter (got {})", name, count));
             return;
         }
         const auto [it, inserted] = arity_.emplace(name, std::make_pair(count, at.line));
         if (!inserted && it->second.first != count)
-            fail(at, offset, fmt::format("module {} has {} parameter{} here but {} at line {}", name, count,
-                                         count == 1 ? "" : "s", it->second.first, it->second.second));
+            fail(at, offset,
+                 fmt::format("module {} has {} parameter{} here but {} at line {}", name, count,
+                             count == 1 ? "" : "s", it->second.first, it->second.second));
     }
 
     ModuleString constantModules(const std::string& text, const Place& at)
     {
         ModuleString out;
-        scanModules(text, at, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
-            arity(c, args.size(), at, offset);
-            Module m;
-            m.name = c;
-            for (const auto& [a, o] : args)
-                m.params.push_back(constant(a, at.shifted(o)));
-            out.push_back(m);
-        });
+        scanModules(
+            text, at,
+            [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+                arity(c, args.size(), at, offset);
+                Module m;
+                m.name = c;
+                for (const auto& [a, o] : args)
+                    m.params.push_back(constant(a, at.shifted(o)));
+                out.push_back(m);
+            });
         return out;
     }
 
-    std::vector<ModulePattern> patterns(const std::string& text, const Place& at, std::vector<std::string>& formals)
+    std::vector<ModulePattern> patterns(const std::string& text, const Place& at,
+                                        std::vector<std::string>& formals)
     {
         std::vector<ModulePattern> out;
-        scanModules(text, at, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
-            arity(c, args.size(), at, offset);
-            ModulePattern p;
-            p.name = c;
-            for (const auto& [a, o] : args) {
-                const std::string name = trim(a);
-                if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_') ||
-                    name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
-                        std::string::npos)
-                    fail(at, o, fmt::format("a formal parameter must be a name (got '{}')", name));
-                for (const auto& f : formals)
-                    if (f == name)
-                        fail(at, o, fmt::format("the formal parameter '{}' appears twice", name));
-                formals.push_back(name);
-                p.formals.push_back(name);
-            }
-            out.push_back(p);
-        });
+        scanModules(
+            text, at,
+            [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+                arity(c, args.size(), at, offset);
+                ModulePattern p;
+                p.name = c;
+                for (const auto& [a, o] : args) {
+                    const std::string name = trim(a);
+                    if (name.empty() ||
+                        !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_') ||
+                        name.find_first_not_of(
+                            "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
+                            std::string::npos)
+                        fail(at, o,
+                             fmt::format("a formal parameter must be a name (got '{}')", name));
+                    for (const auto& f : formals)
+                        if (f == name)
+                            fail(at, o,
+                                 fmt::format("the formal parameter '{}' appears twice", name));
+                    formals.push_back(name);
+                    p.formals.push_back(name);
+                }
+                out.push_back(p);
+            });
         return out;
     }
 
@@ -572,10 +641,11 @@ private:
         }
         std::vector<std::string> formals;
         p.left = patterns(left, at, formals);
-        const std::vector<ModulePattern> pred =
-            patterns(strict, at.shifted(strictAt), formals);
+        const std::vector<ModulePattern> pred = patterns(strict, at.shifted(strictAt), formals);
         if (pred.size() != 1)
-            fail(at, strictAt, fmt::format("a production rewrites one module (the predecessor is '{}')", trim(strict)));
+            fail(at, strictAt,
+                 fmt::format("a production rewrites one module (the predecessor is '{}')",
+                             trim(strict)));
         p.strict = pred[0];
         // `formals` now holds the left context's, then the predecessor's, then
         // the right context's: the order in which derivation binds them.
@@ -591,14 +661,16 @@ private:
             if (!(p.probability > 0.0 && p.probability <= 1e9))
                 fail(pat, 0, fmt::format("a probability must be positive (got {})", p.probability));
         }
-        scanModules(rhs, rat, [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
-            arity(c, args.size(), rat, offset);
-            ModuleTemplate m;
-            m.name = c;
-            for (const auto& [a, o] : args)
-                m.args.push_back(ExprParser(a, rat.shifted(o), formals, defines_).parseAll());
-            p.successor.push_back(std::move(m));
-        });
+        scanModules(
+            rhs, rat,
+            [&](char c, size_t offset, const std::vector<std::pair<std::string, size_t>>& args) {
+                arity(c, args.size(), rat, offset);
+                ModuleTemplate m;
+                m.name = c;
+                for (const auto& [a, o] : args)
+                    m.args.push_back(ExprParser(a, rat.shifted(o), formals, defines_).parseAll());
+                p.successor.push_back(std::move(m));
+            });
         system_.productions.push_back(std::move(p));
     }
 
@@ -625,15 +697,18 @@ std::vector<long> matchBrackets(const ModuleString& s)
     return match;
 }
 
-bool matches(const Module& m, const ModulePattern& p) { return m.name == p.name && m.params.size() == p.formals.size(); }
+bool matches(const Module& m, const ModulePattern& p)
+{
+    return m.name == p.name && m.params.size() == p.formals.size();
+}
 
 class Deriver {
 public:
     Deriver(const LSystem& sys, uint64_t seed) : sys_(sys), rng_(seed) {}
 
     /// The modules that bind the left context, nearest last, or false.
-    bool leftContext(const ModuleString& s, const std::vector<long>& match, size_t i, const Production& p,
-                     std::vector<const Module*>& bound) const
+    bool leftContext(const ModuleString& s, const std::vector<long>& match, size_t i,
+                     const Production& p, std::vector<const Module*>& bound) const
     {
         long k = long(i) - 1;
         for (size_t want = p.left.size(); want-- > 0;) {
@@ -656,8 +731,8 @@ public:
         return true;
     }
 
-    bool rightContext(const ModuleString& s, const std::vector<long>& match, size_t i, const Production& p,
-                      std::vector<const Module*>& bound) const
+    bool rightContext(const ModuleString& s, const std::vector<long>& match, size_t i,
+                      const Production& p, std::vector<const Module*>& bound) const
     {
         size_t k = i + 1;
         for (size_t want = 0; want < p.right.size(); ++want) {
@@ -734,9 +809,10 @@ public:
             total += applicable[pick]->successor.size();
         }
         if (total > maxModules)
-            throw InputError(fmt::format("{}: derivation step {} would make {} modules, more than the limit of {} "
-                                         "(--max-modules; fewer --steps?)",
-                                         sys_.source, stepNo, total, maxModules));
+            throw InputError(fmt::format(
+                "{}: derivation step {} would make {} modules, more than the limit of {} "
+                "(--max-modules; fewer --steps?)",
+                sys_.source, stepNo, total, maxModules));
         ModuleString out;
         out.reserve(total);
         for (size_t i = 0; i < s.size(); ++i) {
@@ -751,8 +827,9 @@ public:
                 for (const auto& e : t.args) {
                     const double v = evaluate(*e, chosen[i].second, rng_);
                     if (!std::isfinite(v))
-                        throw InputError(fmt::format("{}:{}: derivation step {}: a parameter of {} is {}", sys_.source,
-                                                     p->line, stepNo, t.name, v));
+                        throw InputError(
+                            fmt::format("{}:{}: derivation step {}: a parameter of {} is {}",
+                                        sys_.source, p->line, stepNo, t.name, v));
                     m.params.push_back(v);
                 }
                 out.push_back(std::move(m));
@@ -782,30 +859,39 @@ private:
 
 }  // namespace
 
-LSystem parseLSystem(const std::string& text, const std::string& source) { return Reader(source).read(text); }
+LSystem parseLSystem(const std::string& text, const std::string& source)
+{
+    return Reader(source).read(text);
+}
 
-LSystem loadLSystem(const std::string& path) { return parseLSystem(readTextFile(path, "L-system file"), path); }
+LSystem loadLSystem(const std::string& path)
+{
+    return parseLSystem(readTextFile(path, "L-system file"), path);
+}
 
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules)
 {
     if (steps < 0 || steps > kMaxSteps)
-        throw InputError(fmt::format("{}: {} derivation steps (--steps or the file's derivation length): must be "
-                                     "from 0 to {}",
-                                     system.source, steps, kMaxSteps));
+        throw InputError(fmt::format(
+            "{}: {} derivation steps (--steps or the file's derivation length): must be "
+            "from 0 to {}",
+            system.source, steps, kMaxSteps));
     if (maxModules < 1 || maxModules > kMaxModulesLimit)
-        throw InputError(fmt::format("--max-modules must be from 1 to {} (got {})", kMaxModulesLimit, maxModules));
+        throw InputError(fmt::format("--max-modules must be from 1 to {} (got {})",
+                                     kMaxModulesLimit, maxModules));
     if (system.axiom.size() > maxModules)
-        throw InputError(fmt::format("{}: the axiom has {} modules, more than the limit of {}", system.source,
-                                     system.axiom.size(), maxModules));
+        throw InputError(fmt::format("{}: the axiom has {} modules, more than the limit of {}",
+                                     system.source, system.axiom.size(), maxModules));
     Deriver d(system, seed);
     ModuleString s = Deriver::cut(system.axiom);
     double rewrites = 0.0;
     for (int i = 1; i <= steps; ++i) {
         rewrites += double(s.size());
         if (rewrites > kMaxRewrites)
-            throw InputError(fmt::format("{}: {} steps would rewrite more than {:g} modules in all (hours of "
-                                         "work): fewer --steps",
-                                         system.source, steps, kMaxRewrites));
+            throw InputError(
+                fmt::format("{}: {} steps would rewrite more than {:g} modules in all (hours of "
+                            "work): fewer --steps",
+                            system.source, steps, kMaxRewrites));
         s = d.step(s, i, maxModules);
     }
     return s;

@@ -39,10 +39,10 @@ struct ModuleTemplate {
 };
 
 struct Production {
-    int line = 0;                       ///< where it is in the file
-    std::vector<ModulePattern> left;    ///< left context (empty: none)
-    ModulePattern strict;               ///< the predecessor
-    std::vector<ModulePattern> right;   ///< right context (empty: none)
+    int line = 0;                           ///< where it is in the file
+    std::vector<ModulePattern> left;        ///< left context (empty: none)
+    ModulePattern strict;                   ///< the predecessor
+    std::vector<ModulePattern> right;       ///< right context (empty: none)
     std::shared_ptr<const Expr> condition;  ///< null: always
     std::vector<ModuleTemplate> successor;
     double probability = -1.0;  ///< > 0 for a stochastic production, -1 for none given
@@ -53,11 +53,11 @@ struct LSystem {
     std::string source;  ///< file name, for messages
     ModuleString axiom;
     std::vector<Production> productions;
-    int derivationLength = 0;        ///< "derivation length:" (steps when not given on the command line)
-    std::string ignore;              ///< symbols context matching skips ("ignore:")
-    double angle = 90.0;             ///< default turn angle, degrees ("angle:")
-    double step = 1.0;               ///< default F/f length ("step:")
-    double width = 0.1;              ///< initial width, a diameter ("width:")
+    int derivationLength = 0;  ///< "derivation length:" (steps when not given on the command line)
+    std::string ignore;        ///< symbols context matching skips ("ignore:")
+    double angle = 90.0;       ///< default turn angle, degrees ("angle:")
+    double step = 1.0;         ///< default F/f length ("step:")
+    double width = 0.1;        ///< initial width, a diameter ("width:")
     /// What '!' and '#' without a parameter take from and add to the width
     /// ("width increment:"; default: a tenth of the initial width).
     std::optional<double> widthIncrement;
@@ -65,7 +65,7 @@ struct LSystem {
     /// palette (turtle.h).
     std::map<int, glm::dvec3> colours;
     double tropism[4] = {0, 0, 0, 0};  ///< "tropism: tx ty tz e" (e = 0: none)
-    uint64_t seed = 1;               ///< "seed:" for stochastic productions
+    uint64_t seed = 1;                 ///< "seed:" for stochastic productions
 };
 
 /// Reads an L-system (docs/lsystem-format.md).  InputError naming the file,

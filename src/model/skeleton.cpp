@@ -37,23 +37,26 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
         while (count < 10 && ls >> tok[count])
             ++count;
         if (count < 10)
-            throw InputError(fmt::format("{}:{}: expected 10 fields (id parent x0 y0 z0 x1 y1 z1 r0 r1), "
-                                         "found {}",
-                                         source, lineNo, count));
+            throw InputError(
+                fmt::format("{}:{}: expected 10 fields (id parent x0 y0 z0 x1 y1 z1 r0 r1), "
+                            "found {}",
+                            source, lineNo, count));
         if (ls >> extra)
-            throw InputError(fmt::format("{}:{}: more than 10 fields ('{}')", source, lineNo, extra));
+            throw InputError(
+                fmt::format("{}:{}: more than 10 fields ('{}')", source, lineNo, extra));
         double v[10];
         for (int k = 0; k < 10; ++k) {
             char* end = nullptr;
             errno = 0;
             v[k] = std::strtod(tok[k].c_str(), &end);
             if (end == tok[k].c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v[k]))
-                throw InputError(fmt::format("{}:{}: {} is not a finite number ('{}')", source, lineNo,
-                                             fields[k], tok[k]));
+                throw InputError(fmt::format("{}:{}: {} is not a finite number ('{}')", source,
+                                             lineNo, fields[k], tok[k]));
         }
         if (!(std::abs(v[0]) < 1e15 && std::abs(v[1]) < 1e15) || std::trunc(v[0]) != v[0] ||
             std::trunc(v[1]) != v[1])
-            throw InputError(fmt::format("{}:{}: id and parent must be integers below 1e15", source, lineNo));
+            throw InputError(
+                fmt::format("{}:{}: id and parent must be integers below 1e15", source, lineNo));
         Internode n;
         n.id = (long long)v[0];
         n.parent = (long long)v[1];
@@ -76,8 +79,9 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
     for (size_t i = 0; i < s.internodes.size(); ++i) {
         const Internode& n = s.internodes[i];
         if (n.parent != -1 && !ids.count(n.parent))
-            throw InputError(fmt::format("{}:{}: internode {} has parent {}, which is not in the file", source,
-                                         lines[i], n.id, n.parent));
+            throw InputError(
+                fmt::format("{}:{}: internode {} has parent {}, which is not in the file", source,
+                            lines[i], n.id, n.parent));
     }
     // Parents must form a forest: walk up from each internode, marking the
     // walk; meeting the walk again is a cycle (a self-loop is one of length 1).
@@ -98,8 +102,9 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
             for (size_t k = index.at(s.internodes[i].parent); k != i && cycle.size() < 200;
                  k = index.at(s.internodes[k].parent))
                 cycle += fmt::format(" -> {}", s.internodes[k].id);
-            throw InputError(fmt::format("{}:{}: internode {} is its own ancestor (parents in a cycle: {} -> {})",
-                                         source, lines[i], s.internodes[i].id, cycle, s.internodes[i].id));
+            throw InputError(fmt::format(
+                "{}:{}: internode {} is its own ancestor (parents in a cycle: {} -> {})", source,
+                lines[i], s.internodes[i].id, cycle, s.internodes[i].id));
         }
         for (size_t k = start;; k = index.at(s.internodes[k].parent)) {
             done[k] = true;
@@ -119,8 +124,8 @@ Skeleton loadSkeleton(const std::string& path)
 
 std::string formatInternode(const Internode& n)
 {
-    return fmt::format("{} {} {} {} {} {} {} {} {} {}", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z, n.p1.x, n.p1.y, n.p1.z,
-                       n.r0, n.r1);
+    return fmt::format("{} {} {} {} {} {} {} {} {} {}", n.id, n.parent, n.p0.x, n.p0.y, n.p0.z,
+                       n.p1.x, n.p1.y, n.p1.z, n.r0, n.r1);
 }
 
 BlobTree skeletonToBlend(const Skeleton& skeleton, double threshold)

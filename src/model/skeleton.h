@@ -17,8 +17,9 @@ struct Internode {
     glm::dvec3 p0{0.0}, p1{0.0};
     double r0 = 0.0, r1 = 0.0;  ///< surface radius at p0 and at p1
     int order = 0;              ///< branch order (0: the trunk's axis)
-    long long module = -1;      ///< index of the module (L-systems) or branch (growth) that made it, -1 for none
-    bool cut = false;           ///< pruned: ends in a saw cut through p1, across its axis
+    long long module =
+        -1;  ///< index of the module (L-systems) or branch (growth) that made it, -1 for none
+    bool cut = false;  ///< pruned: ends in a saw cut through p1, across its axis
     /// Years since it began to grow (growth models); negative when unknown.
     /// Junction ages drive the bark ridges (TreeBuildOptions::ridgeYears).
     double age = -1.0;

@@ -12,13 +12,14 @@
 
 namespace cambium {
 
-double basalShortening(const TreeBuildOptions& o, double rA, const std::vector<double>& childBaseRadii,
+double basalShortening(const TreeBuildOptions& o, double rA,
+                       const std::vector<double>& childBaseRadii,
                        const std::vector<double>& childTipRadii)
 {
     if (childBaseRadii.empty())
         return 0.0;
     if (childBaseRadii.size() == 1 || o.junction == TreeBuildOptions::Junction::Smooth)
-        return 1.75 * *std::max_element(childTipRadii.begin(), childTipRadii.end());  // eq. 3
+        return 1.75 * *std::max_element(childTipRadii.begin(), childTipRadii.end());     // eq. 3
     return 2.75 * *std::max_element(childBaseRadii.begin(), childBaseRadii.end()) - rA;  // eq. 7
 }
 
@@ -91,7 +92,8 @@ struct Segments {
 Segments skeletonSegments(const Skeleton& sk)
 {
     const size_t n = sk.internodes.size();
-    Segments s{std::vector<glm::dvec3>(n), std::vector<glm::dvec3>(n), std::vector<double>(n), std::vector<double>(n)};
+    Segments s{std::vector<glm::dvec3>(n), std::vector<glm::dvec3>(n), std::vector<double>(n),
+               std::vector<double>(n)};
     for (size_t i = 0; i < n; ++i) {
         const Internode& a = sk.internodes[i];
         const double len = glm::length(a.p1 - a.p0);
@@ -107,8 +109,8 @@ Segments skeletonSegments(const Skeleton& sk)
 
 /// Pulls back the tip of each basal cone by delta_A (eq. 3, 7), and adds to
 /// `baseShift` how far the bases of its branches move along their axes (eq. 6).
-void shortenBasalInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g, Segments& s,
-                            std::vector<double>& baseShift)
+void shortenBasalInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g,
+                            Segments& s, std::vector<double>& baseShift)
 {
     const size_t n = sk.internodes.size();
     auto moveTip = [&](size_t i, double by) {
@@ -195,16 +197,17 @@ int sawCut(const Internode& a, int node, const TreeBuildOptions& o, Assembly& ou
         // The callus: from 1.5 radii below the cut to a little beyond
         // it, thicker than the branch at its base, closing at its tip.
         const double g = o.regrowth, rc = a.r1;
-        out.top.push_back(tree.convolutionSegment(a.p1 - 1.5 * rc * axis, a.p1 + 0.6 * g * rc * axis,
-                                                  rc * (0.6 + 0.3 * g), rc * (0.3 + 0.5 * g)));
+        out.top.push_back(tree.convolutionSegment(a.p1 - 1.5 * rc * axis,
+                                                  a.p1 + 0.6 * g * rc * axis, rc * (0.6 + 0.3 * g),
+                                                  rc * (0.3 + 0.5 * g)));
     }
     return node;
 }
 
 /// Each internode's primitive (cut, bent), into its junction's group, the
 /// convolution segments or the top-level summation.
-void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g, const Segments& s,
-                   Assembly& out)
+void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g,
+                   const Segments& s, Assembly& out)
 {
     const size_t n = sk.internodes.size();
     BlobTree& tree = out.tree;
@@ -217,8 +220,10 @@ void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology
             node = sawCut(sk.internodes[i], node, o, out);
         if (o.bend != 0.0 && g.parent[i] >= 0) {
             const Internode& b = sk.internodes[size_t(g.parent[i])];
-            const glm::dvec3 hA = glm::normalize(b.p1 - b.p0), h = glm::normalize(s.p1[i] - s.p0[i]);
-            const glm::dvec3 away = h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
+            const glm::dvec3 hA = glm::normalize(b.p1 - b.p0),
+                             h = glm::normalize(s.p1[i] - s.p0[i]);
+            const glm::dvec3 away =
+                h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
             if (glm::length(away) > 1e-3)
                 node = tree.bend(s.p0[i], s.p1[i], glm::normalize(away), o.bend, node);
         }
@@ -257,29 +262,30 @@ int organNode(BlobTree& tree, const Organ& organ)
 {
     int node = -1;
     switch (organ.kind) {
-    case Organ::Kind::Bud:
-        node = tree.sphere(organ.p0, organ.radius);
-        break;
-    case Organ::Kind::Ring: {
-        PrimitiveOptions ring;
-        ring.weight = organ.weight;
-        node = tree.cone(organ.p0, organ.p1, organ.radius, organ.radius, ring);
-        break;
-    }
-    case Organ::Kind::Leaf: {
-        // The unit sphere mapped onto the blade's ellipsoid.
-        const glm::dvec3 a = 0.5 * (organ.p1 - organ.p0);
-        const glm::dvec3 along = glm::normalize(a);
-        const glm::dvec3 normal = glm::normalize(organ.normal - along * glm::dot(organ.normal, along));
-        const glm::dvec3 wide = glm::cross(normal, along);
-        glm::dmat4 m(1.0);
-        m[0] = glm::dvec4(a, 0.0);
-        m[1] = glm::dvec4(organ.radius * wide, 0.0);
-        m[2] = glm::dvec4(organ.thickness * normal, 0.0);
-        m[3] = glm::dvec4(organ.p0 + a, 1.0);
-        node = tree.transform(m, tree.sphere(glm::dvec3(0.0), 1.0));
-        break;
-    }
+        case Organ::Kind::Bud:
+            node = tree.sphere(organ.p0, organ.radius);
+            break;
+        case Organ::Kind::Ring: {
+            PrimitiveOptions ring;
+            ring.weight = organ.weight;
+            node = tree.cone(organ.p0, organ.p1, organ.radius, organ.radius, ring);
+            break;
+        }
+        case Organ::Kind::Leaf: {
+            // The unit sphere mapped onto the blade's ellipsoid.
+            const glm::dvec3 a = 0.5 * (organ.p1 - organ.p0);
+            const glm::dvec3 along = glm::normalize(a);
+            const glm::dvec3 normal =
+                glm::normalize(organ.normal - along * glm::dot(organ.normal, along));
+            const glm::dvec3 wide = glm::cross(normal, along);
+            glm::dmat4 m(1.0);
+            m[0] = glm::dvec4(a, 0.0);
+            m[1] = glm::dvec4(organ.radius * wide, 0.0);
+            m[2] = glm::dvec4(organ.thickness * normal, 0.0);
+            m[3] = glm::dvec4(organ.p0 + a, 1.0);
+            node = tree.transform(m, tree.sphere(glm::dvec3(0.0), 1.0));
+            break;
+        }
     }
     return node;
 }
@@ -315,7 +321,8 @@ void addJunctions(const Skeleton& sk, const TreeBuildOptions& o, const Topology&
         }
         const double support = smoothstep(0.0, o.ridgeYears, age) * o.ridgeRadius * thinnest;
         if (support < 1e-6 * thinnest) {
-            out.top.insert(out.top.end(), group.begin(), group.end());  // a new junction: the summation alone
+            out.top.insert(out.top.end(), group.begin(),
+                           group.end());  // a new junction: the summation alone
             continue;
         }
         // Fb = 1 along the thinnest branch's axis through the bark of its
@@ -323,7 +330,8 @@ void addJunctions(const Skeleton& sk, const TreeBuildOptions& o, const Topology&
         PrimitiveOptions bound;
         bound.support = support;
         const glm::dvec3 at = sk.internodes[i].p1;
-        const int fb = tree.segment(at, at + (sk.internodes[i].r1 + 2.0 * thinnest) * lateral, 0.5 * support, bound);
+        const int fb = tree.segment(at, at + (sk.internodes[i].r1 + 2.0 * thinnest) * lateral,
+                                    0.5 * support, bound);
         out.top.push_back(tree.gbb(fb, group, pcm, {NodeType::BLEND}));
     }
 }

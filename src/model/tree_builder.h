@@ -72,7 +72,8 @@ void checkTreeBuildOptions(const TreeBuildOptions& options);
 
 /// How much a basal internode is shortened at its tip (eq. 3 and 7), given
 /// its radius at the tip and its children's radii at their bases and tips.
-double basalShortening(const TreeBuildOptions& options, double rA, const std::vector<double>& childBaseRadii,
+double basalShortening(const TreeBuildOptions& options, double rA,
+                       const std::vector<double>& childBaseRadii,
                        const std::vector<double>& childTipRadii);
 
 }  // namespace cambium

@@ -13,12 +13,11 @@ namespace cambium {
 
 namespace {
 
-
 struct TurtleState {
     glm::dvec3 pos{0.0}, H{0.0, 1.0, 0.0}, L{1.0, 0.0, 0.0}, U{0.0, 0.0, -1.0};
     double width = 0.1;
-    int colour = 0;  ///< colour index
-    long long last = -1;  ///< the last internode drawn on the way here
+    int colour = 0;             ///< colour index
+    long long last = -1;        ///< the last internode drawn on the way here
     bool drewInBranch = false;  ///< whether `last` was drawn in the current branch
     int order = 0;
 };
@@ -66,7 +65,8 @@ Organ polygonLeaf(const std::vector<glm::dvec3>& v, const glm::dvec3& colour)
     glm::dvec3 n(0.0);
     for (size_t i = 0; i < v.size(); ++i) {
         const glm::dvec3 &a = v[i], &b = v[(i + 1) % v.size()];
-        n += glm::dvec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+        n += glm::dvec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x),
+                        (a.x - b.x) * (a.y + b.y));
     }
     leaf.normal = glm::length(n) > 0.0 ? glm::normalize(n) : glm::dvec3(0.0, 0.0, 1.0);
     leaf.thickness = 0.1 * leaf.radius;
@@ -81,10 +81,10 @@ glm::dvec3 paletteColour(const LSystem& sys, int index)
     if (const auto c = sys.colours.find(index); c != sys.colours.end())
         return c->second;
     // Bark at 0, then greens from dark to light, then flower colours.
-    static const glm::dvec3 palette[] = {{0.36, 0.28, 0.22}, {0.30, 0.30, 0.16}, {0.22, 0.34, 0.12},
-                                         {0.20, 0.42, 0.12}, {0.26, 0.52, 0.16}, {0.36, 0.62, 0.20},
-                                         {0.50, 0.72, 0.26}, {0.66, 0.80, 0.32}, {0.90, 0.85, 0.30},
-                                         {0.95, 0.60, 0.20}, {0.85, 0.25, 0.25}, {0.95, 0.95, 0.92}};
+    static const glm::dvec3 palette[] = {
+        {0.36, 0.28, 0.22}, {0.30, 0.30, 0.16}, {0.22, 0.34, 0.12}, {0.20, 0.42, 0.12},
+        {0.26, 0.52, 0.16}, {0.36, 0.62, 0.20}, {0.50, 0.72, 0.26}, {0.66, 0.80, 0.32},
+        {0.90, 0.85, 0.30}, {0.95, 0.60, 0.20}, {0.85, 0.25, 0.25}, {0.95, 0.95, 0.92}};
     constexpr int n = int(sizeof palette / sizeof palette[0]);
     return palette[std::clamp(index, 0, n - 1)];
 }
@@ -92,7 +92,10 @@ glm::dvec3 paletteColour(const LSystem& sys, int index)
 namespace {
 
 /// The module's first parameter, or `fallback` without one.
-double param(const Module& m, double fallback) { return m.params.empty() ? fallback : m.params[0]; }
+double param(const Module& m, double fallback)
+{
+    return m.params.empty() ? fallback : m.params[0];
+}
 
 /// Interprets a derived string module by module (interpretTurtle): the
 /// turtle, its stack of branches and its open polygons.
@@ -113,79 +116,107 @@ public:
         for (size_t i = 0; i < modules_.size(); ++i) {
             const Module& m = modules_[i];
             switch (m.name) {
-            case 'F':
-            case 'f':
-            case 'G':
-            case 'g': forward(i, m); break;
-            case '+': turn(t_, param(m, sys_.angle)); break;
-            case '-': turn(t_, -param(m, sys_.angle)); break;
-            case '&': pitch(t_, param(m, sys_.angle)); break;
-            case '^': pitch(t_, -param(m, sys_.angle)); break;
-            case '\\': roll(t_, param(m, sys_.angle)); break;
-            case '/': roll(t_, -param(m, sys_.angle)); break;
-            case '|': turn(t_, 180.0); break;
-            case '$': {
-                const glm::dvec3 l = glm::cross(glm::dvec3(0.0, 1.0, 0.0), t_.H);
-                if (glm::length(l) > 1e-12) {
-                    t_.L = glm::normalize(l);
-                    t_.U = glm::cross(t_.H, t_.L);
+                case 'F':
+                case 'f':
+                case 'G':
+                case 'g':
+                    forward(i, m);
+                    break;
+                case '+':
+                    turn(t_, param(m, sys_.angle));
+                    break;
+                case '-':
+                    turn(t_, -param(m, sys_.angle));
+                    break;
+                case '&':
+                    pitch(t_, param(m, sys_.angle));
+                    break;
+                case '^':
+                    pitch(t_, -param(m, sys_.angle));
+                    break;
+                case '\\':
+                    roll(t_, param(m, sys_.angle));
+                    break;
+                case '/':
+                    roll(t_, -param(m, sys_.angle));
+                    break;
+                case '|':
+                    turn(t_, 180.0);
+                    break;
+                case '$': {
+                    const glm::dvec3 l = glm::cross(glm::dvec3(0.0, 1.0, 0.0), t_.H);
+                    if (glm::length(l) > 1e-12) {
+                        t_.L = glm::normalize(l);
+                        t_.U = glm::cross(t_.H, t_.L);
+                    }
+                    break;
                 }
-                break;
-            }
-            case '!':
-            case '#': setWidth(i, m); break;
-            case '\'':
-            case ';': setColour(i, m); break;
-            case '{':
-                polygons_.emplace_back();
-                vertex();
-                break;
-            case '.':
-                if (polygons_.empty())
-                    throw bad(i, "'.' records a polygon vertex: only between '{' and '}'");
-                vertex();
-                break;
-            case '}': closePolygon(i); break;
-            case '~':
-            case '@':
-                throw bad(i, fmt::format("cpfg's '{}' (predefined surfaces and @ commands) is not supported "
-                                         "(docs/lsystem-format.md lists the turtle's symbols)",
-                                         m.name));
-            case '[': {
-                stack_.push_back(t_);
-                ++t_.order;
-                t_.drewInBranch = false;
-                break;
-            }
-            case ']':
-                if (stack_.empty())
-                    throw bad(i, "']' without a matching '['");
-                t_ = stack_.back();
-                stack_.pop_back();
-                break;
-            case '%': i = cut(i); break;
-            default:
-                break;  // modules that are not turtle commands (A, B, L, ...)
+                case '!':
+                case '#':
+                    setWidth(i, m);
+                    break;
+                case '\'':
+                case ';':
+                    setColour(i, m);
+                    break;
+                case '{':
+                    polygons_.emplace_back();
+                    vertex();
+                    break;
+                case '.':
+                    if (polygons_.empty())
+                        throw bad(i, "'.' records a polygon vertex: only between '{' and '}'");
+                    vertex();
+                    break;
+                case '}':
+                    closePolygon(i);
+                    break;
+                case '~':
+                case '@':
+                    throw bad(
+                        i, fmt::format(
+                               "cpfg's '{}' (predefined surfaces and @ commands) is not supported "
+                               "(docs/lsystem-format.md lists the turtle's symbols)",
+                               m.name));
+                case '[': {
+                    stack_.push_back(t_);
+                    ++t_.order;
+                    t_.drewInBranch = false;
+                    break;
+                }
+                case ']':
+                    if (stack_.empty())
+                        throw bad(i, "']' without a matching '['");
+                    t_ = stack_.back();
+                    stack_.pop_back();
+                    break;
+                case '%':
+                    i = cut(i);
+                    break;
+                default:
+                    break;  // modules that are not turtle commands (A, B, L, ...)
             }
         }
         if (!polygons_.empty())
-            throw InputError(fmt::format("{}: {} '{{' without a matching '}}' in the derived string", sys_.source,
-                                         polygons_.size()));
+            throw InputError(
+                fmt::format("{}: {} '{{' without a matching '}}' in the derived string",
+                            sys_.source, polygons_.size()));
         return std::move(out_);
     }
 
 private:
     InputError bad(size_t i, const std::string& what) const
     {
-        return InputError(fmt::format("{}: module {} of the derived string ({}): {}", sys_.source, i,
-                                      formatModules({modules_[i]}), what));
+        return InputError(fmt::format("{}: module {} of the derived string ({}): {}", sys_.source,
+                                      i, formatModules({modules_[i]}), what));
     }
 
     /// Records the turtle's position as a vertex of the innermost open
     /// polygon, unless it is where the last one is.
     void vertex()
     {
-        if (!polygons_.empty() && (polygons_.back().empty() || glm::length(polygons_.back().back() - t_.pos) > 0.0))
+        if (!polygons_.empty() &&
+            (polygons_.back().empty() || glm::length(polygons_.back().back() - t_.pos) > 0.0))
             polygons_.back().push_back(t_.pos);
     }
 
@@ -216,7 +247,8 @@ private:
     void drawInternode(size_t i, const glm::dvec3& p1)
     {
         if (!(t_.width > 0.0))
-            throw bad(i, fmt::format("the width is {}: set a positive one with !(w) or width:", t_.width));
+            throw bad(i, fmt::format("the width is {}: set a positive one with !(w) or width:",
+                                     t_.width));
         Internode n;
         n.id = (long long)out_.internodes.size();
         n.parent = t_.last;
@@ -248,12 +280,14 @@ private:
     {
         // With a parameter: the new width; without: cpfg's decrement ('!')
         // or increment ('#') by the width increment.
-        const double w = !m.params.empty() ? m.params[0] : t_.width + (m.name == '!' ? -increment_ : increment_);
+        const double w =
+            !m.params.empty() ? m.params[0] : t_.width + (m.name == '!' ? -increment_ : increment_);
         if (!(w > 0.0) || !std::isfinite(w))
-            throw bad(i, m.params.empty() ? fmt::format("the width {} less the width increment {} is not "
-                                                        "positive: a smaller 'width increment:' or !(w)",
-                                                        t_.width, increment_)
-                                          : std::string("a width must be a positive number"));
+            throw bad(i, m.params.empty()
+                             ? fmt::format("the width {} less the width increment {} is not "
+                                           "positive: a smaller 'width increment:' or !(w)",
+                                           t_.width, increment_)
+                             : std::string("a width must be a positive number"));
         t_.width = w;
     }
 
@@ -277,9 +311,11 @@ private:
         if (v.size() > 1 && glm::length(v.back() - v.front()) == 0.0)
             v.pop_back();  // closed by returning to its start
         if (v.size() < 3)
-            throw bad(i, fmt::format("a polygon needs 3 vertices or more (this one has {}): its vertices are "
-                                     "where '{{' starts, each F or f inside, and each '.'",
-                                     v.size()));
+            throw bad(i,
+                      fmt::format(
+                          "a polygon needs 3 vertices or more (this one has {}): its vertices are "
+                          "where '{{' starts, each F or f inside, and each '.'",
+                          v.size()));
         const Organ leaf = polygonLeaf(v, paletteColour(sys_, t_.colour));
         if (!(leaf.radius > 1e-6 * glm::length(leaf.p1 - leaf.p0)))
             throw bad(i, "a polygon with no area (its vertices lie on a line)");

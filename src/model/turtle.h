@@ -26,8 +26,8 @@ namespace cambium {
 ///   beyond the parent's bark, and a negative field at its end); with
 ///   `tropism: x y z e`, after
 ///   every F the heading bends towards T by e |H x T|.  Other modules (A, B,
-///   L, ...) are not turtle commands and draw nothing.  The turtle starts at the origin heading up (+y) with its left
-///   L = +x and up U = -z, so that seen from +z (x right, y up) `+` turns
+///   L, ...) are not turtle commands and draw nothing.  The turtle starts at the origin heading up
+///   (+y) with its left L = +x and up U = -z, so that seen from +z (x right, y up) `+` turns
 ///   counter-clockwise as in ABOP's planar figures.
 /// Each internode records its parent (the last internode drawn before it on
 /// the way from the root), its branch order (the number of '[' it is nested

@@ -25,12 +25,14 @@
 
 namespace cambium {
 
-TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color, double adaptivity)
+TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                          double adaptivity)
 {
     TriangleMesh mesh;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(surface, mesh.points, tris, quads, 0.0, std::clamp(adaptivity, 0.0, 1.0));
+    openvdb::tools::volumeToMesh(surface, mesh.points, tris, quads, 0.0,
+                                 std::clamp(adaptivity, 0.0, 1.0));
     // volumeToMesh winds its polygons clockwise seen from outside a level set
     // (whose inside is negative): reversed here.
     mesh.triangles.reserve(tris.size() + 2 * quads.size());

@@ -17,8 +17,8 @@ namespace cambium {
 /// two triangles along their shorter diagonal.  `adaptivity` in [0, 1] is
 /// volumeToMesh's (0: uniform, higher: fewer triangles where flat).  With a
 /// colour grid, each point gets its colour (trilinear).
-TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color = nullptr,
-                          double adaptivity = 0.0);
+TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface,
+                          const openvdb::Vec3fGrid* color = nullptr, double adaptivity = 0.0);
 
 /// Surface area and enclosed volume (divergence theorem; positive when the
 /// triangles face outwards) of a mesh.

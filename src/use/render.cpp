@@ -29,7 +29,6 @@
 
 namespace cambium {
 
-
 Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg, double elevationDeg)
 {
     Camera cam;
@@ -50,7 +49,8 @@ Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg, double
                                k & 4 ? bounds.hi.z : bounds.lo.z);
             const glm::dvec3 e = c - eye;
             const double z = glm::dot(e, w);
-            if (!(z > 0.0) || std::abs(glm::dot(e, u)) > 0.95 * tanX * z || std::abs(glm::dot(e, v)) > 0.95 * tanY * z)
+            if (!(z > 0.0) || std::abs(glm::dot(e, u)) > 0.95 * tanX * z ||
+                std::abs(glm::dot(e, v)) > 0.95 * tanY * z)
                 return false;
         }
         return true;
@@ -99,22 +99,29 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
             if (v.size() == 7)
                 cam.fovY = v[6];
             const glm::dvec3 w = cam.target - cam.eye;
-            if (glm::length(w) > 0.0 && glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6 && cam.fovY > 0.0 &&
-                cam.fovY < 180.0)
+            if (glm::length(w) > 0.0 && glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6 &&
+                cam.fovY > 0.0 && cam.fovY < 180.0)
                 return cam;
-            throw InputError(fmt::format("--camera {}: the eye must differ from the target, the view must not be "
-                                         "vertical, and the field of view must be between 0 and 180 degrees",
-                                         spec));
+            throw InputError(fmt::format(
+                "--camera {}: the eye must differ from the target, the view must not be "
+                "vertical, and the field of view must be between 0 and 180 degrees",
+                spec));
         }
     }
-    throw InputError(fmt::format("--camera {}: expected auto, turntable:ANGLE (degrees) or "
-                                 "look:EX,EY,EZ:TX,TY,TZ[:FOV]",
-                                 spec));
+    throw InputError(
+        fmt::format("--camera {}: expected auto, turntable:ANGLE (degrees) or "
+                    "look:EX,EY,EZ:TX,TY,TZ[:FOV]",
+                    spec));
 }
 
 CameraFrame::CameraFrame(const Camera& cam, int w_, int h_)
-    : eye(cam.eye), w(glm::normalize(cam.target - cam.eye)), u(glm::normalize(glm::cross(w, cam.up))),
-      v(glm::cross(u, w)), tanY(std::tan(glm::radians(0.5 * cam.fovY))), width(w_), height(h_)
+    : eye(cam.eye),
+      w(glm::normalize(cam.target - cam.eye)),
+      u(glm::normalize(glm::cross(w, cam.up))),
+      v(glm::cross(u, w)),
+      tanY(std::tan(glm::radians(0.5 * cam.fovY))),
+      width(w_),
+      height(h_)
 {
 }
 
@@ -135,7 +142,7 @@ void cameraRay(const Camera& cam, int width, int height, double px, double py, g
 glm::vec3 shadeSurface(const glm::vec3& n, const glm::vec3& albedo)
 {
     const glm::vec3 key = glm::normalize(glm::vec3(-0.45f, 0.75f, 0.5f));
-    const float sky = 0.30f + 0.15f * n.y;       // brighter facing up
+    const float sky = 0.30f + 0.15f * n.y;  // brighter facing up
     const float sun = 0.85f * std::max(0.0f, glm::dot(n, key));
     return albedo * (sky + sun);
 }
@@ -237,7 +244,10 @@ struct CpuMarcher::Impl {
     using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
     Intersector prototype;  // copied per tracer: its constructor measures the grid
     const openvdb::Vec3fGrid* color;
-    Impl(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* c) : prototype(surface), color(c) {}
+    Impl(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* c)
+        : prototype(surface), color(c)
+    {
+    }
 };
 
 CpuMarcher::CpuMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
@@ -289,8 +299,8 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
     return CpuMarcher(surface, color).render(camera, width, height, spp);
 }
 
-RenderImage renderBatches(const Camera& camera, int width, int height, int spp, const BatchTracer& trace,
-                          size_t raysPerBatch)
+RenderImage renderBatches(const Camera& camera, int width, int height, int spp,
+                          const BatchTracer& trace, size_t raysPerBatch)
 {
     RenderImage img = blankImage(width, height);
     spp = std::max(1, spp);
@@ -307,7 +317,8 @@ RenderImage renderBatches(const Camera& camera, int width, int height, int spp, 
         hits.resize(rays.size());
         trace(rays, hits);
         tbb::parallel_for(0, rows, [&](int r) {
-            resolveRow(img, spp, y0 + r, rays.data() + size_t(r) * rowRays, hits.data() + size_t(r) * rowRays);
+            resolveRow(img, spp, y0 + r, rays.data() + size_t(r) * rowRays,
+                       hits.data() + size_t(r) * rowRays);
         });
     }
     return img;
@@ -334,10 +345,11 @@ EmbreeMesh::EmbreeMesh(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>(
         throw std::runtime_error("Embree: cannot create a device");
     RTCScene scene = impl_->scene = rtcNewScene(device);
     RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                          3 * sizeof(float), mesh.points.size()));
-    auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                               3 * sizeof(uint32_t), mesh.triangles.size()));
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.points.size()));
+    auto* idx = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(uint32_t), mesh.triangles.size()));
     if (!v || !idx) {
         rtcReleaseGeometry(geom);
         throw std::runtime_error("Embree: cannot allocate the mesh's buffers");
@@ -358,7 +370,8 @@ EmbreeMesh::EmbreeMesh(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>(
 
 EmbreeMesh::~EmbreeMesh() = default;
 
-RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp)
+RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height,
+                             int spp)
 {
     return EmbreeMesh(mesh).render(camera, width, height, spp);
 }
@@ -369,47 +382,50 @@ RenderImage EmbreeMesh::render(const Camera& camera, int width, int height, int 
     RTCScene scene = impl_->scene;
     return renderRows(camera, width, height, spp, [&]() -> BatchTracer {
         auto buffer = std::make_shared<std::vector<RTCRayHit>>();
-        return [&mesh, scene, buffer](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
-            // A stream of the row's rays (rtcIntersect1M).
-            std::vector<RTCRayHit>& rh = *buffer;
-            rh.resize(rays.size());
-            for (size_t k = 0; k < rays.size(); ++k) {
-                RTCRayHit& r = rh[k];
-                r.ray.org_x = float(rays[k].origin.x);
-                r.ray.org_y = float(rays[k].origin.y);
-                r.ray.org_z = float(rays[k].origin.z);
-                r.ray.dir_x = float(rays[k].direction.x);
-                r.ray.dir_y = float(rays[k].direction.y);
-                r.ray.dir_z = float(rays[k].direction.z);
-                r.ray.tnear = 0.0f;
-                r.ray.tfar = std::numeric_limits<float>::infinity();
-                r.ray.time = 0.0f;
-                r.ray.mask = 0xFFFFFFFFu;
-                r.ray.id = unsigned(k);
-                r.ray.flags = 0;
-                r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-            }
-            RTCIntersectContext ctx;
-            rtcInitIntersectContext(&ctx);
-            rtcIntersect1M(scene, &ctx, rh.data(), unsigned(rh.size()), sizeof(RTCRayHit));
-            for (size_t k = 0; k < rays.size(); ++k) {
-                TraceHit& h = hits[k];
-                h.hit = rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
-                if (!h.hit)
-                    continue;
-                h.t = rh[k].ray.tfar;
-                const auto& tri = mesh.triangles[rh[k].hit.primID];
-                const float u = rh[k].hit.u, w = rh[k].hit.v, b0 = 1.0f - u - w;
-                const openvdb::Vec3s n = b0 * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + w * mesh.normals[tri[2]];
-                h.normal = unit(n.x(), n.y(), n.z());
-                h.albedo = kBarkAlbedo;
-                if (!mesh.colors.empty()) {
-                    const openvdb::Vec3s c = b0 * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + w * mesh.colors[tri[2]];
-                    h.albedo = glm::vec3(c.x(), c.y(), c.z());
+        return
+            [&mesh, scene, buffer](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+                // A stream of the row's rays (rtcIntersect1M).
+                std::vector<RTCRayHit>& rh = *buffer;
+                rh.resize(rays.size());
+                for (size_t k = 0; k < rays.size(); ++k) {
+                    RTCRayHit& r = rh[k];
+                    r.ray.org_x = float(rays[k].origin.x);
+                    r.ray.org_y = float(rays[k].origin.y);
+                    r.ray.org_z = float(rays[k].origin.z);
+                    r.ray.dir_x = float(rays[k].direction.x);
+                    r.ray.dir_y = float(rays[k].direction.y);
+                    r.ray.dir_z = float(rays[k].direction.z);
+                    r.ray.tnear = 0.0f;
+                    r.ray.tfar = std::numeric_limits<float>::infinity();
+                    r.ray.time = 0.0f;
+                    r.ray.mask = 0xFFFFFFFFu;
+                    r.ray.id = unsigned(k);
+                    r.ray.flags = 0;
+                    r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                    r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
                 }
-            }
-        };
+                RTCIntersectContext ctx;
+                rtcInitIntersectContext(&ctx);
+                rtcIntersect1M(scene, &ctx, rh.data(), unsigned(rh.size()), sizeof(RTCRayHit));
+                for (size_t k = 0; k < rays.size(); ++k) {
+                    TraceHit& h = hits[k];
+                    h.hit = rh[k].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+                    if (!h.hit)
+                        continue;
+                    h.t = rh[k].ray.tfar;
+                    const auto& tri = mesh.triangles[rh[k].hit.primID];
+                    const float u = rh[k].hit.u, w = rh[k].hit.v, b0 = 1.0f - u - w;
+                    const openvdb::Vec3s n = b0 * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] +
+                                             w * mesh.normals[tri[2]];
+                    h.normal = unit(n.x(), n.y(), n.z());
+                    h.albedo = kBarkAlbedo;
+                    if (!mesh.colors.empty()) {
+                        const openvdb::Vec3s c = b0 * mesh.colors[tri[0]] +
+                                                 u * mesh.colors[tri[1]] + w * mesh.colors[tri[2]];
+                        h.albedo = glm::vec3(c.x(), c.y(), c.z());
+                    }
+                }
+            };
     });
 }
 
@@ -428,9 +444,11 @@ Box worldBox(const openvdb::GridBase& grid, const openvdb::CoordBBox& b)
 {
     if (b.empty())
         return Box();
-    const openvdb::Vec3d lo = grid.indexToWorld(b.min().asVec3d()), hi = grid.indexToWorld(b.max().asVec3d());
-    return Box(glm::dvec3(std::min(lo.x(), hi.x()), std::min(lo.y(), hi.y()), std::min(lo.z(), hi.z())),
-               glm::dvec3(std::max(lo.x(), hi.x()), std::max(lo.y(), hi.y()), std::max(lo.z(), hi.z())));
+    const openvdb::Vec3d lo = grid.indexToWorld(b.min().asVec3d()),
+                         hi = grid.indexToWorld(b.max().asVec3d());
+    return Box(
+        glm::dvec3(std::min(lo.x(), hi.x()), std::min(lo.y(), hi.y()), std::min(lo.z(), hi.z())),
+        glm::dvec3(std::max(lo.x(), hi.x()), std::max(lo.y(), hi.y()), std::max(lo.z(), hi.z())));
 }
 
 }  // namespace
@@ -442,16 +460,22 @@ Box storedActiveBounds(const std::string& path, const std::string& grid)
         file.open(false);
         const openvdb::GridBase::Ptr g = file.readGridMetadata(grid);
         file.close();
-        const auto lo = g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
-        const auto hi = g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
+        const auto lo =
+            g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
+        const auto hi =
+            g->getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
         if (lo && hi)
-            return worldBox(*g, openvdb::CoordBBox(openvdb::Coord(lo->value()), openvdb::Coord(hi->value())));
+            return worldBox(
+                *g, openvdb::CoordBBox(openvdb::Coord(lo->value()), openvdb::Coord(hi->value())));
     } catch (const std::exception&) {
         // (readLevelSet below names what is wrong with the file)
     }
     return activeWorldBounds(*readLevelSet(path, grid).surface);
 }
 
-Box activeWorldBounds(const openvdb::GridBase& grid) { return worldBox(grid, grid.evalActiveVoxelBoundingBox()); }
+Box activeWorldBounds(const openvdb::GridBase& grid)
+{
+    return worldBox(grid, grid.evalActiveVoxelBoundingBox());
+}
 
 }  // namespace cambium

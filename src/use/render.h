@@ -27,7 +27,8 @@ struct Camera {
 /// A view of `bounds` (world space) from `azimuthDeg` around the vertical
 /// axis and `elevationDeg` above the horizon, as close as the bounds' corners
 /// allow with a 5 % margin in the frame (aspect = width / height).
-Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0, double elevationDeg = 20.0);
+Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0,
+                     double elevationDeg = 20.0);
 
 /// "auto" (a three-quarter view) or "turntable:ANGLE" (the same view turned
 /// ANGLE degrees about the vertical axis).  InputError otherwise.
@@ -62,7 +63,8 @@ struct TraceHit {
     glm::vec3 normal{0.0f}, albedo{0.0f};
 };
 /// Traces a batch of rays (a row's samples): hits[i] for rays[i].
-using BatchTracer = std::function<void(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits)>;
+using BatchTracer =
+    std::function<void(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits)>;
 
 /// The albedo of a surface without a colour grid.
 inline const glm::vec3 kBarkAlbedo{0.60f, 0.50f, 0.40f};
@@ -70,8 +72,8 @@ inline const glm::vec3 kBarkAlbedo{0.60f, 0.50f, 0.40f};
 /// Renders with one tracer called on batches of about `raysPerBatch` rays
 /// (whole rows), rays made and shaded on all threads around each call: for
 /// tracers that use every core themselves (OpenCL).
-RenderImage renderBatches(const Camera& camera, int width, int height, int spp, const BatchTracer& trace,
-                          size_t raysPerBatch = size_t(1) << 20);
+RenderImage renderBatches(const Camera& camera, int width, int height, int spp,
+                          const BatchTracer& trace, size_t raysPerBatch = size_t(1) << 20);
 
 /// OpenVDB's LevelSetRayIntersector on a level set (hierarchical DDA to the
 /// zero crossing, then refined on the trilinear interpolant), colour from
@@ -146,7 +148,8 @@ private:
 };
 
 /// EmbreeMesh(mesh).render(...).
-RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height, int spp);
+RenderImage renderMeshEmbree(const TriangleMesh& mesh, const Camera& camera, int width, int height,
+                             int spp);
 
 /// World-space bounds of a mesh's points.
 Box meshBounds(const TriangleMesh& mesh);

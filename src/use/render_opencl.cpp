@@ -35,7 +35,8 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
     : impl_(std::make_unique<Impl>())
 {
     Impl& m = *impl_;
-    m.program = m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
+    m.program =
+        m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
     cl_int err = CL_SUCCESS;
     m.kernel = clCreateKernel(m.program, "march_rays", &err);
     checkCL(err, "clCreateKernel(march_rays)");
@@ -55,12 +56,14 @@ void OpenCLMarcher::load(const openvdb::FloatGrid& surface, const openvdb::Vec3f
         nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
     nanovdb::GridHandle<nanovdb::HostBuffer> nanoColor;
     if (color)
-        nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox, nanovdb::ChecksumMode::Disable);
+        nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox,
+                                           nanovdb::ChecksumMode::Disable);
     for (const auto* h : {&nanoSurface, &nanoColor})
         if (h->size() >= (uint64_t(1) << 32))  // kernels/cb_pnanovdb.h: 32-bit addresses
-            throw InputError(fmt::format("the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
-                                         "under 4 GB: use --device cpu",
-                                         double(h->size()) * 1e-9));
+            throw InputError(fmt::format(
+                "the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
+                "under 4 GB: use --device cpu",
+                double(h->size()) * 1e-9));
     m.skip = float(2.0 * surface.voxelSize()[0]);
     m.hasColor = bool(nanoColor);
     m.gridBytes = nanoSurface.size() + nanoColor.size();
@@ -72,7 +75,10 @@ void OpenCLMarcher::load(const openvdb::FloatGrid& surface, const openvdb::Vec3f
 
 OpenCLMarcher::~OpenCLMarcher() = default;
 
-size_t OpenCLMarcher::gridBytes() const { return impl_->gridBytes; }
+size_t OpenCLMarcher::gridBytes() const
+{
+    return impl_->gridBytes;
+}
 
 std::string OpenCLMarcher::deviceName() const
 {
@@ -105,7 +111,8 @@ void OpenCLMarcher::trace(const std::vector<TraceRay>& rays, std::vector<TraceHi
     const cl_uint count = cl_uint(n);
     setArgs(m.kernel, surface, color, hasColor, albedo, m.skip, raysMem, hitsMem, count);
     const size_t local = 64, global = (n + local - 1) / local * local;
-    checkCL(clEnqueueNDRangeKernel(m.ctx.queue(), m.kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr),
+    checkCL(clEnqueueNDRangeKernel(m.ctx.queue(), m.kernel, 1, nullptr, &global, &local, 0, nullptr,
+                                   nullptr),
             "clEnqueueNDRangeKernel(march_rays)");
 
     const auto* out = static_cast<const float*>(m.hits.map(m.ctx, CL_MAP_READ, bytes));
@@ -124,7 +131,9 @@ void OpenCLMarcher::trace(const std::vector<TraceRay>& rays, std::vector<TraceHi
 RenderImage OpenCLMarcher::render(const Camera& camera, int width, int height, int spp) const
 {
     return renderBatches(camera, width, height, spp,
-                         [this](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) { trace(rays, hits); });
+                         [this](const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) {
+                             trace(rays, hits);
+                         });
 }
 
 RenderImage renderLevelSetOpenCL(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,

@@ -11,12 +11,16 @@ namespace cambium {
 template <class GridT>
 class WorldSampler {
 public:
-    explicit WorldSampler(const GridT& grid) : accessor_(grid.getConstAccessor()), sampler_(accessor_, grid.transform())
+    explicit WorldSampler(const GridT& grid)
+        : accessor_(grid.getConstAccessor()), sampler_(accessor_, grid.transform())
     {
     }
     WorldSampler(const WorldSampler&) = delete;
     WorldSampler& operator=(const WorldSampler&) = delete;
-    typename GridT::ValueType operator()(const openvdb::Vec3d& world) const { return sampler_.wsSample(world); }
+    typename GridT::ValueType operator()(const openvdb::Vec3d& world) const
+    {
+        return sampler_.wsSample(world);
+    }
 
 private:
     typename GridT::ConstAccessor accessor_;

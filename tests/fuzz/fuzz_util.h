@@ -12,7 +12,10 @@
 
 namespace cambium::fuzz {
 
-inline std::string text(const uint8_t* data, size_t size) { return std::string(reinterpret_cast<const char*>(data), size); }
+inline std::string text(const uint8_t* data, size_t size)
+{
+    return std::string(reinterpret_cast<const char*>(data), size);
+}
 
 /// Runs `read`; an InputError (the input was refused by name) is a fine end.
 template <class F>

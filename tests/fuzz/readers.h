@@ -33,7 +33,8 @@ namespace cambium::fuzz {
 inline std::string asFile(const std::string& bytes, const char* extension)
 {
     const char* dir = ::access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
-    const std::string path = std::string(dir) + "/cambium_fuzz_" + std::to_string(::getpid()) + extension;
+    const std::string path =
+        std::string(dir) + "/cambium_fuzz_" + std::to_string(::getpid()) + extension;
     if (std::FILE* f = std::fopen(path.c_str(), "wb")) {
         std::fwrite(bytes.data(), 1, bytes.size(), f);
         std::fclose(f);
