@@ -97,8 +97,8 @@ TEST(BakeAccuracy, SphereMatchesItsExactDistance)
         const Errors e = compareWithExact(
             *g.surface, [&](const glm::dvec3& p) { return glm::length(p - c) - r; },
             Box::around(c, r), h, 3.0);
-        std::printf("sphere (%s): near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n",
-                    cpu ? "cpu" : "opencl", e.nearMax, e.farMax, e.mean, e.active);
+        report("sphere ({}): near max {:.4f}, far max {:.4f}, mean {:.4f} voxels, {} active",
+               cpu ? "cpu" : "opencl", e.nearMax, e.farMax, e.mean, e.active);
         expectAccurate(e, "sphere");
         EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
     }
@@ -121,8 +121,8 @@ TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
     box.expand(a);
     box.expand(b);
     const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
-    std::printf("capsule: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax,
-                e.farMax, e.mean, e.active);
+    report("capsule: near max {:.4f}, far max {:.4f}, mean {:.4f} voxels, {} active", e.nearMax,
+           e.farMax, e.mean, e.active);
     expectAccurate(e, "capsule");
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
@@ -165,8 +165,8 @@ TEST(BakeAccuracy, ConeMatchesItsExactDistance)
         *g.surface,
         [&](const glm::dvec3& p) { return coneDistance(p, a, b, r0, r1, ref.value(p) > 0.5); },
         box.padded(r0), h, 3.0);
-    std::printf("cone: near max %.4f, far max %.4f, mean %.4f voxels, %zu active\n", e.nearMax,
-                e.farMax, e.mean, e.active);
+    report("cone: near max {:.4f}, far max {:.4f}, mean {:.4f} voxels, {} active", e.nearMax,
+           e.farMax, e.mean, e.active);
     expectAccurate(e, "cone");
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
@@ -292,8 +292,8 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
                     if (active && d > W + 0.75) {
                         ++outside;
                         if (std::getenv("CAMBIUM_DEBUG") && outside < 6)
-                            std::printf("outside: voxel %d %d %d true %.3f baked %.3f voxels\n", x,
-                                        y, z, d, acc.getValue(openvdb::Coord(x, y, z)) / h);
+                            report("outside: voxel {} {} {} true {:.3f} baked {:.3f} voxels", x, y,
+                                   z, d, acc.getValue(openvdb::Coord(x, y, z)) / h);
                     }
                 }
         EXPECT_GT(band, 2000u);

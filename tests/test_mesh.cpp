@@ -103,8 +103,8 @@ TEST(Mesh, AdaptivityKeepsTheShapeWithFewerTriangles)
     for (double adaptivity : {0.05, 0.5}) {
         const TriangleMesh coarse = meshLevelSet(*g.surface, nullptr, adaptivity);
         const double v = meshVolume(coarse) / volume;
-        std::printf("adaptivity %.2f: %zu triangles (0: %zu), volume %.4f of the sphere's\n",
-                    adaptivity, coarse.triangles.size(), fine.triangles.size(), v);
+        report("adaptivity {:.2f}: {} triangles (0: {}), volume {:.4f} of the sphere's", adaptivity,
+               coarse.triangles.size(), fine.triangles.size(), v);
         EXPECT_LT(coarse.triangles.size(), fine.triangles.size() / 2);
         // Flat cells of up to a leaf (8 voxels) cut the sphere of radius 25
         // voxels: 1.7 % of its volume at 0.05 (1,356 triangles), 6 % at 0.5 (348).

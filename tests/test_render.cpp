@@ -22,6 +22,7 @@
 namespace {
 
 using namespace cambium;
+using cambium::test::report;
 
 /// Distance along a unit ray to a sphere, or -1.
 double raySphere(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& c, double r)
@@ -124,8 +125,8 @@ void expectHitsAnAnalyticSphere(const Renderer& render, const char* what)
                 0.99);
         }
     EXPECT_GT(checked, 1000u);
-    std::printf("analytic sphere, %s: largest |t - exact| %.4f voxel over %zu pixels\n", what,
-                worst, checked);
+    report("analytic sphere, {}: largest |t - exact| {:.4f} voxel over {} pixels", what, worst,
+           checked);
     EXPECT_LT(worst, 0.1) << what << ": largest |t - exact| in voxels over " << checked
                           << " pixels";
     EXPECT_GT(hits, checked);
@@ -242,10 +243,10 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
     cpu.tracer()(rays, a);
     cl.trace(rays, b);
     const TraceComparison c = compareTraces(a, b, h);
-    std::printf(
-        "%s: %zu rays, %zu hit by both, masks differ on %zu, %zu beyond 0.1 voxel (worst %.3f "
+    report(
+        "{}: {} rays, {} hit by both, masks differ on {}, {} beyond 0.1 voxel (worst {:.3f} "
         "voxel), "
-        "worst normal 1-cos %.2g, worst albedo %.3g\n",
+        "worst normal 1-cos {:.2g}, worst albedo {:.3g}",
         what, rays.size(), c.both, c.maskDiffers, c.beyondTenth, c.worstT, c.worstNormal,
         c.worstAlbedo);
     EXPECT_GT(c.both, 2000u) << what;
@@ -272,9 +273,10 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
             worstCpu = std::max(worstCpu, std::abs(a[i].t - t) / h);
             worstCl = std::max(worstCl, std::abs(b[i].t - t) / h);
         }
-        std::printf(
-            "%s: largest |t - exact| over %zu rays: cpu intersector %.3f voxel, OpenCL march %.3f "
-            "voxel\n",
+        report(
+            "{}: largest |t - exact| over {} rays: cpu intersector {:.3f} voxel, OpenCL march "
+            "{:.3f} "
+            "voxel",
             what, checked, worstCpu, worstCl);
         EXPECT_GT(checked, 5000u) << what;
         EXPECT_LT(worstCl, 0.1) << what;
@@ -317,9 +319,10 @@ void expectMarchAgreesWithEmbree(const BlobTree& tree, double h, const char* wha
         close += e < 0.5;
         worst = std::max(worst, e);
     }
-    std::printf(
-        "%s: %zu pixels hit by both, %.3f %% within 0.5 voxel (worst %.2f), masks differ on %.3f "
-        "%%\n",
+    report(
+        "{}: {} pixels hit by both, {:.3f} % within 0.5 voxel (worst {:.2f}), masks differ on "
+        "{:.3f} "
+        "%",
         what, both, 100.0 * double(close) / double(both), worst,
         100.0 * double(differ) / double(W * H));
     EXPECT_GT(both, 1000u) << what;

@@ -24,6 +24,7 @@ namespace {
 
 using namespace cambium;
 using cambium::test::expectInputError;
+using cambium::test::report;
 namespace fs = std::filesystem;
 
 const std::string kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
@@ -275,8 +276,8 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     for (size_t i = 1; i < volume.size(); ++i) {
         change.push_back(std::abs(volume[i] - volume[i - 1]));
         if (std::getenv("CAMBIUM_VERBOSE"))
-            std::fprintf(stderr, "frame %lld volume %.4f change %+.4f\n", r.frames[i].frame,
-                         volume[i], volume[i] - volume[i - 1]);
+            report("frame {} volume {:.4f} change {:+.4f}", r.frames[i].frame, volume[i],
+                   volume[i] - volume[i - 1]);
     }
     std::vector<double> growing;
     for (double c : change)

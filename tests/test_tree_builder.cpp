@@ -25,6 +25,7 @@ namespace {
 using namespace cambium;
 
 using test::internode;
+using test::report;
 
 /// Largest and smallest radius of the surface around the y axis for y in
 /// [y0, y1] (two collinear internodes along y).
@@ -49,9 +50,10 @@ TEST(TreeBuilder, ShorteningTheBasalInternodeRemovesTheBulge)
                      internode(1, 0, {0, 1, 0}, {0, 2, 0}, r, r)};
     const auto [minWith, maxWith] = radiusRange(buildTree(sk), 0.5, 1.5);
     const auto [minWithout, maxWithout] = radiusRange(skeletonToBlend(sk), 0.5, 1.5);
-    std::printf(
-        "joint of two cones of radius %.2f: with delta_A = 1.75 r the radius stays in [%.4f, %.4f] "
-        "(%+.1f %% / %+.1f %%); without, up to %.4f (%+.1f %%)\n",
+    report(
+        "joint of two cones of radius {:.2f}: with delta_A = 1.75 r the radius stays in [{:.4f}, "
+        "{:.4f}] "
+        "({:+.1f} % / {:+.1f} %); without, up to {:.4f} ({:+.1f} %)",
         r, minWith, maxWith, 100.0 * (minWith / r - 1.0), 100.0 * (maxWith / r - 1.0), maxWithout,
         100.0 * (maxWithout / r - 1.0));
     EXPECT_LT(maxWith / r - 1.0, 0.05);     // the bulge the papers call practically unnoticeable
@@ -70,9 +72,8 @@ TEST(TreeBuilder, AChainOfShortThickInternodesStaysFlat)
     for (int i = 0; i < 8; ++i)
         sk.internodes.push_back(internode(i, i - 1, {0, len * i, 0}, {0, len * (i + 1), 0}, r, r));
     const auto [lo, hi] = radiusRange(buildTree(sk), 2 * len, 6 * len);
-    std::printf(
-        "chain of internodes two radii long: radius in [%.4f, %.4f] (%+.1f %% / %+.1f %%)\n", lo,
-        hi, 100.0 * (lo / r - 1.0), 100.0 * (hi / r - 1.0));
+    report("chain of internodes two radii long: radius in [{:.4f}, {:.4f}] ({:+.1f} % / {:+.1f} %)",
+           lo, hi, 100.0 * (lo / r - 1.0), 100.0 * (hi / r - 1.0));
     EXPECT_LT(hi / r - 1.0, 0.05);
     EXPECT_GT(lo / r - 1.0, -0.05);
 }
@@ -103,10 +104,11 @@ TEST(TreeBuilder, ConvolutionSegmentsJoinWithoutABulge)
         lo = std::min(lo, ra);
         hi = std::max(hi, ra);
     }
-    std::printf(
-        "joint of two convolution segments of radius %.2f: the radius stays in [%.4f, %.4f], at "
-        "most %.2f %% "
-        "from one long segment's\n",
+    report(
+        "joint of two convolution segments of radius {:.2f}: the radius stays in [{:.4f}, {:.4f}], "
+        "at "
+        "most {:.2f} % "
+        "from one long segment's",
         r, lo, hi, 100.0 * worst);
     EXPECT_LT(worst, 0.02);
     EXPECT_LT(hi / r - 1.0, 0.01);   // no bulge
@@ -152,9 +154,8 @@ TEST(TreeBuilder, BetterBlendingJoinsConeTrunksAndConvolutionLateralsWithLessBul
         return hi / 0.1 - 1.0;
     };
     const double b = swelling(mixed), s = swelling(summed);
-    std::printf(
-        "trunk opposite a convolution lateral: %+.1f %% with better blending, %+.1f %% summed\n",
-        100.0 * b, 100.0 * s);
+    report("trunk opposite a convolution lateral: {:+.1f} % with better blending, {:+.1f} % summed",
+           100.0 * b, 100.0 * s);
     EXPECT_LT(b, s);
     EXPECT_LT(b, 0.03);
 }
@@ -242,10 +243,11 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
         height[k] = crotchPoint(t, 0.0).first - 1.0;
         ++k;
     }
-    std::printf(
-        "crotch between two branches: normals 2x%.2f apart turn %.1f deg with PCM, %.1f deg with "
+    report(
+        "crotch between two branches: normals 2x{:.2f} apart turn {:.1f} deg with PCM, {:.1f} deg "
+        "with "
         "summation; "
-        "the crotch is %.3f (PCM) and %.3f (summation) above the branching point\n",
+        "the crotch is {:.3f} (PCM) and {:.3f} (summation) above the branching point",
         e, angle[0], angle[1], height[0], height[1]);
     // The ridge is darker than the bark (PCM's darken, paper 000 section 3.2).
     {
@@ -253,7 +255,7 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
         const ReferenceEvaluator ev(t);
         const double ridge = ev.sample({0.0, 1.0 + height[0] - 0.002, 0}).color.x;
         const double bark = ev.sample({0.1, 0.5, 0}).color.x;
-        std::printf("ridge colour %.3f against the bark's %.3f\n", ridge, bark);
+        report("ridge colour {:.3f} against the bark's {:.3f}", ridge, bark);
         EXPECT_LT(ridge, 0.9 * bark);
     }
     EXPECT_GT(angle[0], 3.0 * angle[1]);
@@ -277,8 +279,7 @@ TEST(TreeBuilder, PcmMakesARidgeBetweenBranchesWhereSummationFillsTheCrotch)
         uni.setRoot(uni.op({NodeType::BLEND}, {basal, uni.op({NodeType::UNION}, branches)}));
         uni.finalize();
         const double contact = crotchPoint(uni, 0.0).first - 1.0;
-        std::printf("the union of the same cones meets at %.3f above the branching point\n",
-                    contact);
+        report("the union of the same cones meets at {:.3f} above the branching point", contact);
         EXPECT_LT(std::abs(height[0] - contact), 0.25 * std::abs(height[1] - contact));
     }
 }
@@ -314,8 +315,9 @@ TEST(TreeBuilder, ASawCutIsPlanarAfterBaking)
     const double h = 0.01;
     const double cut = cutFaceDeviation("Axiom: !(0.2)F(1)%\n", 0.07, h);
     const double cap = cutFaceDeviation("Axiom: !(0.2)F(1)\n", 0.07, h);
-    std::printf(
-        "saw cut: the baked face is within %.3f voxel of its plane (the uncut cap: %.1f voxels)\n",
+    report(
+        "saw cut: the baked face is within {:.3f} voxel of its plane (the uncut cap: {:.1f} "
+        "voxels)",
         cut, cap);
     EXPECT_LT(cut, 0.1);
     EXPECT_GT(cap, 1.0);
@@ -340,9 +342,10 @@ TEST(TreeBuilder, RegrowthSwellsAndClosesOverASawCut)
             swell = std::max(
                 swell,
                 test::surfaceDistance(ev, t.threshold(), {0, y, 0}, {1, 0, 0}, 0.5) / 0.1 - 1.0);
-        std::printf(
-            "regrowth %.1f: the surface rises %.4f over the cut, the branch swells %+.1f %% below "
-            "it\n",
+        report(
+            "regrowth {:.1f}: the surface rises {:.4f} over the cut, the branch swells {:+.1f} % "
+            "below "
+            "it",
             g, rise, 100.0 * swell);
         if (g == 0.0) {
             EXPECT_NEAR(rise, 0.0, 1e-3);  // a bare, flat cut
@@ -389,9 +392,9 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
             (at(openvdb::Vec3d(p.x, p.y, p.z)) < 0.0f ? in : out) = m;
         }
         const double baked = 0.1 - in;
-        std::printf(
-            "scar with weight %.1f: %.4f deep (evaluator), %.4f (baked), %.3f voxel apart\n", w,
-            predicted, baked, std::abs(baked - predicted) / h);
+        report(
+            "scar with weight {:.1f}: {:.4f} deep (evaluator), {:.4f} (baked), {:.3f} voxel apart",
+            w, predicted, baked, std::abs(baked - predicted) / h);
         EXPECT_NEAR(baked, predicted, 0.1 * h) << "weight " << w;
         EXPECT_GT(predicted, previous) << "a stronger negative field presses deeper";
         previous = predicted;
@@ -437,8 +440,8 @@ TEST(TreeBuilder, BentInternodesKeepTheirEnds)
         return count ? sum / count : 1e9;
     };
     const double shifted = offCentre(eb), centred = offCentre(es);
-    std::printf("bend 0.4 rad: the internode's middle is %.4f off its chord (straight: %.4f)\n",
-                shifted, centred);
+    report("bend 0.4 rad: the internode's middle is {:.4f} off its chord (straight: {:.4f})",
+           shifted, centred);
     EXPECT_NEAR(centred, 0.0, 0.002);
     // The configured amount: an arc turning by theta over the chord L departs
     // from it by (L / 2) tan(theta / 4) in the middle.

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -17,6 +18,21 @@
 #include <string>
 
 namespace cambium::test {
+
+/// Reports a measured value of the running test through GoogleTest: a
+/// property of the test ("measured", "measured_2", ...) in its XML report
+/// (--gtest_output=xml), not a line on stdout.
+template <class... Args>
+void report(fmt::format_string<Args...> format, Args&&... args)
+{
+    static const ::testing::TestInfo* test = nullptr;
+    static int count = 0;
+    const ::testing::TestInfo* now = ::testing::UnitTest::GetInstance()->current_test_info();
+    count = now == test ? count + 1 : 1;
+    test = now;
+    ::testing::Test::RecordProperty(count == 1 ? "measured" : "measured_" + std::to_string(count),
+                                    fmt::format(format, std::forward<Args>(args)...));
+}
 
 /// An internode of a hand-made skeleton (age: years since it began, or unknown).
 inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0,
