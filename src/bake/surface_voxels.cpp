@@ -13,13 +13,11 @@ namespace cambium {
 const int kFaceDirections[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
                                    {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
 
-SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16_t* value,
-                                const std::vector<LeafNeighbours>& nb, BakeTimings& timings)
+namespace {
+
+/// Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
+std::vector<std::array<uint64_t, 8>> leafInsideBits(const uint16_t* value, size_t n)
 {
-    const auto start = Clock::now();
-    const size_t n = leaves.size();
-    SurfaceVoxels out;
-    // Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
     std::vector<std::array<uint64_t, 8>> insideBits(n);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
         const uint16_t* v = value + l * kLeafVoxels;
@@ -30,6 +28,18 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
             insideBits[l][size_t(z)] = m;
         }
     });
+    return insideBits;
+}
+
+}  // namespace
+
+SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16_t* value,
+                                const std::vector<LeafNeighbours>& nb, BakeTimings& timings)
+{
+    const auto start = Clock::now();
+    const size_t n = leaves.size();
+    SurfaceVoxels out;
+    const std::vector<std::array<uint64_t, 8>> insideBits = leafInsideBits(value, n);
     const double tBits = secondsSince(start);
     // The voxels of leaf l with a face neighbour on the other side of the
     // surface, per plane z and direction (the order of dirs), by shifting the
