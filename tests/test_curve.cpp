@@ -77,7 +77,9 @@ TEST(Curve, MalformedCurvesAreNamedByTheirPath)
     expectError(R"({"points": [[0, 0], [1, 1]], "interpolation": "cubic"})",
                 "curves.Gh.interpolation: must be \"linear\" or \"smooth\"");
     expectError(R"({"points": [[0, 0], [1, 1]], "smoothing": 1})",
-                "curves.Gh.smoothing: unknown key");
+                "curves.Gh.smoothing: unknown key (a curve has");
+    expectError(R"({"pionts": [[0, 0], [1, 1]]})",
+                "curves.Gh.pionts: unknown key (did you mean 'points'?)");
     expectError(R"({"interpolation": "smooth"})", "curves.Gh.points: missing");
     expectError("\"up\"", "curves.Gh: expected a number, an array of [x, y] points");
 }

@@ -2,6 +2,7 @@
 #include "model/curve.h"
 
 #include "core/error.h"
+#include "core/json.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -94,8 +95,9 @@ Curve curveFromJson(const nlohmann::json& j, const std::string& path)
     if (j.is_object()) {
         for (const auto& [key, value] : j.items())
             if (key != "points" && key != "interpolation")
-                throw InputError(fmt::format(
-                    "{}.{}: unknown key (a curve has points and interpolation)", path, key));
+                throw InputError(
+                    fmt::format("{}: unknown key{} (a curve has points and interpolation)",
+                                jsonPath(path, key), didYouMean(key, {"points", "interpolation"})));
         if (!j.contains("points"))
             throw InputError(fmt::format("{}.points: missing", path));
         points = &j.at("points");
