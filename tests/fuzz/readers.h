@@ -13,9 +13,8 @@
 #include "model/skeleton.h"
 #include "model/tree_builder.h"
 #include "model/turtle.h"
+#include "io/mesh_file.h"
 #include "io/vdb.h"
-#include "io/vdb.h"
-#include "use/mesh.h"
 
 #include <openvdb/io/File.h>
 
