@@ -3,13 +3,16 @@
  *
  * Plain C99 that OpenCL C 1.2 also accepts (the same idea as NanoVDB's
  * PNanoVDB.h).  Two types:
- *   cb_scalar  one number: a parameter read from a table;
- *   cb_real    the value at the points being evaluated: on the host one point
- *              (double, so the reference evaluator is the precise oracle); in a
- *              kernel compiled with -D CB_LANES=8 or 16, that many points at once (float8,
- * float16), because PoCL vectorises only what is written as vectors. The math is written without
- * data-dependent branches (CB_SELECT instead of if/?:) so the same text is correct for scalars and
- * for vectors.  Scalars widen implicitly where a cb_real is expected.
+ *
+ * - cb_scalar: one number, a parameter read from a table;
+ * - cb_real: the value at the points being evaluated.  On the host one point
+ *   (double, so the reference evaluator is the precise oracle); in a kernel
+ *   compiled with -D CB_LANES=8 or 16, that many points at once (float8,
+ *   float16), because PoCL vectorises only what is written as vectors.
+ *
+ * The math is written without data-dependent branches (CB_SELECT instead of
+ * if/?:) so the same text is correct for scalars and for vectors.  Scalars
+ * widen implicitly where a cb_real is expected.
  *
  * Define CB_REAL_IS_FLOAT on the host to compile the float flavour.
  */

@@ -109,7 +109,8 @@ CB_FN cb_vec3 cb_bend_apply(cb_bend b, cb_vec3 p, cb_real* J)
     cb_real r2 = dx * dx + dy * dy;
     cb_real r = CB_SQRT(r2);
     cb_real phi = CB_ATAN2(dx, dy);
-    cb_mask before = phi<-h, after = phi> h;
+    cb_mask before = phi < -h;
+    cb_mask after = phi > h;
     /* on the arc: polar coordinates about its centre */
     cb_real k = cb_div0(b.len, b.theta);
     cb_real a = (phi + h) * k, yp = r - b.rho;

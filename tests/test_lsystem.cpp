@@ -93,6 +93,21 @@ TEST(LSystem, StochasticChoiceFollowsTheSeed)
     EXPECT_NEAR(double(y) / double(x + y), 0.75, 0.03);
 }
 
+TEST(LSystem, TheSameSeedDerivesTheSameStringWithAnyStandardLibrary)
+{
+    // The uniform numbers of stochastic productions and ran() come from
+    // core/random.h, not from std::uniform_real_distribution (which each
+    // standard library implements its own way): this string is the one every
+    // build derives.  A nested ran() draws its own number before its
+    // argument's.
+    const std::string text =
+        "Axiom: A(1)\nA(x) --> A(x+ran(1))B(ran(ran(2))) : 1\n"
+        "A(x) --> C(ran(x))A(x) : 2\n";
+    EXPECT_EQ(run(text, 4, 2),
+              "C(0.85023613957581)C(0.9253171001154079)A(1.821728694190027)B(1.2668254591838268)"
+              "B(0.04475110335239621)");
+}
+
 TEST(LSystem, ContextSensitiveProductionsSeeAcrossBranches)
 {
     // ABOP 1.8: a signal moving acropetally (from the base) through a

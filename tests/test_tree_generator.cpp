@@ -5,6 +5,7 @@
 // is at hand, the text against the script's to the byte.
 #include "bench/tree_generator.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/random.h"
 
 #include <gtest/gtest.h>
@@ -276,6 +277,22 @@ bool runCommand(const std::string& command, std::string& output)
     while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0)
         output.append(buffer, n);
     return ::pclose(pipe) == 0;
+}
+
+TEST(TreeGenerator, IsTheBenchmarksTreeToTheByte)
+{
+    // FNV-1a of the outside reference's output (../shared/bench/gen_skeleton.py
+    // --internodes N, python3 3.11) for the benchmarks' two trees: pinned, so
+    // that every build measures the same workload without the script.
+    const std::pair<int, std::pair<size_t, uint64_t>> trees[] = {
+        {1000, {81221, 0xb93bbdffef898269ull}}, {20000, {1680941, 0x0c2c6b800fa9606cull}}};
+    for (const auto& [n, expected] : trees) {
+        TreeGeneratorOptions o;
+        o.internodes = n;
+        const std::string text = generateBenchSkeleton(o);
+        EXPECT_EQ(text.size(), expected.first) << n << " internodes";
+        EXPECT_EQ(fnv1a64(text), expected.second) << n << " internodes";
+    }
 }
 
 TEST(TreeGenerator, MatchesTheReferenceScriptToTheByte)

@@ -14,24 +14,33 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <mutex>
 #include <random>
 #include <string>
 
 namespace cambium::test {
 
-/// Reports a measured value of the running test through GoogleTest: a
-/// property of the test ("measured", "measured_2", ...) in its XML report
-/// (--gtest_output=xml), not a line on stdout.
-template <class... Args>
-void report(fmt::format_string<Args...> format, Args&&... args)
+/// Records `text` as a measured value of the running test: a property
+/// ("measured", "measured_2", ...) in GoogleTest's XML report
+/// (--gtest_output=xml), not a line on stdout.  Thread-safe.
+inline void recordMeasured(const std::string& text)
 {
+    static std::mutex mutex;
     static const ::testing::TestInfo* test = nullptr;
     static int count = 0;
+    std::lock_guard<std::mutex> lock(mutex);
     const ::testing::TestInfo* now = ::testing::UnitTest::GetInstance()->current_test_info();
     count = now == test ? count + 1 : 1;
     test = now;
     ::testing::Test::RecordProperty(count == 1 ? "measured" : "measured_" + std::to_string(count),
-                                    fmt::format(format, std::forward<Args>(args)...));
+                                    text);
+}
+
+/// recordMeasured of a formatted line.
+template <class... Args>
+void report(fmt::format_string<Args...> format, Args&&... args)
+{
+    recordMeasured(fmt::format(format, std::forward<Args>(args)...));
 }
 
 /// An internode of a hand-made skeleton (age: years since it began, or unknown).

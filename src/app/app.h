@@ -44,8 +44,13 @@ struct ModelFlags {
 /// Adds --junctions, --bend, --primitives, --regrowth, --no-leaves and --time.
 void addModelFlags(CLI::App* command, ModelFlags& flags);
 
-/// The sequence's report of each frame and its summary.
-int runSequenceCommand(const struct SequenceRequest& request);
+/// The sequence's report of each frame and its summary (with `timings`, each
+/// baked frame's stage timings on stderr).
+int runSequenceCommand(const struct SequenceRequest& request, bool timings);
+
+/// A bake's stage timings (BakeStats::timings), one line on stderr: what
+/// --timings prints.
+void printTimings(const struct BakeStats& stats);
 
 /// "(x, y, z)" with six significant digits.
 std::string formatVec(const glm::dvec3& v);

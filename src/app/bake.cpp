@@ -4,6 +4,8 @@
 
 #include "bake/bake.h"
 #include "bake/sequence.h"
+#include "core/files.h"
+#include "core/frames.h"
 
 #include <fmt/format.h>
 
@@ -12,26 +14,6 @@
 namespace cambium {
 
 namespace {
-
-/// The stages' timings (BakeStats), for --timings.
-void printTimings(const BakeStats& s)
-{
-    const BakeTimings& t = s.timings;
-    fmt::print(stderr,
-               "timings: topology {:.3f} s; values {:.3f} s; neighbours {:.3f} s, inside bits "
-               "{:.3f} s, sign "
-               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points); propagation "
-               "and leaves {:.3f} s "
-               "(thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s (x {:.3f}, y "
-               "{:.3f}, z {:.3f}), "
-               "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, "
-               "tree {:.3f} s, "
-               "flood fill {:.3f} s\n",
-               s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
-               t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
-               t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
-               s.candidateLeaves, t.freeing, t.tree, t.floodFill);
-}
 
 int runBakeCommand(const BakeRequest& req, bool timings)
 {
@@ -112,14 +94,22 @@ void addBakeCommand(CLI::App& app, Action& action)
         ->check(CLI::Range(1, 4096));
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
-            BakeRequest& req = o->sequence.bake;
+            SequenceRequest& seq = o->sequence;
+            BakeRequest& req = seq.bake;
             if (voxelOpt->count())
                 req.voxelSize = o->voxelSize;
-            req.model = o->model.options();
+            // In the order the checks ran before the commands parsed options:
+            // frames, half-width, device, output, the model options.
+            const bool sequence = !seq.frames.empty();
+            if (sequence)
+                parseFrames(seq.frames);
+            checkBakeOptions(req);
             req.device = parseDevice(o->device);
-            if (!o->sequence.frames.empty())
-                return runSequenceCommand(o->sequence);
-            return runBakeCommand(req, o->timings || std::getenv("CAMBIUM_TIMING"));
+            if (!sequence)
+                checkOutputPath(req.output);
+            req.model = o->model.options();
+            const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
+            return sequence ? runSequenceCommand(seq, timings) : runBakeCommand(req, timings);
         };
     });
 }

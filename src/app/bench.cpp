@@ -39,7 +39,7 @@ void printBakeTable(const BakeBenchResult& c)
     fmt::print("{:<48} {:>10} {:>15} {:>12} {:>10} {:>10}\n", "method", "seconds", "active voxels",
                "M voxels/s", "peak MB", "time/(a)");
     for (const BakeBenchRow& r : c.rows) {
-        const bool dense = r.method.rfind("(c)", 0) == 0;
+        const bool dense = r.estimated;  // (c): extrapolated over the dense box
         fmt::print(
             "{:<48} {:>10} {:>15} {:>12} {:>10.0f} {:>10.2f}\n", r.method,
             fmt::format("{}{:.3g}", r.estimated ? "~" : "", r.seconds),
@@ -118,6 +118,7 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
     const char* paper =
         "\npaper 000, year 27: 181,692 primitives, 22,220 operators, 1.4 GB to ray trace the last "
         "frame\n";
+    bool paperShown = false;
     GrowthBenchCallbacks callbacks;
     callbacks.setup = [&](const GrowthBenchSetup& s) {
         fmt::print(
@@ -134,8 +135,9 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
         fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | {:.0f} |\n",
                    y.year, y.internodes, y.primitives, y.operators, y.modelSeconds, y.bakeSeconds,
                    y.writeSeconds, y.activeVoxels, y.fileBytes / 1e6, y.peakBytes / 1e6);
-        if (y.year == lastYear)
+        if (y.year == lastYear && !paperShown)
             fmt::print("{}", paper);
+        paperShown = paperShown || y.year == lastYear;
         std::fflush(stdout);
     };
     callbacks.sequence = [&](const GrowthBenchSequence& q) {

@@ -1,6 +1,8 @@
 // cambium — what the commands share: model options, reports, progress.
 #include "app/app.h"
 
+#include "bake/levelset.h"
+
 #include <fmt/format.h>
 
 #include <cstdio>
@@ -85,6 +87,25 @@ void ProgressBar::clear()
     if (shown_)
         fmt::print(stderr, "\r\033[K");
     shown_ = false;
+}
+
+void printTimings(const BakeStats& s)
+{
+    const BakeTimings& t = s.timings;
+    fmt::print(stderr,
+               "timings: topology {:.3f} s; values {:.3f} s; neighbours {:.3f} s, inside bits "
+               "{:.3f} s, sign "
+               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points); propagation "
+               "and leaves {:.3f} s "
+               "(thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s (x {:.3f}, y "
+               "{:.3f}, z {:.3f}), "
+               "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, "
+               "tree {:.3f} s, "
+               "flood fill {:.3f} s\n",
+               s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
+               t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
+               t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
+               s.candidateLeaves, t.freeing, t.tree, t.floodFill);
 }
 
 }  // namespace cambium

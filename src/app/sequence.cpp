@@ -10,7 +10,7 @@
 
 namespace cambium {
 
-int runSequenceCommand(const SequenceRequest& request)
+int runSequenceCommand(const SequenceRequest& request, bool timings)
 {
     const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)",
                              "kept (--resume)", "empty (nothing a voxel thick yet)"};
@@ -31,6 +31,8 @@ int runSequenceCommand(const SequenceRequest& request)
         }
         fmt::print(", {:.2f} s\n", f.seconds);
         std::fflush(stdout);
+        if (timings && f.outcome == FrameReport::Outcome::Baked)
+            printTimings(f.stats);
     };
     const SequenceReport r = bakeSequence(request, callbacks);
     size_t baked = 0, reused = 0, kept = 0, empty = 0;

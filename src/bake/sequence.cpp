@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 
 namespace cambium {
@@ -234,9 +235,16 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
     const OutputLock outputLock(whole ? req.output
                                       : fmt::format("{}.frames-{}-{}", req.output,
                                                     plan.frames[first], plan.frames[last - 1]));
-    for (const std::string& tmp : staleTemporaries(req.output))
-        if (std::filesystem::remove(tmp))
+    // Only the range's own: another range's may be in flight in another
+    // process (or thread).
+    std::set<std::string> range;  // the frames' file names (all in the pattern's directory)
+    for (size_t i = first; i < last; ++i)
+        range.insert(std::filesystem::path(plan.paths[i]).filename().string());
+    for (const std::string& tmp : staleTemporaries(req.output)) {
+        const std::string name = std::filesystem::path(tmp).filename().string();
+        if (range.count(name.substr(0, name.rfind(".tmp-"))) && std::filesystem::remove(tmp))
             notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
+    }
     const std::vector<bool> finished = finishedFrames(plan, first, last, notice);
 
     const ThreadLimit threads(req.threads);

@@ -87,9 +87,12 @@ struct SequenceCallbacks {
 /// baked frame also reuses the sampled values of the 8^3 leaves whose
 /// specialised program is unchanged since the frame it baked before
 /// (LeafValueCache): identical to a full bake of the frame.  One run at a
-/// time writes a range of a pattern (a lock file); temporaries that killed
-/// runs left are removed; with --resume, finished frames of this plan are
-/// kept, damaged ones baked again, and another bake's refused (InputError).
+/// time writes a range (a lock file: PATTERN.lock for the whole plan,
+/// PATTERN.frames-A-B.lock for frames A to B; runs of ranges that overlap
+/// are the caller's to avoid); temporaries that killed runs left for the
+/// range's frames are removed; with --resume, finished frames of this plan
+/// are kept, damaged ones baked again, and another bake's refused
+/// (InputError).
 SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
                            const SequenceCallbacks& callbacks = {});
 

@@ -1,19 +1,17 @@
 // cambium — the stages of a bake (bakeLevelSet, bake/levelset.h), one file
 // each, and what passes between them.  Internal to src/bake.
 //
-//   1. topology            bake/topology.cpp      leaves that can hold band voxels
-//   2. values              bake/levelset.cpp      every voxel of those leaves
-//                          bake/leaf_cache.cpp    (or, in sequences, the unchanged leaves' values
-//                          reused)
-//   3. neighbours          bake/neighbours.cpp    each leaf's 26 neighbours
-//      surface voxels      bake/surface_voxels.cpp the voxels next to a sign change, then their
-//      gradients
-//   4. propagation         bake/propagation.cpp   surface points swept through the band, tile by
-//   tile,
-//                                                 into signed distances and grid leaves
-//                                                 (bake/sweep.inc)
-//   5. assembly            bake/assembly.cpp      the grids: leaves, flood fill, fog
-//   memory estimate        bake/memory_estimate.cpp
+// clang-format off
+//   1. topology        bake/topology.cpp        leaves that can hold band voxels
+//   2. values          bake/levelset.cpp        every voxel of those leaves
+//                      bake/leaf_cache.cpp      (in sequences: unchanged leaves' values reused)
+//   3. neighbours      bake/neighbours.cpp      each leaf's 26 neighbours
+//      surface voxels  bake/surface_voxels.cpp  voxels next to a sign change; then their gradients
+//   4. propagation     bake/propagation.cpp     surface points swept through the band, tile by
+//                                               tile, into distances and leaves (bake/sweep.inc)
+//   5. assembly        bake/assembly.cpp        the grids: leaves, flood fill, fog
+//   memory estimate    bake/memory_estimate.cpp
+// clang-format on
 #pragma once
 
 #include "bake/levelset.h"

@@ -1,6 +1,8 @@
 // cambium — the benchmark skeleton generator.
 #include "bench/tree_generator.h"
 
+#include "model/skeleton.h"
+
 #include "core/error.h"
 #include "core/math.h"
 #include "core/random.h"
@@ -92,7 +94,7 @@ std::string generateBenchSkeleton(const TreeGeneratorOptions& options)
     const double minRadius = 0.012;
 
     fmt::memory_buffer out;
-    fmt::format_to(std::back_inserter(out), "# id parent x0 y0 z0 x1 y1 z1 r0 r1\n");
+    fmt::format_to(std::back_inserter(out), "# {}\n", kSkeletonColumns);
 
     // Breadth first, so a smaller tree is the first levels of a larger one.
     std::deque<Bud> queue;

@@ -12,6 +12,7 @@
 #include <openvdb/io/io.h>
 
 #include <algorithm>
+#include <stdexcept>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -81,6 +82,8 @@ public:
 
 void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
+    if (!grids.surface)
+        throw std::logic_error("writeVdb: no surface grid");  // (it sets the file's voxel size)
     openvdb::GridCPtrVec out;
     for (openvdb::GridBase::Ptr g :
          {openvdb::GridBase::Ptr(grids.surface), openvdb::GridBase::Ptr(grids.color),
