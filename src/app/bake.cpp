@@ -22,7 +22,7 @@ int runBakeCommand(const BakeRequest& req, bool timings)
     callbacks.progress = [&](const char* stage, double f) { bar(stage, f); };
     callbacks.notice = [&](const std::string& line) {
         bar.clear();
-        fmt::print("note: {}\n", line);
+        printNotice(line);
     };
     const BakeReport r = runBake(req, callbacks);
     bar.clear();
@@ -94,22 +94,22 @@ void addBakeCommand(CLI::App& app, Action& action)
         ->check(CLI::Range(1, 4096));
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
-            SequenceRequest& seq = o->sequence;
-            BakeRequest& req = seq.bake;
+            SequenceRequest& request = o->sequence;
+            BakeRequest& req = request.bake;
             if (voxelOpt->count())
                 req.voxelSize = o->voxelSize;
             // In the order the checks ran before the commands parsed options:
             // frames, half-width, device, output, the model options.
-            const bool sequence = !seq.frames.empty();
+            const bool sequence = !request.frames.empty();
             if (sequence)
-                parseFrames(seq.frames);
+                parseFrames(request.frames);
             checkBakeOptions(req);
             req.device = parseDevice(o->device);
             if (!sequence)
                 checkOutputPath(req.output);
             req.model = o->model.options();
             const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
-            return sequence ? runSequenceCommand(seq, timings) : runBakeCommand(req, timings);
+            return sequence ? runSequenceCommand(request, timings) : runBakeCommand(req, timings);
         };
     });
 }
