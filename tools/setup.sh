@@ -15,7 +15,7 @@ mode=${1:-run}
 packages=(
   build-essential cmake ninja-build pkg-config
   libopenvdb-dev libnanovdb-dev libopenvdb-tools libblosc-dev libboost-iostreams-dev
-  libopenimageio-dev openimageio-tools libglm-dev libembree-dev libtbb-dev
+  libopenimageio-dev openimageio-tools libglm-dev libembree-dev libtbb-dev libosd-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev
 )
