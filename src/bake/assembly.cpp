@@ -41,7 +41,7 @@ void addFog(BakedGrids& out)
 }
 
 void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
-                   BakeTimings& timings)
+                   BakeTimings& timings, bool leafSigns)
 {
     // Through accessors: consecutive leaves mostly share their internal
     // nodes (depth-first order), which the accessors keep at hand.
@@ -55,11 +55,12 @@ void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
             ++stats.activeLeaves;
             stats.activeVoxels += leaves.active[l];
         }
-    // The leaves' inactive voxels already hold +-background by the field's
-    // sign: only the tiles above them need the flood fill (minLevel 1; at the
-    // leaf level it would replace those signs by a scan-line guess).
+    // A field's bake leaves its leaves' inactive voxels at +-background by
+    // the field's sign: only the tiles above them need the flood fill
+    // (minLevel 1; at the leaf level it would replace those signs by a
+    // scan-line guess).  Without leafSigns, the leaves too.
     const auto t = Clock::now();
-    openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, 1);
+    openvdb::tools::signedFloodFill(out.surface->tree(), true, 1, leafSigns ? 1 : 0);
     timings.floodFill = secondsSince(t);
 }
 

@@ -155,10 +155,11 @@ void createGrids(BakedGrids& out, double h, float background,
                  const openvdb::Vec3f& colourBackground);
 
 /// The band leaves into the grids (which take them over), the tiles above
-/// them flood-filled; counts into the stats, the flood fill's time into
-/// timings.floodFill.
+/// them flood-filled (and the leaves' inactive voxels too unless `leafSigns`:
+/// they already hold +-background by their side); counts into the stats, the
+/// flood fill's time into timings.floodFill.
 void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
-                   BakeTimings& timings);
+                   BakeTimings& timings, bool leafSigns = true);
 
 /// `density`: the level set as OpenVDB's fog volume.
 void addFog(BakedGrids& out);

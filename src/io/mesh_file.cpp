@@ -16,6 +16,14 @@
 
 namespace cambium {
 
+void TriangleMesh::addPolygon(const uint32_t* c, size_t n)
+{
+    polygons.sizes.push_back(uint32_t(n));
+    polygons.corners.insert(polygons.corners.end(), c, c + n);
+    for (size_t k = 1; k + 1 < n; ++k)
+        triangles.push_back({c[0], c[k], c[k + 1]});
+}
+
 namespace {
 
 [[noreturn]] void fail(const std::string& path, size_t line, const std::string& what)
@@ -35,8 +43,8 @@ void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::st
             fail(path, line,
                  fmt::format("vertex index {} out of range (the file has {} vertices so far)",
                              v + 1, m.points.size()));
-    for (size_t k = 1; k + 1 < poly.size(); ++k)
-        m.triangles.push_back({uint32_t(poly[0]), uint32_t(poly[k]), uint32_t(poly[k + 1])});
+    std::vector<uint32_t> corners(poly.begin(), poly.end());
+    m.addPolygon(corners.data(), corners.size());
 }
 
 TriangleMesh readObj(std::istream& in, const std::string& path)
@@ -351,6 +359,28 @@ TriangleMesh readMesh(const std::string& path)
 
 namespace {
 
+size_t faceCount(const TriangleMesh& m)
+{
+    return m.polygons.empty() ? m.triangles.size() : m.polygons.sizes.size();
+}
+
+/// Each face as the file should hold it: the polygons when there are, else
+/// the triangles.
+template <class F>
+void forEachFace(const TriangleMesh& m, const F& f)
+{
+    if (m.polygons.empty()) {
+        for (const auto& t : m.triangles)
+            f(t.data(), size_t(3));
+        return;
+    }
+    size_t c = 0;
+    for (uint32_t n : m.polygons.sizes) {
+        f(m.polygons.corners.data() + c, size_t(n));
+        c += n;
+    }
+}
+
 uint8_t toByte(float v)
 {
     return uint8_t(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
@@ -365,8 +395,8 @@ void writeObj(const TriangleMesh& m, std::ostream& out)
             buf.clear();
         }
     };
-    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} triangles\n",
-                   m.points.size(), m.triangles.size());
+    fmt::format_to(std::back_inserter(buf), "# cambium mesh: {} vertices, {} {}\n", m.points.size(),
+                   faceCount(m), m.polygons.empty() ? "triangles" : "faces");
     for (size_t i = 0; i < m.points.size(); ++i) {
         const auto& p = m.points[i];
         if (m.colors.empty())
@@ -381,11 +411,13 @@ void writeObj(const TriangleMesh& m, std::ostream& out)
                        nrm[2]);
         drain(false);
     }
-    for (const auto& t : m.triangles) {  // OBJ counts from 1
-        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", t[0] + 1, t[0] + 1,
-                       t[1] + 1, t[1] + 1, t[2] + 1, t[2] + 1);
+    forEachFace(m, [&](const uint32_t* c, size_t n) {
+        buf.push_back('f');
+        for (size_t k = 0; k < n; ++k)  // OBJ counts from 1
+            fmt::format_to(std::back_inserter(buf), " {}//{}", c[k] + 1, c[k] + 1);
+        buf.push_back('\n');
         drain(false);
-    }
+    });
     drain(true);
 }
 
@@ -398,7 +430,7 @@ void writePly(const TriangleMesh& m, std::ostream& out)
         << "property float nx\nproperty float ny\nproperty float nz\n";
     if (rgb)
         out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-    out << "element face " << m.triangles.size()
+    out << "element face " << faceCount(m)
         << "\nproperty list uchar uint vertex_indices\nend_header\n";
     static_assert(sizeof(float) == 4 && sizeof(uint32_t) == 4, "PLY float and uint are 4 bytes");
     // x86 and ARM are little-endian: the values are written as they are.
@@ -414,12 +446,13 @@ void writePly(const TriangleMesh& m, std::ostream& out)
                 o[24 + c] = char(toByte(m.colors[i][c]));
     }
     out.write(buf.data(), std::streamsize(buf.size()));
-    buf.resize(m.triangles.size() * 13);
-    for (size_t i = 0; i < m.triangles.size(); ++i) {
-        char* o = buf.data() + i * 13;
-        o[0] = 3;
-        std::memcpy(o + 1, m.triangles[i].data(), 12);
-    }
+    buf.clear();
+    forEachFace(m, [&](const uint32_t* c, size_t n) {
+        const size_t o = buf.size();
+        buf.resize(o + 1 + 4 * n);
+        buf[o] = char(uint8_t(n));
+        std::memcpy(buf.data() + o + 1, c, 4 * n);
+    });
     out.write(buf.data(), std::streamsize(buf.size()));
 }
 

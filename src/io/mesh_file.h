@@ -13,11 +13,21 @@
 namespace cambium {
 
 /// A triangle mesh in world space, counter-clockwise seen from outside.
+/// `polygons` keeps faces of more corners (the quads of a subdivision
+/// surface, the faces of a file read): when set, the writers write them and
+/// `triangles` is their fan, which everything else reads.
 struct TriangleMesh {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3s> normals;  ///< unit, outward: the level set's gradient at each point
     std::vector<openvdb::Vec3s> colors;   ///< from the Cd grid at each point; empty without one
     std::vector<std::array<uint32_t, 3>> triangles;
+    struct Polygons {
+        std::vector<uint32_t> sizes, corners;
+        bool empty() const { return sizes.empty(); }
+    } polygons;
+
+    /// Adds a face of n >= 3 corners: into polygons, and fanned into triangles.
+    void addPolygon(const uint32_t* corners, size_t n);
 };
 
 /// Writes the mesh as Wavefront OBJ (points, normals, triangles; colours as

@@ -33,6 +33,8 @@ std::vector<size_t> faceStarts(const ControlMesh& mesh, const std::string& what)
         if (mesh.faceSizes[f] < 3)
             refuse(what, fmt::format("face {} has {} corners (a face needs at least 3)", f,
                                      mesh.faceSizes[f]));
+        if (mesh.faceSizes[f] > 255)
+            refuse(what, fmt::format("face {} has {} corners (at most 255)", f, mesh.faceSizes[f]));
         first[f + 1] = first[f] + size_t(mesh.faceSizes[f]);
     }
     if (first.back() != mesh.faceVerts.size())
@@ -67,7 +69,8 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
             const int a = mesh.faceVerts[first[f] + k];
             const int b = mesh.faceVerts[first[f] + (k + 1) % n];
             if (a < 0 || size_t(a) >= nv)
-                refuse(what, fmt::format("face {} uses point {}, but there are {} points", f, a, nv));
+                refuse(what,
+                       fmt::format("face {} uses point {}, but there are {} points", f, a, nv));
             for (int j = 0; j < k; ++j)
                 if (mesh.faceVerts[first[f] + j] == a)
                     refuse(what, fmt::format("face {} uses point {} twice", f, a));

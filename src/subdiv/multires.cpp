@@ -42,10 +42,11 @@ struct ScalarView {
 template <class F>
 void forEach(size_t n, const F& f)
 {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i)
-            f(i);
-    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i)
+                              f(i);
+                      });
 }
 
 glm::dvec3 anyPerpendicular(const glm::dvec3& n)
@@ -97,9 +98,10 @@ struct MultiresSurface::Refiner {
 MultiresSurface::MultiresSurface(const ControlMesh& base, int levels, const std::string& what)
 {
     if (levels < 0 || levels > kMaxSubdivisionLevels)
-        throw InputError(fmt::format("{}: {} subdivision levels (0 to {}: OpenSubdiv's uniform "
-                                     "refinement stops at {})",
-                                     what, levels, kMaxSubdivisionLevels, kMaxSubdivisionLevels));
+        throw InputError(
+            fmt::format("{}: {} subdivision levels (0 to {}: OpenSubdiv's uniform "
+                        "refinement stops at {})",
+                        what, levels, kMaxSubdivisionLevels, kMaxSubdivisionLevels));
     const MeshTopologyStats topo = checkControlMesh(base, what);
     // Closed meshes face outwards (frames' normals point out of the solid).
     ControlMesh turned;
@@ -120,8 +122,7 @@ MultiresSurface::MultiresSurface(const ControlMesh& base, int levels, const std:
     desc.vertIndicesPerFace = mesh->faceVerts.data();
     using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
     refiner_ = std::make_unique<Refiner>();
-    refiner_->topology.reset(
-        Factory::Create(desc, Factory::Options(Sdc::SCHEME_CATMARK, sdc)));
+    refiner_->topology.reset(Factory::Create(desc, Factory::Options(Sdc::SCHEME_CATMARK, sdc)));
     if (!refiner_->topology)
         throw InputError(fmt::format("{}: OpenSubdiv cannot refine this mesh", what));
     if (levels > 0) {
@@ -158,7 +159,8 @@ std::vector<glm::dvec3> vertexNormals(const SubdivLevel& lv, const std::vector<g
         const int* c = lv.faceVerts.data() + lv.faceStart[f];
         const int n = lv.faceSizes[f];
         if (n == 4) {
-            area[f] = glm::cross(p[size_t(c[2])] - p[size_t(c[0])], p[size_t(c[3])] - p[size_t(c[1])]);
+            area[f] =
+                glm::cross(p[size_t(c[2])] - p[size_t(c[0])], p[size_t(c[3])] - p[size_t(c[1])]);
         } else {  // Newell: twice the vector area of any polygon
             glm::dvec3 s(0.0);
             for (int k = 0; k < n; ++k)
@@ -260,7 +262,8 @@ void MultiresSurface::analyse(const Target& target)
     }
 }
 
-void MultiresSurface::limit(std::vector<glm::dvec3>& position, std::vector<glm::dvec3>& normal) const
+void MultiresSurface::limit(std::vector<glm::dvec3>& position,
+                            std::vector<glm::dvec3>& normal) const
 {
     const SubdivLevel& lv = levels_.back();
     const size_t n = lv.vertexCount();
@@ -282,6 +285,29 @@ std::vector<double> MultiresSurface::subdivideScalar(int l, const std::vector<do
     ScalarView dst{out.data()};
     refiner_->primvar->Interpolate(l, ScalarView{src.data()}, dst);
     return out;
+}
+
+TriangleMesh levelMesh(const SubdivLevel& lv)
+{
+    TriangleMesh m;
+    const std::vector<glm::dvec3> normal = vertexNormals(lv, lv.points);
+    m.points.resize(lv.points.size());
+    m.normals.resize(lv.points.size());
+    for (size_t v = 0; v < lv.points.size(); ++v) {
+        m.points[v] =
+            openvdb::Vec3s(float(lv.points[v].x), float(lv.points[v].y), float(lv.points[v].z));
+        m.normals[v] = openvdb::Vec3s(float(normal[v].x), float(normal[v].y), float(normal[v].z));
+    }
+    m.triangles.reserve(2 * lv.faceCount());
+    m.polygons.sizes.reserve(lv.faceCount());
+    m.polygons.corners.reserve(lv.faceVerts.size());
+    std::vector<uint32_t> c;
+    for (size_t f = 0; f < lv.faceCount(); ++f) {
+        c.assign(lv.faceVerts.begin() + lv.faceStart[f],
+                 lv.faceVerts.begin() + lv.faceStart[f] + lv.faceSizes[f]);
+        m.addPolygon(c.data(), c.size());
+    }
+    return m;
 }
 
 }  // namespace cambium

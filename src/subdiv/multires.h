@@ -10,6 +10,7 @@
 // editing level l's details never changes level l's frames.
 #pragma once
 
+#include "io/mesh_file.h"
 #include "subdiv/control_mesh.h"
 
 #include <glm/glm.hpp>
@@ -40,21 +41,22 @@ struct Frame {
 /// what synthesis made of it.
 struct SubdivLevel {
     // Topology (fixed when the surface is made).
-    std::vector<int> faceSizes, faceVerts;       ///< as in ControlMesh
-    std::vector<int> faceStart;                  ///< face f's corners: faceVerts[faceStart[f]...]
-    std::vector<int> vertexFaceStart, vertexFaces;  ///< faces around vertex v: [start[v], start[v+1])
-    std::vector<std::array<int, 2>> edges;       ///< each edge once
-    std::vector<int> tangentNeighbour;           ///< per vertex: the far end of its first edge
-    std::vector<uint8_t> boundary;               ///< per vertex: on the mesh's boundary
+    std::vector<int> faceSizes, faceVerts;  ///< as in ControlMesh
+    std::vector<int> faceStart;             ///< face f's corners: faceVerts[faceStart[f]...]
+    std::vector<int> vertexFaceStart,
+        vertexFaces;                        ///< faces around vertex v: [start[v], start[v+1])
+    std::vector<std::array<int, 2>> edges;  ///< each edge once
+    std::vector<int> tangentNeighbour;      ///< per vertex: the far end of its first edge
+    std::vector<uint8_t> boundary;          ///< per vertex: on the mesh's boundary
     // Synthesis.
-    std::vector<glm::dvec3> subdivided;      ///< Q: the coarser level subdivided (level 0: the base)
-    std::vector<double> subdividedScalar;    ///< the coarser scalar subdivided (level 0: the base's)
-    std::vector<Frame> frames;               ///< from Q
-    std::vector<glm::dvec3> detail;          ///< per vertex, in its frame
-    std::vector<double> scalarDetail;        ///< per vertex, added to the subdivided scalar
-    std::vector<glm::dvec3> points;          ///< P = Q + frames * detail
-    std::vector<double> scalar;              ///< the scalar channel after its detail
-    double meanEdgeLength = 0.0;             ///< of Q
+    std::vector<glm::dvec3> subdivided;    ///< Q: the coarser level subdivided (level 0: the base)
+    std::vector<double> subdividedScalar;  ///< the coarser scalar subdivided (level 0: the base's)
+    std::vector<Frame> frames;             ///< from Q
+    std::vector<glm::dvec3> detail;        ///< per vertex, in its frame
+    std::vector<double> scalarDetail;      ///< per vertex, added to the subdivided scalar
+    std::vector<glm::dvec3> points;        ///< P = Q + frames * detail
+    std::vector<double> scalar;            ///< the scalar channel after its detail
+    double meanEdgeLength = 0.0;           ///< of Q
 
     size_t vertexCount() const { return tangentNeighbour.size(); }
     size_t faceCount() const { return faceSizes.size(); }
@@ -93,8 +95,8 @@ public:
 
     /// Where a level's subdivided point should go (`q`, with its frame and the
     /// level's mean edge length): a point of the fine surface.
-    using Target = std::function<glm::dvec3(const glm::dvec3& q, const Frame& frame,
-                                            double edgeLength)>;
+    using Target =
+        std::function<glm::dvec3(const glm::dvec3& q, const Frame& frame, double edgeLength)>;
     /// Analysis: at each level, details that move each subdivided point to
     /// target(q, ...); synthesis then reproduces those points (to rounding).
     void analyse(const Target& target);
@@ -121,5 +123,10 @@ private:
 /// `points`: the sum of its faces' vector areas at each vertex.
 std::vector<glm::dvec3> vertexNormals(const SubdivLevel& topology,
                                       const std::vector<glm::dvec3>& points);
+
+/// A level's synthesised points as a mesh: its faces kept as polygons
+/// (quads above level 0), fanned into triangles, unit outward normals
+/// (vertexNormals); no colours.
+TriangleMesh levelMesh(const SubdivLevel& level);
 
 }  // namespace cambium

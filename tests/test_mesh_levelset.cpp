@@ -1,0 +1,138 @@
+// Closed meshes into level sets: exact distances (a box against its closed
+// form), signs, OpenVDB's checks and meshToLevelSet as the oracle, volumes.
+#include "bake/mesh_levelset.h"
+#include "shape/base_shapes.h"
+#include "subdiv/multires.h"
+#include "test_util.h"
+#include "use/mesh.h"
+
+#include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetMeasure.h>
+#include <openvdb/tools/MeshToVolume.h>
+
+#include <cmath>
+
+using namespace cambium;
+
+namespace {
+
+/// The sphere of radius 1, fitted at every level: its finest level's mesh.
+TriangleMesh sphereMesh(int levels)
+{
+    const BaseShape sphere = sphereBase(1.0);
+    MultiresSurface s(sphere.mesh, levels, "sphere");
+    s.analyse(sphere.target);
+    return levelMesh(s.finest());
+}
+
+double boxDistance(const openvdb::Vec3d& p, double a)
+{
+    const openvdb::Vec3d q(std::fabs(p.x()) - a, std::fabs(p.y()) - a, std::fabs(p.z()) - a);
+    const openvdb::Vec3d o(std::max(q.x(), 0.0), std::max(q.y(), 0.0), std::max(q.z(), 0.0));
+    return o.length() + std::min(std::max({q.x(), q.y(), q.z()}), 0.0);
+}
+
+}  // namespace
+
+TEST(MeshLevelSet, BoxValuesAreTheExactSignedDistance)
+{
+    // The cube [-0.5, 0.5]^3 as 12 triangles, with corners and edges whose
+    // signs need the pseudo-normals, placed off the voxel grid.
+    TriangleMesh box;
+    const BaseShape cube = cubeBase(1.0);
+    for (const glm::dvec3& p : cube.mesh.points)
+        box.points.push_back(openvdb::Vec3s(float(p.x), float(p.y), float(p.z)));
+    for (size_t f = 0; f < 6; ++f) {
+        const int* c = cube.mesh.faceVerts.data() + 4 * f;
+        const uint32_t q[4] = {uint32_t(c[0]), uint32_t(c[1]), uint32_t(c[2]), uint32_t(c[3])};
+        box.addPolygon(q, 4);
+    }
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.0371;
+    opt.halfWidth = 3.0;
+    const BakedGrids g = bakeMeshLevelSet(box, opt, "box");
+    // All of OpenVDB's checks but the Eikonal one: at the box's medial axis
+    // inside the band the true distance's finite-difference gradient is short.
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface, 8), "");
+    const double h = opt.voxelSize;
+    size_t n = 0;
+    double worst = 0.0;
+    for (auto it = g.surface->tree().cbeginValueOn(); it; ++it) {
+        const openvdb::Vec3d p = g.surface->indexToWorld(it.getCoord());
+        worst = std::max(worst, std::fabs(double(*it) - boxDistance(p, 0.5)));
+        ++n;
+    }
+    EXPECT_LT(worst, 1e-5 * h);
+    EXPECT_GT(n, size_t(6 * (1.0 / h) * (1.0 / h) * 5));
+    // Every voxel, active or not, on the right side (the flood fill's signs).
+    size_t wrong = 0;
+    for (auto it = g.surface->tree().cbeginValueAll(); it; ++it)
+        if (it.isVoxelValue()) {
+            const double d = boxDistance(g.surface->indexToWorld(it.getCoord()), 0.5);
+            wrong += std::fabs(d) > 1e-9 && (d < 0) != (*it < 0);
+        }
+    EXPECT_EQ(wrong, 0u);
+    test::report("{} band voxels, largest error {:.3g} voxels", n, worst / h);
+}
+
+TEST(MeshLevelSet, SphereAgreesWithMeshToLevelSetAndTheMesh)
+{
+    const TriangleMesh mesh = sphereMesh(5);
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.02;
+    const BakedGrids g = bakeMeshLevelSet(mesh, opt, "sphere");
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
+    const double h = opt.voxelSize;
+
+    // The mesh's vertices lie on the zero crossing (trilinear), within 0.05 voxel.
+    openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> sampler(*g.surface);
+    double far = 0.0;
+    for (const auto& p : mesh.points)
+        far = std::max(far, std::fabs(double(sampler.wsSample(openvdb::Vec3d(p)))) / h);
+    EXPECT_LT(far, 0.05);
+
+    // OpenVDB's meshToLevelSet of the same triangles, as the oracle.
+    std::vector<openvdb::Vec3s> pts = mesh.points;
+    std::vector<openvdb::Vec3I> tris;
+    for (const auto& t : mesh.triangles)
+        tris.push_back(openvdb::Vec3I(t[0], t[1], t[2]));
+    const auto xform = openvdb::math::Transform::createLinearTransform(h);
+    const auto oracle = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, pts, tris, 3.0f);
+    auto acc = oracle->getConstAccessor();
+    double worst = 0.0;
+    size_t compared = 0;
+    for (auto it = g.surface->tree().cbeginValueOn(); it; ++it) {
+        if (std::fabs(*it) > 1.5 * h || !acc.isValueOn(it.getCoord()))
+            continue;
+        worst = std::max(worst, std::fabs(double(*it - acc.getValue(it.getCoord()))) / h);
+        ++compared;
+    }
+    EXPECT_GT(compared, 10000u);
+    EXPECT_LT(worst, 0.05);
+
+    // Volume: the level set's against the mesh's (divergence theorem).
+    const double vMesh = meshVolume(mesh), vSet = openvdb::tools::levelSetVolume(*g.surface);
+    EXPECT_NEAR(vSet / vMesh, 1.0, 2e-3);
+    test::report("{} points within {:.4f} voxel of the zero crossing; {} voxels near the surface "
+                 "within {:.4f} voxel of meshToLevelSet; volume {:.5f} vs mesh {:.5f}",
+                 mesh.points.size(), far, compared, worst, vSet, vMesh);
+}
+
+TEST(MeshLevelSet, OpenOrNonManifoldMeshesAreRefused)
+{
+    MultiresSurface plane(planeBase(1.0, 2).mesh, 1, "plane");
+    plane.synthesize();
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.05;
+    try {
+        bakeMeshLevelSet(levelMesh(plane.finest()), opt, "plane.json");
+        ADD_FAILURE() << "an open mesh was baked";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("plane.json: the edge between points"),
+                  std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("the surface is open"), std::string::npos) << e.what();
+    }
+    TriangleMesh empty;
+    EXPECT_THROW(bakeMeshLevelSet(empty, opt, "empty"), InputError);
+}
