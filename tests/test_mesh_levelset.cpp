@@ -114,9 +114,10 @@ TEST(MeshLevelSet, SphereAgreesWithMeshToLevelSetAndTheMesh)
     // Volume: the level set's against the mesh's (divergence theorem).
     const double vMesh = meshVolume(mesh), vSet = openvdb::tools::levelSetVolume(*g.surface);
     EXPECT_NEAR(vSet / vMesh, 1.0, 2e-3);
-    test::report("{} points within {:.4f} voxel of the zero crossing; {} voxels near the surface "
-                 "within {:.4f} voxel of meshToLevelSet; volume {:.5f} vs mesh {:.5f}",
-                 mesh.points.size(), far, compared, worst, vSet, vMesh);
+    test::report(
+        "{} points within {:.4f} voxel of the zero crossing; {} voxels near the surface "
+        "within {:.4f} voxel of meshToLevelSet; volume {:.5f} vs mesh {:.5f}",
+        mesh.points.size(), far, compared, worst, vSet, vMesh);
 }
 
 TEST(MeshLevelSet, OpenOrNonManifoldMeshesAreRefused)

@@ -18,7 +18,8 @@ namespace {
 const cambium::AddCommand kCommands[] = {
     cambium::addInfoCommand,    cambium::addEvalCommand,   cambium::addBakeCommand,
     cambium::addMeshCommand,    cambium::addRenderCommand, cambium::addBenchCommand,
-    cambium::addLSystemCommand, cambium::addGrowthCommand, cambium::addVersionCommand,
+    cambium::addLSystemCommand, cambium::addGrowthCommand, cambium::addShapeCommand,
+    cambium::addVersionCommand,
 };
 
 }  // namespace

@@ -30,6 +30,7 @@ void addRenderCommand(CLI::App& app, Action& action);
 void addBenchCommand(CLI::App& app, Action& action);
 void addLSystemCommand(CLI::App& app, Action& action);
 void addGrowthCommand(CLI::App& app, Action& action);
+void addShapeCommand(CLI::App& app, Action& action);
 void addVersionCommand(CLI::App& app, Action& action);
 
 /// The model options of info and bake as the command line gives them.

@@ -92,8 +92,8 @@ std::vector<Tri> prepareTriangles(const TriangleMesh& mesh, double h, const std:
         for (int k = 0; k < 3; ++k) {
             t.v[k] = mesh.triangles[i][size_t(k)];
             if (t.v[k] >= np)
-                throw InputError(fmt::format("{}: triangle {} uses point {} of {}", what, i,
-                                             t.v[k], np));
+                throw InputError(
+                    fmt::format("{}: triangle {} uses point {} of {}", what, i, t.v[k], np));
             const openvdb::Vec3s& s = mesh.points[t.v[k]];
             *p[k] = dvec3(s.x(), s.y(), s.z()) / h;
         }
@@ -115,7 +115,8 @@ std::vector<Tri> prepareTriangles(const TriangleMesh& mesh, double h, const std:
     for (size_t i = 0; i < nt; ++i)
         if (used[i])
             for (int k = 0; k < 3; ++k)
-                edges.push_back({edgeKey(tris[i].v[k], tris[i].v[(k + 1) % 3]), uint32_t(3 * i + k)});
+                edges.push_back(
+                    {edgeKey(tris[i].v[k], tris[i].v[(k + 1) % 3]), uint32_t(3 * i + k)});
     if (edges.empty())
         throw InputError(fmt::format("{}: the mesh has no triangles of any area", what));
     tbb::parallel_sort(edges.begin(), edges.end());
@@ -146,7 +147,10 @@ std::vector<Tri> prepareTriangles(const TriangleMesh& mesh, double h, const std:
     return tris;
 }
 
-int leafOf(int i) { return i >> 3; }
+int leafOf(int i)
+{
+    return i >> 3;
+}
 
 int sext21(uint64_t v)
 {
@@ -174,8 +178,8 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
     if (!(h > 0.0) || !(W >= 1.0))
-        throw InputError(fmt::format("{}: voxel size {} and half-width {} (need > 0 and >= 1)",
-                                     what, h, W));
+        throw InputError(
+            fmt::format("{}: voxel size {} and half-width {} (need > 0 and >= 1)", what, h, W));
     auto progress = [&](const char* stage, double f) {
         if (opt.progress)
             opt.progress(stage, f);
@@ -229,74 +233,78 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     band.color.assign(nLeaves, nullptr);
     band.active.assign(nLeaves, 0);
     const double w2 = W * W;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nLeaves, 16), [&](const tbb::blocked_range<size_t>& r) {
-        float best[kLeafVoxels];
-        int32_t bestTri[kLeafVoxels];
-        for (size_t l = r.begin(); l != r.end(); ++l) {
-            const uint64_t key = bins[runs[l]].first;
-            const int ox = sext21(key >> 42) << 3, oy = sext21(key >> 21) << 3, oz = sext21(key) << 3;
-            std::fill(best, best + kLeafVoxels, float(w2));
-            std::fill(bestTri, bestTri + kLeafVoxels, -1);
-            for (size_t b = runs[l]; b < runs[l + 1]; ++b) {
-                const Tri& t = tris[bins[b].second];
-                int lo[3], hi[3];
-                leafRange(t, lo, hi);
-                const int x0 = std::max(lo[0], ox), x1 = std::min(hi[0], ox + 7);
-                const int y0 = std::max(lo[1], oy), y1 = std::min(hi[1], oy + 7);
-                const int z0 = std::max(lo[2], oz), z1 = std::min(hi[2], oz + 7);
-                for (int x = x0; x <= x1; ++x)
-                    for (int y = y0; y <= y1; ++y)
-                        for (int z = z0; z <= z1; ++z) {
-                            const int v = ((x - ox) << 6) | ((y - oy) << 3) | (z - oz);
-                            const dvec3 p(x, y, z);
-                            const double dp = glm::dot(p - t.a, t.normal[kFace]);
-                            if (dp * dp >= double(best[v]))  // the plane is nearer than the triangle
-                                continue;
-                            Feature f;
-                            const dvec3 c = closestOnTriangle(p, t, f);
-                            const dvec3 d = p - c;
-                            const double d2 = glm::dot(d, d);
-                            if (d2 < double(best[v])) {
-                                best[v] = float(d2);
-                                bestTri[v] = int32_t(bins[b].second);
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, nLeaves, 16), [&](const tbb::blocked_range<size_t>& r) {
+            float best[kLeafVoxels];
+            int32_t bestTri[kLeafVoxels];
+            for (size_t l = r.begin(); l != r.end(); ++l) {
+                const uint64_t key = bins[runs[l]].first;
+                const int ox = sext21(key >> 42) << 3, oy = sext21(key >> 21) << 3,
+                          oz = sext21(key) << 3;
+                std::fill(best, best + kLeafVoxels, float(w2));
+                std::fill(bestTri, bestTri + kLeafVoxels, -1);
+                for (size_t b = runs[l]; b < runs[l + 1]; ++b) {
+                    const Tri& t = tris[bins[b].second];
+                    int lo[3], hi[3];
+                    leafRange(t, lo, hi);
+                    const int x0 = std::max(lo[0], ox), x1 = std::min(hi[0], ox + 7);
+                    const int y0 = std::max(lo[1], oy), y1 = std::min(hi[1], oy + 7);
+                    const int z0 = std::max(lo[2], oz), z1 = std::min(hi[2], oz + 7);
+                    for (int x = x0; x <= x1; ++x)
+                        for (int y = y0; y <= y1; ++y)
+                            for (int z = z0; z <= z1; ++z) {
+                                const int v = ((x - ox) << 6) | ((y - oy) << 3) | (z - oz);
+                                const dvec3 p(x, y, z);
+                                const double dp = glm::dot(p - t.a, t.normal[kFace]);
+                                if (dp * dp >=
+                                    double(best[v]))  // the plane is nearer than the triangle
+                                    continue;
+                                Feature f;
+                                const dvec3 c = closestOnTriangle(p, t, f);
+                                const dvec3 d = p - c;
+                                const double d2 = glm::dot(d, d);
+                                if (d2 < double(best[v])) {
+                                    best[v] = float(d2);
+                                    bestTri[v] = int32_t(bins[b].second);
+                                }
                             }
-                        }
-            }
-            size_t active = 0;
-            for (int v = 0; v < kLeafVoxels; ++v)
-                active += bestTri[v] >= 0;
-            if (active == 0)
-                continue;
-            auto* leaf = new openvdb::FloatTree::LeafNodeType(openvdb::Coord(ox, oy, oz), background);
-            openvdb::Vec3fTree::LeafNodeType* cleaf =
-                coloured ? new openvdb::Vec3fTree::LeafNodeType(openvdb::Coord(ox, oy, oz),
-                                                                openvdb::Vec3f(0.0f))
-                         : nullptr;
-            for (int v = 0; v < kLeafVoxels; ++v) {
-                if (bestTri[v] < 0)
-                    continue;
-                const Tri& t = tris[size_t(bestTri[v])];
-                const dvec3 p(ox + (v >> 6), oy + ((v >> 3) & 7), oz + (v & 7));
-                Feature f;
-                const dvec3 c = closestOnTriangle(p, t, f);
-                const dvec3 d = p - c;
-                const double dist = std::sqrt(glm::dot(d, d));
-                const bool inside = glm::dot(d, t.normal[f]) < 0.0;
-                leaf->setValueOn(openvdb::Index(v), float((inside ? -dist : dist) * h));
-                if (cleaf) {
-                    const dvec3 bc = barycentric(c, t);
-                    const openvdb::Vec3s col = mesh.colors[t.v[0]] * float(bc.x) +
-                                               mesh.colors[t.v[1]] * float(bc.y) +
-                                               mesh.colors[t.v[2]] * float(bc.z);
-                    cleaf->setValueOn(openvdb::Index(v), col);
                 }
+                size_t active = 0;
+                for (int v = 0; v < kLeafVoxels; ++v)
+                    active += bestTri[v] >= 0;
+                if (active == 0)
+                    continue;
+                auto* leaf =
+                    new openvdb::FloatTree::LeafNodeType(openvdb::Coord(ox, oy, oz), background);
+                openvdb::Vec3fTree::LeafNodeType* cleaf =
+                    coloured ? new openvdb::Vec3fTree::LeafNodeType(openvdb::Coord(ox, oy, oz),
+                                                                    openvdb::Vec3f(0.0f))
+                             : nullptr;
+                for (int v = 0; v < kLeafVoxels; ++v) {
+                    if (bestTri[v] < 0)
+                        continue;
+                    const Tri& t = tris[size_t(bestTri[v])];
+                    const dvec3 p(ox + (v >> 6), oy + ((v >> 3) & 7), oz + (v & 7));
+                    Feature f;
+                    const dvec3 c = closestOnTriangle(p, t, f);
+                    const dvec3 d = p - c;
+                    const double dist = std::sqrt(glm::dot(d, d));
+                    const bool inside = glm::dot(d, t.normal[f]) < 0.0;
+                    leaf->setValueOn(openvdb::Index(v), float((inside ? -dist : dist) * h));
+                    if (cleaf) {
+                        const dvec3 bc = barycentric(c, t);
+                        const openvdb::Vec3s col = mesh.colors[t.v[0]] * float(bc.x) +
+                                                   mesh.colors[t.v[1]] * float(bc.y) +
+                                                   mesh.colors[t.v[2]] * float(bc.z);
+                        cleaf->setValueOn(openvdb::Index(v), col);
+                    }
+                }
+                band.surface[l] = leaf;
+                band.color[l] = cleaf;
+                band.active[l] = active;
             }
-            band.surface[l] = leaf;
-            band.color[l] = cleaf;
-            band.active[l] = active;
-        }
-        progress("distances", double(r.end()) / double(nLeaves));
-    });
+            progress("distances", double(r.end()) / double(nLeaves));
+        });
 
     BakedGrids out;
     out.stats.voxelSize = h;

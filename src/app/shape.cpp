@@ -1,0 +1,69 @@
+// cambium shape — a shape file (docs/shape-format.md) synthesised into a mesh
+// or baked into a level set.
+#include "app/app.h"
+
+#include "core/system.h"
+#include "shape/shape_job.h"
+
+#include <fmt/format.h>
+
+namespace cambium {
+
+namespace {
+
+struct ShapeFlags {
+    ShapeRequest request;
+    double voxelSize = 0.0;
+    CLI::Option* voxelOption = nullptr;
+};
+
+int runShapeCommand(ShapeFlags& f)
+{
+    if (f.voxelOption->count())
+        f.request.voxelSize = f.voxelSize;
+    ProgressBar bar;
+    ShapeCallbacks cb;
+    cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
+    const ShapeReport r = runShape(f.request, cb);
+    bar.clear();
+    fmt::print("shape {}: {} levels, {} vertices, {} faces, synthesised in {:.3f} s; area {:.6g}, "
+               "volume {:.6g}\n",
+               f.request.input, r.levels, formatCount(double(r.vertices)),
+               formatCount(double(r.faces)), r.synthesisSeconds, r.area, r.volume);
+    if (r.levelSet)
+        fmt::print("baked {}: voxel size {:.6g}{}, {} active voxels in {} leaves, {:.2f} s; "
+                   "written in {:.2f} s; peak memory {}\n",
+                   f.request.output, r.voxelSize, r.autoVoxelSize ? " (automatic)" : "",
+                   formatCount(double(r.stats.activeVoxels)),
+                   formatCount(double(r.stats.activeLeaves)), r.bakeSeconds, r.writeSeconds,
+                   formatBytes(r.peakMemoryBytes));
+    else
+        fmt::print("wrote {} in {:.2f} s; peak memory {}\n", f.request.output, r.writeSeconds,
+                   formatBytes(r.peakMemoryBytes));
+    return 0;
+}
+
+}  // namespace
+
+void addShapeCommand(CLI::App& app, Action& action)
+{
+    auto f = std::make_shared<ShapeFlags>();
+    auto* cmd = app.add_subcommand("shape",
+                                   "Synthesise a multi-scale subdivision shape (paper 004; "
+                                   "docs/shape-format.md) into a mesh or a level set");
+    cmd->add_option("shape", f->request.input, "Shape file (.json)")->required();
+    cmd->add_option("-o,--output", f->request.output,
+                    "Output: .vdb (a level set with Cd), .obj or .ply (the finest level's quads)")
+        ->required();
+    f->voxelOption = cmd->add_option("--voxel-size", f->voxelSize,
+                                     "Voxel size of a .vdb (default: 512 voxels across the shape)");
+    cmd->add_option("--levels", f->request.levels,
+                    "Subdivision levels (0-15; default: the file's)");
+    cmd->add_option("--half-width", f->request.halfWidth, "Narrow-band half-width in voxels")
+        ->capture_default_str();
+    cmd->add_flag("--fog", f->request.fog, "Also write a 'density' fog volume");
+    cmd->add_flag("--half", f->request.half, "Store the grids' floats as 16-bit halves");
+    cmd->callback([f, &action] { action = [f] { return runShapeCommand(*f); }; });
+}
+
+}  // namespace cambium

@@ -1,0 +1,98 @@
+// cambium — shape files (docs/shape-format.md): a base shape, a number of
+// subdivision levels, procedural multi-scale details (paper 004, section
+// 4), where they are placed (section 5.1), local detail edits (section 5.2)
+// and the colour of the result.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+enum class BaseType { Cube, Sphere, Torus, Plane, Fuse, Mesh, LevelSet, Model };
+
+struct BaseSpec {
+    BaseType type = BaseType::Cube;
+    double size = 2.0;                     ///< cube edge, plane width
+    double radius = 1.0;                   ///< sphere radius, fuse's largest radius
+    double major = 1.0, minor = 0.35;      ///< torus
+    double length = 3.0;                   ///< fuse
+    int around = 8, tube = 6, rings = 8;   ///< torus and fuse control grids
+    int cells = 4;                         ///< plane
+    int terms = 2;                         ///< fuse profile
+    std::string file;                      ///< mesh, vdb or model file (absolute or as given)
+    double coarseVoxelSize = 0.0;          ///< vdb, model: the base's voxel size (0: automatic)
+    double fineVoxelSize = 0.0;            ///< model: the analysed bake's voxel size (0: automatic)
+    double year = 0.0;                     ///< model: a growth file's year (0: its last)
+};
+
+enum class DetailType { Rock, Berry, Tentacle, Mushroom, Spur };
+
+/// Where a local feature's size and distances come from (section 5.1): the
+/// control points of its level (topological rings, the vertex normal: the
+/// parametrisation shows) or a chart on the tangent plane at the seed (metric
+/// distances, the seed's normal: independent of the parametrisation).
+enum class Placement { ControlPoints, Chart };
+
+struct DetailSpec {
+    DetailType type = DetailType::Rock;
+    std::string path;          ///< its JSON path, for messages
+    std::vector<int> levels;   ///< the levels it acts at, ascending
+    uint32_t seed = 0;
+    double amplitude = 0.05;   ///< rock: the first level's amplitude (halving per level)
+    double frequency = 2.0;    ///< rock: the first level's noise frequency (doubling per level)
+    bool perControlPoint = false;  ///< rock: the two-pass form (a random value per point)
+    double radius = 0.2;       ///< berry, spur, mushroom: the first level's feature radius
+    double height = 0.3;       ///< spur, mushroom: feature height
+    double length = 0.02;      ///< tentacle: reference length
+    double angle = 0.0;        ///< tentacle: rotation angle theta (radians)
+    int children = 3;          ///< berry: child seeds per seed and level
+    // Seeds: given points (projected onto the surface) or a Poisson-disk set.
+    std::vector<glm::dvec3> at;
+    double spacing = 0.0;      ///< Poisson-disk minimum spacing (global placement)
+    Placement placement = Placement::ControlPoints;
+    double scalar = 1.0;       ///< weight of its normal displacement in the scalar channel
+};
+
+/// Local detail modification: details of `levels` near `at` scaled by
+/// 1 + (gain - 1) k(d / radius), k(s) = (1 - s)^2 (1 + 2 s) (C1, zero at the radius).
+struct EditSpec {
+    std::string path;
+    glm::dvec3 at{0.0};
+    double radius = 0.1, gain = 0.0;
+    std::vector<int> levels;
+    bool topological = false;  ///< edge hops times the level's mean edge length, else metric
+};
+
+/// The colour of the baked Cd: one colour, or a ramp over the scalar channel.
+struct ColorSpec {
+    glm::dvec3 color{0.75, 0.72, 0.68};
+    bool ramp = false;
+    double low = 0.0, high = 1.0;          ///< the scalar range of the ramp
+    glm::dvec3 lowColor{0.0}, highColor{1.0};
+};
+
+struct ShapeSpec {
+    std::string source;  ///< the file, for messages
+    BaseSpec base;
+    int levels = 5;
+    std::vector<DetailSpec> details;
+    std::vector<EditSpec> edits;
+    ColorSpec color;
+};
+
+/// Reads a shape file: InputError "FILE: PATH: PROBLEM" (unknown keys with
+/// suggestions, missing or out-of-range values, levels beyond 15, a detail
+/// level beyond the shape's, unreadable base files) before any work.
+ShapeSpec readShapeFile(const std::string& path);
+/// The same from text; relative base files are taken from `directory`.
+ShapeSpec parseShape(const std::string& text, const std::string& source,
+                     const std::string& directory = "");
+
+/// Whether a .json file's top level is a shape (it has "base").
+bool looksLikeShapeFile(const std::string& path);
+
+}  // namespace cambium

@@ -1,0 +1,129 @@
+// cambium — shape synthesis.
+#include "shape/synthesis.h"
+
+#include "core/error.h"
+#include "shape/base_shapes.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace cambium {
+
+double estimateSynthesisBytes(size_t baseFaces, int levels)
+{
+    // Per vertex of a level: Q, P, detail (3 x 24 bytes), frame (72), two
+    // scalars and their details (32), topology and OpenSubdiv's (about 150);
+    // the levels together hold 4/3 of the finest, which has about as many
+    // vertices as faces: 4^levels per base quad.
+    const double finest = double(baseFaces) * std::pow(4.0, levels);
+    return finest * (4.0 / 3.0) * 330.0;
+}
+
+BaseShape makeBase(const BaseSpec& b, const std::string& source)
+{
+    switch (b.type) {
+    case BaseType::Cube: return cubeBase(b.size);
+    case BaseType::Sphere: return sphereBase(b.radius);
+    case BaseType::Torus: return torusBase(b.major, b.minor, b.around, b.tube);
+    case BaseType::Plane: return planeBase(b.size, b.cells);
+    case BaseType::Fuse: return fuseBase(b.length, b.radius, b.terms, b.around, b.rings);
+    case BaseType::Mesh: {
+        const TriangleMesh m = readMesh(b.file);
+        BaseShape s;
+        for (const auto& p : m.points)
+            s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
+        s.mesh.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
+        s.mesh.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
+        return s;
+    }
+    case BaseType::LevelSet:
+    case BaseType::Model: break;
+    }
+    throw InputError(fmt::format("{}: base: analysed bases (vdb, model) are not built by makeBase",
+                                 source));
+}
+
+ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels) : spec_(spec)
+{
+    if (levels >= 0)
+        spec_.levels = levels;
+    for (const DetailSpec& d : spec_.details)
+        for (int l : d.levels)
+            if (l > spec_.levels)
+                throw InputError(fmt::format("{}: {}.levels: level {} is finer than the {} levels "
+                                             "synthesised",
+                                             spec_.source, d.path, l, spec_.levels));
+    const BaseShape base = makeBase(spec_.base, spec_.source);
+    surface_ = std::make_unique<MultiresSurface>(base.mesh, spec_.levels,
+                                                 spec_.source + ": base");
+    baseDetail_.resize(size_t(spec_.levels) + 1);
+    if (base.target) {
+        surface_->analyse(base.target);
+        for (int l = 1; l <= spec_.levels; ++l)
+            baseDetail_[size_t(l)] = surface_->level(l).detail;
+    }
+    for (const DetailSpec& d : spec_.details)
+        details_.push_back(makeDetail(d));
+    adjacency_.resize(size_t(spec_.levels) + 1);
+}
+
+ShapeSurface::~ShapeSurface() = default;
+
+const Adjacency& ShapeSurface::adjacency(int l)
+{
+    auto& a = adjacency_[size_t(l)];
+    if (!a)
+        a = std::make_unique<Adjacency>(surface_->level(l));
+    return *a;
+}
+
+void ShapeSurface::hook(int l, SubdivLevel& level)
+{
+    const std::vector<glm::dvec3>& base = baseDetail_[size_t(l)];
+    if (base.empty())
+        std::fill(level.detail.begin(), level.detail.end(), glm::dvec3(0.0));
+    else
+        level.detail = base;
+    std::fill(level.scalarDetail.begin(), level.scalarDetail.end(), 0.0);
+    if (l == 0)
+        return;
+    for (auto& d : details_)
+        d->apply(l, level, adjacency(l));
+    for (const EditSpec& e : spec_.edits)
+        applyEdit(e, l, level, adjacency(l));
+}
+
+void ShapeSurface::synthesize()
+{
+    synthesizeFrom(0);
+}
+
+void ShapeSurface::synthesizeFrom(int l)
+{
+    surface_->synthesizeFrom(l, [this](int lv, SubdivLevel& level) { hook(lv, level); });
+}
+
+glm::dvec3 ShapeSurface::color(double s) const
+{
+    const ColorSpec& c = spec_.color;
+    if (!c.ramp)
+        return c.color;
+    const double t = std::clamp((s - c.low) / (c.high - c.low), 0.0, 1.0);
+    return c.lowColor + (c.highColor - c.lowColor) * t;
+}
+
+TriangleMesh ShapeSurface::mesh() const
+{
+    const SubdivLevel& f = surface_->finest();
+    TriangleMesh m = levelMesh(f);
+    m.colors.resize(f.vertexCount());
+    for (size_t v = 0; v < f.vertexCount(); ++v) {
+        const glm::dvec3 c = color(f.scalar[v]);
+        m.colors[v] = openvdb::Vec3s(float(c.x), float(c.y), float(c.z));
+    }
+    return m;
+}
+
+}  // namespace cambium

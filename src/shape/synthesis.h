@@ -1,0 +1,66 @@
+// cambium — a shape file made into a multi-resolution surface: its base
+// (built in, a mesh file, or analysed from a level set or a cambium model),
+// the details of every level (the base's own, then the procedural ones, then
+// the local edits) and the mesh and colours of the result.
+#pragma once
+
+#include "io/mesh_file.h"
+#include "shape/base_shapes.h"
+#include "shape/details.h"
+#include "shape/shape.h"
+#include "subdiv/multires.h"
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// The memory a shape's synthesis needs at `levels` levels of a base of
+/// `baseFaces` faces (bytes, estimated), to refuse what cannot fit.
+double estimateSynthesisBytes(size_t baseFaces, int levels);
+
+class ShapeSurface {
+public:
+    /// Builds the base (InputError naming the file for a bad mesh or base
+    /// file) and the surface's topology; `levels` overrides the file's when
+    /// >= 0.  Nothing is synthesised yet.
+    ShapeSurface(const ShapeSpec& spec, int levels = -1);
+    ~ShapeSurface();
+
+    /// Synthesis of every level.
+    void synthesize();
+    /// Synthesis from level l on (after an edit of level l's details or
+    /// parameters: the coarser levels stay).
+    void synthesizeFrom(int l);
+
+    const ShapeSpec& spec() const { return spec_; }
+    int levels() const { return surface_->levels(); }
+    const MultiresSurface& surface() const { return *surface_; }
+    MultiresSurface& surface() { return *surface_; }
+    /// Level l's details as the base gives them (empty: none).
+    const std::vector<glm::dvec3>& baseDetail(int l) const { return baseDetail_[size_t(l)]; }
+
+    /// The finest level as a mesh (quads kept, normals, the colour of each
+    /// point from the file's colour or ramp of the scalar channel).
+    TriangleMesh mesh() const;
+    /// The colour of a scalar value.
+    glm::dvec3 color(double scalar) const;
+
+private:
+    void hook(int l, SubdivLevel& level);
+    const Adjacency& adjacency(int l);
+
+    ShapeSpec spec_;
+    std::unique_ptr<MultiresSurface> surface_;
+    std::vector<std::vector<glm::dvec3>> baseDetail_;
+    std::vector<std::unique_ptr<Detail>> details_;
+    std::vector<std::unique_ptr<Adjacency>> adjacency_;
+};
+
+/// The base of a shape file as a control mesh and the exact surface it is
+/// fitted to (mesh files read; built-in shapes made).
+BaseShape makeBase(const BaseSpec& base, const std::string& source);
+
+}  // namespace cambium
