@@ -3,7 +3,10 @@
 
 #include "blobtree/stats.h"
 #include "core/clock.h"
+#include "core/error.h"
+#include "core/system.h"
 #include "model/load_model.h"
+#include "shape/synthesis.h"
 
 #include <fmt/format.h>
 
@@ -11,8 +14,44 @@ namespace cambium {
 
 namespace {
 
+const char* const kBaseNames[] = {"cube", "sphere", "torus", "plane",
+                                  "fuse", "mesh",   "vdb",   "model"};
+const char* const kDetailNames[] = {"rock", "berry", "tentacle", "mushroom", "spur"};
+
+/// A shape file: its base, details and edits, and each level's counts.
+int runShapeInfo(const std::string& path)
+{
+    const ShapeSpec spec = readShapeFile(path);
+    const BaseShape base = makeBase(spec.base, spec.source, Device::OpenCL);
+    const double bytes = estimateSynthesisBytes(base.mesh.faceCount(), spec.levels);
+    if (bytes > availableMemoryBytes())
+        throw InputError(fmt::format("{}: {} levels would need about {} of memory", path,
+                                     spec.levels, formatBytes(bytes)));
+    const MultiresSurface surface(base.mesh, spec.levels, path);
+    fmt::print("shape      {}\n", path);
+    fmt::print("base       {}{}: {} points, {} faces\n", kBaseNames[int(spec.base.type)],
+               spec.base.file.empty() ? "" : " " + spec.base.file, base.mesh.points.size(),
+               base.mesh.faceCount());
+    fmt::print("levels     {}\n", spec.levels);
+    for (int l = 0; l <= surface.levels(); ++l)
+        fmt::print("  level {}: {} vertices, {} faces\n", l,
+                   formatCount(double(surface.level(l).vertexCount())),
+                   formatCount(double(surface.level(l).faceCount())));
+    for (const DetailSpec& d : spec.details) {
+        std::string levels;
+        for (int l : d.levels)
+            levels += (levels.empty() ? "" : ", ") + std::to_string(l);
+        fmt::print("detail     {} at levels {}\n", kDetailNames[int(d.type)], levels);
+    }
+    for (const EditSpec& e : spec.edits)
+        fmt::print("edit       gain {} within {} of {}\n", e.gain, e.radius, formatVec(e.at));
+    return 0;
+}
+
 int runInfo(const std::string& scenePath, const ModelOptions& model)
 {
+    if (looksLikeShapeFile(scenePath))
+        return runShapeInfo(scenePath);
     const auto start = Clock::now();
     const BlobTree tree = loadModel(scenePath, model);
     const double seconds = secondsSince(start);
@@ -48,7 +87,7 @@ void addInfoCommand(CLI::App& app, Action& action)
     auto* cmd = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
     cmd->add_option("scene", o->scene,
                     "Scene (JSON, docs/scene-format.md), growth parameters "
-                    "(docs/growth-format.md), L-system (.l, "
+                    "(docs/growth-format.md), shape (docs/shape-format.md), L-system (.l, "
                     "docs/lsystem-format.md) or skeleton (docs/skeleton-format.md)")
         ->required();
     addModelFlags(cmd, o->model);

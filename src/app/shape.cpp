@@ -26,17 +26,18 @@ int runShapeCommand(ShapeFlags& f)
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
     const ShapeReport r = runShape(f.request, cb);
     bar.clear();
-    fmt::print("shape {}: {} levels, {} vertices, {} faces, synthesised in {:.3f} s; area {:.6g}, "
-               "volume {:.6g}\n",
-               f.request.input, r.levels, formatCount(double(r.vertices)),
-               formatCount(double(r.faces)), r.synthesisSeconds, r.area, r.volume);
+    fmt::print(
+        "shape {}: {} levels, {} vertices, {} faces, synthesised in {:.3f} s; area {:.6g}, "
+        "volume {:.6g}\n",
+        f.request.input, r.levels, formatCount(double(r.vertices)), formatCount(double(r.faces)),
+        r.synthesisSeconds, r.area, r.volume);
     if (r.levelSet)
-        fmt::print("baked {}: voxel size {:.6g}{}, {} active voxels in {} leaves, {:.2f} s; "
-                   "written in {:.2f} s; peak memory {}\n",
-                   f.request.output, r.voxelSize, r.autoVoxelSize ? " (automatic)" : "",
-                   formatCount(double(r.stats.activeVoxels)),
-                   formatCount(double(r.stats.activeLeaves)), r.bakeSeconds, r.writeSeconds,
-                   formatBytes(r.peakMemoryBytes));
+        fmt::print(
+            "baked {}: voxel size {:.6g}{}, {} active voxels in {} leaves, {:.2f} s; "
+            "written in {:.2f} s; peak memory {}\n",
+            f.request.output, r.voxelSize, r.autoVoxelSize ? " (automatic)" : "",
+            formatCount(double(r.stats.activeVoxels)), formatCount(double(r.stats.activeLeaves)),
+            r.bakeSeconds, r.writeSeconds, formatBytes(r.peakMemoryBytes));
     else
         fmt::print("wrote {} in {:.2f} s; peak memory {}\n", f.request.output, r.writeSeconds,
                    formatBytes(r.peakMemoryBytes));

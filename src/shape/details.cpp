@@ -59,8 +59,8 @@ private:
     }
     static uint64_t key(const glm::ivec3& c)
     {
-        return (uint64_t(uint32_t(c.x) & 0x1FFFFF) << 42) | (uint64_t(uint32_t(c.y) & 0x1FFFFF) << 21) |
-               uint64_t(uint32_t(c.z) & 0x1FFFFF);
+        return (uint64_t(uint32_t(c.x) & 0x1FFFFF) << 42) |
+               (uint64_t(uint32_t(c.y) & 0x1FFFFF) << 21) | uint64_t(uint32_t(c.z) & 0x1FFFFF);
     }
     double cell_;
     std::unordered_map<uint64_t, std::vector<std::pair<int, glm::dvec3>>> cells_;
@@ -69,7 +69,8 @@ private:
 /// A double in [0, 1) from (seed, a, b, c), the same everywhere.
 double hash01(uint32_t seed, uint64_t a, uint64_t b, uint64_t c = 0)
 {
-    uint64_t s = mix64(mix64(mix64(uint64_t(seed) ^ 0x5eedull) ^ a) ^ (b * 0x9e3779b97f4a7c15ull)) ^ c;
+    uint64_t s =
+        mix64(mix64(mix64(uint64_t(seed) ^ 0x5eedull) ^ a) ^ (b * 0x9e3779b97f4a7c15ull)) ^ c;
     return splitMix01(s);
 }
 
@@ -303,18 +304,19 @@ private:
 
 /// Hybrid morphogenic (section 4.2.4): from each seed, in the seed's own
 /// frame (fixed at the first level) and the 3D coordinates around it.  The
-/// first half of its levels grow a stem along the seed's normal, a height
-/// field over its tangent plane (bump (1 - s^2)^2 of s = r / (radius / 3));
-/// the second half spread a cap: points high on the stem move outwards on
-/// the tangent plane by C phi(r / radius) psi(h / height), phi(s) = s (1 -
-/// s^2)^2.  Each level's share grows with its index (morphogenic).  The map r
-/// -> r + C psi phi(r / radius) is increasing for C < radius / max(-phi')
-/// (kCapSpread keeps C at 0.8 of that bound), and a height field keeps one
-/// radius per height, so on a plane the surface never folds onto itself.
+/// first half of its levels raise a stem along the seed's normal: a height
+/// field over the tangent plane, 1 within 0.6 of the stem radius (a third of
+/// `radius`) falling smoothly to 0 at it.  The second half spread a cap:
+/// points high on the stem, psi(h) = smoothstep(0.6, 0.95, h / height), move
+/// outwards on the tangent plane in proportion to their distance r from the
+/// axis, r (1 + 2 share psi), until the cap is three times the stem's width.
+/// Each level's share grows with its index (morphogenic).  At one height the
+/// spread scales every r alike and a height field has one radius per height,
+/// so on a plane the profile stays one simple curve: the surface does not
+/// fold onto itself (tests/test_shape.cpp checks it).
 class Mushroom : public Detail {
 public:
     explicit Mushroom(const DetailSpec& d) : d_(d) {}
-    static constexpr double kCapSpread = 0.8;
 
     void apply(int l, SubdivLevel& level, const Adjacency&) override
     {
@@ -333,7 +335,6 @@ public:
         const int j = stem ? k + 1 : k - stemLevels + 1, m = stem ? stemLevels : capLevels;
         const double share = double(j) / (0.5 * m * (m + 1));
         const double R = d_.radius, Rs = R / 3.0, H = d_.height;
-        const double C = kCapSpread * R / kMaxPhiSlope;
         forEach(level.vertexCount(), [&](size_t v) {
             const glm::dvec3 q = level.subdivided[v];
             for (const Seed& s : seeds_) {
@@ -344,24 +345,17 @@ public:
                 if (r >= R || h < -0.5 * R)
                     continue;
                 if (stem) {
-                    const double u = r / Rs;
-                    if (u < 1.0)
-                        addWorld(level, v, s.frame.n * (H * share * (1 - u * u) * (1 - u * u)),
-                                 d_.scalar);
-                } else if (r > 0.0) {
-                    const double u = r / R;
-                    const double phi = u * (1 - u * u) * (1 - u * u);
-                    const double psi = smoothstep(0.45, 0.9, h / std::max(H, 1e-300));
-                    addWorld(level, v, radial * (C * share * psi * phi / r), d_.scalar);
+                    const double b = 1.0 - smoothstep(0.6 * Rs, Rs, r);
+                    if (b > 0.0)
+                        addWorld(level, v, s.frame.n * (H * share * b), d_.scalar);
+                } else if (H > 0.0) {
+                    const double psi = smoothstep(0.6, 0.95, h / H);
+                    if (psi > 0.0)
+                        addWorld(level, v, radial * (2.0 * share * psi), d_.scalar);
                 }
             }
         });
     }
-
-    /// The steepest descent of phi(s) = s (1 - s^2)^2 on [0, 1]: phi' =
-    /// (1 - s^2)(1 - 5 s^2) is least, -4/5, at s^2 = 3/5 (only a descent can
-    /// fold the map r -> r + C phi).
-    static constexpr double kMaxPhiSlope = 0.8;
 
 private:
     struct Seed {
@@ -408,8 +402,9 @@ std::vector<double> surfaceDistances(const SubdivLevel& level, const Adjacency& 
         for (int i = adj.start[size_t(v)]; i < adj.start[size_t(v) + 1]; ++i) {
             const int w = adj.neighbour[size_t(i)];
             const double step =
-                topological ? level.meanEdgeLength
-                            : glm::length(level.subdivided[size_t(w)] - level.subdivided[size_t(v)]);
+                topological
+                    ? level.meanEdgeLength
+                    : glm::length(level.subdivided[size_t(w)] - level.subdivided[size_t(v)]);
             const double nd = d + step;
             if (nd < dist[size_t(w)] && nd <= limit) {
                 dist[size_t(w)] = nd;
@@ -467,7 +462,8 @@ double editDropOff(double s)
 double rockValue(const glm::dvec3& p, int k, double amplitude, double frequency, uint32_t seed)
 {
     // Each level its own offset into the noise, so that levels are independent.
-    const glm::dvec3 offset(97.0 * hash01(seed, uint64_t(k), 1), 97.0 * hash01(seed, uint64_t(k), 2),
+    const glm::dvec3 offset(97.0 * hash01(seed, uint64_t(k), 1),
+                            97.0 * hash01(seed, uint64_t(k), 2),
                             97.0 * hash01(seed, uint64_t(k), 3));
     const double f = std::ldexp(frequency, k);
     // glm::perlin peaks at about +-1.09: scaled into [-1, 1].
@@ -477,7 +473,8 @@ double rockValue(const glm::dvec3& p, int k, double amplitude, double frequency,
 
 double rockControlValue(int vertex, int level, int k, double amplitude, uint32_t seed)
 {
-    return std::ldexp(amplitude, -k) * (2.0 * hash01(seed, uint64_t(level), uint64_t(vertex)) - 1.0);
+    return std::ldexp(amplitude, -k) *
+           (2.0 * hash01(seed, uint64_t(level), uint64_t(vertex)) - 1.0);
 }
 
 glm::dvec3 tentacleDetail(double referenceLength, double theta, int level)
@@ -497,11 +494,16 @@ double domeHeight(double r, double R)
 std::unique_ptr<Detail> makeDetail(const DetailSpec& spec)
 {
     switch (spec.type) {
-    case DetailType::Rock: return std::make_unique<Rock>(spec);
-    case DetailType::Berry: return std::make_unique<Berry>(spec);
-    case DetailType::Tentacle: return std::make_unique<Tentacle>(spec);
-    case DetailType::Mushroom: return std::make_unique<Mushroom>(spec);
-    case DetailType::Spur: return std::make_unique<Spur>(spec);
+        case DetailType::Rock:
+            return std::make_unique<Rock>(spec);
+        case DetailType::Berry:
+            return std::make_unique<Berry>(spec);
+        case DetailType::Tentacle:
+            return std::make_unique<Tentacle>(spec);
+        case DetailType::Mushroom:
+            return std::make_unique<Mushroom>(spec);
+        case DetailType::Spur:
+            return std::make_unique<Spur>(spec);
     }
     return nullptr;
 }

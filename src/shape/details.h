@@ -21,8 +21,8 @@ struct Adjacency {
 /// Distances over the surface of `level` (its subdivided points Q) from
 /// vertex `from`, up to `limit` (beyond: infinity): metric (Dijkstra along
 /// the edges) or topological (edge hops times the level's mean edge length).
-std::vector<double> surfaceDistances(const SubdivLevel& level, const Adjacency& adjacency,
-                                     int from, double limit, bool topological);
+std::vector<double> surfaceDistances(const SubdivLevel& level, const Adjacency& adjacency, int from,
+                                     double limit, bool topological);
 
 /// The vertex of `points` nearest to p.
 int nearestVertex(const std::vector<glm::dvec3>& points, const glm::dvec3& p);

@@ -16,17 +16,17 @@ enum class BaseType { Cube, Sphere, Torus, Plane, Fuse, Mesh, LevelSet, Model };
 
 struct BaseSpec {
     BaseType type = BaseType::Cube;
-    double size = 2.0;                     ///< cube edge, plane width
-    double radius = 1.0;                   ///< sphere radius, fuse's largest radius
-    double major = 1.0, minor = 0.35;      ///< torus
-    double length = 3.0;                   ///< fuse
-    int around = 8, tube = 6, rings = 8;   ///< torus and fuse control grids
-    int cells = 4;                         ///< plane
-    int terms = 2;                         ///< fuse profile
-    std::string file;                      ///< mesh, vdb or model file (absolute or as given)
-    double coarseVoxelSize = 0.0;          ///< vdb, model: the base's voxel size (0: automatic)
-    double fineVoxelSize = 0.0;            ///< model: the analysed bake's voxel size (0: automatic)
-    double year = 0.0;                     ///< model: a growth file's year (0: its last)
+    double size = 2.0;                    ///< cube edge, plane width
+    double radius = 1.0;                  ///< sphere radius, fuse's largest radius
+    double major = 1.0, minor = 0.35;     ///< torus
+    double length = 3.0;                  ///< fuse
+    int around = 8, tube = 6, rings = 8;  ///< torus and fuse control grids
+    int cells = 4;                        ///< plane
+    int terms = 2;                        ///< fuse profile
+    std::string file;                     ///< mesh, vdb or model file (absolute or as given)
+    double coarseVoxelSize = 0.0;         ///< vdb, model: the base's voxel size (0: automatic)
+    double fineVoxelSize = 0.0;           ///< model: the analysed bake's voxel size (0: automatic)
+    double year = 0.0;                    ///< model: a growth file's year (0: its last)
 };
 
 enum class DetailType { Rock, Berry, Tentacle, Mushroom, Spur };
@@ -39,22 +39,22 @@ enum class Placement { ControlPoints, Chart };
 
 struct DetailSpec {
     DetailType type = DetailType::Rock;
-    std::string path;          ///< its JSON path, for messages
-    std::vector<int> levels;   ///< the levels it acts at, ascending
+    std::string path;         ///< its JSON path, for messages
+    std::vector<int> levels;  ///< the levels it acts at, ascending
     uint32_t seed = 0;
-    double amplitude = 0.05;   ///< rock: the first level's amplitude (halving per level)
-    double frequency = 2.0;    ///< rock: the first level's noise frequency (doubling per level)
+    double amplitude = 0.05;       ///< rock: the first level's amplitude (halving per level)
+    double frequency = 2.0;        ///< rock: the first level's noise frequency (doubling per level)
     bool perControlPoint = false;  ///< rock: the two-pass form (a random value per point)
-    double radius = 0.2;       ///< berry, spur, mushroom: the first level's feature radius
-    double height = 0.3;       ///< spur, mushroom: feature height
-    double length = 0.02;      ///< tentacle: reference length
-    double angle = 0.0;        ///< tentacle: rotation angle theta (radians)
-    int children = 3;          ///< berry: child seeds per seed and level
+    double radius = 0.2;           ///< berry, spur, mushroom: the first level's feature radius
+    double height = 0.3;           ///< spur, mushroom: feature height
+    double length = 0.02;          ///< tentacle: reference length
+    double angle = 0.0;            ///< tentacle: rotation angle theta (radians)
+    int children = 3;              ///< berry: child seeds per seed and level
     // Seeds: given points (projected onto the surface) or a Poisson-disk set.
     std::vector<glm::dvec3> at;
-    double spacing = 0.0;      ///< Poisson-disk minimum spacing (global placement)
+    double spacing = 0.0;  ///< Poisson-disk minimum spacing (global placement)
     Placement placement = Placement::ControlPoints;
-    double scalar = 1.0;       ///< weight of its normal displacement in the scalar channel
+    double scalar = 1.0;  ///< weight of its normal displacement in the scalar channel
 };
 
 /// Local detail modification: details of `levels` near `at` scaled by
@@ -71,7 +71,7 @@ struct EditSpec {
 struct ColorSpec {
     glm::dvec3 color{0.75, 0.72, 0.68};
     bool ramp = false;
-    double low = 0.0, high = 1.0;          ///< the scalar range of the ramp
+    double low = 0.0, high = 1.0;  ///< the scalar range of the ramp
     glm::dvec3 lowColor{0.0}, highColor{1.0};
 };
 

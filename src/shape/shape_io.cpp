@@ -20,8 +20,8 @@ namespace {
 using json = nlohmann::json;
 
 const std::map<std::string, BaseType> kBaseTypes = {
-    {"cube", BaseType::Cube},   {"sphere", BaseType::Sphere}, {"torus", BaseType::Torus},
-    {"plane", BaseType::Plane}, {"fuse", BaseType::Fuse},     {"mesh", BaseType::Mesh},
+    {"cube", BaseType::Cube},    {"sphere", BaseType::Sphere}, {"torus", BaseType::Torus},
+    {"plane", BaseType::Plane},  {"fuse", BaseType::Fuse},     {"mesh", BaseType::Mesh},
     {"vdb", BaseType::LevelSet}, {"model", BaseType::Model}};
 const std::map<std::string, DetailType> kDetailTypes = {{"rock", DetailType::Rock},
                                                         {"berry", DetailType::Berry},
@@ -123,8 +123,9 @@ private:
         if (f.empty())
             fail(jsonPath(path, "file"), "must name a file");
         const std::filesystem::path p(f);
-        const std::string full =
-            p.is_absolute() || directory_.empty() ? f : (std::filesystem::path(directory_) / p).string();
+        const std::string full = p.is_absolute() || directory_.empty()
+                                     ? f
+                                     : (std::filesystem::path(directory_) / p).string();
         try {
             checkInputFile(full, "base file");
         } catch (const InputError& e) {
@@ -139,63 +140,63 @@ private:
         const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
         const auto it = kBaseTypes.find(type);
         if (it == kBaseTypes.end())
-            fail(jsonPath(path, "type"), fmt::format("unknown base '{}'{}; known: {}", type,
-                                                     didYouMean(type, names(kBaseTypes)),
-                                                     joinWords(names(kBaseTypes))));
+            fail(jsonPath(path, "type"),
+                 fmt::format("unknown base '{}'{}; known: {}", type,
+                             didYouMean(type, names(kBaseTypes)), joinWords(names(kBaseTypes))));
         BaseSpec b;
         b.type = it->second;
         const double big = 1e6;
         switch (b.type) {
-        case BaseType::Cube:
-            checkKeys(j, path, {"type", "size"});
-            b.size = numberOr(j, "size", path, b.size, 1e-6, big);
-            break;
-        case BaseType::Sphere:
-            checkKeys(j, path, {"type", "radius"});
-            b.radius = numberOr(j, "radius", path, b.radius, 1e-6, big);
-            break;
-        case BaseType::Torus:
-            checkKeys(j, path, {"type", "major", "minor", "around", "tube"});
-            b.major = numberOr(j, "major", path, b.major, 1e-6, big);
-            b.minor = numberOr(j, "minor", path, b.minor, 1e-6, big);
-            if (!(b.minor < b.major))
-                fail(jsonPath(path, "minor"),
-                     fmt::format("must be less than major ({} >= {}): the torus would pass "
-                                 "through its axis",
-                                 b.minor, b.major));
-            b.around = wholeNumber(j, "around", path, b.around, 3, 1024);
-            b.tube = wholeNumber(j, "tube", path, b.tube, 3, 1024);
-            break;
-        case BaseType::Plane:
-            checkKeys(j, path, {"type", "size", "cells"});
-            b.size = numberOr(j, "size", path, b.size, 1e-6, big);
-            b.cells = wholeNumber(j, "cells", path, b.cells, 1, 1024);
-            break;
-        case BaseType::Fuse:
-            checkKeys(j, path, {"type", "length", "radius", "terms", "around", "rings"});
-            b.length = numberOr(j, "length", path, b.length, 1e-6, big);
-            b.radius = numberOr(j, "radius", path, b.radius, 1e-6, big);
-            b.terms = wholeNumber(j, "terms", path, b.terms, 1, 2,
-                                  ": with more terms the profile turns negative near its tip");
-            b.around = wholeNumber(j, "around", path, b.around, 3, 1024);
-            b.rings = wholeNumber(j, "rings", path, b.rings, 2, 1024);
-            break;
-        case BaseType::Mesh:
-            checkKeys(j, path, {"type", "file"});
-            b.file = file(j, path);
-            break;
-        case BaseType::LevelSet:
-            checkKeys(j, path, {"type", "file", "voxel_size"});
-            b.file = file(j, path);
-            b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
-            break;
-        case BaseType::Model:
-            checkKeys(j, path, {"type", "file", "voxel_size", "fine_voxel_size", "year"});
-            b.file = file(j, path);
-            b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
-            b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);
-            b.year = numberOr(j, "year", path, 0.0, 0.0, 1000.0);
-            break;
+            case BaseType::Cube:
+                checkKeys(j, path, {"type", "size"});
+                b.size = numberOr(j, "size", path, b.size, 1e-6, big);
+                break;
+            case BaseType::Sphere:
+                checkKeys(j, path, {"type", "radius"});
+                b.radius = numberOr(j, "radius", path, b.radius, 1e-6, big);
+                break;
+            case BaseType::Torus:
+                checkKeys(j, path, {"type", "major", "minor", "around", "tube"});
+                b.major = numberOr(j, "major", path, b.major, 1e-6, big);
+                b.minor = numberOr(j, "minor", path, b.minor, 1e-6, big);
+                if (!(b.minor < b.major))
+                    fail(jsonPath(path, "minor"),
+                         fmt::format("must be less than major ({} >= {}): the torus would pass "
+                                     "through its axis",
+                                     b.minor, b.major));
+                b.around = wholeNumber(j, "around", path, b.around, 3, 1024);
+                b.tube = wholeNumber(j, "tube", path, b.tube, 3, 1024);
+                break;
+            case BaseType::Plane:
+                checkKeys(j, path, {"type", "size", "cells"});
+                b.size = numberOr(j, "size", path, b.size, 1e-6, big);
+                b.cells = wholeNumber(j, "cells", path, b.cells, 1, 1024);
+                break;
+            case BaseType::Fuse:
+                checkKeys(j, path, {"type", "length", "radius", "terms", "around", "rings"});
+                b.length = numberOr(j, "length", path, b.length, 1e-6, big);
+                b.radius = numberOr(j, "radius", path, b.radius, 1e-6, big);
+                b.terms = wholeNumber(j, "terms", path, b.terms, 1, 2,
+                                      ": with more terms the profile turns negative near its tip");
+                b.around = wholeNumber(j, "around", path, b.around, 3, 1024);
+                b.rings = wholeNumber(j, "rings", path, b.rings, 2, 1024);
+                break;
+            case BaseType::Mesh:
+                checkKeys(j, path, {"type", "file"});
+                b.file = file(j, path);
+                break;
+            case BaseType::LevelSet:
+                checkKeys(j, path, {"type", "file", "voxel_size"});
+                b.file = file(j, path);
+                b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
+                break;
+            case BaseType::Model:
+                checkKeys(j, path, {"type", "file", "voxel_size", "fine_voxel_size", "year"});
+                b.file = file(j, path);
+                b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
+                b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);
+                b.year = numberOr(j, "year", path, 0.0, 0.0, 1000.0);
+                break;
         }
         return b;
     }
@@ -217,8 +218,8 @@ private:
             if (v != std::floor(v) || v < 1)
                 fail(pi, fmt::format("must be a level from 1 (got {})", v));
             if (v > shapeLevels)
-                fail(pi, fmt::format("level {} is finer than the shape's {} levels", v,
-                                     shapeLevels));
+                fail(pi,
+                     fmt::format("level {} is finer than the shape's {} levels", v, shapeLevels));
             if (!out.empty() && int(v) <= out.back())
                 fail(pi, "the levels must be listed in increasing order");
             out.push_back(int(v));
@@ -247,8 +248,9 @@ private:
         if (j.contains("spacing"))
             d.spacing = number(j["spacing"], jsonPath(path, "spacing"), 1e-6, 1e6);
         if (d.at.empty() && d.spacing == 0.0)
-            fail(path, "needs seeds: \"at\" (points on the surface) or \"spacing\" (a "
-                       "Poisson-disk set over the whole surface)");
+            fail(path,
+                 "needs seeds: \"at\" (points on the surface) or \"spacing\" (a "
+                 "Poisson-disk set over the whole surface)");
         if (!d.at.empty() && d.spacing > 0.0)
             fail(jsonPath(path, "spacing"), "give \"at\" or \"spacing\", not both");
     }
@@ -272,69 +274,74 @@ private:
         d.scalar = numberOr(j, "scalar", path, d.scalar, -1e6, 1e6);
         const double big = 1e6;
         switch (d.type) {
-        case DetailType::Rock:
-            checkKeys(j, path, {"type", "levels", "seed", "scalar", "amplitude", "frequency", "form"});
-            d.levels = levelList(j, path, range(1, L), L);
-            d.amplitude = numberOr(j, "amplitude", path, d.amplitude, 0.0, big);
-            d.frequency = numberOr(j, "frequency", path, d.frequency, 1e-6, big);
-            if (j.contains("form")) {
-                const std::string f = string(j["form"], jsonPath(path, "form"));
-                if (f != "noise" && f != "control-points")
-                    fail(jsonPath(path, "form"),
-                         fmt::format("must be \"noise\" (one pass) or \"control-points\" (a "
-                                     "random value per control point) (got '{}')",
-                                     f));
-                d.perControlPoint = f == "control-points";
-            }
-            break;
-        case DetailType::Berry:
-            checkKeys(j, path, {"type", "levels", "seed", "scalar", "radius", "spacing", "at",
-                                "children"});
-            d.levels = levelList(j, path, range(1, std::min(L, 3)), L);
-            d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
-            d.children = wholeNumber(j, "children", path, d.children, 0, 64);
-            if (!j.contains("at") && !j.contains("spacing"))
-                d.spacing = 2.0 * d.radius;
-            readSeeds(j, path, d);
-            break;
-        case DetailType::Tentacle:
-            checkKeys(j, path, {"type", "levels", "seed", "scalar", "length", "angle", "spacing",
-                                "at"});
-            d.levels = levelList(j, path, range(1, std::min(L, 5)), L);
-            d.length = numberOr(j, "length", path, d.length, 0.0, big);
-            d.angle = numberOr(j, "angle", path, 0.0, -1e6, 1e6) * kDegree;
-            readSeeds(j, path, d);
-            break;
-        case DetailType::Mushroom:
-            checkKeys(j, path, {"type", "levels", "seed", "scalar", "radius", "height", "spacing",
-                                "at"});
-            d.levels = levelList(j, path, range(1, L), L);
-            d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
-            d.height = numberOr(j, "height", path, d.height, 0.0, big);
-            readSeeds(j, path, d);
-            break;
-        case DetailType::Spur:
-            checkKeys(j, path, {"type", "levels", "seed", "scalar", "radius", "height", "spacing",
-                                "at", "placement"});
-            d.levels = levelList(j, path, {1}, L);
-            d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
-            d.height = numberOr(j, "height", path, d.height, -big, big);
-            readSeeds(j, path, d);
-            if (j.contains("placement")) {
-                const std::string p = string(j["placement"], jsonPath(path, "placement"));
-                if (p != "control-points" && p != "chart")
-                    fail(jsonPath(path, "placement"),
-                         fmt::format("must be \"control-points\" or \"chart\" (got '{}')", p));
-                d.placement = p == "chart" ? Placement::Chart : Placement::ControlPoints;
-            }
-            break;
+            case DetailType::Rock:
+                checkKeys(j, path,
+                          {"type", "levels", "seed", "scalar", "amplitude", "frequency", "form"});
+                d.levels = levelList(j, path, range(1, L), L);
+                d.amplitude = numberOr(j, "amplitude", path, d.amplitude, 0.0, big);
+                d.frequency = numberOr(j, "frequency", path, d.frequency, 1e-6, big);
+                if (j.contains("form")) {
+                    const std::string f = string(j["form"], jsonPath(path, "form"));
+                    if (f != "noise" && f != "control-points")
+                        fail(jsonPath(path, "form"),
+                             fmt::format("must be \"noise\" (one pass) or \"control-points\" (a "
+                                         "random value per control point) (got '{}')",
+                                         f));
+                    d.perControlPoint = f == "control-points";
+                }
+                break;
+            case DetailType::Berry:
+                checkKeys(
+                    j, path,
+                    {"type", "levels", "seed", "scalar", "radius", "spacing", "at", "children"});
+                d.levels = levelList(j, path, range(1, std::min(L, 3)), L);
+                d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
+                d.children = wholeNumber(j, "children", path, d.children, 0, 64);
+                if (!j.contains("at") && !j.contains("spacing"))
+                    d.spacing = 2.0 * d.radius;
+                readSeeds(j, path, d);
+                break;
+            case DetailType::Tentacle:
+                checkKeys(j, path,
+                          {"type", "levels", "seed", "scalar", "length", "angle", "spacing", "at"});
+                d.levels = levelList(j, path, range(1, std::min(L, 5)), L);
+                d.length = numberOr(j, "length", path, d.length, 0.0, big);
+                d.angle = numberOr(j, "angle", path, 0.0, -1e6, 1e6) * kDegree;
+                readSeeds(j, path, d);
+                break;
+            case DetailType::Mushroom:
+                checkKeys(
+                    j, path,
+                    {"type", "levels", "seed", "scalar", "radius", "height", "spacing", "at"});
+                d.levels = levelList(j, path, range(1, L), L);
+                d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
+                d.height = numberOr(j, "height", path, d.height, 0.0, big);
+                readSeeds(j, path, d);
+                break;
+            case DetailType::Spur:
+                checkKeys(j, path,
+                          {"type", "levels", "seed", "scalar", "radius", "height", "spacing", "at",
+                           "placement"});
+                d.levels = levelList(j, path, {1}, L);
+                d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
+                d.height = numberOr(j, "height", path, d.height, -big, big);
+                readSeeds(j, path, d);
+                if (j.contains("placement")) {
+                    const std::string p = string(j["placement"], jsonPath(path, "placement"));
+                    if (p != "control-points" && p != "chart")
+                        fail(jsonPath(path, "placement"),
+                             fmt::format("must be \"control-points\" or \"chart\" (got '{}')", p));
+                    d.placement = p == "chart" ? Placement::Chart : Placement::ControlPoints;
+                }
+                break;
         }
         return d;
     }
 
     EditSpec readEdit(const json& j, const std::string& path, int shapeLevels) const
     {
-        object(j, path, "must be an object such as {\"at\": [0, 0, 1], \"radius\": 0.2, \"gain\": 0}");
+        object(j, path,
+               "must be an object such as {\"at\": [0, 0, 1], \"radius\": 0.2, \"gain\": 0}");
         checkKeys(j, path, {"at", "radius", "gain", "levels", "distance"});
         EditSpec e;
         e.path = path;
@@ -361,8 +368,9 @@ private:
             c.color = colour(j, path);
             return c;
         }
-        object(j, path, "must be [r, g, b] or a ramp {\"scalar\": [lo, hi], \"low\": [r, g, b], "
-                        "\"high\": [r, g, b]}");
+        object(j, path,
+               "must be [r, g, b] or a ramp {\"scalar\": [lo, hi], \"low\": [r, g, b], "
+               "\"high\": [r, g, b]}");
         checkKeys(j, path, {"scalar", "low", "high"});
         c.ramp = true;
         const json& s = array(required(j, "scalar", path), jsonPath(path, "scalar"), 2,

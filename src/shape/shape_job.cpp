@@ -49,44 +49,48 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
         throw InputError(fmt::format("--voxel-size must be at least {} (got {})", kMinVoxelSize,
                                      *req.voxelSize));
     if (!(req.halfWidth >= 1.0 && req.halfWidth <= 64.0))
-        throw InputError(fmt::format("--half-width must be from 1 to 64 voxels (got {})",
-                                     req.halfWidth));
+        throw InputError(
+            fmt::format("--half-width must be from 1 to 64 voxels (got {})", req.halfWidth));
     if (req.levels > kMaxSubdivisionLevels)
-        throw InputError(fmt::format("--levels {}: at most {} (OpenSubdiv's uniform refinement "
-                                     "stops at 15)",
-                                     req.levels, kMaxSubdivisionLevels));
+        throw InputError(
+            fmt::format("--levels {}: at most {} (OpenSubdiv's uniform refinement "
+                        "stops at 15)",
+                        req.levels, kMaxSubdivisionLevels));
     if (!levelSet && (req.voxelSize || req.fog || req.half))
-        throw InputError(fmt::format("{}: --voxel-size, --fog and --half are for level sets "
-                                     "(.vdb)",
-                                     req.output));
+        throw InputError(
+            fmt::format("{}: --voxel-size, --fog and --half are for level sets "
+                        "(.vdb)",
+                        req.output));
     const ShapeSpec spec = readShapeFile(req.input);
     const int levels = req.levels >= 0 ? req.levels : spec.levels;
+    checkShapeLevels(spec, levels);
     checkOutputPath(req.output);
 
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
-    const BaseShape base = makeBase(spec.base, spec.source);
+    const BaseShape base = makeBase(spec.base, spec.source, req.device);
     const double available = availableMemoryBytes();
     const double synthesisBytes = estimateSynthesisBytes(base.mesh.faceCount(), levels);
     if (synthesisBytes > available)
-        throw InputError(fmt::format("{}: {} levels of a base of {} faces need about {} of memory "
-                                     "({} available): use fewer levels",
-                                     req.input, levels, base.mesh.faceCount(),
-                                     formatBytes(synthesisBytes), formatBytes(available)));
+        throw InputError(
+            fmt::format("{}: {} levels of a base of {} faces need about {} of memory "
+                        "({} available): use fewer levels",
+                        req.input, levels, base.mesh.faceCount(), formatBytes(synthesisBytes),
+                        formatBytes(available)));
     if (levelSet && req.voxelSize) {
         const double area = 2.0 * controlMeshArea(base.mesh);
         const double voxels = area / (*req.voxelSize * *req.voxelSize) * 2.0 * req.halfWidth;
         if (voxels * kMeshBakeBytesPerVoxel > available)
-            throw InputError(fmt::format("--voxel-size {}: the level set would need about {} "
-                                         "of memory ({} available): use a larger voxel size",
-                                         *req.voxelSize,
-                                         formatBytes(voxels * kMeshBakeBytesPerVoxel),
-                                         formatBytes(available)));
+            throw InputError(
+                fmt::format("--voxel-size {}: the level set would need about {} "
+                            "of memory ({} available): use a larger voxel size",
+                            *req.voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel),
+                            formatBytes(available)));
     }
 
     ShapeReport r;
     auto t = Clock::now();
-    ShapeSurface shape(spec, levels);
+    ShapeSurface shape(spec, levels, base);
     shape.synthesize();
     TriangleMesh mesh = shape.mesh();
     r.synthesisSeconds = secondsSince(t);
@@ -106,15 +110,15 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     } else {
         MeshBakeOptions opt;
         r.autoVoxelSize = !req.voxelSize;
-        opt.voxelSize = req.voxelSize ? *req.voxelSize : std::max(meshExtent(mesh) / 512.0,
-                                                                   kMinVoxelSize);
+        opt.voxelSize =
+            req.voxelSize ? *req.voxelSize : std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
         if (r.autoVoxelSize) {
             const double voxels = r.area / (opt.voxelSize * opt.voxelSize) * 2.0 * req.halfWidth;
             if (voxels * kMeshBakeBytesPerVoxel > available)
-                throw InputError(fmt::format("{}: the automatic voxel size {} would need about "
-                                             "{} of memory: give a larger --voxel-size",
-                                             req.input, opt.voxelSize,
-                                             formatBytes(voxels * kMeshBakeBytesPerVoxel)));
+                throw InputError(fmt::format(
+                    "{}: the automatic voxel size {} would need about "
+                    "{} of memory: give a larger --voxel-size",
+                    req.input, opt.voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel)));
         }
         opt.halfWidth = req.halfWidth;
         opt.fog = req.fog;

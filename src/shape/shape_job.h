@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bake/levelset.h"
+#include "core/system.h"
 
 #include <functional>
 #include <optional>
@@ -17,6 +18,7 @@ struct ShapeRequest {
     int levels = -1;                  ///< overrides the file's (>= 0)
     double halfWidth = 3.0;
     bool fog = false, half = false;
+    Device device = Device::OpenCL;  ///< bakes of captured models
 };
 
 struct ShapeCallbacks {
@@ -30,7 +32,7 @@ struct ShapeReport {
     bool levelSet = false;
     double voxelSize = 0.0;
     bool autoVoxelSize = false;
-    BakeStats stats;          ///< of the bake (level sets)
+    BakeStats stats;                  ///< of the bake (level sets)
     double area = 0.0, volume = 0.0;  ///< of the mesh (volume: closed meshes)
     double peakMemoryBytes = 0.0;
 };

@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "shape/base_shapes.h"
+#include "shape/capture.h"
 
 #include <fmt/format.h>
 
@@ -21,43 +22,64 @@ double estimateSynthesisBytes(size_t baseFaces, int levels)
     return finest * (4.0 / 3.0) * 330.0;
 }
 
-BaseShape makeBase(const BaseSpec& b, const std::string& source)
+BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
 {
     switch (b.type) {
-    case BaseType::Cube: return cubeBase(b.size);
-    case BaseType::Sphere: return sphereBase(b.radius);
-    case BaseType::Torus: return torusBase(b.major, b.minor, b.around, b.tube);
-    case BaseType::Plane: return planeBase(b.size, b.cells);
-    case BaseType::Fuse: return fuseBase(b.length, b.radius, b.terms, b.around, b.rings);
-    case BaseType::Mesh: {
-        const TriangleMesh m = readMesh(b.file);
-        BaseShape s;
-        for (const auto& p : m.points)
-            s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
-        s.mesh.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
-        s.mesh.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
-        return s;
+        case BaseType::Cube:
+            return cubeBase(b.size);
+        case BaseType::Sphere:
+            return sphereBase(b.radius);
+        case BaseType::Torus:
+            return torusBase(b.major, b.minor, b.around, b.tube);
+        case BaseType::Plane:
+            return planeBase(b.size, b.cells);
+        case BaseType::Fuse:
+            return fuseBase(b.length, b.radius, b.terms, b.around, b.rings);
+        case BaseType::Mesh: {
+            const TriangleMesh m = readMesh(b.file);
+            BaseShape s;
+            for (const auto& p : m.points)
+                s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
+            s.mesh.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
+            s.mesh.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
+            return s;
+        }
+        case BaseType::LevelSet:
+        case BaseType::Model:
+            return captureBase(b, source, device);
     }
-    case BaseType::LevelSet:
-    case BaseType::Model: break;
-    }
-    throw InputError(fmt::format("{}: base: analysed bases (vdb, model) are not built by makeBase",
-                                 source));
+    throw std::logic_error("makeBase: unknown base type");
 }
 
-ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels) : spec_(spec)
+ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, Device device)
+    : ShapeSurface(spec, levels, makeBase(spec.base, spec.source, device))
+{
+}
+
+void checkShapeLevels(const ShapeSpec& spec, int levels)
+{
+    for (const DetailSpec& d : spec.details)
+        for (int l : d.levels)
+            if (l > levels)
+                throw InputError(
+                    fmt::format("{}: {}.levels: level {} is finer than the {} levels "
+                                "synthesised",
+                                spec.source, d.path, l, levels));
+    for (const EditSpec& e : spec.edits)
+        for (int l : e.levels)
+            if (l > levels)
+                throw InputError(
+                    fmt::format("{}: {}.levels: level {} is finer than the {} levels "
+                                "synthesised",
+                                spec.source, e.path, l, levels));
+}
+
+ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& base) : spec_(spec)
 {
     if (levels >= 0)
         spec_.levels = levels;
-    for (const DetailSpec& d : spec_.details)
-        for (int l : d.levels)
-            if (l > spec_.levels)
-                throw InputError(fmt::format("{}: {}.levels: level {} is finer than the {} levels "
-                                             "synthesised",
-                                             spec_.source, d.path, l, spec_.levels));
-    const BaseShape base = makeBase(spec_.base, spec_.source);
-    surface_ = std::make_unique<MultiresSurface>(base.mesh, spec_.levels,
-                                                 spec_.source + ": base");
+    checkShapeLevels(spec_, spec_.levels);
+    surface_ = std::make_unique<MultiresSurface>(base.mesh, spec_.levels, spec_.source + ": base");
     baseDetail_.resize(size_t(spec_.levels) + 1);
     if (base.target) {
         surface_->analyse(base.target);

@@ -4,6 +4,7 @@
 // the local edits) and the mesh and colours of the result.
 #pragma once
 
+#include "core/system.h"
 #include "io/mesh_file.h"
 #include "shape/base_shapes.h"
 #include "shape/details.h"
@@ -17,16 +18,22 @@
 
 namespace cambium {
 
+/// InputError when a detail or edit of `spec` acts at a level finer than
+/// `levels`.
+void checkShapeLevels(const ShapeSpec& spec, int levels);
+
 /// The memory a shape's synthesis needs at `levels` levels of a base of
 /// `baseFaces` faces (bytes, estimated), to refuse what cannot fit.
 double estimateSynthesisBytes(size_t baseFaces, int levels);
 
 class ShapeSurface {
 public:
-    /// Builds the base (InputError naming the file for a bad mesh or base
-    /// file) and the surface's topology; `levels` overrides the file's when
-    /// >= 0.  Nothing is synthesised yet.
-    ShapeSurface(const ShapeSpec& spec, int levels = -1);
+    /// Builds the base (makeBase: InputError naming the file for a bad mesh
+    /// or base file) and the surface's topology; `levels` overrides the
+    /// file's when >= 0.  Nothing is synthesised yet.
+    ShapeSurface(const ShapeSpec& spec, int levels = -1, Device device = Device::OpenCL);
+    /// The same from a base already made.
+    ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& base);
     ~ShapeSurface();
 
     /// Synthesis of every level.
@@ -60,7 +67,8 @@ private:
 };
 
 /// The base of a shape file as a control mesh and the exact surface it is
-/// fitted to (mesh files read; built-in shapes made).
-BaseShape makeBase(const BaseSpec& base, const std::string& source);
+/// fitted to (mesh files read; built-in shapes made; level sets and models
+/// captured on `device`, shape/capture.h).
+BaseShape makeBase(const BaseSpec& base, const std::string& source, Device device);
 
 }  // namespace cambium

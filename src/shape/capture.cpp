@@ -1,0 +1,183 @@
+// cambium — captured models as bases.
+#include "shape/capture.h"
+
+#include "bake/bake.h"
+#include "core/error.h"
+#include "field/program.h"
+#include "io/vdb.h"
+#include "model/load_model.h"
+
+#include <fmt/format.h>
+#include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/enumerable_thread_specific.h>
+
+#include <cmath>
+#include <memory>
+
+namespace cambium {
+
+namespace {
+
+/// Trilinear distance and its gradient at world points, one accessor per thread.
+class DistanceField {
+public:
+    explicit DistanceField(openvdb::FloatGrid::ConstPtr g)
+        : grid_(std::move(g)), h_(grid_->voxelSize()[0]),
+          background_(double(grid_->background())),
+          accessors_([this] { return grid_->getConstAccessor(); })
+    {
+    }
+
+    /// phi at p; false when p is outside the band (no gradient there).
+    bool sample(const glm::dvec3& p, double& phi, glm::dvec3& grad) const
+    {
+        auto& acc = accessors_.local();
+        auto at = [&](const glm::dvec3& q) {
+            const openvdb::Vec3d i = grid_->worldToIndex(openvdb::Vec3d(q.x, q.y, q.z));
+            float v = 0.0f;
+            openvdb::tools::BoxSampler::sample(acc, i, v);
+            return double(v);
+        };
+        phi = at(p);
+        if (!(std::fabs(phi) < 0.9 * background_))
+            return false;
+        const double e = 0.5 * h_;
+        grad = glm::dvec3(at(p + glm::dvec3(e, 0, 0)) - at(p - glm::dvec3(e, 0, 0)),
+                          at(p + glm::dvec3(0, e, 0)) - at(p - glm::dvec3(0, e, 0)),
+                          at(p + glm::dvec3(0, 0, e)) - at(p - glm::dvec3(0, 0, e))) /
+               (2.0 * e);
+        return glm::dot(grad, grad) > 1e-12;
+    }
+
+    double voxelSize() const { return h_; }
+
+private:
+    openvdb::FloatGrid::ConstPtr grid_;
+    double h_, background_;
+    mutable tbb::enumerable_thread_specific<openvdb::FloatGrid::ConstAccessor> accessors_;
+};
+
+glm::dvec3 project(const DistanceField& f, const glm::dvec3& q, const glm::dvec3& n, double limit)
+{
+    const double tol = 1e-4 * f.voxelSize();
+    double phi;
+    glm::dvec3 g;
+    // Along the normal: Newton on phi(q + t n).
+    double t = 0.0;
+    bool along = false;
+    for (int it = 0; it < 12; ++it) {
+        if (!f.sample(q + t * n, phi, g))
+            break;
+        const double slope = glm::dot(g, n);
+        if (std::fabs(phi) < tol) {
+            along = std::fabs(t) <= limit;
+            break;
+        }
+        if (std::fabs(slope) < 0.2)
+            break;
+        t -= phi / slope;
+        if (!(std::fabs(t) <= 2.0 * limit))
+            break;
+    }
+    if (along)
+        return q + t * n;
+    // The closest point: p - phi grad / |grad|^2, repeated.
+    glm::dvec3 p = q;
+    for (int it = 0; it < 12; ++it) {
+        if (!f.sample(p, phi, g))
+            return q;
+        if (std::fabs(phi) < tol)
+            return p;
+        p -= phi * g / glm::dot(g, g);
+    }
+    return p;
+}
+
+openvdb::FloatGrid::Ptr bakeModel(const BlobTree& tree, double h, Device device)
+{
+    const FieldProgram program = FieldProgram::compile(tree);
+    std::unique_ptr<FieldSampler> sampler = makeSampler(device);
+    BakeOptions opt;
+    opt.voxelSize = h;
+    return bakeLevelSet(program, *sampler, opt).surface;
+}
+
+}  // namespace
+
+BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, const std::string& what)
+{
+    auto grid = openvdb::FloatGrid::create(fine->background() * float(coarse / fine->voxelSize()[0]));
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(coarse));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*fine, *grid);
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> triangles;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*grid, points, triangles, quads, 0.0, 0.0);
+    BaseShape s;
+    for (const auto& p : points)
+        s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
+    for (const auto& q : quads) {
+        s.mesh.faceSizes.push_back(4);
+        s.mesh.faceVerts.insert(s.mesh.faceVerts.end(), {int(q[3]), int(q[2]), int(q[1]), int(q[0])});
+    }
+    for (const auto& t : triangles) {
+        s.mesh.faceSizes.push_back(3);
+        s.mesh.faceVerts.insert(s.mesh.faceVerts.end(), {int(t[2]), int(t[1]), int(t[0])});
+    }
+    if (s.mesh.faceSizes.empty())
+        throw InputError(fmt::format("{}: the surface meshed at voxel size {:g} has no faces: "
+                                     "use a smaller base voxel_size",
+                                     what, coarse));
+    try {
+        checkControlMesh(s.mesh, what);
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{} (the base meshed at voxel size {:g}: try another "
+                                     "voxel_size)",
+                                     e.what(), coarse));
+    }
+    auto field = std::make_shared<DistanceField>(fine);
+    s.target = [field](const glm::dvec3& q, const Frame& f, double edge) {
+        return project(*field, q, f.n, edge);
+    };
+    return s;
+}
+
+BaseShape captureBase(const BaseSpec& b, const std::string& source, Device device)
+{
+    const std::string what = fmt::format("{}: base {}", source, b.file);
+    openvdb::FloatGrid::Ptr fine;
+    double extent = 0.0;
+    if (b.type == BaseType::LevelSet) {
+        fine = readLevelSet(b.file).surface;
+        const openvdb::CoordBBox box = fine->evalActiveVoxelBoundingBox();
+        const openvdb::Vec3d d = box.dim().asVec3d() * fine->voxelSize()[0];
+        extent = std::max({d.x(), d.y(), d.z()});
+    } else {
+        ModelOptions options;
+        if (b.year > 0.0)
+            options.time = b.year;
+        const BlobTree tree = loadModel(b.file, options);
+        BakeRequest req;
+        req.input = b.file;
+        if (b.fineVoxelSize > 0.0)
+            req.voxelSize = b.fineVoxelSize;
+        else {
+            const FieldProgram program = FieldProgram::compile(tree);
+            req.voxelSize = planVoxelSize(program, req).extent / 256.0;
+        }
+        const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree), req);
+        extent = plan.extent;
+        fine = bakeModel(tree, plan.voxelSize, device);
+    }
+    const double coarse = b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : extent / 48.0;
+    if (!(coarse > fine->voxelSize()[0]))
+        throw InputError(fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
+                                     "surface's {:g}",
+                                     what, coarse, fine->voxelSize()[0]));
+    return captureLevelSet(fine, coarse, what);
+}
+
+}  // namespace cambium

@@ -1,0 +1,30 @@
+// cambium — captured models as bases (paper 004, section 2.2's analysis):
+// a fine surface given as a level set (a .vdb, or any cambium model baked
+// finely), its coarse base meshed from the same surface at a coarse voxel
+// size (volumeToMesh at adaptivity 0: all quads), and each level's points
+// projected onto the fine surface.
+#pragma once
+
+#include "core/system.h"
+#include "shape/base_shapes.h"
+#include "shape/shape.h"
+
+#include <openvdb/openvdb.h>
+
+namespace cambium {
+
+/// The base of a level set: `fine` meshed at `coarseVoxelSize` (resampled),
+/// turned outwards, checked as a control mesh (InputError naming `what` and
+/// the voxel size when it is not a 2-manifold), and the projection onto the
+/// zero crossing of `fine`: along the frame's normal within one edge length
+/// (Newton steps on the trilinear distance), else the closest point
+/// (p - phi grad phi, repeated); a point outside the band stays.
+BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarseVoxelSize,
+                          const std::string& what);
+
+/// The base of a shape file's "vdb" or "model" base: the .vdb read, or the
+/// model baked at its fine voxel size on `device` (automatic sizes: 256
+/// voxels across for the fine surface, 48 for the base).
+BaseShape captureBase(const BaseSpec& base, const std::string& source, Device device);
+
+}  // namespace cambium

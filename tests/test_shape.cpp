@@ -1,0 +1,431 @@
+// Shape synthesis (paper 004): shape files, each detail's defining property,
+// placement, local edits, captured bases, and the command.
+#include "bake/mesh_levelset.h"
+#include "cli_util.h"
+#include "shape/capture.h"
+#include "shape/details.h"
+#include "shape/shape.h"
+#include "shape/synthesis.h"
+#include "test_util.h"
+
+#include "core/math.h"
+
+#include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/Interpolation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+using namespace cambium;
+
+namespace {
+
+ShapeSpec shape(const std::string& text)
+{
+    return parseShape(text, "test.json");
+}
+
+/// The InputError message of parsing `text`, or "" when it parses.
+std::string refusal(const std::string& text)
+{
+    try {
+        ShapeSurface s(shape(text));
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+double rms(const std::vector<glm::dvec3>& d)
+{
+    double s = 0.0;
+    for (const auto& v : d)
+        s += v.z * v.z;
+    return std::sqrt(s / double(d.size()));
+}
+
+}  // namespace
+
+TEST(ShapeFile, AcceptsTheIssueExamples)
+{
+    ShapeSurface cube(shape(R"({"base": {"type": "cube", "size": 2}, "levels": 6})"));
+    cube.synthesize();
+    EXPECT_EQ(cube.levels(), 6);
+    EXPECT_EQ(cube.surface().finest().vertexCount(), 6u * 4096u + 2u);
+    ShapeSurface rock(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 6,
+        "details": [{"type": "rock", "amplitude": 0.08, "seed": 3}]})"));
+    rock.synthesize();
+    // Within the rock's bound (sum of 0.08 2^-k) of the unit sphere.
+    for (const auto& p : rock.surface().finest().points)
+        ASSERT_NEAR(glm::length(p), 1.0, 0.17);
+}
+
+TEST(ShapeFile, BadInputIsNamed)
+{
+    auto says = [](const std::string& text, const std::string& words) {
+        const std::string e = refusal(text);
+        EXPECT_NE(e.find(words), std::string::npos) << "message: '" << e << "' for " << text;
+    };
+    says(R"({"base": {"type": "cube"}, "levels": 16})",
+         "test.json: levels: must be from 0 to 15 (got 16)");
+    says(R"({"levels": 3})", "test.json: base: missing");
+    says(R"({"base": {"type": "cub"}})", "unknown base 'cub' (did you mean 'cube'?)");
+    says(R"({"base": {"type": "sphere", "radius": -1}})", "base.radius: must be between");
+    says(R"({"base": {"type": "sphere", "raduis": 1}})", "base.raduis: unknown field (did you mean 'radius'?)");
+    says(R"({"base": {"type": "torus", "major": 1, "minor": 2}})", "base.minor: must be less than major");
+    says(R"({"base": {"type": "mesh", "file": "/nonexistent/m.obj"}})", "base.file: /nonexistent/m.obj");
+    says(R"({"base": {"type": "cube"}, "levels": 3, "details": [{"type": "rock", "levels": [2, 4]}]})",
+         "details[0].levels[1]: level 4 is finer than the shape's 3 levels");
+    says(R"({"base": {"type": "cube"}, "details": [{"type": "berry", "at": []}]})",
+         "details[0].at: must be a non-empty array");
+    says(R"({"base": {"type": "cube"}, "details": [{"type": "tentacle"}]})",
+         "details[0]: needs seeds");
+    says(R"({"base": {"type": "cube"}, "details": [{"type": "rock", "amplitude": "big"}]})",
+         "details[0].amplitude: must be a number (got a string)");
+    says(R"({"base": {"type": "cube"}, "edits": [{"at": [0, 0, 1], "radius": 0.2}]})",
+         "edits[0].gain: missing");
+    says(R"({"base": {"type": "cube"}, "color": [1, 2, 0]})", "color[1]: must be between 0 and 1");
+    says(R"({"base": {"type": "fuse", "terms": 3}})", "base.terms: must be from 1 to 2");
+    // A base mesh that is not a 2-manifold.
+    const std::string dir = ::testing::TempDir() + "/shape_bad";
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/fin.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\n"
+                                       "f 1 2 3\nf 2 1 4\nf 1 2 5\n";
+    says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/fin.obj"}})",
+         "not a 2-manifold");
+}
+
+TEST(ShapeDetails, RockIsOneOverFAndTheSameForTheSameSeed)
+{
+    const std::string text = R"({"base": {"type": "sphere", "radius": 1}, "levels": 7,
+        "details": [{"type": "rock", "amplitude": 0.05, "seed": 11, "levels": [3, 4, 5, 6, 7]}]})";
+    ShapeSurface a(shape(text)), b(shape(text));
+    a.synthesize();
+    b.synthesize();
+    EXPECT_TRUE(a.surface().finest().points == b.surface().finest().points);
+    // Each level's rock detail (the level's details minus the sphere's own)
+    // has half the previous level's size: the measured ratio of RMS near 2.
+    std::vector<double> size;
+    for (int l = 3; l <= 7; ++l) {
+        std::vector<glm::dvec3> rock = a.surface().level(l).detail;
+        for (size_t v = 0; v < rock.size(); ++v)
+            rock[v] -= a.baseDetail(l)[v];
+        size.push_back(rms(rock));
+    }
+    for (size_t k = 1; k < size.size(); ++k)
+        EXPECT_NEAR(size[k - 1] / size[k], 2.0, 0.25) << "level " << 3 + k;
+    EXPECT_EQ(a.surface().level(2).detail, a.baseDetail(2));  // outside its levels: nothing
+    // Another seed, another rock.
+    ShapeSurface c(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 7,
+        "details": [{"type": "rock", "amplitude": 0.05, "seed": 12, "levels": [3, 4, 5, 6, 7]}]})"));
+    c.synthesize();
+    EXPECT_FALSE(a.surface().finest().points == c.surface().finest().points);
+    test::report("RMS per level 3-7: {:.4g} {:.4g} {:.4g} {:.4g} {:.4g}", size[0], size[1], size[2],
+                 size[3], size[4]);
+}
+
+TEST(ShapeDetails, RockIsVolumetricTheSameAtTheSamePointOnTwoMeshings)
+{
+    // F(p, level) depends on the point only: on a cube and on a sphere, each
+    // vertex's rock detail is the function at its subdivided point, and two
+    // meshings that share a point share its value.
+    for (const char* base : {R"({"type": "cube", "size": 2})", R"({"type": "sphere", "radius": 1})"}) {
+        ShapeSurface s(shape(std::string(R"({"base": )") + base + R"(, "levels": 4,
+            "details": [{"type": "rock", "amplitude": 0.1, "frequency": 3, "seed": 4}]})"));
+        s.synthesize();
+        for (int l = 1; l <= 4; ++l) {
+            const SubdivLevel& lv = s.surface().level(l);
+            const std::vector<glm::dvec3>& own = s.baseDetail(l);
+            for (size_t v = 0; v < lv.vertexCount(); v += 7) {
+                const double want = rockValue(lv.subdivided[v], l - 1, 0.1, 3.0, 4);
+                ASSERT_NEAR(lv.detail[v].z - (own.empty() ? 0.0 : own[v].z), want, 1e-15);
+            }
+        }
+    }
+    const glm::dvec3 p(0.3, -0.2, 0.9);
+    EXPECT_EQ(rockValue(p, 2, 0.1, 3.0, 4), rockValue(p, 2, 0.1, 3.0, 4));
+    EXPECT_NE(rockValue(p, 2, 0.1, 3.0, 4), rockValue(p, 3, 0.1, 3.0, 4));
+    for (int k = 0; k < 5; ++k)  // bounded by the level's amplitude
+        for (double x = -1; x <= 1; x += 0.01)
+            ASSERT_LE(std::fabs(rockValue({x, 0.37 * x, 0.5}, k, 0.1, 3.0, 4)),
+                      std::ldexp(0.1, -k) + 1e-15);
+    // The two-pass form: one value per control point and level.
+    EXPECT_EQ(rockControlValue(17, 3, 1, 0.1, 9), rockControlValue(17, 3, 1, 0.1, 9));
+    EXPECT_LE(std::fabs(rockControlValue(17, 3, 1, 0.1, 9)), 0.05);
+}
+
+TEST(ShapeDetails, BerryDomesHaveHeightRAtTheSeedAndNoneBeyondR)
+{
+    EXPECT_DOUBLE_EQ(domeHeight(0.0, 0.3), 0.3);
+    EXPECT_DOUBLE_EQ(domeHeight(0.3, 0.3), 0.0);
+    EXPECT_DOUBLE_EQ(domeHeight(0.5, 0.3), 0.0);
+    EXPECT_NEAR(domeHeight(0.18, 0.3), 0.24, 1e-15);  // sqrt(0.09 - 0.0324)
+    // On a plane, one seed at the centre: the dome is the detail itself.
+    ShapeSurface s(shape(R"({"base": {"type": "plane", "size": 2, "cells": 4}, "levels": 3,
+        "details": [{"type": "berry", "radius": 0.4, "at": [[0, 0, 0]], "levels": [2], "children": 0}]})"));
+    s.synthesize();
+    const SubdivLevel& lv = s.surface().level(2);
+    const int seed = nearestVertex(lv.subdivided, {0, 0, 0});
+    EXPECT_DOUBLE_EQ(lv.detail[size_t(seed)].z, 0.4);
+    for (size_t v = 0; v < lv.vertexCount(); ++v) {
+        const double r = glm::length(lv.subdivided[v] - lv.subdivided[size_t(seed)]);
+        ASSERT_DOUBLE_EQ(lv.detail[v].z, domeHeight(r, 0.4));
+    }
+}
+
+TEST(ShapeDetails, TentacleFollowsThePseudoCode)
+{
+    const double L = 0.05, theta = 0.3;
+    for (int l = 1; l <= 6; ++l) {
+        const glm::dvec3 d = tentacleDetail(L, theta, l);
+        const double sign = l % 2 == 0 ? -1.0 : 1.0;
+        EXPECT_DOUBLE_EQ(d.z, sign * L * l) << "magnitude = reference length x level, alternating";
+        EXPECT_DOUBLE_EQ(d.x, sign * L * l * std::sin(theta + kPi / 3 * l));
+        EXPECT_DOUBLE_EQ(d.y, sign * L * l * std::cos(theta + kPi / 3 * l));
+    }
+    ShapeSurface s(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 6,
+        "details": [{"type": "tentacle", "length": 0.05, "angle": 10, "at": [[0, 0, 1]],
+                     "levels": [2, 3, 4]}]})"));
+    s.synthesize();
+    const int seed = nearestVertex(s.surface().level(2).subdivided, {0, 0, 1});
+    for (int l = 1; l <= 6; ++l) {
+        const SubdivLevel& lv = s.surface().level(l);
+        const std::vector<glm::dvec3>& own = s.baseDetail(l);
+        size_t changed = 0;
+        for (size_t v = 0; v < lv.vertexCount(); ++v)
+            changed += lv.detail[v] != own[v];
+        if (l < 2 || l > 4) {
+            EXPECT_EQ(changed, 0u) << "level " << l << " is outside its range";
+        } else {
+            EXPECT_EQ(changed, 1u);  // the seed, the same vertex index at every level
+            const glm::dvec3 d = lv.detail[size_t(seed)] - own[size_t(seed)];
+            const glm::dvec3 want = tentacleDetail(0.05, 10 * kDegree, l);
+            EXPECT_NEAR(glm::length(d - want), 0.0, 1e-15);
+        }
+    }
+}
+
+TEST(ShapeDetails, PoissonDiskSeedsAreSpacedAndMaximal)
+{
+    ShapeSurface s(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 5})"));
+    s.synthesize();
+    const auto& pts = s.surface().level(5).subdivided;
+    const double spacing = 0.2;
+    const std::vector<int> seeds = poissonDisk(pts, spacing, 3);
+    for (size_t i = 0; i < seeds.size(); ++i)
+        for (size_t j = 0; j < i; ++j)
+            ASSERT_GE(glm::length(pts[size_t(seeds[i])] - pts[size_t(seeds[j])]), spacing);
+    double farthest = 0.0;  // every point within the spacing of a seed: maximal
+    for (const auto& p : pts) {
+        double nearest = 1e9;
+        for (int k : seeds)
+            nearest = std::min(nearest, glm::length(p - pts[size_t(k)]));
+        farthest = std::max(farthest, nearest);
+    }
+    EXPECT_LT(farthest, spacing);
+    EXPECT_NE(poissonDisk(pts, spacing, 4), seeds);
+    test::report("{} seeds at spacing {}; every point within {:.4f} of one", seeds.size(), spacing,
+                 farthest);
+}
+
+TEST(ShapeEdits, GainOneChangesNothingAndNoGainReachesBeyondItsRadius)
+{
+    const std::string base = R"({"base": {"type": "sphere", "radius": 1}, "levels": 5,
+        "details": [{"type": "rock", "amplitude": 0.05, "seed": 1}])";
+    ShapeSurface plain(shape(base + "}"));
+    plain.synthesize();
+    ShapeSurface one(shape(base + R"(, "edits": [{"at": [0, 0, 1], "radius": 0.5, "gain": 1}]})"));
+    one.synthesize();
+    EXPECT_TRUE(one.surface().finest().points == plain.surface().finest().points);
+    // Details of the edited level change only within its radius (its Q, from
+    // the coarser levels, is the same): over the surface, so within the
+    // straight-line radius too.
+    for (const char* distance : {"metric", "topological"})
+        for (double gain : {0.0, 3.0})
+            for (int l : {3, 4}) {
+                ShapeSurface e(shape(base + R"(, "edits": [{"at": [0, 0, 1], "radius": 0.5, "gain": )" +
+                                     std::to_string(gain) + R"(, "levels": [)" + std::to_string(l) +
+                                     R"(], "distance": ")" + distance + "\"}]}"));
+                e.synthesize();
+                const SubdivLevel& a = plain.surface().level(l);
+                const SubdivLevel& b = e.surface().level(l);
+                size_t inside = 0;
+                for (size_t v = 0; v < a.vertexCount(); ++v) {
+                    ASSERT_EQ(a.subdivided[v], b.subdivided[v]);
+                    if (glm::length(a.subdivided[v] - glm::dvec3(0, 0, 1)) >= 0.5)
+                        ASSERT_EQ(a.detail[v], b.detail[v]) << distance << " gain " << gain;
+                    else
+                        inside += a.detail[v] != b.detail[v];
+                }
+                EXPECT_GT(inside, 10u);
+            }
+    // The drop-off: 1 at the point, 0 with zero slope at the radius (C1).
+    EXPECT_DOUBLE_EQ(editDropOff(0.0), 1.0);
+    EXPECT_DOUBLE_EQ(editDropOff(1.0), 0.0);
+    EXPECT_DOUBLE_EQ(editDropOff(1.5), 0.0);
+    for (double e : {1e-2, 1e-3, 1e-4})  // k(1 - e) = 3 e^2 - 2 e^3: no kink at the border
+        EXPECT_NEAR(editDropOff(1.0 - e), 3 * e * e - 2 * e * e * e, 1e-15);
+}
+
+TEST(ShapePlacement, AChartKeepsADomeRoundOnAStretchedMesh)
+{
+    // A plane stretched 3:1 in x.  The same spur placed at the control points
+    // (rings of edges) comes out three times as long in x as in y; placed in
+    // the seed's chart (tangent-plane distances) it stays round.
+    auto footprint = [](const char* placement) {
+        ShapeSpec spec = shape(std::string(R"({"base": {"type": "plane", "size": 2, "cells": 8}, "levels": 4,
+            "details": [{"type": "spur", "radius": 1.2, "height": 0.2, "at": [[0, 0, 0]],
+                         "levels": [3], "placement": ")") + placement + "\"}]}");
+        BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
+        for (auto& p : base.mesh.points)
+            p.x *= 3.0;
+        ShapeSurface s(spec, -1, base);
+        s.synthesize();
+        const SubdivLevel& lv = s.surface().level(3);
+        double x = 0.0, y = 0.0;
+        for (size_t v = 0; v < lv.vertexCount(); ++v)
+            if (lv.detail[v].z > 1e-9) {
+                x = std::max(x, std::fabs(lv.subdivided[v].x));
+                y = std::max(y, std::fabs(lv.subdivided[v].y));
+            }
+        return x / y;
+    };
+    const double control = footprint("control-points"), chart = footprint("chart");
+    EXPECT_GT(control, 2.0);
+    EXPECT_NEAR(chart, 1.0, 0.3);
+    test::report("footprint x/y on a 3:1 stretched plane: control points {:.3f}, chart {:.3f}",
+                 control, chart);
+}
+
+TEST(ShapePlacement, MushroomOnAPlaneDoesNotFold)
+{
+    // The profile through the seed (the vertices on y = 0 of the flat plane,
+    // in their original order) must be a simple curve.
+    const std::string text = R"({"base": {"type": "plane", "size": 2, "cells": 8}, "levels": 6,
+        "details": [{"type": "mushroom", "radius": 0.5, "height": 0.6, "at": [[0, 0, 0]]}]})";
+    ShapeSurface flat(shape(R"({"base": {"type": "plane", "size": 2, "cells": 8}, "levels": 6})"));
+    flat.synthesize();
+    ShapeSurface m(shape(text));
+    m.synthesize();
+    const auto& before = flat.surface().finest().points;
+    const auto& after = m.surface().finest().points;
+    std::vector<size_t> line;
+    for (size_t v = 0; v < before.size(); ++v)
+        if (std::fabs(before[v].y) < 1e-12)
+            line.push_back(v);
+    std::sort(line.begin(), line.end(), [&](size_t a, size_t b) { return before[a].x < before[b].x; });
+    ASSERT_GT(line.size(), 500u);
+    double top = 0.0, widest = 0.0;
+    for (size_t v : line) {
+        ASSERT_NEAR(after[v].y, 0.0, 1e-9);
+        top = std::max(top, after[v].z);
+    }
+    auto cross = [](glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, glm::dvec2 d) {
+        auto orient = [](glm::dvec2 p, glm::dvec2 q, glm::dvec2 r) {
+            return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+        };
+        return orient(a, b, c) * orient(a, b, d) < 0 && orient(c, d, a) * orient(c, d, b) < 0;
+    };
+    size_t crossings = 0;
+    for (size_t i = 0; i + 1 < line.size(); ++i)
+        for (size_t j = i + 2; j + 1 < line.size(); ++j)
+            crossings += cross({after[line[i]].x, after[line[i]].z}, {after[line[i + 1]].x, after[line[i + 1]].z},
+                               {after[line[j]].x, after[line[j]].z}, {after[line[j + 1]].x, after[line[j + 1]].z});
+    EXPECT_EQ(crossings, 0u);
+    // A mushroom: taller than its stem is wide, its cap wider than its stem.
+    for (size_t v : line)
+        if (after[v].z > 0.7 * top)
+            widest = std::max(widest, std::fabs(after[v].x));
+    double stem = 1e9;
+    for (size_t v : line)
+        if (after[v].z > 0.2 * top && after[v].z < 0.4 * top)
+            stem = std::min(stem, std::fabs(after[v].x));
+    EXPECT_GT(top, 0.3);
+    EXPECT_GT(widest, stem * 1.2);
+    test::report("mushroom: height {:.3f}, cap half-width {:.3f}, stem half-width {:.3f}", top,
+                 widest, stem);
+}
+
+TEST(ShapeCapture, AnalysedBaseKeepsTheFineMeshTopology)
+{
+    // A torus and a sphere as fine meshes, baked, then captured: the base's
+    // Euler characteristic is the fine mesh's, and analysis puts each
+    // level's points on the fine surface.
+    for (const char* text : {R"({"base": {"type": "torus", "major": 1, "minor": 0.4}, "levels": 4})",
+                             R"({"base": {"type": "sphere", "radius": 1}, "levels": 4})"}) {
+        ShapeSurface fine(shape(text));
+        fine.synthesize();
+        const TriangleMesh mesh = fine.mesh();
+        const long chiFine = checkControlMesh(
+            [&] {
+                ControlMesh c;
+                for (const auto& p : mesh.points)
+                    c.points.push_back({p.x(), p.y(), p.z()});
+                c.faceSizes.assign(mesh.polygons.sizes.begin(), mesh.polygons.sizes.end());
+                c.faceVerts.assign(mesh.polygons.corners.begin(), mesh.polygons.corners.end());
+                return c;
+            }(),
+            "fine").eulerCharacteristic();
+        MeshBakeOptions opt;
+        opt.voxelSize = 0.01;
+        const BakedGrids g = bakeMeshLevelSet(mesh, opt, "fine");
+        const BaseShape base = captureLevelSet(g.surface, 0.15, "captured");
+        const long chiBase = checkControlMesh(base.mesh, "base").eulerCharacteristic();
+        EXPECT_EQ(chiBase, chiFine);
+        MultiresSurface s(base.mesh, 3, "captured");
+        s.analyse(base.target);
+        openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> at(*g.surface);
+        double worst = 0.0;
+        for (const auto& p : s.finest().points)
+            worst = std::max(worst, std::fabs(double(at.wsSample(openvdb::Vec3d(p.x, p.y, p.z)))));
+        EXPECT_LT(worst, 1e-3 * opt.voxelSize);
+        test::report("captured base: {} faces, Euler characteristic {}; level 3 within {:.3g} of "
+                     "the fine surface",
+                     base.mesh.faceCount(), chiBase, worst);
+    }
+}
+
+TEST(ShapeCommand, WritesMeshesAndLevelSetsAndRefusesBadInputFirst)
+{
+    const std::string dir = ::testing::TempDir() + "/shape_cli";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/rock.json") << R"({"base": {"type": "sphere", "radius": 1}, "levels": 4,
+        "details": [{"type": "rock", "amplitude": 0.08, "seed": 3}]})";
+    auto r = test::run("shape " + dir + "/rock.json -o " + dir + "/rock.obj");
+    ASSERT_EQ(r.status, 0) << r.err;
+    std::ifstream obj(dir + "/rock.obj");
+    std::string all((std::istreambuf_iterator<char>(obj)), {});
+    EXPECT_NE(all.find("\nf 1//1 "), std::string::npos);  // quads kept: four corners
+    EXPECT_EQ(std::count(all.begin(), all.end(), '\n') > 1536, true);
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/rock.vdb --voxel-size 0.02");
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = test::run("info " + dir + "/rock.json");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("level 4: 1,538 vertices, 1,536 faces"), std::string::npos) << r.out;
+    r = test::run("mesh " + dir + "/rock.vdb -o " + dir + "/remesh.ply");
+    EXPECT_EQ(r.status, 0) << r.err;
+
+    // Refused before anything is written.
+    std::ofstream(dir + "/wrong.json") << R"({"base": {"type": "sphere"}, "levels": 16})";
+    r = test::run("shape " + dir + "/wrong.json -o " + dir + "/bad.vdb");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("levels: must be from 0 to 15"), std::string::npos) << r.err;
+    r = test::run("shape " + dir + "/missing.json -o " + dir + "/bad.vdb");
+    EXPECT_EQ(r.status, 2);
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.stl");
+    EXPECT_EQ(r.status, 2);
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.vdb --voxel-size 0.00001");
+    EXPECT_EQ(r.status, 2) << r.out;
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.vdb --levels 12");
+    EXPECT_EQ(r.status, 2) << r.out;  // 6 x 4^12 x 330 bytes: more than this machine has
+    std::ofstream(dir + "/plane.json") << R"({"base": {"type": "plane"}, "levels": 2})";
+    r = test::run("shape " + dir + "/plane.json -o " + dir + "/bad.vdb");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("the surface is open"), std::string::npos) << r.err;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().rfind("bad", 0), std::string::npos)
+            << e.path() << " was written";
+}
