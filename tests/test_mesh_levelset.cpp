@@ -137,3 +137,39 @@ TEST(MeshLevelSet, OpenOrNonManifoldMeshesAreRefused)
     TriangleMesh empty;
     EXPECT_THROW(bakeMeshLevelSet(empty, opt, "empty"), InputError);
 }
+
+TEST(MeshLevelSet, FarApartPartsBinSparselyAndAgreeWithOnePart)
+{
+    // Two boxes 50 apart at voxel size 0.02: the band's bounds would hold
+    // about 2e8 leaves, so the triangles are binned by sorting, not in a
+    // dense grid; near each box the values are those of that box alone.
+    auto box = [](TriangleMesh& m, const openvdb::Vec3s& at) {
+        const BaseShape cube = cubeBase(0.5);
+        const uint32_t first = uint32_t(m.points.size());
+        for (const glm::dvec3& p : cube.mesh.points)
+            m.points.push_back(openvdb::Vec3s(float(p.x), float(p.y), float(p.z)) + at);
+        for (size_t f = 0; f < 6; ++f) {
+            const int* c = cube.mesh.faceVerts.data() + 4 * f;
+            const uint32_t q[4] = {first + uint32_t(c[0]), first + uint32_t(c[1]),
+                                   first + uint32_t(c[2]), first + uint32_t(c[3])};
+            m.addPolygon(q, 4);
+        }
+    };
+    TriangleMesh one, two;
+    box(one, openvdb::Vec3s(0.0f));
+    box(two, openvdb::Vec3s(0.0f));
+    box(two, openvdb::Vec3s(50.0f));
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.02;
+    const BakedGrids a = bakeMeshLevelSet(one, opt, "one"), b = bakeMeshLevelSet(two, opt, "two");
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*b.surface, 8), "");
+    // (The far box's corners, 2500 voxels out in single precision, sit a
+    // little differently on the grid: its band has nearly as many voxels.)
+    EXPECT_NEAR(double(b.surface->activeVoxelCount()) / double(a.surface->activeVoxelCount()), 2.0,
+                0.01);
+    auto acc = b.surface->getConstAccessor();
+    size_t differ = 0;
+    for (auto it = a.surface->tree().cbeginValueOn(); it; ++it)
+        differ += acc.getValue(it.getCoord()) != *it;
+    EXPECT_EQ(differ, 0u);
+}

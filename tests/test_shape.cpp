@@ -73,11 +73,15 @@ TEST(ShapeFile, BadInputIsNamed)
     says(R"({"levels": 3})", "test.json: base: missing");
     says(R"({"base": {"type": "cub"}})", "unknown base 'cub' (did you mean 'cube'?)");
     says(R"({"base": {"type": "sphere", "radius": -1}})", "base.radius: must be between");
-    says(R"({"base": {"type": "sphere", "raduis": 1}})", "base.raduis: unknown field (did you mean 'radius'?)");
-    says(R"({"base": {"type": "torus", "major": 1, "minor": 2}})", "base.minor: must be less than major");
-    says(R"({"base": {"type": "mesh", "file": "/nonexistent/m.obj"}})", "base.file: /nonexistent/m.obj");
-    says(R"({"base": {"type": "cube"}, "levels": 3, "details": [{"type": "rock", "levels": [2, 4]}]})",
-         "details[0].levels[1]: level 4 is finer than the shape's 3 levels");
+    says(R"({"base": {"type": "sphere", "raduis": 1}})",
+         "base.raduis: unknown field (did you mean 'radius'?)");
+    says(R"({"base": {"type": "torus", "major": 1, "minor": 2}})",
+         "base.minor: must be less than major");
+    says(R"({"base": {"type": "mesh", "file": "/nonexistent/m.obj"}})",
+         "base.file: /nonexistent/m.obj");
+    says(
+        R"({"base": {"type": "cube"}, "levels": 3, "details": [{"type": "rock", "levels": [2, 4]}]})",
+        "details[0].levels[1]: level 4 is finer than the shape's 3 levels");
     says(R"({"base": {"type": "cube"}, "details": [{"type": "berry", "at": []}]})",
          "details[0].at: must be a non-empty array");
     says(R"({"base": {"type": "cube"}, "details": [{"type": "tentacle"}]})",
@@ -93,8 +97,7 @@ TEST(ShapeFile, BadInputIsNamed)
     std::filesystem::create_directories(dir);
     std::ofstream(dir + "/fin.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\n"
                                        "f 1 2 3\nf 2 1 4\nf 1 2 5\n";
-    says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/fin.obj"}})",
-         "not a 2-manifold");
+    says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/fin.obj"}})", "not a 2-manifold");
 }
 
 TEST(ShapeDetails, RockIsOneOverFAndTheSameForTheSameSeed)
@@ -131,7 +134,8 @@ TEST(ShapeDetails, RockIsVolumetricTheSameAtTheSamePointOnTwoMeshings)
     // F(p, level) depends on the point only: on a cube and on a sphere, each
     // vertex's rock detail is the function at its subdivided point, and two
     // meshings that share a point share its value.
-    for (const char* base : {R"({"type": "cube", "size": 2})", R"({"type": "sphere", "radius": 1})"}) {
+    for (const char* base :
+         {R"({"type": "cube", "size": 2})", R"({"type": "sphere", "radius": 1})"}) {
         ShapeSurface s(shape(std::string(R"({"base": )") + base + R"(, "levels": 4,
             "details": [{"type": "rock", "amplitude": 0.1, "frequency": 3, "seed": 4}]})"));
         s.synthesize();
@@ -245,7 +249,8 @@ TEST(ShapeEdits, GainOneChangesNothingAndNoGainReachesBeyondItsRadius)
     for (const char* distance : {"metric", "topological"})
         for (double gain : {0.0, 3.0})
             for (int l : {3, 4}) {
-                ShapeSurface e(shape(base + R"(, "edits": [{"at": [0, 0, 1], "radius": 0.5, "gain": )" +
+                ShapeSurface e(shape(base +
+                                     R"(, "edits": [{"at": [0, 0, 1], "radius": 0.5, "gain": )" +
                                      std::to_string(gain) + R"(, "levels": [)" + std::to_string(l) +
                                      R"(], "distance": ")" + distance + "\"}]}"));
                 e.synthesize();
@@ -275,9 +280,11 @@ TEST(ShapePlacement, AChartKeepsADomeRoundOnAStretchedMesh)
     // (rings of edges) comes out three times as long in x as in y; placed in
     // the seed's chart (tangent-plane distances) it stays round.
     auto footprint = [](const char* placement) {
-        ShapeSpec spec = shape(std::string(R"({"base": {"type": "plane", "size": 2, "cells": 8}, "levels": 4,
+        ShapeSpec spec =
+            shape(std::string(R"({"base": {"type": "plane", "size": 2, "cells": 8}, "levels": 4,
             "details": [{"type": "spur", "radius": 1.2, "height": 0.2, "at": [[0, 0, 0]],
-                         "levels": [3], "placement": ")") + placement + "\"}]}");
+                         "levels": [3], "placement": ")") +
+                  placement + "\"}]}");
         BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
         for (auto& p : base.mesh.points)
             p.x *= 3.0;
@@ -315,7 +322,8 @@ TEST(ShapePlacement, MushroomOnAPlaneDoesNotFold)
     for (size_t v = 0; v < before.size(); ++v)
         if (std::fabs(before[v].y) < 1e-12)
             line.push_back(v);
-    std::sort(line.begin(), line.end(), [&](size_t a, size_t b) { return before[a].x < before[b].x; });
+    std::sort(line.begin(), line.end(),
+              [&](size_t a, size_t b) { return before[a].x < before[b].x; });
     ASSERT_GT(line.size(), 500u);
     double top = 0.0, widest = 0.0;
     for (size_t v : line) {
@@ -331,8 +339,9 @@ TEST(ShapePlacement, MushroomOnAPlaneDoesNotFold)
     size_t crossings = 0;
     for (size_t i = 0; i + 1 < line.size(); ++i)
         for (size_t j = i + 2; j + 1 < line.size(); ++j)
-            crossings += cross({after[line[i]].x, after[line[i]].z}, {after[line[i + 1]].x, after[line[i + 1]].z},
-                               {after[line[j]].x, after[line[j]].z}, {after[line[j + 1]].x, after[line[j + 1]].z});
+            crossings += cross(
+                {after[line[i]].x, after[line[i]].z}, {after[line[i + 1]].x, after[line[i + 1]].z},
+                {after[line[j]].x, after[line[j]].z}, {after[line[j + 1]].x, after[line[j + 1]].z});
     EXPECT_EQ(crossings, 0u);
     // A mushroom: taller than its stem is wide, its cap wider than its stem.
     for (size_t v : line)
@@ -353,21 +362,24 @@ TEST(ShapeCapture, AnalysedBaseKeepsTheFineMeshTopology)
     // A torus and a sphere as fine meshes, baked, then captured: the base's
     // Euler characteristic is the fine mesh's, and analysis puts each
     // level's points on the fine surface.
-    for (const char* text : {R"({"base": {"type": "torus", "major": 1, "minor": 0.4}, "levels": 4})",
-                             R"({"base": {"type": "sphere", "radius": 1}, "levels": 4})"}) {
+    for (const char* text :
+         {R"({"base": {"type": "torus", "major": 1, "minor": 0.4}, "levels": 4})",
+          R"({"base": {"type": "sphere", "radius": 1}, "levels": 4})"}) {
         ShapeSurface fine(shape(text));
         fine.synthesize();
         const TriangleMesh mesh = fine.mesh();
-        const long chiFine = checkControlMesh(
-            [&] {
-                ControlMesh c;
-                for (const auto& p : mesh.points)
-                    c.points.push_back({p.x(), p.y(), p.z()});
-                c.faceSizes.assign(mesh.polygons.sizes.begin(), mesh.polygons.sizes.end());
-                c.faceVerts.assign(mesh.polygons.corners.begin(), mesh.polygons.corners.end());
-                return c;
-            }(),
-            "fine").eulerCharacteristic();
+        const long chiFine =
+            checkControlMesh(
+                [&] {
+                    ControlMesh c;
+                    for (const auto& p : mesh.points)
+                        c.points.push_back({p.x(), p.y(), p.z()});
+                    c.faceSizes.assign(mesh.polygons.sizes.begin(), mesh.polygons.sizes.end());
+                    c.faceVerts.assign(mesh.polygons.corners.begin(), mesh.polygons.corners.end());
+                    return c;
+                }(),
+                "fine")
+                .eulerCharacteristic();
         MeshBakeOptions opt;
         opt.voxelSize = 0.01;
         const BakedGrids g = bakeMeshLevelSet(mesh, opt, "fine");
@@ -381,9 +393,10 @@ TEST(ShapeCapture, AnalysedBaseKeepsTheFineMeshTopology)
         for (const auto& p : s.finest().points)
             worst = std::max(worst, std::fabs(double(at.wsSample(openvdb::Vec3d(p.x, p.y, p.z)))));
         EXPECT_LT(worst, 1e-3 * opt.voxelSize);
-        test::report("captured base: {} faces, Euler characteristic {}; level 3 within {:.3g} of "
-                     "the fine surface",
-                     base.mesh.faceCount(), chiBase, worst);
+        test::report(
+            "captured base: {} faces, Euler characteristic {}; level 3 within {:.3g} of "
+            "the fine surface",
+            base.mesh.faceCount(), chiBase, worst);
     }
 }
 

@@ -4,6 +4,7 @@
 
 #include "bench/bake_bench.h"
 #include "bench/growth_bench.h"
+#include "bench/shape_bench.h"
 #include "bench/tree_generator.h"
 #include "bench/use_bench.h"
 #include "core/error.h"
@@ -108,6 +109,44 @@ int withBenchDirectory(const std::function<void(const std::string&)>& f)
     }
     std::filesystem::remove_all(dir);
     return 0;
+}
+
+void printShapeTable(const ShapeBenchResult& r)
+{
+    const double v = double(r.vertices);
+    const double osd = r.osdTopology + r.osdInterpolate;
+    fmt::print("\nrock cube-sphere, {} levels: {} finest vertices, {} quads\n\n", r.levels,
+               r.vertices, r.faces);
+    fmt::print(
+        "| step | seconds (median) | finest vertices/s | vs OpenSubdiv |\n"
+        "|---|---:|---:|---:|\n");
+    fmt::print("| OpenSubdiv: refiner (topology) | {:.3f} | | |\n", r.osdTopology);
+    fmt::print("| OpenSubdiv: points refined (Interpolate, double) | {:.3f} | | |\n",
+               r.osdInterpolate);
+    fmt::print("| OpenSubdiv: uniform refinement, both | {:.3f} | {:.2f} M | 1.00 |\n", osd,
+               v / osd * 1e-6);
+    fmt::print("| cambium: set-up (topology, the sphere fitted) | {:.3f} | | |\n", r.setup);
+    fmt::print("| cambium: synthesis without details (frames) | {:.3f} | {:.2f} M | {:.2f} |\n",
+               r.plainSynthesis, v / r.plainSynthesis * 1e-6, r.plainSynthesis / osd);
+    fmt::print(
+        "| **cambium: synthesis with the rock** | **{:.3f}** | **{:.2f} M** | **{:.2f}** |\n",
+        r.synthesis, v / r.synthesis * 1e-6, r.synthesis / osd);
+    fmt::print("| cambium: an edit of level {} ({} vertices) re-synthesised | {:.4f} | | |\n",
+               r.editLevel, r.editVertices, r.edit);
+    fmt::print("\nmesh -> level set at voxel size {:g} (half-width 3):\n\n", r.voxelSize);
+    fmt::print(
+        "| method | seconds (median) | active voxels | M voxels/s | vs OpenVDB |\n"
+        "|---|---:|---:|---:|---:|\n");
+    const double ov = double(r.openvdbVoxels) / r.openvdbBake,
+                 cv = double(r.cambiumVoxels) / r.cambiumBake;
+    fmt::print("| OpenVDB meshToLevelSet | {:.3f} | {} | {:.2f} | 1.00 |\n", r.openvdbBake,
+               r.openvdbVoxels, ov * 1e-6);
+    fmt::print("| **cambium bakeMeshLevelSet** | **{:.3f}** | {} | **{:.2f}** | **{:.2f}** |\n",
+               r.cambiumBake, r.cambiumVoxels, cv * 1e-6, cv / ov);
+    fmt::print(
+        "\nlargest difference from meshToLevelSet within a voxel of the surface: {:.4f} "
+        "voxel ({} voxels compared)\n",
+        r.largestDifference, r.compared);
 }
 
 int runGrowthBenchCommand(const GrowthBenchRequest& req)
@@ -232,6 +271,35 @@ void addBenchCommand(CLI::App& app, Action& action)
         action = [o, label] {
             printRenderTable(runRenderBench(benchTree(o->internodes), label(o->internodes),
                                             o->voxelSize, o->width, o->height, o->repeats));
+            return 0;
+        };
+    });
+
+    auto shapeRequest = std::make_shared<ShapeBenchRequest>();
+    auto* shape = bench->add_subcommand(
+        "shape",
+        "Multi-scale shape synthesis (paper 004) against OpenSubdiv's uniform "
+        "refinement, and cambium's mesh -> level set against OpenVDB's meshToLevelSet");
+    shape->add_option("--levels", shapeRequest->levels, "Levels of the rock cube-sphere")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 10));
+    shape
+        ->add_option("--edit-level", shapeRequest->editLevel,
+                     "Level of the edit re-synthesised (on a shape of that many levels)")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 10));
+    shape->add_option("--voxel-size", shapeRequest->voxelSize, "Voxel size of the level sets")
+        ->capture_default_str();
+    shape
+        ->add_option("--repeat", shapeRequest->repeats,
+                     "Runs of each method, in turn; the table shows medians")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100));
+    shape->callback([shapeRequest, &action] {
+        action = [shapeRequest] {
+            printShapeTable(runShapeBench(*shapeRequest, [](const std::string& step) {
+                fmt::print(stderr, "  {}\n", step);
+            }));
             return 0;
         };
     });

@@ -24,7 +24,8 @@ namespace {
 class DistanceField {
 public:
     explicit DistanceField(openvdb::FloatGrid::ConstPtr g)
-        : grid_(std::move(g)), h_(grid_->voxelSize()[0]),
+        : grid_(std::move(g)),
+          h_(grid_->voxelSize()[0]),
           background_(double(grid_->background())),
           accessors_([this] { return grid_->getConstAccessor(); })
     {
@@ -108,7 +109,8 @@ openvdb::FloatGrid::Ptr bakeModel(const BlobTree& tree, double h, Device device)
 
 BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, const std::string& what)
 {
-    auto grid = openvdb::FloatGrid::create(fine->background() * float(coarse / fine->voxelSize()[0]));
+    auto grid =
+        openvdb::FloatGrid::create(fine->background() * float(coarse / fine->voxelSize()[0]));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(coarse));
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*fine, *grid);
@@ -121,22 +123,25 @@ BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, cons
         s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
     for (const auto& q : quads) {
         s.mesh.faceSizes.push_back(4);
-        s.mesh.faceVerts.insert(s.mesh.faceVerts.end(), {int(q[3]), int(q[2]), int(q[1]), int(q[0])});
+        s.mesh.faceVerts.insert(s.mesh.faceVerts.end(),
+                                {int(q[3]), int(q[2]), int(q[1]), int(q[0])});
     }
     for (const auto& t : triangles) {
         s.mesh.faceSizes.push_back(3);
         s.mesh.faceVerts.insert(s.mesh.faceVerts.end(), {int(t[2]), int(t[1]), int(t[0])});
     }
     if (s.mesh.faceSizes.empty())
-        throw InputError(fmt::format("{}: the surface meshed at voxel size {:g} has no faces: "
-                                     "use a smaller base voxel_size",
-                                     what, coarse));
+        throw InputError(
+            fmt::format("{}: the surface meshed at voxel size {:g} has no faces: "
+                        "use a smaller base voxel_size",
+                        what, coarse));
     try {
         checkControlMesh(s.mesh, what);
     } catch (const InputError& e) {
-        throw InputError(fmt::format("{} (the base meshed at voxel size {:g}: try another "
-                                     "voxel_size)",
-                                     e.what(), coarse));
+        throw InputError(
+            fmt::format("{} (the base meshed at voxel size {:g}: try another "
+                        "voxel_size)",
+                        e.what(), coarse));
     }
     auto field = std::make_shared<DistanceField>(fine);
     s.target = [field](const glm::dvec3& q, const Frame& f, double edge) {
@@ -174,9 +179,10 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
     }
     const double coarse = b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : extent / 48.0;
     if (!(coarse > fine->voxelSize()[0]))
-        throw InputError(fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
-                                     "surface's {:g}",
-                                     what, coarse, fine->voxelSize()[0]));
+        throw InputError(
+            fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
+                        "surface's {:g}",
+                        what, coarse, fine->voxelSize()[0]));
     return captureLevelSet(fine, coarse, what);
 }
 

@@ -1,0 +1,183 @@
+// cambium — the shape benchmark.
+#include "bench/shape_bench.h"
+
+#include "bake/mesh_levelset.h"
+#include "bench/median.h"
+#include "core/clock.h"
+#include "shape/details.h"
+#include "shape/synthesis.h"
+
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <openvdb/tools/MeshToVolume.h>
+
+#include <cmath>
+#include <memory>
+
+namespace cambium {
+
+namespace {
+
+namespace Far = OpenSubdiv::Far;
+namespace Sdc = OpenSubdiv::Sdc;
+
+ShapeSpec rockSphere(int levels)
+{
+    ShapeSpec s;
+    s.source = "rock cube-sphere";
+    s.base.type = BaseType::Sphere;
+    s.levels = levels;
+    DetailSpec rock;
+    rock.type = DetailType::Rock;
+    rock.amplitude = 0.08;
+    rock.seed = 3;
+    for (int l = 1; l <= levels; ++l)
+        rock.levels.push_back(l);
+    s.details.push_back(rock);
+    return s;
+}
+
+/// OpenSubdiv alone: a refiner for the mesh, then its points refined level
+/// by level (double xyz), as a user of OpenSubdiv would subdivide it.
+void openSubdiv(const ControlMesh& mesh, int levels, double& topology, double& interpolate,
+                size_t& vertices)
+{
+    auto t = Clock::now();
+    Sdc::Options sdc;
+    sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
+    Far::TopologyDescriptor desc;
+    desc.numVertices = int(mesh.points.size());
+    desc.numFaces = int(mesh.faceCount());
+    desc.numVertsPerFace = mesh.faceSizes.data();
+    desc.vertIndicesPerFace = mesh.faceVerts.data();
+    using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+    std::unique_ptr<Far::TopologyRefiner> r(
+        Factory::Create(desc, Factory::Options(Sdc::SCHEME_CATMARK, sdc)));
+    r->RefineUniform(Far::TopologyRefiner::UniformOptions(levels));
+    topology = secondsSince(t);
+    struct V {
+        double x, y, z;
+        void Clear() { x = y = z = 0.0; }
+        void AddWithWeight(const V& o, double w) { x += w * o.x, y += w * o.y, z += w * o.z; }
+    };
+    t = Clock::now();
+    std::vector<V> all(size_t(r->GetNumVerticesTotal()));
+    for (size_t i = 0; i < mesh.points.size(); ++i)
+        all[i] = {mesh.points[i].x, mesh.points[i].y, mesh.points[i].z};
+    Far::PrimvarRefinerReal<double> primvar(*r);
+    V* src = all.data();
+    for (int l = 1; l <= levels; ++l) {
+        V* dst = src + r->GetLevel(l - 1).GetNumVertices();
+        primvar.Interpolate(l, src, dst);
+        src = dst;
+    }
+    interpolate = secondsSince(t);
+    vertices = size_t(r->GetLevel(levels).GetNumVertices());
+}
+
+}  // namespace
+
+ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
+                               const std::function<void(const std::string&)>& progress)
+{
+    auto say = [&](const std::string& s) {
+        if (progress)
+            progress(s);
+    };
+    ShapeBenchResult r;
+    r.levels = req.levels;
+    const ShapeSpec spec = rockSphere(req.levels);
+    const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
+    std::vector<double> osdTop, osdInt, setup, synth, plain, edit;
+    std::unique_ptr<ShapeSurface> shape;
+    for (int run = 0; run < req.repeats; ++run) {
+        say("OpenSubdiv uniform refinement");
+        double a, b;
+        openSubdiv(base.mesh, req.levels, a, b, r.vertices);
+        osdTop.push_back(a);
+        osdInt.push_back(b);
+
+        say("cambium synthesis");
+        auto t = Clock::now();
+        shape = std::make_unique<ShapeSurface>(spec, -1, base);
+        setup.push_back(secondsSince(t));
+        t = Clock::now();
+        shape->synthesize();
+        synth.push_back(secondsSince(t));
+        t = Clock::now();
+        shape->surface().synthesize();  // the details as they are, no hook: plain
+        plain.push_back(secondsSince(t));
+    }
+    // An edit at the edit level: that level's details scaled near a point,
+    // then re-synthesised from there.
+    {
+        ShapeSpec e = rockSphere(req.editLevel);
+        ShapeSurface s(e, -1, base);
+        s.synthesize();
+        r.editLevel = req.editLevel;
+        r.editVertices = s.surface().level(req.editLevel).vertexCount();
+        EditSpec edit1;
+        edit1.at = glm::dvec3(0, 0, 1);
+        edit1.radius = 0.5;
+        edit1.gain = 2.0;
+        edit1.levels = {req.editLevel};
+        Adjacency adj(s.surface().level(req.editLevel));
+        for (int run = 0; run < req.repeats; ++run) {
+            say("an edit re-synthesised");
+            const auto t = Clock::now();
+            s.surface().synthesizeFrom(req.editLevel, [&](int l, SubdivLevel& lv) {
+                applyEdit(edit1, l, lv, adj);
+            });
+            edit.push_back(secondsSince(t));
+        }
+    }
+    r.osdTopology = medianOf(osdTop);
+    r.osdInterpolate = medianOf(osdInt);
+    r.setup = medianOf(setup);
+    r.synthesis = medianOf(synth);
+    r.plainSynthesis = medianOf(plain);
+    r.edit = medianOf(edit);
+
+    // Mesh -> level set, both ways, on the finest mesh.
+    shape->synthesize();
+    // Distances only, as meshToLevelSet makes (the command also bakes Cd).
+    TriangleMesh mesh = shape->mesh();
+    mesh.colors.clear();
+    r.faces = mesh.polygons.sizes.size();
+    r.voxelSize = req.voxelSize;
+    std::vector<openvdb::Vec3s> points = mesh.points;
+    std::vector<openvdb::Vec3I> tris;
+    for (const auto& t : mesh.triangles)
+        tris.push_back(openvdb::Vec3I(t[0], t[1], t[2]));
+    const auto xform = openvdb::math::Transform::createLinearTransform(req.voxelSize);
+    std::vector<double> ours, theirs;
+    BakedGrids mine;
+    openvdb::FloatGrid::Ptr oracle;
+    for (int run = 0; run < req.repeats; ++run) {
+        say("cambium mesh -> level set");
+        MeshBakeOptions opt;
+        opt.voxelSize = req.voxelSize;
+        auto t = Clock::now();
+        mine = bakeMeshLevelSet(mesh, opt, "bench");
+        ours.push_back(secondsSince(t));
+        say("OpenVDB meshToLevelSet");
+        t = Clock::now();
+        oracle = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, tris, 3.0f);
+        theirs.push_back(secondsSince(t));
+    }
+    r.cambiumBake = medianOf(ours);
+    r.openvdbBake = medianOf(theirs);
+    r.cambiumVoxels = size_t(mine.surface->activeVoxelCount());
+    r.openvdbVoxels = size_t(oracle->activeVoxelCount());
+    auto acc = oracle->getConstAccessor();
+    for (auto it = mine.surface->tree().cbeginValueOn(); it; ++it) {
+        if (std::fabs(*it) > req.voxelSize || !acc.isValueOn(it.getCoord()))
+            continue;
+        r.largestDifference = std::max(
+            r.largestDifference, double(std::fabs(*it - acc.getValue(it.getCoord()))) / req.voxelSize);
+        ++r.compared;
+    }
+    return r;
+}
+
+}  // namespace cambium
