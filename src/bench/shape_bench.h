@@ -11,9 +11,9 @@
 namespace cambium {
 
 struct ShapeBenchRequest {
-    int levels = 8;              ///< of the rock cube-sphere (8: 393,218 vertices)
-    int editLevel = 7;           ///< the edit re-synthesised on a shape of this many levels
-    double voxelSize = 0.005;    ///< of the mesh -> level set step
+    int levels = 8;            ///< of the rock cube-sphere (8: 393,218 vertices)
+    int editLevel = 7;         ///< the edit re-synthesised on a shape of this many levels
+    double voxelSize = 0.005;  ///< of the mesh -> level set step
     int repeats = 3;
 };
 
@@ -22,17 +22,21 @@ struct ShapeBenchResult {
     size_t vertices = 0, faces = 0;
     // Median seconds.
     double osdTopology = 0.0, osdInterpolate = 0.0;  ///< OpenSubdiv: refiner, then primvars
-    double setup = 0.0;      ///< cambium: topology and the sphere's fitted details
-    double synthesis = 0.0;  ///< cambium: every level subdivided, framed, rock added
+    double setup = 0.0;           ///< cambium: topology and the sphere's fitted details
+    double synthesis = 0.0;       ///< cambium: every level subdivided, framed, rock added
     double plainSynthesis = 0.0;  ///< cambium: the same without details (frames included)
     int editLevel = 0;
     size_t editVertices = 0;
-    double edit = 0.0;       ///< re-synthesis of the edit level after its details changed
+    double edit = 0.0;  ///< re-synthesis of the edit level after its details changed
     // Mesh -> level set.
     double voxelSize = 0.0;
     size_t cambiumVoxels = 0, openvdbVoxels = 0, compared = 0;
     double cambiumBake = 0.0, openvdbBake = 0.0;
     double largestDifference = 0.0;  ///< voxels, over band voxels within 1 voxel of the surface
+    size_t beyondTolerance = 0;      ///< of those, how many differ by more than 0.05 voxel
+    /// A sample of those measured against every triangle: how many of the
+    /// sample each method has right (within 0.001 voxel).
+    size_t bruteChecked = 0, bruteCambium = 0, bruteOpenVdb = 0;
 };
 
 /// Runs every method `repeats` times in turn; `progress` names each step.

@@ -3,7 +3,9 @@
 
 #include "core/math.h"
 
+#include <array>
 #include <cmath>
+#include <map>
 
 namespace cambium {
 
@@ -19,6 +21,44 @@ void addTriangle(ControlMesh& m, int a, int b, int c)
 {
     m.faceSizes.push_back(3);
     m.faceVerts.insert(m.faceVerts.end(), {a, b, c});
+}
+
+/// The cube [-1, 1]^3 with each face a grid of n x n quads, points shared
+/// along the edges, faces outwards.
+BaseShape gridCube(int n)
+{
+    BaseShape s;
+    std::map<std::array<int, 3>, int> index;  // integer lattice point -> point
+    auto point = [&](int x, int y, int z) {
+        const std::array<int, 3> key{x, y, z};
+        const auto it = index.find(key);
+        if (it != index.end())
+            return it->second;
+        const int i = int(s.mesh.points.size());
+        s.mesh.points.push_back(glm::dvec3(x, y, z) * (2.0 / n) - glm::dvec3(1.0));
+        index[key] = i;
+        return i;
+    };
+    // Each face: its normal axis, side, and two in-plane axes ordered so the
+    // quads run counter-clockwise seen from outside.
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            int u = (axis + 1) % 3, v = (axis + 2) % 3;
+            if (side == 0)
+                std::swap(u, v);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    auto at = [&](int a, int b) {
+                        int c[3];
+                        c[axis] = side * n;
+                        c[u] = a;
+                        c[v] = b;
+                        return point(c[0], c[1], c[2]);
+                    };
+                    addQuad(s.mesh, at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                }
+        }
+    return s;
 }
 
 }  // namespace
@@ -39,9 +79,9 @@ BaseShape cubeBase(double size)
     return s;
 }
 
-BaseShape sphereBase(double radius)
+BaseShape sphereBase(double radius, int cells)
 {
-    BaseShape s = cubeBase(2.0);
+    BaseShape s = cells <= 1 ? cubeBase(2.0) : gridCube(cells);
     for (glm::dvec3& p : s.mesh.points)
         p = radius * glm::normalize(p);
     s.target = [radius](const glm::dvec3& q, const Frame& f, double) {

@@ -21,9 +21,10 @@ struct BaseShape {
 /// has corners at +-size/4 and face centres at +-(68/81) size/2).
 BaseShape cubeBase(double size);
 
-/// A sphere of `radius` about the origin: the cube's control mesh projected
-/// onto it, every level fitted to the sphere (points radially projected).
-BaseShape sphereBase(double radius);
+/// A sphere of `radius` about the origin: the cube's control mesh (each face
+/// a grid of `cells` x `cells` quads) projected onto it, every level fitted
+/// to the sphere (points radially projected).
+BaseShape sphereBase(double radius, int cells = 1);
 
 /// A torus about the z axis (tube centre `major` from the axis, tube radius
 /// `minor`): a grid of `around` x `tube` quads, every level fitted to it

@@ -22,6 +22,7 @@ struct BaseSpec {
     double length = 3.0;                  ///< fuse
     int around = 8, tube = 6, rings = 8;  ///< torus and fuse control grids
     int cells = 4;                        ///< plane
+    int sphereCells = 1;                  ///< sphere: quads along a cube face
     int terms = 2;                        ///< fuse profile
     std::string file;                     ///< mesh, vdb or model file (absolute or as given)
     double coarseVoxelSize = 0.0;         ///< vdb, model: the base's voxel size (0: automatic)

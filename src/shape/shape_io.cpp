@@ -152,8 +152,9 @@ private:
                 b.size = numberOr(j, "size", path, b.size, 1e-6, big);
                 break;
             case BaseType::Sphere:
-                checkKeys(j, path, {"type", "radius"});
+                checkKeys(j, path, {"type", "radius", "cells"});
                 b.radius = numberOr(j, "radius", path, b.radius, 1e-6, big);
+                b.sphereCells = wholeNumber(j, "cells", path, b.sphereCells, 1, 256);
                 break;
             case BaseType::Torus:
                 checkKeys(j, path, {"type", "major", "minor", "around", "tube"});

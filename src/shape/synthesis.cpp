@@ -28,7 +28,7 @@ BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
         case BaseType::Cube:
             return cubeBase(b.size);
         case BaseType::Sphere:
-            return sphereBase(b.radius);
+            return sphereBase(b.radius, b.sphereCells);
         case BaseType::Torus:
             return torusBase(b.major, b.minor, b.around, b.tube);
         case BaseType::Plane:
