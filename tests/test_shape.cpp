@@ -442,3 +442,39 @@ TEST(ShapeCommand, WritesMeshesAndLevelSetsAndRefusesBadInputFirst)
         EXPECT_EQ(e.path().filename().string().rfind("bad", 0), std::string::npos)
             << e.path() << " was written";
 }
+
+TEST(ShapeDetails, RockAmplitudesThatWouldFoldAPlaneAreRefused)
+{
+    // Each form of rock on a plane: an amplitude that folds it is refused
+    // with about the largest that does not (found on a patch of the plane);
+    // somewhat less leaves the plane a height field (no quad turned over
+    // seen from above).
+    const std::string plane = R"({"base": {"type": "plane", "size": 2, "cells": 4}, "levels": 6, )";
+    for (const char* form : {"noise", "control-points"}) {
+        const std::string big =
+            plane + R"("details": [{"type": "rock", "amplitude": 0.5, "frequency": 4, "form": ")" +
+            form + "\"}]}";
+        const std::string e = refusal(big);
+        ASSERT_NE(e.find("folds the surface onto itself on a plane"), std::string::npos) << e;
+        const size_t at = e.find("at most about ");
+        ASSERT_NE(at, std::string::npos);
+        const double safe = std::stod(e.substr(at + 14));
+        EXPECT_GT(safe, 0.0);
+        EXPECT_LT(safe, 0.5);
+        ShapeSurface s(shape(plane + R"("details": [{"type": "rock", "amplitude": )" +
+                             std::to_string(0.7 * safe) + R"(, "frequency": 4, "form": ")" + form +
+                             "\"}]}"));
+        s.synthesize();
+        const SubdivLevel& f = s.surface().finest();
+        size_t flipped = 0;
+        for (size_t q = 0; q < f.faceCount(); ++q) {
+            const int* c = f.faceVerts.data() + f.faceStart[q];
+            const glm::dvec3 a = f.points[size_t(c[0])], b = f.points[size_t(c[1])],
+                             cc = f.points[size_t(c[2])], d = f.points[size_t(c[3])];
+            flipped += (cc.x - a.x) * (d.y - b.y) - (cc.y - a.y) * (d.x - b.x) <= 0.0;
+        }
+        EXPECT_EQ(flipped, 0u) << form;
+        test::report("{}: largest amplitude at frequency 4 on a plane of 0.5-long edges: {}", form,
+                     safe);
+    }
+}

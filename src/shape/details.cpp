@@ -466,9 +466,39 @@ double rockValue(const glm::dvec3& p, int k, double amplitude, double frequency,
                             97.0 * hash01(seed, uint64_t(k), 2),
                             97.0 * hash01(seed, uint64_t(k), 3));
     const double f = std::ldexp(frequency, k);
-    // glm::perlin peaks at about +-1.09: scaled into [-1, 1].
-    const double n = glm::perlin(p * f + offset) / 1.0894;
+    const double n = glm::perlin(p * f + offset) / kNoisePeak;
     return std::ldexp(amplitude, -k) * std::clamp(n, -1.0, 1.0);
+}
+
+size_t rockFoldsOnAPlane(const DetailSpec& rock, double edge)
+{
+    ControlMesh plane;
+    for (int j = 0; j <= 4; ++j)
+        for (int i = 0; i <= 4; ++i)
+            plane.points.push_back({edge * i, edge * j, 0.0});
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            plane.faceSizes.push_back(4);
+            plane.faceVerts.insert(plane.faceVerts.end(), {j * 5 + i, j * 5 + i + 1,
+                                                           (j + 1) * 5 + i + 1, (j + 1) * 5 + i});
+        }
+    const int levels = std::min(rock.levels.back(), 6);
+    MultiresSurface s(plane, levels, "probe");
+    Rock detail(rock);
+    s.synthesize([&](int l, SubdivLevel& lv) {
+        std::fill(lv.detail.begin(), lv.detail.end(), glm::dvec3(0.0));
+        if (l > 0)
+            detail.apply(l, lv, Adjacency(lv));
+    });
+    const SubdivLevel& f = s.finest();
+    size_t flipped = 0;
+    for (size_t q = 0; q < f.faceCount(); ++q) {
+        const int* c = f.faceVerts.data() + f.faceStart[q];
+        const glm::dvec3 &a = f.points[size_t(c[0])], &b = f.points[size_t(c[1])],
+                         &cc = f.points[size_t(c[2])], &d = f.points[size_t(c[3])];
+        flipped += (cc.x - a.x) * (d.y - b.y) - (cc.y - a.y) * (d.x - b.x) <= 0.0;
+    }
+    return flipped;
 }
 
 double rockControlValue(int vertex, int level, int k, double amplitude, uint32_t seed)

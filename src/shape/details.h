@@ -36,6 +36,16 @@ std::vector<int> poissonDisk(const std::vector<glm::dvec3>& points, double spaci
 /// beyond: 1 at the point, 0 with zero slope at the radius (C1).
 double editDropOff(double s);
 
+/// glm::perlin's largest magnitude, measured over 4 million random points
+/// (1.146): the rock's noise is perlin / kNoisePeak, clamped to [-1, 1].
+constexpr double kNoisePeak = 1.15;
+
+/// Quads of a plane turned over by a rock detail (seen from above): a
+/// plane of 4 x 4 quads `edge` long, subdivided to the detail's last level
+/// (at most 6) with the detail alone.  Zero when the detail leaves a plane a
+/// height field, which then does not fold onto itself.
+size_t rockFoldsOnAPlane(const DetailSpec& rock, double edge);
+
 /// The rock's one-pass noise at p for level index k (0 at its first level):
 /// amplitude 2^-k, frequency `frequency` 2^k (1/f), in [-1, 1] scaled.
 double rockValue(const glm::dvec3& p, int k, double amplitude, double frequency, uint32_t seed);

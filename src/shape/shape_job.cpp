@@ -69,6 +69,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
     const BaseShape base = makeBase(spec.base, spec.source, req.device);
+    checkShapeDetails(spec, base.mesh);
     const double available = availableMemoryBytes();
     const double synthesisBytes = estimateSynthesisBytes(base.mesh.faceCount(), levels);
     if (synthesisBytes > available)

@@ -74,11 +74,41 @@ void checkShapeLevels(const ShapeSpec& spec, int levels)
                                 spec.source, e.path, l, levels));
 }
 
+void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base)
+{
+    double edges = 0.0;
+    size_t count = 0, c = 0;
+    for (int n : base.faceSizes) {
+        for (int k = 0; k < n; ++k)
+            edges += glm::length(base.points[size_t(base.faceVerts[c + size_t(k)])] -
+                                 base.points[size_t(base.faceVerts[c + size_t((k + 1) % n)])]);
+        count += size_t(n);
+        c += size_t(n);
+    }
+    const double e0 = count ? edges / double(count) : 1.0;
+    for (const DetailSpec& d : spec.details) {
+        if (d.type != DetailType::Rock || d.amplitude == 0.0 || !rockFoldsOnAPlane(d, e0))
+            continue;
+        // The largest amplitude that does not fold, to a few percent.
+        double lo = 0.0, hi = d.amplitude;
+        DetailSpec probe = d;
+        for (int step = 0; step < 6; ++step) {
+            probe.amplitude = 0.5 * (lo + hi);
+            (rockFoldsOnAPlane(probe, e0) ? hi : lo) = probe.amplitude;
+        }
+        throw InputError(fmt::format(
+            "{}: {}.amplitude: {} folds the surface onto itself on a plane of this base's edge "
+            "length ({:.3g}): self-intersecting; use an amplitude of at most about {:.3g}",
+            spec.source, d.path, d.amplitude, e0, lo));
+    }
+}
+
 ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& base) : spec_(spec)
 {
     if (levels >= 0)
         spec_.levels = levels;
     checkShapeLevels(spec_, spec_.levels);
+    checkShapeDetails(spec_, base.mesh);
     surface_ = std::make_unique<MultiresSurface>(base.mesh, spec_.levels, spec_.source + ": base");
     baseDetail_.resize(size_t(spec_.levels) + 1);
     if (base.target) {

@@ -22,6 +22,11 @@ namespace cambium {
 /// `levels`.
 void checkShapeLevels(const ShapeSpec& spec, int levels);
 
+/// InputError when a rock detail would fold the surface onto itself on a
+/// plane of `base`'s mean edge length (rockFoldsOnAPlane), naming about the
+/// largest amplitude that would not.
+void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base);
+
 /// The memory a shape's synthesis needs at `levels` levels of a base of
 /// `baseFaces` faces (bytes, estimated), to refuse what cannot fit.
 double estimateSynthesisBytes(size_t baseFaces, int levels);
