@@ -478,3 +478,33 @@ TEST(ShapeDetails, RockAmplitudesThatWouldFoldAPlaneAreRefused)
                      safe);
     }
 }
+
+TEST(ShapeCapture, AFineMeshAnalysedOntoAGivenControlMesh)
+{
+    // A fine sphere written as an OBJ, analysed onto a given control mesh
+    // (the sphere's first level: 26 points, 24 quads, within the fine
+    // surface's band): every finer level's points land on the fine surface.
+    const std::string dir = ::testing::TempDir() + "/shape_capture";
+    std::filesystem::create_directories(dir);
+    ShapeSurface fine(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 5})"));
+    fine.synthesize();
+    writeMesh(fine.mesh(), dir + "/fine.obj");
+    writeMesh(levelMesh(fine.surface().level(1)), dir + "/control.obj");
+    const ShapeSpec spec =
+        parseShape(R"({"base": {"type": "mesh", "file": "fine.obj", "analyse": true,
+        "control": "control.obj", "fine_voxel_size": 0.02}, "levels": 3})",
+                   "captured.json", dir);
+    ShapeSurface s(spec, -1, Device::Cpu);
+    s.synthesize();
+    EXPECT_EQ(s.surface().level(0).vertexCount(), 26u);  // the control mesh
+    double worst = 0.0;
+    for (const auto& p : s.surface().finest().points)
+        worst = std::max(worst, std::fabs(glm::length(p) - 1.0));
+    EXPECT_LT(worst, 2e-3);  // the fine mesh is within about 1e-3 of the sphere
+    const std::string e = refusal(R"({"base": {"type": "mesh", "file": ")" + dir +
+                                  R"(/fine.obj", "voxel_size": 0.1}})");
+    EXPECT_NE(e.find("add \"analyse\": true"), std::string::npos) << e;
+    test::report(
+        "a level-5 sphere mesh analysed onto its level 1: level 3 within {:.2g} of the sphere",
+        worst);
+}

@@ -1,13 +1,16 @@
 // cambium — closed triangle meshes into narrow-band level sets.
 //
-// Memory is touched once and kept small (first touches of fresh pages
-// dominate on small machines): triangles in index space in single
+// Every band voxel is measured against every triangle within the band's
+// half-width of it (exact), eight voxels at a time; memory is touched once
+// and kept small (first touches of fresh pages cost more than the
+// arithmetic on small machines): triangles in index space in single
 // precision, the mesh's own indices, leaves binned by counting.
 #include "bake/mesh_levelset.h"
 
 #include "bake/stages.h"
 #include "core/clock.h"
 #include "core/error.h"
+#include "core/memory.h"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -15,6 +18,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <cstring>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -26,6 +30,27 @@ namespace {
 
 using glm::dvec3;
 
+/// An uninitialised array whose pages all threads fault in (core/memory.h):
+/// on a small machine first touches of fresh memory cost more than the
+/// arithmetic, and a std::vector would zero it on one thread.
+template <class T>
+class Scratch {
+public:
+    Scratch() = default;
+    explicit Scratch(size_t n) : data_(parallelArray<T>(n)), size_(n) {}
+    size_t size() const { return size_; }
+    T* data() { return data_.get(); }
+    const T* data() const { return data_.get(); }
+    T& operator[](size_t i) { return data_[i]; }
+    const T& operator[](size_t i) const { return data_[i]; }
+    const T* begin() const { return data_.get(); }
+    const T* end() const { return data_.get() + size_; }
+
+private:
+    ParallelArray<T> data_;
+    size_t size_ = 0;
+};
+
 /// A triangle in index space (world / h), in the mesh's single precision,
 /// and its unit normal (zero for a triangle of no area, which is skipped).
 struct Tri {
@@ -36,16 +61,16 @@ struct Tri {
 /// edge (ab, bc, ca) and the angle-weighted pseudo-normal of every point.
 struct Triangles {
     const TriangleMesh* mesh = nullptr;
-    std::vector<Tri> tris;
-    std::vector<std::array<uint32_t, 3>> across;
+    Scratch<Tri> tris;
+    Scratch<std::array<uint32_t, 3>> across;
     std::vector<glm::vec3> corner;
 };
 
 enum Feature : uint8_t { kFace = 0, kEdgeAB, kEdgeBC, kEdgeCA, kCornerA, kCornerB, kCornerC };
 
 /// The nearest point of triangle (a, b, c) to p and the feature it lies on
-/// (Ericson, Real-Time Collision Detection 5.1.5, by Voronoi regions): in
-/// float for the search, in double for the band's values.
+/// (Ericson, Real-Time Collision Detection 5.1.5, by Voronoi regions), for
+/// the band's values and signs once exactLeaf has found the triangle.
 template <class V, class T = typename V::value_type>
 V closestOnTriangle(const V& p, const V& a, const V& b, const V& c, Feature& f)
 {
@@ -73,14 +98,6 @@ V closestOnTriangle(const V& p, const V& a, const V& b, const V& c, Feature& f)
     const T denom = T(1) / (va + vb + vc);
     f = kFace;
     return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-/// Squared distance from p to the triangle, in float.
-float distance2(const glm::vec3& p, const Tri& t)
-{
-    Feature f;
-    const glm::vec3 d = p - closestOnTriangle(p, t.a, t.b, t.c, f);
-    return glm::dot(d, d);
 }
 
 /// The pseudo-normal of feature f of triangle i: its normal, the sum of the
@@ -147,7 +164,7 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
                     fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
     Triangles T;
     T.mesh = &mesh;
-    T.tris.resize(nt);
+    T.tris = Scratch<Tri>(nt);
     const float scale = float(1.0 / h);
     tbb::parallel_for(size_t(0), nt, [&](size_t i) {
         Tri& t = T.tris[i];
@@ -190,7 +207,7 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
         T.corner[v] = glm::vec3(s);
     });
     // Edges: a -> b has exactly one triangle running b -> a beside it.
-    T.across.resize(nt);
+    T.across = Scratch<std::array<uint32_t, 3>>(nt);
     std::atomic<size_t> firstBad{nt};
     tbb::parallel_for(size_t(0), nt, [&](size_t i) {
         const auto& t = mesh.triangles[i];
@@ -242,7 +259,7 @@ void voxelRange(const Tri& t, double r, openvdb::Coord& lo, openvdb::Coord& hi)
 /// grid would be large, sorted by leaf), so the bins are 4 bytes each.
 class LeafBins {
 public:
-    LeafBins(const std::vector<Tri>& tris, double W)
+    LeafBins(const Scratch<Tri>& tris, double W)
     {
         // The bounds in leaves.
         struct Bounds {
@@ -320,7 +337,7 @@ private:
                     f(openvdb::Coord(x, y, z));
     }
 
-    void binDense(const std::vector<Tri>& tris, double W, size_t cells)
+    void binDense(const Scratch<Tri>& tris, double W, size_t cells)
     {
         std::vector<uint32_t> count(cells, 0);
         for (const Tri& t : tris)
@@ -337,7 +354,7 @@ private:
                 origin_.push_back((openvdb::Coord(int(x), int(y), int(z)) + lo_) << 3);
                 first_.push_back(first_.back() + count[c]);
             }
-        tri_.resize(first_.back());
+        tri_ = Scratch<uint32_t>(first_.back());
         std::vector<size_t> fill(first_.begin(), first_.end() - 1);
         for (size_t i = 0; i < tris.size(); ++i)
             if (tris[i].n != glm::vec3(0.0f))
@@ -346,7 +363,7 @@ private:
                 });
     }
 
-    void binSparse(const std::vector<Tri>& tris, double W)
+    void binSparse(const Scratch<Tri>& tris, double W)
     {
         std::vector<std::pair<openvdb::Coord, uint32_t>> pairs;
         for (size_t i = 0; i < tris.size(); ++i)
@@ -357,7 +374,7 @@ private:
         tbb::parallel_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
             return less(a.first, b.first) || (a.first == b.first && a.second < b.second);
         });
-        tri_.resize(pairs.size());
+        tri_ = Scratch<uint32_t>(pairs.size());
         for (size_t i = 0; i < pairs.size(); ++i) {
             if (i == 0 || pairs[i].first != pairs[i - 1].first) {
                 origin_.push_back(pairs[i].first);
@@ -372,231 +389,98 @@ private:
     std::vector<int32_t> dense_;  ///< leaf of each cell of the dense grid, or -1
     std::vector<openvdb::Coord> origin_;
     std::vector<size_t> first_;
-    std::vector<uint32_t> tri_;
+    Scratch<uint32_t> tri_;
 };
 
-/// A set of a leaf's voxels, one bit each (word x, bit 8 y + z).
-using VoxelMask = std::array<uint64_t, kLeafVoxels / 64>;
+/// Every voxel's nearest triangle within the band (kLeafVoxels per leaf; -1
+/// where none is nearer than W).
+using Nearest = Scratch<int32_t>;
 
-bool test(const VoxelMask& m, int v)
+/// One leaf: every voxel within W of a binned triangle's bounding box
+/// measured against that triangle, eight voxels (a row along z) at a time,
+/// branch-free: the distance to the plane where the point projects inside
+/// the triangle (three edge tests), else to the nearest of its three edges.
+/// The whole body is one function on purpose: GCC lowers generic vectors
+/// for the target of the function that holds them (bake/sweep.inc says
+/// more), and this one is cloned for AVX2.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void exactLeaf(
+    const Tri* tris, const uint32_t* it, const uint32_t* end, openvdb::Coord o, double W,
+    int32_t* __restrict bestTri)
 {
-    return (m[size_t(v >> 6)] >> (v & 63)) & 1u;
+    typedef float V8 __attribute__((vector_size(32)));
+    typedef int32_t I8 __attribute__((vector_size(32)));
+    alignas(32) float best[kLeafVoxels];
+    const float w2 = float(W * W);
+    for (float& b : best)
+        b = w2;
+    const V8 lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    const V8 pz = lane + float(o.z());
+    const V8 zero = pz - pz, one = zero + 1.0f;
+    for (; it != end; ++it) {
+        const Tri& t = tris[*it];
+        openvdb::Coord lo, hi;
+        voxelRange(t, W, lo, hi);
+        const int x0 = std::max(lo.x(), o.x()), x1 = std::min(hi.x(), o.x() + 7);
+        const int y0 = std::max(lo.y(), o.y()), y1 = std::min(hi.y(), o.y() + 7);
+        if (x0 > x1 || y0 > y1 || lo.z() > o.z() + 7 || hi.z() < o.z())
+            continue;
+        const glm::vec3 a = t.a, b = t.b, c = t.c, n = t.n;
+        const glm::vec3 ab = b - a, bc = c - b, ca = a - c;
+        const glm::vec3 eab = glm::cross(n, ab), ebc = glm::cross(n, bc), eca = glm::cross(n, ca);
+        const float iab = 1.0f / glm::dot(ab, ab), ibc = 1.0f / glm::dot(bc, bc),
+                    ica = 1.0f / glm::dot(ca, ca);
+        const V8 za = pz - a.z, zb = pz - b.z, zc = pz - c.z;
+        const I8 id = (I8){0, 0, 0, 0, 0, 0, 0, 0} + int32_t(*it);
+        for (int x = x0; x <= x1; ++x)
+            for (int y = y0; y <= y1; ++y) {
+                const float xa = float(x) - a.x, ya = float(y) - a.y;
+                const float xb = float(x) - b.x, yb = float(y) - b.y;
+                const float xc = float(x) - c.x, yc = float(y) - c.y;
+                const V8 plane = xa * n.x + ya * n.y + za * n.z;
+                const I8 inside = (xa * eab.x + ya * eab.y + za * eab.z >= zero) &
+                                  (xb * ebc.x + yb * ebc.y + zb * ebc.z >= zero) &
+                                  (xc * eca.x + yc * eca.y + zc * eca.z >= zero);
+                V8 s = (xa * ab.x + ya * ab.y + za * ab.z) * iab;
+                s = s < zero ? zero : (s > one ? one : s);
+                V8 dx = xa - s * ab.x, dy = ya - s * ab.y, dz = za - s * ab.z;
+                V8 edge = dx * dx + dy * dy + dz * dz;
+                s = (xb * bc.x + yb * bc.y + zb * bc.z) * ibc;
+                s = s < zero ? zero : (s > one ? one : s);
+                dx = xb - s * bc.x, dy = yb - s * bc.y, dz = zb - s * bc.z;
+                V8 d = dx * dx + dy * dy + dz * dz;
+                edge = d < edge ? d : edge;
+                s = (xc * ca.x + yc * ca.y + zc * ca.z) * ica;
+                s = s < zero ? zero : (s > one ? one : s);
+                dx = xc - s * ca.x, dy = yc - s * ca.y, dz = zc - s * ca.z;
+                d = dx * dx + dy * dy + dz * dz;
+                edge = d < edge ? d : edge;
+                const V8 d2 = inside ? plane * plane : edge;
+                const int row = ((x - o.x()) << 6) | ((y - o.y()) << 3);
+                V8 old;
+                I8 oldTri;
+                std::memcpy(&old, best + row, sizeof old);
+                std::memcpy(&oldTri, bestTri + row, sizeof oldTri);
+                const I8 nearer = d2 < old;
+                const V8 nb = nearer ? d2 : old;
+                const I8 nt = nearer ? id : oldTri;
+                std::memcpy(best + row, &nb, sizeof nb);
+                std::memcpy(bestTri + row, &nt, sizeof nt);
+            }
+    }
 }
 
-void set(VoxelMask& m, int v)
-{
-    m[size_t(v >> 6)] |= uint64_t(1) << (v & 63);
-}
-
-/// Every voxel's nearest triangle so far (kLeafVoxels per leaf; -1 where
-/// none is known), and the voxels where it is exact (pass 1's).  Distances
-/// are not kept: recomputing one costs less than the memory of all.
-struct Nearest {
-    std::vector<int32_t> tri;
-    std::vector<VoxelMask> exact;
-};
-
-/// Pass 1, exact near the surface: each leaf's voxels within `r1` of a
-/// triangle's bounding box measured against that triangle (its plane's
-/// distance first: it bounds the triangle's from below).
-void nearPass(const std::vector<Tri>& tris, const LeafBins& bins, double r1, Nearest& nearest)
+/// Every band voxel's nearest triangle, exactly: each leaf measured against
+/// the triangles binned to it (exactLeaf).
+void exactPass(const Scratch<Tri>& tris, const LeafBins& bins, double W, Nearest& nearest)
 {
     tbb::parallel_for(
-        tbb::blocked_range<size_t>(0, bins.size(), 16), [&](const tbb::blocked_range<size_t>& r) {
+        tbb::blocked_range<size_t>(0, bins.size(), 8), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t l = r.begin(); l != r.end(); ++l) {
-                const openvdb::Coord o = bins.origin(l);
-                float best[kLeafVoxels];
-                std::fill(best, best + kLeafVoxels, float(r1 * r1));
-                int32_t* bestTri = nearest.tri.data() + l * kLeafVoxels;
-                for (const uint32_t* it = bins.begin(l); it != bins.end(l); ++it) {
-                    const Tri& t = tris[*it];
-                    openvdb::Coord lo, hi;
-                    voxelRange(t, r1, lo, hi);
-                    const int x0 = std::max(lo.x(), o.x()), x1 = std::min(hi.x(), o.x() + 7);
-                    const int y0 = std::max(lo.y(), o.y()), y1 = std::min(hi.y(), o.y() + 7);
-                    const int z0 = std::max(lo.z(), o.z()), z1 = std::min(hi.z(), o.z() + 7);
-                    for (int x = x0; x <= x1; ++x)
-                        for (int y = y0; y <= y1; ++y)
-                            for (int z = z0; z <= z1; ++z) {
-                                const int v = ((x - o.x()) << 6) | ((y - o.y()) << 3) | (z - o.z());
-                                const glm::vec3 p{float(x), float(y), float(z)};
-                                const float dp = glm::dot(p - t.a, t.n);
-                                if (dp * dp >= best[v])
-                                    continue;
-                                const float d2 = distance2(p, t);
-                                if (d2 < best[v]) {
-                                    best[v] = d2;
-                                    bestTri[v] = int32_t(*it);
-                                }
-                            }
-                }
-                VoxelMask& exact = nearest.exact[l];
-                exact.fill(0);
-                for (int v = 0; v < kLeafVoxels; ++v)
-                    if (bestTri[v] >= 0)
-                        set(exact, v);
+                int32_t* tri = nearest.data() + l * kLeafVoxels;
+                std::fill_n(tri, kLeafVoxels, -1);
+                exactLeaf(tris.data(), bins.begin(l), bins.end(l), bins.origin(l), W, tri);
             }
         });
-}
-
-bool any(const VoxelMask& m)
-{
-    return (m[0] | m[1] | m[2] | m[3] | m[4] | m[5] | m[6] | m[7]) != 0;
-}
-
-/// The voxels of a leaf next to (across a face) a voxel set in `own` (bit
-/// shifts: word x, bit 8 y + z) or in the neighbours' masks `nb` (+x, -x,
-/// +y, -y, +z, -z; null where there is none).
-VoxelMask beside(const VoxelMask& own, const std::array<const VoxelMask*, 6>& nb)
-{
-    constexpr uint64_t kZ0 = 0x0101010101010101ull, kZ7 = kZ0 << 7;
-    VoxelMask out;
-    for (size_t x = 0; x < 8; ++x) {
-        const uint64_t w = own[x];
-        uint64_t d = ((w << 1) & ~kZ0) | ((w >> 1) & ~kZ7) | (w << 8) | (w >> 8);
-        if (x > 0)
-            d |= own[x - 1];
-        if (x < 7)
-            d |= own[x + 1];
-        out[x] = d;
-    }
-    if (nb[0])
-        out[7] |= (*nb[0])[0];
-    if (nb[1])
-        out[0] |= (*nb[1])[7];
-    for (size_t x = 0; x < 8; ++x) {
-        if (nb[2])
-            out[x] |= ((*nb[2])[x] & 0xFFull) << 56;
-        if (nb[3])
-            out[x] |= (*nb[3])[x] >> 56;
-        if (nb[4])
-            out[x] |= ((*nb[4])[x] & kZ0) << 7;
-        if (nb[5])
-            out[x] |= ((*nb[5])[x] & kZ7) >> 7;
-    }
-    return out;
-}
-
-/// Pass 2, out to the band's edge (squared distances below `limit2`), in
-/// rounds: each voxel not yet exact tries the nearest triangles of its six neighbours that
-/// changed since its leaf was last visited.  Each round visits the leaves in
-/// two halves, a checkerboard of leaves, so that no leaf is written while a
-/// neighbour reads it: in place, and the same whatever the threads.  (The
-/// nearest point may have moved across an edge from the neighbours':
-/// makeLeaves finishes the search.)
-void farPass(const Triangles& T, const LeafBins& bins, int rounds, float limit2, Nearest& nearest)
-{
-    const size_t n = bins.size();
-    std::vector<std::array<int32_t, 6>> faceNb(n);
-    std::vector<VoxelMask> before(n), now(n);  // changes in the last round, in this one
-    std::vector<uint32_t> half[2];
-    for (size_t l = 0; l < n; ++l) {
-        const openvdb::Coord o = bins.origin(l) >> 3;
-        half[(o.x() + o.y() + o.z()) & 1].push_back(uint32_t(l));
-    }
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const openvdb::Coord o = bins.origin(l);
-        for (int k = 0; k < 6; ++k) {
-            openvdb::Coord c = o;
-            c[k / 2] += (k % 2 ? -8 : 8);
-            faceNb[l][size_t(k)] = bins.find(c);
-        }
-        const int32_t* t = nearest.tri.data() + l * kLeafVoxels;
-        now[l].fill(0);
-        for (int v = 0; v < kLeafVoxels; ++v)
-            if (t[v] >= 0)
-                now[l][size_t(v >> 6)] |= uint64_t(1) << (v & 63);
-    });
-    auto visit = [&](size_t l, int phase) {
-        // Neighbours of the other half changed last round (phase 0) or in
-        // this round's first half (phase 1); this leaf, at its last visit.
-        const std::vector<VoxelMask>& theirs = phase == 0 ? before : now;
-        std::array<const VoxelMask*, 6> nb;
-        bool near = any(before[l]);
-        for (int k = 0; k < 6; ++k) {
-            const int32_t j = faceNb[l][size_t(k)];
-            nb[size_t(k)] = j >= 0 ? &theirs[size_t(j)] : nullptr;
-            near = near || (j >= 0 && any(theirs[size_t(j)]));
-        }
-        now[l].fill(0);
-        if (!near)
-            return;
-        const VoxelMask front = beside(before[l], nb);
-        const openvdb::Coord o = bins.origin(l);
-        int32_t* bestTri = nearest.tri.data() + l * kLeafVoxels;
-        for (size_t word = 0; word < front.size(); ++word)
-            for (uint64_t bits = front[word] & ~nearest.exact[l][word]; bits; bits &= bits - 1) {
-                const int v = int(word * 64) + __builtin_ctzll(bits);
-                const int c[3] = {v >> 6, (v >> 3) & 7, v & 7};
-                int32_t cand[6];
-                int nc = 0;
-                for (int k = 0; k < 6; ++k) {
-                    int q[3] = {c[0], c[1], c[2]};
-                    q[k / 2] += k % 2 ? -1 : 1;
-                    size_t leaf = l;
-                    const VoxelMask* mask = &before[l];
-                    if (q[k / 2] < 0 || q[k / 2] > 7) {
-                        if (!nb[size_t(k)])
-                            continue;
-                        leaf = size_t(faceNb[l][size_t(k)]);
-                        mask = nb[size_t(k)];
-                        q[k / 2] &= 7;
-                    }
-                    const int w = (q[0] << 6) | (q[1] << 3) | q[2];
-                    if (!test(*mask, w))
-                        continue;
-                    const int32_t t = nearest.tri[leaf * kLeafVoxels + size_t(w)];
-                    if (t < 0 || t == bestTri[v] || std::find(cand, cand + nc, t) != cand + nc)
-                        continue;
-                    cand[nc++] = t;
-                }
-                if (nc == 0)
-                    continue;
-                const glm::vec3 p{float(o.x() + c[0]), float(o.y() + c[1]), float(o.z() + c[2])};
-                float best = bestTri[v] >= 0 ? distance2(p, T.tris[size_t(bestTri[v])]) : limit2;
-                for (int i = 0; i < nc; ++i) {
-                    const float d2 = distance2(p, T.tris[size_t(cand[i])]);
-                    if (d2 < best) {
-                        best = d2;
-                        bestTri[v] = cand[i];
-                        set(now[l], v);
-                    }
-                }
-            }
-    };
-    for (int round = 0; round < rounds; ++round) {
-        std::swap(before, now);
-        for (int phase = 0; phase < 2; ++phase)
-            tbb::parallel_for(size_t(0), half[phase].size(),
-                              [&](size_t i) { visit(half[phase][i], phase); });
-    }
-}
-
-/// From triangle i, across edges to a nearer triangle while there is one:
-/// the nearest triangle to p when, as in the band beyond pass 1, i is one
-/// of its neighbours' nearest.
-size_t descend(const Triangles& T, const dvec3& p, size_t i)
-{
-    auto dist2 = [&](size_t j) {
-        const Tri& t = T.tris[j];
-        Feature f;
-        const dvec3 d = p - closestOnTriangle(p, dvec3(t.a), dvec3(t.b), dvec3(t.c), f);
-        return glm::dot(d, d);
-    };
-    double best = dist2(i);
-    for (int step = 0; step < 64; ++step) {
-        size_t next = i;
-        for (uint32_t u : T.across[i])
-            if (T.tris[u].n != glm::vec3(0.0f)) {
-                const double d = dist2(u);
-                if (d < best)
-                    best = d, next = u;
-            }
-        if (next == i)
-            break;
-        i = next;
-    }
-    return i;
 }
 
 /// The band voxels (distance below W) into grid leaves: signed distances in
@@ -613,7 +497,7 @@ BandLeaves makeLeaves(const Triangles& T, const LeafBins& bins, const Nearest& n
     band.color.assign(n, nullptr);
     band.active.assign(n, 0);
     tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const int32_t* tri = nearest.tri.data() + l * kLeafVoxels;
+        const int32_t* tri = nearest.data() + l * kLeafVoxels;
         if (std::all_of(tri, tri + kLeafVoxels, [](int32_t t) { return t < 0; }))
             return;
         const openvdb::Coord o = bins.origin(l);
@@ -624,10 +508,8 @@ BandLeaves makeLeaves(const Triangles& T, const LeafBins& bins, const Nearest& n
         for (int v = 0; v < kLeafVoxels; ++v) {
             if (tri[v] < 0)
                 continue;
-            size_t i = size_t(tri[v]);
+            const size_t i = size_t(tri[v]);
             const dvec3 p(o.x() + (v >> 6), o.y() + ((v >> 3) & 7), o.z() + (v & 7));
-            if (!test(nearest.exact[l], v))
-                i = descend(T, p, i);
             const Tri& t = T.tris[i];
             const dvec3 a(t.a), b(t.b), cc(t.c);
             Feature f;
@@ -692,20 +574,8 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     const LeafBins bins(T.tris, W);
     progress("binning", 1.0);
 
-    // Exact within kNearVoxels of the surface; beyond, out to W, from the
-    // neighbours' nearest triangles (each round reaches a voxel further
-    // along an axis: sqrt(3) rounds per voxel of distance along a diagonal).
-    constexpr double kNearVoxels = 1.0;
-    const double r1 = std::min(kNearVoxels, W);
-    Nearest nearest;
-    nearest.tri.assign(bins.size() * kLeafVoxels, -1);
-    nearest.exact.resize(bins.size());
-    nearPass(T.tris, bins, r1, nearest);
-    progress("distances", 0.5);
-    // (Kept a little beyond W: the last search in makeLeaves may bring a
-    // voxel inside.)
-    farPass(T, bins, int(std::ceil((W - r1) * std::sqrt(3.0))) + 1, float((W + 0.5) * (W + 0.5)),
-            nearest);
+    Nearest nearest(bins.size() * kLeafVoxels);
+    exactPass(T.tris, bins, W, nearest);
     progress("distances", 1.0);
 
     const float background = bandBackground(h, W);

@@ -2,6 +2,7 @@
 #include "shape/capture.h"
 
 #include "bake/bake.h"
+#include "bake/mesh_levelset.h"
 #include "core/error.h"
 #include "field/program.h"
 #include "io/vdb.h"
@@ -96,12 +97,18 @@ glm::dvec3 project(const DistanceField& f, const glm::dvec3& q, const glm::dvec3
     return p;
 }
 
+/// The half-width of the fine surfaces cambium bakes to capture: the
+/// projection finds the surface only within the band, and a control mesh's
+/// subdivided points lie up to a few voxels from it.
+constexpr double kCaptureHalfWidth = 8.0;
+
 openvdb::FloatGrid::Ptr bakeModel(const BlobTree& tree, double h, Device device)
 {
     const FieldProgram program = FieldProgram::compile(tree);
     std::unique_ptr<FieldSampler> sampler = makeSampler(device);
     BakeOptions opt;
     opt.voxelSize = h;
+    opt.halfWidth = kCaptureHalfWidth;
     return bakeLevelSet(program, *sampler, opt).surface;
 }
 
@@ -143,11 +150,27 @@ BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, cons
                         "voxel_size)",
                         e.what(), coarse));
     }
-    auto field = std::make_shared<DistanceField>(fine);
-    s.target = [field](const glm::dvec3& q, const Frame& f, double edge) {
+    s.target = projectionOnto(fine);
+    return s;
+}
+
+MultiresSurface::Target projectionOnto(openvdb::FloatGrid::ConstPtr fine)
+{
+    auto field = std::make_shared<DistanceField>(std::move(fine));
+    return [field](const glm::dvec3& q, const Frame& f, double edge) {
         return project(*field, q, f.n, edge);
     };
-    return s;
+}
+
+ControlMesh readControlMesh(const std::string& path)
+{
+    const TriangleMesh m = readMesh(path);
+    ControlMesh c;
+    for (const auto& p : m.points)
+        c.points.push_back({double(p.x()), double(p.y()), double(p.z())});
+    c.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
+    c.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
+    return c;
 }
 
 BaseShape captureBase(const BaseSpec& b, const std::string& source, Device device)
@@ -160,6 +183,13 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         const openvdb::CoordBBox box = fine->evalActiveVoxelBoundingBox();
         const openvdb::Vec3d d = box.dim().asVec3d() * fine->voxelSize()[0];
         extent = std::max({d.x(), d.y(), d.z()});
+    } else if (b.type == BaseType::Mesh) {
+        const TriangleMesh mesh = readMesh(b.file);
+        extent = meshExtent(mesh);
+        MeshBakeOptions opt;
+        opt.voxelSize = b.fineVoxelSize > 0.0 ? b.fineVoxelSize : extent / 256.0;
+        opt.halfWidth = kCaptureHalfWidth;
+        fine = bakeMeshLevelSet(mesh, opt, what).surface;
     } else {
         ModelOptions options;
         if (b.year > 0.0)
@@ -176,6 +206,13 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree), req);
         extent = plan.extent;
         fine = bakeModel(tree, plan.voxelSize, device);
+    }
+    if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
+        BaseShape s;
+        s.mesh = readControlMesh(b.control);
+        checkControlMesh(s.mesh, fmt::format("{}: base control {}", source, b.control));
+        s.target = projectionOnto(fine);
+        return s;
     }
     const double coarse = b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : extent / 48.0;
     if (!(coarse > fine->voxelSize()[0]))

@@ -22,9 +22,17 @@ namespace cambium {
 BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarseVoxelSize,
                           const std::string& what);
 
-/// The base of a shape file's "vdb" or "model" base: the .vdb read, or the
-/// model baked at its fine voxel size on `device` (automatic sizes: 256
-/// voxels across for the fine surface, 48 for the base).
+/// The projection onto the zero crossing of `fine` that captureLevelSet uses.
+MultiresSurface::Target projectionOnto(openvdb::FloatGrid::ConstPtr fine);
+
+/// A mesh file's faces as a control mesh (quads kept).
+ControlMesh readControlMesh(const std::string& path);
+
+/// An analysed base of a shape file: the fine surface is the .vdb read, the
+/// mesh file baked (bakeMeshLevelSet) or the model baked, at its fine voxel
+/// size on `device` (automatic: 256 voxels across); the coarse base is the
+/// `control` mesh when given, else the fine surface meshed at the base voxel
+/// size (automatic: 48 voxels across).
 BaseShape captureBase(const BaseSpec& base, const std::string& source, Device device);
 
 }  // namespace cambium

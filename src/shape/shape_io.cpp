@@ -117,11 +117,11 @@ private:
         return c;
     }
 
-    std::string file(const json& obj, const std::string& path) const
+    std::string file(const json& obj, const std::string& path, const char* key = "file") const
     {
-        const std::string f = string(required(obj, "file", path), jsonPath(path, "file"));
+        const std::string f = string(required(obj, key, path), jsonPath(path, key));
         if (f.empty())
-            fail(jsonPath(path, "file"), "must name a file");
+            fail(jsonPath(path, key), "must name a file");
         const std::filesystem::path p(f);
         const std::string full = p.is_absolute() || directory_.empty()
                                      ? f
@@ -129,7 +129,7 @@ private:
         try {
             checkInputFile(full, "base file");
         } catch (const InputError& e) {
-            fail(jsonPath(path, "file"), e.what());
+            fail(jsonPath(path, key), e.what());
         }
         return full;
     }
@@ -183,16 +183,33 @@ private:
                 b.rings = wholeNumber(j, "rings", path, b.rings, 2, 1024);
                 break;
             case BaseType::Mesh:
-                checkKeys(j, path, {"type", "file"});
+                checkKeys(j, path,
+                          {"type", "file", "analyse", "voxel_size", "fine_voxel_size", "control"});
                 b.file = file(j, path);
+                if (j.contains("analyse"))
+                    b.analyse = boolean(j["analyse"], jsonPath(path, "analyse"));
+                b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
+                b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);
+                if (j.contains("control"))
+                    b.control = file(j, path, "control");
+                if (!b.analyse &&
+                    (b.coarseVoxelSize > 0.0 || b.fineVoxelSize > 0.0 || !b.control.empty()))
+                    fail(jsonPath(path, "analyse"),
+                         "voxel_size, fine_voxel_size and control are for an analysed mesh: "
+                         "add \"analyse\": true");
                 break;
             case BaseType::LevelSet:
-                checkKeys(j, path, {"type", "file", "voxel_size"});
+                checkKeys(j, path, {"type", "file", "voxel_size", "control"});
                 b.file = file(j, path);
                 b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
+                if (j.contains("control"))
+                    b.control = file(j, path, "control");
                 break;
             case BaseType::Model:
-                checkKeys(j, path, {"type", "file", "voxel_size", "fine_voxel_size", "year"});
+                checkKeys(j, path,
+                          {"type", "file", "voxel_size", "fine_voxel_size", "year", "control"});
+                if (j.contains("control"))
+                    b.control = file(j, path, "control");
                 b.file = file(j, path);
                 b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
                 b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);

@@ -36,12 +36,10 @@ BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
         case BaseType::Fuse:
             return fuseBase(b.length, b.radius, b.terms, b.around, b.rings);
         case BaseType::Mesh: {
-            const TriangleMesh m = readMesh(b.file);
+            if (b.analyse)
+                return captureBase(b, source, device);
             BaseShape s;
-            for (const auto& p : m.points)
-                s.mesh.points.push_back({double(p.x()), double(p.y()), double(p.z())});
-            s.mesh.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
-            s.mesh.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
+            s.mesh = readControlMesh(b.file);
             return s;
         }
         case BaseType::LevelSet:
