@@ -1,6 +1,7 @@
 // cambium — procedural multi-scale details and local edits.
 #include "shape/details.h"
 
+#include "core/parallel.h"
 #include "core/hash.h"
 #include "core/math.h"
 #include "core/random.h"
@@ -20,16 +21,6 @@ namespace cambium {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-template <class F>
-void forEach(size_t n, const F& f)
-{
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                          for (size_t i = r.begin(); i != r.end(); ++i)
-                              f(i);
-                      });
-}
 
 /// Points hashed into cubic cells, for the seeds near a point.
 class PointGrid {
@@ -118,7 +109,7 @@ public:
         const int k = levelIndex(d_, l);
         if (k < 0)
             return;
-        forEach(level.vertexCount(), [&](size_t v) {
+        forEachIndex(level.vertexCount(), [&](size_t v) {
             const double value =
                 d_.perControlPoint
                     ? rockControlValue(int(v), l, k, d_.amplitude, d_.seed)
@@ -154,7 +145,7 @@ public:
             grid.insert(int(i), domes[i].centre);
             largest = std::max(largest, domes[i].radius);
         }
-        forEach(level.vertexCount(), [&](size_t v) {
+        forEachIndex(level.vertexCount(), [&](size_t v) {
             // The nearest seed (section 4.2.2: each point belongs to one).
             const glm::dvec3 q = level.subdivided[v];
             double best = kInf;
@@ -335,7 +326,7 @@ public:
         const int j = stem ? k + 1 : k - stemLevels + 1, m = stem ? stemLevels : capLevels;
         const double share = double(j) / (0.5 * m * (m + 1));
         const double R = d_.radius, Rs = R / 3.0, H = d_.height;
-        forEach(level.vertexCount(), [&](size_t v) {
+        forEachIndex(level.vertexCount(), [&](size_t v) {
             const glm::dvec3 q = level.subdivided[v];
             for (const Seed& s : seeds_) {
                 const glm::dvec3 d = q - s.centre;

@@ -56,20 +56,18 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, Device device)
 
 void checkShapeLevels(const ShapeSpec& spec, int levels)
 {
+    auto check = [&](const std::string& path, const std::vector<int>& used) {
+        for (int l : used)
+            if (l > levels)
+                throw InputError(
+                    fmt::format("{}: {}.levels: level {} is finer than the {} levels "
+                                "synthesised",
+                                spec.source, path, l, levels));
+    };
     for (const DetailSpec& d : spec.details)
-        for (int l : d.levels)
-            if (l > levels)
-                throw InputError(
-                    fmt::format("{}: {}.levels: level {} is finer than the {} levels "
-                                "synthesised",
-                                spec.source, d.path, l, levels));
+        check(d.path, d.levels);
     for (const EditSpec& e : spec.edits)
-        for (int l : e.levels)
-            if (l > levels)
-                throw InputError(
-                    fmt::format("{}: {}.levels: level {} is finer than the {} levels "
-                                "synthesised",
-                                spec.source, e.path, l, levels));
+        check(e.path, e.levels);
 }
 
 void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base)

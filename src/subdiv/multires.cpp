@@ -1,6 +1,7 @@
 // cambium — multi-resolution Catmull-Clark surfaces on OpenSubdiv's Far.
 #include "subdiv/multires.h"
 
+#include "core/parallel.h"
 #include "core/error.h"
 
 #include <fmt/format.h>
@@ -38,16 +39,6 @@ struct ScalarView {
     double* data;
     ScalarRef operator[](int i) const { return {data[i]}; }
 };
-
-template <class F>
-void forEach(size_t n, const F& f)
-{
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                          for (size_t i = r.begin(); i != r.end(); ++i)
-                              f(i);
-                      });
-}
 
 glm::dvec3 anyPerpendicular(const glm::dvec3& n)
 {
@@ -155,7 +146,7 @@ std::vector<glm::dvec3> vertexNormals(const SubdivLevel& lv, const std::vector<g
 {
     const size_t nf = lv.faceCount();
     std::vector<glm::dvec3> area(nf);
-    forEach(nf, [&](size_t f) {
+    forEachIndex(nf, [&](size_t f) {
         const int* c = lv.faceVerts.data() + lv.faceStart[f];
         const int n = lv.faceSizes[f];
         if (n == 4) {
@@ -169,7 +160,7 @@ std::vector<glm::dvec3> vertexNormals(const SubdivLevel& lv, const std::vector<g
         }
     });
     std::vector<glm::dvec3> normal(p.size());
-    forEach(p.size(), [&](size_t v) {
+    forEachIndex(p.size(), [&](size_t v) {
         glm::dvec3 s(0.0);
         for (int k = lv.vertexFaceStart[v]; k < lv.vertexFaceStart[v + 1]; ++k)
             s += area[size_t(lv.vertexFaces[size_t(k)])];
@@ -184,7 +175,7 @@ void MultiresSurface::computeFrames(SubdivLevel& lv) const
     const std::vector<glm::dvec3>& q = lv.subdivided;
     const std::vector<glm::dvec3> normal = vertexNormals(lv, q);
     lv.frames.resize(q.size());
-    forEach(q.size(), [&](size_t v) {
+    forEachIndex(q.size(), [&](size_t v) {
         Frame& f = lv.frames[v];
         f.n = normal[v];
         const glm::dvec3 d = q[size_t(lv.tangentNeighbour[v])] - q[v];
@@ -209,7 +200,7 @@ void MultiresSurface::applyDetails(SubdivLevel& lv) const
     const size_t n = lv.subdivided.size();
     lv.points.resize(n);
     lv.scalar.resize(n);
-    forEach(n, [&](size_t v) {
+    forEachIndex(n, [&](size_t v) {
         lv.points[v] = lv.subdivided[v] + lv.frames[v].toWorld(lv.detail[v]);
         lv.scalar[v] = lv.subdividedScalar[v] + lv.scalarDetail[v];
     });
@@ -250,7 +241,7 @@ void MultiresSurface::analyse(const Target& target)
         if (l > 0) {
             subdivide(l);
             computeFrames(lv);
-            forEach(lv.vertexCount(), [&](size_t v) {
+            forEachIndex(lv.vertexCount(), [&](size_t v) {
                 const glm::dvec3 q = lv.subdivided[v];
                 const Frame& f = lv.frames[v];
                 lv.detail[v] = f.toLocal(target(q, f, lv.meanEdgeLength) - q);
