@@ -15,12 +15,14 @@ struct ShapeFlags {
     ShapeRequest request;
     double voxelSize = 0.0;
     CLI::Option* voxelOption = nullptr;
+    std::string device = "opencl";
 };
 
 int runShapeCommand(ShapeFlags& f)
 {
     if (f.voxelOption->count())
         f.request.voxelSize = f.voxelSize;
+    f.request.device = parseDevice(f.device);
     ProgressBar bar;
     ShapeCallbacks cb;
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
@@ -64,6 +66,9 @@ void addShapeCommand(CLI::App& app, Action& action)
         ->capture_default_str();
     cmd->add_flag("--fog", f->request.fog, "Also write a 'density' fog volume");
     cmd->add_flag("--half", f->request.half, "Store the grids' floats as 16-bit halves");
+    cmd->add_option("--device", f->device,
+                    "opencl or cpu: the bake of a captured model (\"base\": {\"type\": \"model\"})")
+        ->capture_default_str();
     cmd->callback([f, &action] { action = [f] { return runShapeCommand(*f); }; });
 }
 

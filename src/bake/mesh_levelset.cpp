@@ -315,6 +315,12 @@ public:
 private:
     static constexpr size_t kDenseCells = size_t(1) << 22;  // 16 MB of leaf slots
 
+    /// The first voxel of leaf c (a multiplication: shifting a negative
+    /// coordinate left is undefined).
+    static openvdb::Coord leafOrigin(const openvdb::Coord& c)
+    {
+        return openvdb::Coord(c.x() * 8, c.y() * 8, c.z() * 8);
+    }
     static bool less(const openvdb::Coord& a, const openvdb::Coord& b)
     {
         return a.x() != b.x() ? a.x() < b.x() : a.y() != b.y() ? a.y() < b.y() : a.z() < b.z();
@@ -351,7 +357,7 @@ private:
                 const size_t z = c % size_t(dim_.z()),
                              y = (c / size_t(dim_.z())) % size_t(dim_.y()),
                              x = c / (size_t(dim_.z()) * size_t(dim_.y()));
-                origin_.push_back((openvdb::Coord(int(x), int(y), int(z)) + lo_) << 3);
+                origin_.push_back(leafOrigin(openvdb::Coord(int(x), int(y), int(z)) + lo_));
                 first_.push_back(first_.back() + count[c]);
             }
         tri_ = Scratch<uint32_t>(first_.back());
@@ -369,7 +375,7 @@ private:
         for (size_t i = 0; i < tris.size(); ++i)
             if (tris[i].n != glm::vec3(0.0f))
                 forEachLeaf(tris[i], W, [&](const openvdb::Coord& c) {
-                    pairs.push_back({c << 3, uint32_t(i)});
+                    pairs.push_back({leafOrigin(c), uint32_t(i)});
                 });
         tbb::parallel_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
             return less(a.first, b.first) || (a.first == b.first && a.second < b.second);
