@@ -32,6 +32,7 @@ seeds() {
     scene) ls "$root"/examples/*.json ;;
     lsystem) ls "$root"/examples/lsystems/*.l ;;
     growth) ls "$root"/examples/populus/*.json ;;
+    shape) ls "$root"/examples/shapes/*.json ;;
     mesh) ls "$made"/*.mesh ;;
     vdb) ls "$made"/small.vdb ;;
   esac
@@ -44,7 +45,7 @@ seeds() {
 report=$build/fuzz-report.txt
 printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' harness seconds executions exec/s cov features corpus result | tee "$report"
 status=0
-for h in scene lsystem skeleton growth mesh vdb; do
+for h in scene lsystem skeleton growth shape mesh vdb; do
   corpus=$build/corpus/$h
   findings=$build/findings/$h
   mkdir -p "$corpus" "$findings"

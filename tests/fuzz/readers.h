@@ -15,6 +15,8 @@
 #include "model/turtle.h"
 #include "io/mesh_file.h"
 #include "io/vdb.h"
+#include "shape/shape.h"
+#include "shape/synthesis.h"
 
 #include <openvdb/io/File.h>
 
@@ -65,6 +67,22 @@ inline const std::map<std::string, std::function<void(const std::string&)>>& rea
              GrowthParameters p = parseGrowthParameters(in, "fuzz.json");
              p.maxInternodes = std::min(p.maxInternodes, 2e5);
              GrowthModel(p).skeleton(std::min(2.0, double(p.years)), true);
+         }},
+        {"shape",
+         [](const std::string& in) {
+             // Parsed whole; synthesised when the base is built in and small,
+             // at most 2 levels, so that one input's run stays short (files
+             // named in it are read only to be checked).
+             ShapeSpec spec = parseShape(in, "fuzz.json");
+             const BaseType t = spec.base.type;
+             if (t == BaseType::Mesh || t == BaseType::LevelSet || t == BaseType::Model)
+                 return;
+             const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
+             if (base.mesh.faceCount() > 256 || spec.details.size() > 4)
+                 return;
+             ShapeSurface surface(spec, std::min(spec.levels, 2), base);
+             surface.synthesize();
+             surface.mesh();
          }},
         {"mesh",
          [](const std::string& in) {
