@@ -173,3 +173,37 @@ TEST(MeshLevelSet, FarApartPartsBinSparselyAndAgreeWithOnePart)
         differ += acc.getValue(it.getCoord()) != *it;
     EXPECT_EQ(differ, 0u);
 }
+
+TEST(MeshLevelSet, InwardFacesBakeTheSameAndBadPointsAreRefused)
+{
+    // The same closed box with every triangle turned inwards encloses a
+    // negative volume: its level set is the same, negative inside.
+    TriangleMesh out, in;
+    const BaseShape cube = cubeBase(1.0);
+    for (const glm::dvec3& p : cube.mesh.points)
+        out.points.push_back(openvdb::Vec3s(float(p.x), float(p.y), float(p.z)));
+    in.points = out.points;
+    for (size_t f = 0; f < 6; ++f) {
+        const int* c = cube.mesh.faceVerts.data() + 4 * f;
+        const uint32_t q[4] = {uint32_t(c[0]), uint32_t(c[1]), uint32_t(c[2]), uint32_t(c[3])};
+        const uint32_t r[4] = {q[3], q[2], q[1], q[0]};
+        out.addPolygon(q, 4);
+        in.addPolygon(r, 4);
+    }
+    // And a triangle with a point twice (no area, no edges of its own).
+    in.triangles.push_back({0, 0, 1});
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.05;
+    const BakedGrids a = bakeMeshLevelSet(out, opt, "out"), b = bakeMeshLevelSet(in, opt, "in");
+    EXPECT_EQ(a.surface->activeVoxelCount(), b.surface->activeVoxelCount());
+    auto acc = b.surface->getConstAccessor();
+    size_t differ = 0;
+    for (auto it = a.surface->tree().cbeginValueOn(); it; ++it)
+        differ += std::fabs(acc.getValue(it.getCoord()) - *it) > 1e-6f;
+    EXPECT_EQ(differ, 0u);
+    TriangleMesh bad = out;
+    bad.points[3].y() = std::nanf("");
+    EXPECT_THROW(bakeMeshLevelSet(bad, opt, "bad"), InputError);
+    bad.points[3].y() = 1e30f;
+    EXPECT_THROW(bakeMeshLevelSet(bad, opt, "far"), InputError);
+}

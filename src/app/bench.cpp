@@ -295,7 +295,8 @@ void addBenchCommand(CLI::App& app, Action& action)
         ->capture_default_str()
         ->check(CLI::Range(1, 10));
     shape->add_option("--voxel-size", shapeRequest->voxelSize, "Voxel size of the level sets")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(1e-4, 1.0));
     shape
         ->add_option("--repeat", shapeRequest->repeats,
                      "Runs of each method, in turn; the table shows medians")

@@ -60,8 +60,8 @@ void addShapeCommand(CLI::App& app, Action& action)
         ->required();
     f->voxelOption = cmd->add_option("--voxel-size", f->voxelSize,
                                      "Voxel size of a .vdb (default: 512 voxels across the shape)");
-    cmd->add_option("--levels", f->request.levels,
-                    "Subdivision levels (0-15; default: the file's)");
+    cmd->add_option("--levels", f->request.levels, "Subdivision levels (0-15; default: the file's)")
+        ->check(CLI::NonNegativeNumber);
     cmd->add_option("--half-width", f->request.halfWidth, "Narrow-band half-width in voxels")
         ->capture_default_str();
     cmd->add_flag("--fog", f->request.fog, "Also write a 'density' fog volume");

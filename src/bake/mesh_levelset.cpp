@@ -11,6 +11,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/memory.h"
+#include "core/system.h"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -64,6 +65,7 @@ struct Triangles {
     Scratch<Tri> tris;
     Scratch<std::array<uint32_t, 3>> across;
     std::vector<glm::vec3> corner;
+    bool inward = false;  ///< faces turned inwards (a negative enclosed volume)
 };
 
 enum Feature : uint8_t { kFace = 0, kEdgeAB, kEdgeBC, kEdgeCA, kCornerA, kCornerB, kCornerC };
@@ -154,7 +156,7 @@ dvec3 barycentric(const dvec3& q, const dvec3& a, const dvec3& b, const dvec3& c
 /// point; every edge's neighbour (InputError unless each edge a -> b has
 /// exactly one triangle running b -> a beside it: open, not a 2-manifold,
 /// or not consistently oriented); the corners' pseudo-normals.
-Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string& what)
+Triangles prepareTriangles(const TriangleMesh& mesh, double h, double W, const std::string& what)
 {
     const size_t nt = mesh.triangles.size(), np = mesh.points.size();
     for (size_t i = 0; i < nt; ++i)
@@ -162,6 +164,20 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
             if (v >= np)
                 throw InputError(
                     fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
+    // Index coordinates must stay well inside int (and OpenVDB's index space).
+    const double far = double(1 << 30);
+    for (size_t v = 0; v < np; ++v) {
+        const openvdb::Vec3s& p = mesh.points[v];
+        if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
+            throw InputError(fmt::format("{}: point {} is not finite", what, v));
+        const double r = double(std::max({std::fabs(p.x()), std::fabs(p.y()), std::fabs(p.z())}));
+        if (!(r / h + W + 16.0 < far))
+            throw InputError(
+                fmt::format("{}: point {} lies {:.3g} from the origin, {:.3g} voxels of "
+                            "{:g}: beyond OpenVDB's index space; move the mesh nearer "
+                            "the origin or use a larger voxel size",
+                            what, v, r, r / h, h));
+    }
     Triangles T;
     T.mesh = &mesh;
     T.tris = Scratch<Tri>(nt);
@@ -209,14 +225,21 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
     // Edges: a -> b has exactly one triangle running b -> a beside it.
     T.across = Scratch<std::array<uint32_t, 3>>(nt);
     std::atomic<size_t> firstBad{nt};
+    auto repeats = [&](size_t i) {
+        const auto& t = mesh.triangles[i];
+        return t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+    };
     tbb::parallel_for(size_t(0), nt, [&](size_t i) {
         const auto& t = mesh.triangles[i];
+        T.across[i] = {uint32_t(i), uint32_t(i), uint32_t(i)};
+        if (repeats(i))  // a point twice: no area, no edges of its own
+            return;
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = t[size_t(k)], b = t[size_t(k + 1) % 3];
             int sides = 0;
             uint32_t other = uint32_t(i);
             for (uint32_t j = start[a]; j < start[a + 1]; ++j) {
-                if (around[j] == i)
+                if (around[j] == i || repeats(around[j]))
                     continue;
                 const auto& u = mesh.triangles[around[j]];
                 for (int m = 0; m < 3; ++m)
@@ -240,6 +263,19 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
     if (std::all_of(T.tris.begin(), T.tris.end(),
                     [](const Tri& t) { return t.n == glm::vec3(0.0f); }))
         throw InputError(fmt::format("{}: the mesh has no triangles of any area", what));
+    // A closed mesh facing inwards encloses a negative volume: its insides
+    // are the pseudo-normals' outsides.
+    const double volume = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, nt, 8192), 0.0,
+        [&](const tbb::blocked_range<size_t>& r, double s) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const Tri& t = T.tris[i];
+                s += glm::dot(dvec3(t.a), glm::cross(dvec3(t.b), dvec3(t.c)));
+            }
+            return s;
+        },
+        std::plus<double>());
+    T.inward = volume < 0.0;
     return T;
 }
 
@@ -330,6 +366,9 @@ private:
         return (size_t(c.x()) * size_t(dim_.y()) + size_t(c.y())) * size_t(dim_.z()) +
                size_t(c.z());
     }
+    /// f(leaf) for each leaf of the triangle's band box that its plane's
+    /// band reaches (within W of the plane, plus the leaf's half-diagonal:
+    /// a large slanted triangle does not claim its whole box).
     template <class F>
     static void forEachLeaf(const Tri& t, double W, const F& f)
     {
@@ -337,10 +376,15 @@ private:
         voxelRange(t, W, lo, hi);
         lo = lo >> 3;
         hi = hi >> 3;
+        const double reach = W + 3.5 * std::sqrt(3.0) + 1e-3;
+        const dvec3 a(t.a), n(t.n);
         for (int x = lo.x(); x <= hi.x(); ++x)
             for (int y = lo.y(); y <= hi.y(); ++y)
-                for (int z = lo.z(); z <= hi.z(); ++z)
-                    f(openvdb::Coord(x, y, z));
+                for (int z = lo.z(); z <= hi.z(); ++z) {
+                    const dvec3 centre(8.0 * x + 3.5, 8.0 * y + 3.5, 8.0 * z + 3.5);
+                    if (std::fabs(glm::dot(centre - a, n)) <= reach)
+                        f(openvdb::Coord(x, y, z));
+                }
     }
 
     void binDense(const Scratch<Tri>& tris, double W, size_t cells)
@@ -525,7 +569,7 @@ BandLeaves makeLeaves(const Triangles& T, const LeafBins& bins, const Nearest& n
             if (!(dist < W))
                 continue;
             ++active;
-            const bool inside = glm::dot(d, pseudoNormal(T, i, f)) < 0.0;
+            const bool inside = (glm::dot(d, pseudoNormal(T, i, f)) < 0.0) != T.inward;
             leaf->setValueOn(openvdb::Index(v), float((inside ? -dist : dist) * h));
             if (cleaf) {
                 const dvec3 bc = barycentric(c, a, b, cc);
@@ -576,9 +620,18 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
         if (opt.progress)
             opt.progress(stage, f);
     };
-    const Triangles T = prepareTriangles(mesh, h, what);
+    const Triangles T = prepareTriangles(mesh, h, W, what);
     const LeafBins bins(T.tris, W);
     progress("binning", 1.0);
+    // Each leaf's nearest triangles, then its grid leaf (values, and colours
+    // with Cd): refuse what cannot fit before allocating it.
+    const double bytes = double(bins.size()) * kLeafVoxels * (4.0 + 4.0 + 12.0);
+    if (!(bytes <= availableMemoryBytes()))
+        throw InputError(fmt::format(
+            "{}: the band at voxel size {:g} spans {} leaves, about {} "
+            "of memory, and this machine has {} available: use a "
+            "larger voxel size",
+            what, h, bins.size(), formatBytes(bytes), formatBytes(availableMemoryBytes())));
 
     Nearest nearest(bins.size() * kLeafVoxels);
     exactPass(T.tris, bins, W, nearest);

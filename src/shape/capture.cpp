@@ -176,6 +176,12 @@ ControlMesh readControlMesh(const std::string& path)
 BaseShape captureBase(const BaseSpec& b, const std::string& source, Device device)
 {
     const std::string what = fmt::format("{}: base {}", source, b.file);
+    // A given control mesh is read and checked before any bake.
+    ControlMesh control;
+    if (!b.control.empty()) {
+        control = readControlMesh(b.control);
+        checkControlMesh(control, fmt::format("{}: base control {}", source, b.control));
+    }
     openvdb::FloatGrid::Ptr fine;
     double extent = 0.0;
     if (b.type == BaseType::LevelSet) {
@@ -209,8 +215,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
     }
     if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
         BaseShape s;
-        s.mesh = readControlMesh(b.control);
-        checkControlMesh(s.mesh, fmt::format("{}: base control {}", source, b.control));
+        s.mesh = std::move(control);
         s.target = projectionOnto(fine);
         return s;
     }

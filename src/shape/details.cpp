@@ -45,8 +45,10 @@ public:
 private:
     glm::ivec3 cellOf(const glm::dvec3& p) const
     {
-        return glm::ivec3(int(std::floor(p.x / cell_)), int(std::floor(p.y / cell_)),
-                          int(std::floor(p.z / cell_)));
+        // Clamped before the conversion (out of int's range it is
+        // undefined); cells far out share keys, which only adds candidates.
+        auto at = [&](double x) { return int(std::clamp(std::floor(x / cell_), -1e9, 1e9)); };
+        return glm::ivec3(at(p.x), at(p.y), at(p.z));
     }
     static uint64_t key(const glm::ivec3& c)
     {

@@ -315,6 +315,12 @@ private:
                 d.levels = levelList(j, path, range(1, std::min(L, 3)), L);
                 d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
                 d.children = wholeNumber(j, "children", path, d.children, 0, 64);
+                if (std::pow(double(std::max(d.children, 1)), double(d.levels.size() - 1)) > 4096.0)
+                    fail(jsonPath(path, "children"),
+                         fmt::format("{} children a seed over {} levels make {:.3g} seeds of each "
+                                     "first one (at most 4096): fewer children or levels",
+                                     d.children, d.levels.size(),
+                                     std::pow(double(d.children), double(d.levels.size() - 1))));
                 if (!j.contains("at") && !j.contains("spacing"))
                     d.spacing = 2.0 * d.radius;
                 readSeeds(j, path, d);

@@ -71,7 +71,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     const BaseShape base = makeBase(spec.base, spec.source, req.device);
     checkShapeDetails(spec, base.mesh);
     const double available = availableMemoryBytes();
-    const double synthesisBytes = estimateSynthesisBytes(base.mesh.faceCount(), levels);
+    const double synthesisBytes = estimateSynthesisBytes(base.mesh.faceVerts.size(), levels);
     if (synthesisBytes > available)
         throw InputError(
             fmt::format("{}: {} levels of a base of {} faces need about {} of memory "

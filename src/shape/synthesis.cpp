@@ -12,13 +12,14 @@
 
 namespace cambium {
 
-double estimateSynthesisBytes(size_t baseFaces, int levels)
+double estimateSynthesisBytes(size_t baseCorners, int levels)
 {
     // Per vertex of a level: Q, P, detail (3 x 24 bytes), frame (72), two
     // scalars and their details (32), topology and OpenSubdiv's (about 150);
     // the levels together hold 4/3 of the finest, which has about as many
-    // vertices as faces: 4^levels per base quad.
-    const double finest = double(baseFaces) * std::pow(4.0, levels);
+    // vertices as faces: a face of n corners makes n quads at level 1, each
+    // 4^(levels - 1) at the finest.
+    const double finest = double(baseCorners) * std::pow(4.0, std::max(levels - 1, 0));
     return finest * (4.0 / 3.0) * 330.0;
 }
 

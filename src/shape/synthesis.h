@@ -27,9 +27,10 @@ void checkShapeLevels(const ShapeSpec& spec, int levels);
 /// largest amplitude that would not.
 void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base);
 
-/// The memory a shape's synthesis needs at `levels` levels of a base of
-/// `baseFaces` faces (bytes, estimated), to refuse what cannot fit.
-double estimateSynthesisBytes(size_t baseFaces, int levels);
+/// The memory a shape's synthesis needs at `levels` levels of a base whose
+/// faces have `baseCorners` corners in all (bytes, estimated), to refuse
+/// what cannot fit.
+double estimateSynthesisBytes(size_t baseCorners, int levels);
 
 class ShapeSurface {
 public:

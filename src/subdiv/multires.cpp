@@ -184,7 +184,7 @@ void MultiresSurface::computeFrames(SubdivLevel& lv) const
         f.t = len > 1e-300 ? t / len : anyPerpendicular(f.n);
         f.b = glm::cross(f.n, f.t);
     });
-    const double sum = tbb::parallel_reduce(
+    const double sum = tbb::parallel_deterministic_reduce(
         tbb::blocked_range<size_t>(0, lv.edges.size(), 8192), 0.0,
         [&](const tbb::blocked_range<size_t>& r, double s) {
             for (size_t e = r.begin(); e != r.end(); ++e)
