@@ -23,10 +23,7 @@ int runShapeInfo(const std::string& path)
 {
     const ShapeSpec spec = readShapeFile(path);
     const BaseShape base = makeBase(spec.base, spec.source, Device::OpenCL);
-    const double bytes = estimateSynthesisBytes(base.mesh.faceVerts.size(), spec.levels);
-    if (bytes > availableMemoryBytes())
-        throw InputError(fmt::format("{}: {} levels would need about {} of memory", path,
-                                     spec.levels, formatBytes(bytes)));
+    checkSynthesisMemory(base.mesh, spec.levels, path);
     const MultiresSurface surface(base.mesh, spec.levels, path);
     fmt::print("shape      {}\n", path);
     fmt::print("base       {}{}: {} points, {} faces\n", kBaseNames[int(spec.base.type)],

@@ -73,31 +73,30 @@ enum Feature : uint8_t { kFace = 0, kEdgeAB, kEdgeBC, kEdgeCA, kCornerA, kCorner
 /// The nearest point of triangle (a, b, c) to p and the feature it lies on
 /// (Ericson, Real-Time Collision Detection 5.1.5, by Voronoi regions), for
 /// the band's values and signs once exactLeaf has found the triangle.
-template <class V, class T = typename V::value_type>
-V closestOnTriangle(const V& p, const V& a, const V& b, const V& c, Feature& f)
+dvec3 closestOnTriangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c, Feature& f)
 {
-    const V ab = b - a, ac = c - a, ap = p - a;
-    const T d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-    if (d1 <= T(0) && d2 <= T(0))
+    const dvec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0)
         return f = kCornerA, a;
-    const V bp = p - b;
-    const T d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    if (d3 >= T(0) && d4 <= d3)
+    const dvec3 bp = p - b;
+    const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3)
         return f = kCornerB, b;
-    const T vc = d1 * d4 - d3 * d2;
-    if (vc <= T(0) && d1 >= T(0) && d3 <= T(0))
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
         return f = kEdgeAB, a + ab * (d1 / (d1 - d3));
-    const V cp = p - c;
-    const T d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-    if (d6 >= T(0) && d5 <= d6)
+    const dvec3 cp = p - c;
+    const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6)
         return f = kCornerC, c;
-    const T vb = d5 * d2 - d1 * d6;
-    if (vb <= T(0) && d2 >= T(0) && d6 <= T(0))
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
         return f = kEdgeCA, a + ac * (d2 / (d2 - d6));
-    const T va = d3 * d6 - d5 * d4;
-    if (va <= T(0) && (d4 - d3) >= T(0) && (d5 - d6) >= T(0))
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
         return f = kEdgeBC, b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    const T denom = T(1) / (va + vb + vc);
+    const double denom = 1.0 / (va + vb + vc);
     f = kFace;
     return a + ab * (vb * denom) + ac * (vc * denom);
 }
@@ -332,21 +331,6 @@ public:
     const openvdb::Coord& origin(size_t l) const { return origin_[l]; }
     const uint32_t* begin(size_t l) const { return tri_.data() + first_[l]; }
     const uint32_t* end(size_t l) const { return tri_.data() + first_[l + 1]; }
-    size_t binned() const { return tri_.size(); }
-
-    /// The leaf with origin o, or -1.
-    int32_t find(const openvdb::Coord& o) const
-    {
-        if (!dense_.empty()) {
-            const openvdb::Coord c = (o >> 3) - lo_;
-            if (c.x() < 0 || c.y() < 0 || c.z() < 0 || c.x() >= dim_.x() || c.y() >= dim_.y() ||
-                c.z() >= dim_.z())
-                return -1;
-            return dense_[cell(c)];
-        }
-        const auto it = std::lower_bound(origin_.begin(), origin_.end(), o, less);
-        return it != origin_.end() && *it == o ? int32_t(it - origin_.begin()) : -1;
-    }
 
 private:
     static constexpr size_t kDenseCells = size_t(1) << 22;  // 16 MB of leaf slots
@@ -393,11 +377,11 @@ private:
         for (const Tri& t : tris)
             if (t.n != glm::vec3(0.0f))
                 forEachLeaf(t, W, [&](const openvdb::Coord& c) { ++count[cell(c - lo_)]; });
-        dense_.assign(cells, -1);
+        std::vector<int32_t> leaf(cells, -1);  // the leaf of each cell, or -1
         first_.push_back(0);
         for (size_t c = 0; c < cells; ++c)
             if (count[c]) {
-                dense_[c] = int32_t(origin_.size());
+                leaf[c] = int32_t(origin_.size());
                 const size_t z = c % size_t(dim_.z()),
                              y = (c / size_t(dim_.z())) % size_t(dim_.y()),
                              x = c / (size_t(dim_.z()) * size_t(dim_.y()));
@@ -409,7 +393,7 @@ private:
         for (size_t i = 0; i < tris.size(); ++i)
             if (tris[i].n != glm::vec3(0.0f))
                 forEachLeaf(tris[i], W, [&](const openvdb::Coord& c) {
-                    tri_[fill[size_t(dense_[cell(c - lo_)])]++] = uint32_t(i);
+                    tri_[fill[size_t(leaf[cell(c - lo_)])]++] = uint32_t(i);
                 });
     }
 
@@ -436,7 +420,6 @@ private:
     }
 
     openvdb::Coord lo_, dim_;
-    std::vector<int32_t> dense_;  ///< leaf of each cell of the dense grid, or -1
     std::vector<openvdb::Coord> origin_;
     std::vector<size_t> first_;
     Scratch<uint32_t> tri_;

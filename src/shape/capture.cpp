@@ -102,9 +102,8 @@ glm::dvec3 project(const DistanceField& f, const glm::dvec3& q, const glm::dvec3
 /// subdivided points lie up to a few voxels from it.
 constexpr double kCaptureHalfWidth = 8.0;
 
-openvdb::FloatGrid::Ptr bakeModel(const BlobTree& tree, double h, Device device)
+openvdb::FloatGrid::Ptr bakeModel(const FieldProgram& program, double h, Device device)
 {
-    const FieldProgram program = FieldProgram::compile(tree);
     std::unique_ptr<FieldSampler> sampler = makeSampler(device);
     BakeOptions opt;
     opt.voxelSize = h;
@@ -200,18 +199,17 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         ModelOptions options;
         if (b.year > 0.0)
             options.time = b.year;
-        const BlobTree tree = loadModel(b.file, options);
+        const FieldProgram program = FieldProgram::compile(loadModel(b.file, options));
         BakeRequest req;
         req.input = b.file;
+        const double automatic = autoVoxelSize(program, 256.0);
         if (b.fineVoxelSize > 0.0)
             req.voxelSize = b.fineVoxelSize;
-        else {
-            const FieldProgram program = FieldProgram::compile(tree);
-            req.voxelSize = planVoxelSize(program, req).extent / 256.0;
-        }
-        const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree), req);
+        else if (automatic > 0.0)  // (none: planVoxelSize names the empty model)
+            req.voxelSize = automatic;
+        const VoxelPlan plan = planVoxelSize(program, req);
         extent = plan.extent;
-        fine = bakeModel(tree, plan.voxelSize, device);
+        fine = bakeModel(program, plan.voxelSize, device);
     }
     if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
         BaseShape s;

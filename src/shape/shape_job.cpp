@@ -23,26 +23,10 @@ namespace {
 /// bins and the flood fill's tiles (measured about 30 bytes; with margin).
 constexpr double kMeshBakeBytesPerVoxel = 48.0;
 
-double controlMeshArea(const ControlMesh& m)
-{
-    double a = 0.0;
-    size_t c = 0;
-    for (int n : m.faceSizes) {
-        glm::dvec3 s(0.0);
-        for (int k = 0; k < n; ++k)
-            s += glm::cross(m.points[size_t(m.faceVerts[c + size_t(k)])],
-                            m.points[size_t(m.faceVerts[c + size_t((k + 1) % n)])]);
-        a += 0.5 * glm::length(s);
-        c += size_t(n);
-    }
-    return a;
-}
-
 }  // namespace
 
 ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
 {
-    const auto start = Clock::now();
     const std::string format = fileFormat(req.output, {"vdb", "obj", "ply"}, "output");
     const bool levelSet = format == "vdb";
     if (req.voxelSize && !(*req.voxelSize >= kMinVoxelSize && std::isfinite(*req.voxelSize)))
@@ -68,18 +52,12 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
 
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
+    // (ShapeSurface checks the details themselves before it refines.)
     const BaseShape base = makeBase(spec.base, spec.source, req.device);
-    checkShapeDetails(spec, base.mesh);
+    checkSynthesisMemory(base.mesh, levels, req.input);
     const double available = availableMemoryBytes();
-    const double synthesisBytes = estimateSynthesisBytes(base.mesh.faceVerts.size(), levels);
-    if (synthesisBytes > available)
-        throw InputError(
-            fmt::format("{}: {} levels of a base of {} faces need about {} of memory "
-                        "({} available): use fewer levels",
-                        req.input, levels, base.mesh.faceCount(), formatBytes(synthesisBytes),
-                        formatBytes(available)));
     if (levelSet && req.voxelSize) {
-        const double area = 2.0 * controlMeshArea(base.mesh);
+        const double area = 2.0 * surfaceArea(base.mesh);
         const double voxels = area / (*req.voxelSize * *req.voxelSize) * 2.0 * req.halfWidth;
         if (voxels * kMeshBakeBytesPerVoxel > available)
             throw InputError(
@@ -138,7 +116,6 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
         writeVdb(grids, req.output, info);
         r.writeSeconds = secondsSince(t);
     }
-    (void)start;
     r.peakMemoryBytes = peakMemoryBytes();
     return r;
 }

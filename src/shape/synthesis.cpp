@@ -2,6 +2,7 @@
 #include "shape/synthesis.h"
 
 #include "core/error.h"
+#include "core/system.h"
 #include "shape/base_shapes.h"
 #include "shape/capture.h"
 
@@ -21,6 +22,17 @@ double estimateSynthesisBytes(size_t baseCorners, int levels)
     // 4^(levels - 1) at the finest.
     const double finest = double(baseCorners) * std::pow(4.0, std::max(levels - 1, 0));
     return finest * (4.0 / 3.0) * 330.0;
+}
+
+void checkSynthesisMemory(const ControlMesh& base, int levels, const std::string& what)
+{
+    const double bytes = estimateSynthesisBytes(base.faceVerts.size(), levels);
+    const double available = availableMemoryBytes();
+    if (bytes > available)
+        throw InputError(fmt::format(
+            "{}: {} levels of a base of {} faces need about {} of "
+            "memory ({} available): use fewer levels",
+            what, levels, base.faceCount(), formatBytes(bytes), formatBytes(available)));
 }
 
 BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
@@ -73,16 +85,7 @@ void checkShapeLevels(const ShapeSpec& spec, int levels)
 
 void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base)
 {
-    double edges = 0.0;
-    size_t count = 0, c = 0;
-    for (int n : base.faceSizes) {
-        for (int k = 0; k < n; ++k)
-            edges += glm::length(base.points[size_t(base.faceVerts[c + size_t(k)])] -
-                                 base.points[size_t(base.faceVerts[c + size_t((k + 1) % n)])]);
-        count += size_t(n);
-        c += size_t(n);
-    }
-    const double e0 = count ? edges / double(count) : 1.0;
+    const double e0 = meanEdgeLength(base);
     for (const DetailSpec& d : spec.details) {
         if (d.type != DetailType::Rock || d.amplitude == 0.0 || !rockFoldsOnAPlane(d, e0))
             continue;

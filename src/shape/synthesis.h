@@ -72,6 +72,10 @@ private:
     std::vector<std::unique_ptr<Adjacency>> adjacency_;
 };
 
+/// InputError naming `what` when synthesising `levels` levels of `base`
+/// would need more memory than the machine has available.
+void checkSynthesisMemory(const ControlMesh& base, int levels, const std::string& what);
+
 /// The base of a shape file as a control mesh and the exact surface it is
 /// fitted to (mesh files read; built-in shapes made; level sets and models
 /// captured on `device`, shape/capture.h).

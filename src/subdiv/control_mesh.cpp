@@ -169,6 +169,34 @@ double enclosedVolume(const ControlMesh& mesh)
     return v / 6.0;
 }
 
+double surfaceArea(const ControlMesh& mesh)
+{
+    double a = 0.0;
+    size_t c = 0;
+    for (int n : mesh.faceSizes) {
+        glm::dvec3 s(0.0);
+        for (int k = 0; k < n; ++k)
+            s += glm::cross(mesh.points[size_t(mesh.faceVerts[c + size_t(k)])],
+                            mesh.points[size_t(mesh.faceVerts[c + size_t((k + 1) % n)])]);
+        a += 0.5 * glm::length(s);
+        c += size_t(n);
+    }
+    return a;
+}
+
+double meanEdgeLength(const ControlMesh& mesh)
+{
+    double sum = 0.0;
+    size_t c = 0;
+    for (int n : mesh.faceSizes) {
+        for (int k = 0; k < n; ++k)
+            sum += glm::length(mesh.points[size_t(mesh.faceVerts[c + size_t(k)])] -
+                               mesh.points[size_t(mesh.faceVerts[c + size_t((k + 1) % n)])]);
+        c += size_t(n);
+    }
+    return c ? sum / double(c) : 0.0;
+}
+
 void reverseFaces(ControlMesh& mesh)
 {
     size_t c = 0;

@@ -39,6 +39,12 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
 /// fanned from their first corner): positive when the faces face outwards.
 double enclosedVolume(const ControlMesh& mesh);
 
+/// The summed area of the faces (each its vector area's length, Newell).
+double surfaceArea(const ControlMesh& mesh);
+
+/// The mean length of the faces' edges (an inner edge counted from each side).
+double meanEdgeLength(const ControlMesh& mesh);
+
 /// Reverses every face's corner order (outward <-> inward).
 void reverseFaces(ControlMesh& mesh);
 

@@ -270,14 +270,6 @@ void MultiresSurface::limit(std::vector<glm::dvec3>& position,
     }
 }
 
-std::vector<double> MultiresSurface::subdivideScalar(int l, const std::vector<double>& coarse) const
-{
-    std::vector<double> src = coarse, out(levels_[size_t(l)].vertexCount(), 0.0);
-    ScalarView dst{out.data()};
-    refiner_->primvar->Interpolate(l, ScalarView{src.data()}, dst);
-    return out;
-}
-
 TriangleMesh levelMesh(const SubdivLevel& lv)
 {
     TriangleMesh m;

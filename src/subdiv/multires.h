@@ -105,10 +105,6 @@ public:
     /// evaluation of the finest points), and their unit limit normals.
     void limit(std::vector<glm::dvec3>& position, std::vector<glm::dvec3>& normal) const;
 
-    /// Subdivides a per-vertex value of level l - 1 into level l (one
-    /// double per vertex), as synthesis does for the scalar.
-    std::vector<double> subdivideScalar(int l, const std::vector<double>& coarse) const;
-
 private:
     void subdivide(int l);  // level l's Q and scalar from level l - 1
     void computeFrames(SubdivLevel& lv) const;
