@@ -256,10 +256,15 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
     struct stat old;
     const bool replacing = ::stat(target.c_str(), &old) == 0;
     const std::string tmp = temporaryPathFor(target);
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0)
-        failWrite(path, std::strerror(errno));
+    // Registered before the file exists: a signal between its creation and
+    // the registration would leave it behind.
     RemoveOnSignal guard(tmp);
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        const int e = errno;
+        guard.release();
+        failWrite(path, std::strerror(e));
+    }
     int open = fd;
     auto abandon = [&] {
         if (open >= 0)
