@@ -252,6 +252,11 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
         fail(path, 0, "the face element has no vertex_indices list");
     const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
     const double colourScale = colours && e.properties[size_t(r)].type.real ? 1.0 : 1.0 / 255.0;
+    const int a = e.name == "vertex" ? index("alpha") : -1;
+    const double alphaScale =
+        a < 0 || e.properties[size_t(a)].type.real
+            ? 1.0
+            : 1.0 / (std::ldexp(1.0, 8 * e.properties[size_t(a)].type.size) - 1.0);
     for (size_t item = 0; item < e.count; ++item) {
         values.assign(e.properties.size(), 0.0);
         poly.clear();
@@ -303,6 +308,8 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
                 m.colors.emplace_back(float(values[size_t(r)] * colourScale),
                                       float(values[size_t(g)] * colourScale),
                                       float(values[size_t(b)] * colourScale));
+            if (a >= 0)
+                m.alpha.push_back(float(values[size_t(a)] * alphaScale));
         } else if (e.name == "face") {
             addPolygon(m, poly, path, 0);
         }

@@ -20,6 +20,7 @@ struct TriangleMesh {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3s> normals;  ///< unit, outward: the level set's gradient at each point
     std::vector<openvdb::Vec3s> colors;   ///< from the Cd grid at each point; empty without one
+    std::vector<float> alpha;  ///< a PLY's vertex "alpha" in [0, 1] (read only); empty without one
     std::vector<std::array<uint32_t, 3>> triangles;
     struct Polygons {
         std::vector<uint32_t> sizes, corners;
@@ -39,7 +40,8 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path);
 
 /// Reads a triangle mesh from OBJ (v [r g b], vn, f with any of its corner
 /// forms, polygons fanned) or PLY (ascii or binary little-endian; x y z,
-/// optional nx ny nz and red green blue, faces as vertex_indices lists), such
+/// optional nx ny nz, red green blue and alpha (integers scaled to [0, 1]),
+/// faces as vertex_indices lists), such
 /// as writeMesh and other tools write.  Missing normals are made from the
 /// triangles.  InputError naming the file (and line) for anything it cannot
 /// read.

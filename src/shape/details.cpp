@@ -22,43 +22,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-/// Points hashed into cubic cells, for the seeds near a point.
-class PointGrid {
-public:
-    explicit PointGrid(double cell) : cell_(cell > 0.0 ? cell : 1.0) {}
-    void insert(int id, const glm::dvec3& p) { cells_[key(cellOf(p))].push_back({id, p}); }
-    /// f(id, point) for every point in the cells within `radius` of p.
-    template <class F>
-    void near(const glm::dvec3& p, double radius, const F& f) const
-    {
-        const glm::ivec3 lo = cellOf(p - glm::dvec3(radius)), hi = cellOf(p + glm::dvec3(radius));
-        for (int x = lo.x; x <= hi.x; ++x)
-            for (int y = lo.y; y <= hi.y; ++y)
-                for (int z = lo.z; z <= hi.z; ++z) {
-                    const auto it = cells_.find(key({x, y, z}));
-                    if (it != cells_.end())
-                        for (const auto& [id, q] : it->second)
-                            f(id, q);
-                }
-    }
-
-private:
-    glm::ivec3 cellOf(const glm::dvec3& p) const
-    {
-        // Clamped before the conversion (out of int's range it is
-        // undefined); cells far out share keys, which only adds candidates.
-        auto at = [&](double x) { return int(std::clamp(std::floor(x / cell_), -1e9, 1e9)); };
-        return glm::ivec3(at(p.x), at(p.y), at(p.z));
-    }
-    static uint64_t key(const glm::ivec3& c)
-    {
-        return (uint64_t(uint32_t(c.x) & 0x1FFFFF) << 42) |
-               (uint64_t(uint32_t(c.y) & 0x1FFFFF) << 21) | uint64_t(uint32_t(c.z) & 0x1FFFFF);
-    }
-    double cell_;
-    std::unordered_map<uint64_t, std::vector<std::pair<int, glm::dvec3>>> cells_;
-};
-
 /// A double in [0, 1) from (seed, a, b, c), the same everywhere.
 double hash01(uint32_t seed, uint64_t a, uint64_t b, uint64_t c = 0)
 {
@@ -87,18 +50,20 @@ int levelIndex(const DetailSpec& d, int l)
     return it == d.levels.end() ? -1 : int(it - d.levels.begin());
 }
 
-void addNormal(SubdivLevel& level, size_t v, double value, double scalarWeight)
+/// Adds a displacement along vertex v's normal, weighted by the detail's
+/// displace and scalar weights.
+void addNormal(SubdivLevel& level, size_t v, double value, const DetailSpec& d)
 {
-    level.detail[v].z += value;
-    level.scalarDetail[v] += scalarWeight * value;
+    level.detail[v].z += d.displace * value;
+    level.scalarDetail[v] += d.scalar * value;
 }
 
 /// Adds a world-space displacement to vertex v's detail (in its frame).
-void addWorld(SubdivLevel& level, size_t v, const glm::dvec3& w, double scalarWeight)
+void addWorld(SubdivLevel& level, size_t v, const glm::dvec3& w, const DetailSpec& spec)
 {
     const glm::dvec3 d = level.frames[v].toLocal(w);
-    level.detail[v] += d;
-    level.scalarDetail[v] += scalarWeight * d.z;
+    level.detail[v] += spec.displace * d;
+    level.scalarDetail[v] += spec.scalar * d.z;
 }
 
 // --- rock ------------------------------------------------------------------------
@@ -116,7 +81,7 @@ public:
                 d_.perControlPoint
                     ? rockControlValue(int(v), l, k, d_.amplitude, d_.seed)
                     : rockValue(level.subdivided[v], k, d_.amplitude, d_.frequency, d_.seed);
-            addNormal(level, v, value, d_.scalar);
+            addNormal(level, v, value, d_);
         });
     }
 
@@ -158,7 +123,7 @@ public:
                     best = r, which = id;
             });
             if (which >= 0)
-                addNormal(level, v, domeHeight(best, domes[size_t(which)].radius), d_.scalar);
+                addNormal(level, v, domeHeight(best, domes[size_t(which)].radius), d_);
         });
     }
 
@@ -211,7 +176,7 @@ public:
             seeds_ = chooseSeeds(d_, level);
         const glm::dvec3 d = tentacleDetail(d_.length, d_.angle, l);
         for (int v : seeds_) {
-            level.detail[size_t(v)] += d;
+            level.detail[size_t(v)] += d_.displace * d;
             level.scalarDetail[size_t(v)] += d_.scalar * d.z;
         }
     }
@@ -246,7 +211,7 @@ public:
                 const std::vector<double> r = surfaceDistances(level, adj, s, R, true);
                 for (size_t v = 0; v < r.size(); ++v)
                     if (r[v] < R)
-                        addNormal(level, v, H * spurProfile(r[v] / R), d_.scalar);
+                        addNormal(level, v, H * spurProfile(r[v] / R), d_);
             } else {
                 // The chart: the region around the seed reached through
                 // vertices within R on its tangent plane.
@@ -254,7 +219,7 @@ public:
                     const glm::dvec3 d = level.subdivided[size_t(v)] - c;
                     const double r = glm::length(d - glm::dot(d, fs.n) * fs.n);
                     if (r < R)
-                        addWorld(level, size_t(v), fs.n * (H * spurProfile(r / R)), d_.scalar);
+                        addWorld(level, size_t(v), fs.n * (H * spurProfile(r / R)), d_);
                 }
             }
         }
@@ -340,11 +305,11 @@ public:
                 if (stem) {
                     const double b = 1.0 - smoothstep(0.6 * Rs, Rs, r);
                     if (b > 0.0)
-                        addWorld(level, v, s.frame.n * (H * share * b), d_.scalar);
+                        addWorld(level, v, s.frame.n * (H * share * b), d_);
                 } else if (H > 0.0) {
                     const double psi = smoothstep(0.6, 0.95, h / H);
                     if (psi > 0.0)
-                        addWorld(level, v, radial * (2.0 * share * psi), d_.scalar);
+                        addWorld(level, v, radial * (2.0 * share * psi), d_);
                 }
             }
         });

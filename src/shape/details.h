@@ -7,10 +7,82 @@
 #include "shape/shape.h"
 #include "subdiv/multires.h"
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace cambium {
+
+/// Points hashed into cubic cells, for the seeds near a point.
+class PointGrid {
+public:
+    explicit PointGrid(double cell) : cell_(cell > 0.0 ? cell : 1.0) {}
+    void insert(int id, const glm::dvec3& p)
+    {
+        cells_[key(cellOf(p))].push_back({id, p});
+        ++count_;
+    }
+    /// f(id, point) for every point in the cells within `radius` of p.
+    template <class F>
+    void near(const glm::dvec3& p, double radius, const F& f) const
+    {
+        const glm::ivec3 lo = cellOf(p - glm::dvec3(radius)), hi = cellOf(p + glm::dvec3(radius));
+        for (int x = lo.x; x <= hi.x; ++x)
+            for (int y = lo.y; y <= hi.y; ++y)
+                for (int z = lo.z; z <= hi.z; ++z) {
+                    const auto it = cells_.find(key({x, y, z}));
+                    if (it != cells_.end())
+                        for (const auto& [id, q] : it->second)
+                            f(id, q);
+                }
+    }
+
+    /// The id of the point nearest to p (-1 when empty; ties: the lowest id):
+    /// shells of cells searched outwards while they hold fewer cells than
+    /// there are points, then every point.
+    int nearest(const glm::dvec3& p) const
+    {
+        int best = -1;
+        double bestDistance = 0.0;
+        auto consider = [&](int id, const glm::dvec3& q) {
+            const double d = glm::length(q - p);
+            if (best < 0 || d < bestDistance || (d == bestDistance && id < best))
+                best = id, bestDistance = d;
+        };
+        for (double r = cell_;; r *= 2.0) {
+            const double cells = std::pow(2.0 * r / cell_ + 2.0, 3.0);
+            if (cells > double(count_)) {
+                for (const auto& [k, list] : cells_)
+                    for (const auto& [id, q] : list)
+                        consider(id, q);
+                return best;
+            }
+            near(p, r, consider);
+            if (best >= 0 && bestDistance <= r)
+                return best;
+        }
+    }
+
+private:
+    glm::ivec3 cellOf(const glm::dvec3& p) const
+    {
+        // Clamped before the conversion (out of int's range it is
+        // undefined); cells far out share keys, which only adds candidates.
+        auto at = [&](double x) { return int(std::clamp(std::floor(x / cell_), -1e9, 1e9)); };
+        return glm::ivec3(at(p.x), at(p.y), at(p.z));
+    }
+    static uint64_t key(const glm::ivec3& c)
+    {
+        return (uint64_t(uint32_t(c.x) & 0x1FFFFF) << 42) |
+               (uint64_t(uint32_t(c.y) & 0x1FFFFF) << 21) | uint64_t(uint32_t(c.z) & 0x1FFFFF);
+    }
+    double cell_;
+    size_t count_ = 0;
+    std::unordered_map<uint64_t, std::vector<std::pair<int, glm::dvec3>>> cells_;
+};
 
 /// A level's vertex neighbours (compressed rows from its edges).
 struct Adjacency {

@@ -57,7 +57,8 @@ struct DetailSpec {
     std::vector<glm::dvec3> at;
     double spacing = 0.0;  ///< Poisson-disk minimum spacing (global placement)
     Placement placement = Placement::ControlPoints;
-    double scalar = 1.0;  ///< weight of its normal displacement in the scalar channel
+    double scalar = 1.0;    ///< weight of its normal displacement in the scalar channel
+    double displace = 1.0;  ///< weight of its displacement of the surface (0: the scalar only)
 };
 
 /// Local detail modification: details of `levels` near `at` scaled by
@@ -70,20 +71,98 @@ struct EditSpec {
     bool topological = false;  ///< edge hops times the level's mean edge length, else metric
 };
 
-/// The colour of the baked Cd: one colour, or a ramp over the scalar channel.
+/// The colour of the baked Cd: one colour, or a ramp over the scalar
+/// channel; for a blend, one of these per side mixed by the blend parameter.
 struct ColorSpec {
     glm::dvec3 color{0.75, 0.72, 0.68};
     bool ramp = false;
     double low = 0.0, high = 1.0;  ///< the scalar range of the ramp
     glm::dvec3 lowColor{0.0}, highColor{1.0};
+    std::vector<ColorSpec> sides;  ///< none, or A's and B's
+};
+
+/// An alpha signal (section 3): the weight of shape A in a blend, in [0, 1],
+/// at the subdivided points of each level.  Plane, sphere and noise are
+/// signed functions s(x) (positive on A's side) turned into a weight by the
+/// level's transition of width w: 0 for s <= -w/2, 1 for s >= w/2, smooth
+/// (3u^2 - 2u^3) between.  Strokes and painted alphas are weights as painted;
+/// the compositing operators combine signals.
+enum class AlphaType {
+    Constant,
+    Plane,
+    Sphere,
+    Noise,
+    Strokes,
+    Painted,
+    Multiply,
+    Screen,
+    Max,
+    Min,
+    Invert
+};
+
+struct Stroke {
+    glm::dvec3 at{0.0};
+    double radius = 0.1;
+    double value = 1.0;
+};
+
+struct AlphaSpec {
+    AlphaType type = AlphaType::Constant;
+    std::string path;                              ///< its JSON path, for messages
+    double value = 1.0;                            ///< constant
+    glm::dvec3 normal{1.0, 0.0, 0.0}, point{0.0};  ///< plane (point on it); sphere (centre)
+    double radius = 1.0;                           ///< sphere
+    double frequency = 1.0, threshold = 0.0;       ///< noise
+    uint32_t seed = 0;                             ///< noise
+    std::vector<Stroke> strokes;                   ///< strokes, composited in order
+    double background = 0.0;                       ///< strokes: the weight where none reaches
+    std::string file;                              ///< painted: a PLY with a vertex alpha
+    std::vector<AlphaSpec> of;                     ///< compositing operators' operands
+};
+
+/// One side of a blend: the details and edits of one multi-scale shape on
+/// the shared base, and whether the base's own (analysed) details belong to it.
+struct BlendSide {
+    bool baseDetail = true;
+    std::vector<DetailSpec> details;
+    std::vector<EditSpec> edits;
+};
+
+/// Multi-scale blending (section 6, after Burt): at each level l, the
+/// detail coefficients of A and B combined linearly by the alpha signal with
+/// a transition of width `width` / 2^(l-1) (or `width` at every level).
+struct BlendSpec {
+    bool enabled = false;
+    BlendSide a, b;
+    AlphaSpec alpha;
+    double width = 0.0;
+    bool constantWidth = false;
+};
+
+/// The post-blend shader (section 6.3): the blended scalar s and blend
+/// parameter beta of each point of the finest level mapped to a height along
+/// the normal and a colour.  Terrain: height relief * max(s, sea level)
+/// (oceans flattened); colour ocean below the sea level (deep to shallow over
+/// `depth`), lowland to mountain from the sea level to the snow line, snow
+/// above; each from palette A and palette B mixed by beta.
+struct ShaderSpec {
+    bool enabled = false;
+    double seaLevel = 0.0, snowLine = 0.1, relief = 1.0, depth = 0.05;
+    struct Palette {
+        glm::dvec3 deep{0.02, 0.07, 0.25}, shallow{0.10, 0.35, 0.55}, lowland{0.20, 0.45, 0.15},
+            mountain{0.45, 0.37, 0.28}, snow{0.95, 0.95, 0.97};
+    } a, b;
 };
 
 struct ShapeSpec {
     std::string source;  ///< the file, for messages
     BaseSpec base;
     int levels = 5;
-    std::vector<DetailSpec> details;
-    std::vector<EditSpec> edits;
+    std::vector<DetailSpec> details;  ///< with a blend: added to both sides' blend
+    std::vector<EditSpec> edits;      ///< with a blend: applied to the blended details
+    BlendSpec blend;
+    ShaderSpec shader;
     ColorSpec color;
 };
 

@@ -2,6 +2,7 @@
 #include "shape/shape.h"
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/json.h"
 #include "core/math.h"
 #include "subdiv/multires.h"
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
 
 namespace cambium {
@@ -50,7 +52,8 @@ public:
         const json root = parseJson(text, source());
         object(root, "(top level)", "must be an object");
         required(root, "base", "", "the base shape, e.g. {\"type\": \"sphere\", \"radius\": 1}");
-        checkKeys(root, "", {"name", "base", "levels", "details", "edits", "color"});
+        checkKeys(root, "",
+                  {"name", "base", "levels", "details", "edits", "blend", "shader", "color"});
         ShapeSpec s;
         s.source = source();
         if (root.contains("name"))
@@ -58,22 +61,18 @@ public:
         s.levels = wholeNumber(root, "levels", "", s.levels, 0, kMaxSubdivisionLevels,
                                " (OpenSubdiv's uniform refinement stops at 15)");
         s.base = readBase(root["base"], "base");
-        if (root.contains("details")) {
-            const json& d = root["details"];
-            if (!d.is_array())
-                fail("details", fmt::format("must be an array of details (got {})", jsonKind(d)));
-            for (size_t i = 0; i < d.size(); ++i)
-                s.details.push_back(readDetail(d[i], fmt::format("details[{}]", i), s.levels));
-        }
-        if (root.contains("edits")) {
-            const json& e = root["edits"];
-            if (!e.is_array())
-                fail("edits", fmt::format("must be an array of edits (got {})", jsonKind(e)));
-            for (size_t i = 0; i < e.size(); ++i)
-                s.edits.push_back(readEdit(e[i], fmt::format("edits[{}]", i), s.levels));
-        }
+        s.details = details(root, "", s.levels);
+        s.edits = edits(root, "", s.levels);
+        if (root.contains("blend"))
+            s.blend = readBlend(root["blend"], "blend", s.levels);
+        if (root.contains("shader"))
+            s.shader = readShader(root["shader"], "shader");
         if (root.contains("color"))
             s.color = readColor(root["color"], "color");
+        if (!s.color.sides.empty() && !s.blend.enabled)
+            fail("color", "colours of sides \"a\" and \"b\" need a blend");
+        if (s.shader.enabled && root.contains("color"))
+            fail("color", "a shape with a shader takes its colours from the shader's palettes");
         return s;
     }
 
@@ -117,7 +116,8 @@ private:
         return c;
     }
 
-    std::string file(const json& obj, const std::string& path, const char* key = "file") const
+    std::string file(const json& obj, const std::string& path, const char* key = "file",
+                     const char* what = "base file") const
     {
         const std::string f = string(required(obj, key, path), jsonPath(path, key));
         if (f.empty())
@@ -127,7 +127,7 @@ private:
                                      ? f
                                      : (std::filesystem::path(directory_) / p).string();
         try {
-            checkInputFile(full, "base file");
+            checkInputFile(full, what);
         } catch (const InputError& e) {
             fail(jsonPath(path, key), e.what());
         }
@@ -290,11 +290,13 @@ private:
             fail(path, "details need at least one subdivision level (\"levels\" is 0)");
         d.seed = uint32_t(numberOr(j, "seed", path, 0, 0, 4294967295.0));
         d.scalar = numberOr(j, "scalar", path, d.scalar, -1e6, 1e6);
+        d.displace = numberOr(j, "displace", path, d.displace, -1e6, 1e6);
         const double big = 1e6;
         switch (d.type) {
             case DetailType::Rock:
                 checkKeys(j, path,
-                          {"type", "levels", "seed", "scalar", "amplitude", "frequency", "form"});
+                          {"type", "levels", "seed", "scalar", "displace", "amplitude", "frequency",
+                           "form"});
                 d.levels = levelList(j, path, range(1, L), L);
                 d.amplitude = numberOr(j, "amplitude", path, d.amplitude, 0.0, big);
                 d.frequency = numberOr(j, "frequency", path, d.frequency, 1e-6, big);
@@ -309,9 +311,9 @@ private:
                 }
                 break;
             case DetailType::Berry:
-                checkKeys(
-                    j, path,
-                    {"type", "levels", "seed", "scalar", "radius", "spacing", "at", "children"});
+                checkKeys(j, path,
+                          {"type", "levels", "seed", "scalar", "displace", "radius", "spacing",
+                           "at", "children"});
                 d.levels = levelList(j, path, range(1, std::min(L, 3)), L);
                 d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
                 d.children = wholeNumber(j, "children", path, d.children, 0, 64);
@@ -327,16 +329,17 @@ private:
                 break;
             case DetailType::Tentacle:
                 checkKeys(j, path,
-                          {"type", "levels", "seed", "scalar", "length", "angle", "spacing", "at"});
+                          {"type", "levels", "seed", "scalar", "displace", "length", "angle",
+                           "spacing", "at"});
                 d.levels = levelList(j, path, range(1, std::min(L, 5)), L);
                 d.length = numberOr(j, "length", path, d.length, 0.0, big);
                 d.angle = numberOr(j, "angle", path, 0.0, -1e6, 1e6) * kDegree;
                 readSeeds(j, path, d);
                 break;
             case DetailType::Mushroom:
-                checkKeys(
-                    j, path,
-                    {"type", "levels", "seed", "scalar", "radius", "height", "spacing", "at"});
+                checkKeys(j, path,
+                          {"type", "levels", "seed", "scalar", "displace", "radius", "height",
+                           "spacing", "at"});
                 d.levels = levelList(j, path, range(1, L), L);
                 d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
                 d.height = numberOr(j, "height", path, d.height, 0.0, big);
@@ -344,8 +347,8 @@ private:
                 break;
             case DetailType::Spur:
                 checkKeys(j, path,
-                          {"type", "levels", "seed", "scalar", "radius", "height", "spacing", "at",
-                           "placement"});
+                          {"type", "levels", "seed", "scalar", "displace", "radius", "height",
+                           "spacing", "at", "placement"});
                 d.levels = levelList(j, path, {1}, L);
                 d.radius = numberOr(j, "radius", path, d.radius, 1e-6, big);
                 d.height = numberOr(j, "height", path, d.height, -big, big);
@@ -385,6 +388,220 @@ private:
         return e;
     }
 
+    template <class T>
+    std::vector<T> list(const json& obj, const char* key, const std::string& path, const char* what,
+                        const std::function<T(const json&, const std::string&)>& one) const
+    {
+        std::vector<T> out;
+        if (!obj.contains(key))
+            return out;
+        const std::string p = jsonPath(path, key);
+        const json& a = obj[key];
+        if (!a.is_array())
+            fail(p, fmt::format("must be an array of {} (got {})", what, jsonKind(a)));
+        for (size_t i = 0; i < a.size(); ++i)
+            out.push_back(one(a[i], fmt::format("{}[{}]", p, i)));
+        return out;
+    }
+
+    std::vector<DetailSpec> details(const json& obj, const std::string& path, int levels) const
+    {
+        return list<DetailSpec>(
+            obj, "details", path, "details",
+            [&](const json& j, const std::string& p) { return readDetail(j, p, levels); });
+    }
+
+    std::vector<EditSpec> edits(const json& obj, const std::string& path, int levels) const
+    {
+        return list<EditSpec>(
+            obj, "edits", path, "edits",
+            [&](const json& j, const std::string& p) { return readEdit(j, p, levels); });
+    }
+
+    BlendSide readSide(const json& j, const std::string& path, int levels) const
+    {
+        object(j, path,
+               "must be a shape's details on the shared base, e.g. {\"details\": [{\"type\": "
+               "\"rock\"}]}");
+        checkKeys(j, path, {"details", "edits", "base_detail"});
+        BlendSide side;
+        if (j.contains("base_detail"))
+            side.baseDetail = boolean(j["base_detail"], jsonPath(path, "base_detail"));
+        side.details = details(j, path, levels);
+        side.edits = edits(j, path, levels);
+        return side;
+    }
+
+    BlendSpec readBlend(const json& j, const std::string& path, int levels) const
+    {
+        object(j, path,
+               "must be an object {\"a\": {...}, \"b\": {...}, \"alpha\": {...}, "
+               "\"width\": W}");
+        checkKeys(j, path, {"a", "b", "alpha", "width", "transition"});
+        BlendSpec b;
+        b.enabled = true;
+        b.a = readSide(required(j, "a", path), jsonPath(path, "a"), levels);
+        b.b = readSide(required(j, "b", path), jsonPath(path, "b"), levels);
+        b.alpha = readAlpha(required(j, "alpha", path), jsonPath(path, "alpha"));
+        b.width = numberOr(j, "width", path, 0.0, 0.0, 1e6);
+        if (j.contains("transition")) {
+            const std::string t = string(j["transition"], jsonPath(path, "transition"));
+            if (t != "per-level" && t != "constant")
+                fail(jsonPath(path, "transition"),
+                     fmt::format("must be \"per-level\" (width / 2^(level-1): sharp at fine "
+                                 "levels) or \"constant\" (the same width at every level: a "
+                                 "soft blend) (got '{}')",
+                                 t));
+            b.constantWidth = t == "constant";
+        }
+        return b;
+    }
+
+    AlphaSpec readAlpha(const json& j, const std::string& path) const
+    {
+        static const std::map<std::string, AlphaType> kinds = {
+            {"constant", AlphaType::Constant}, {"plane", AlphaType::Plane},
+            {"sphere", AlphaType::Sphere},     {"noise", AlphaType::Noise},
+            {"strokes", AlphaType::Strokes},   {"painted", AlphaType::Painted},
+            {"multiply", AlphaType::Multiply}, {"screen", AlphaType::Screen},
+            {"max", AlphaType::Max},           {"min", AlphaType::Min},
+            {"invert", AlphaType::Invert}};
+        object(j, path,
+               "must be an alpha signal such as {\"type\": \"plane\", \"normal\": [1, 2, 0]}");
+        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
+        const auto it = kinds.find(type);
+        if (it == kinds.end())
+            fail(jsonPath(path, "type"),
+                 fmt::format("unknown alpha signal '{}'{}; known: {}", type,
+                             didYouMean(type, names(kinds)), joinWords(names(kinds))));
+        AlphaSpec a;
+        a.type = it->second;
+        a.path = path;
+        switch (a.type) {
+            case AlphaType::Constant:
+                checkKeys(j, path, {"type", "value"});
+                a.value = number(required(j, "value", path), jsonPath(path, "value"), 0.0, 1.0);
+                break;
+            case AlphaType::Plane: {
+                checkKeys(j, path, {"type", "normal", "point"});
+                const glm::dvec3 n = point(required(j, "normal", path), jsonPath(path, "normal"));
+                if (!(glm::length(n) > 0.0))
+                    fail(jsonPath(path, "normal"), "must not be zero");
+                a.normal = glm::normalize(n);
+                if (j.contains("point"))
+                    a.point = point(j["point"], jsonPath(path, "point"));
+                break;
+            }
+            case AlphaType::Sphere:
+                checkKeys(j, path, {"type", "center", "radius"});
+                if (j.contains("center"))
+                    a.point = point(j["center"], jsonPath(path, "center"));
+                a.radius = number(required(j, "radius", path), jsonPath(path, "radius"), 0.0, 1e6);
+                break;
+            case AlphaType::Noise:
+                checkKeys(j, path, {"type", "frequency", "threshold", "seed"});
+                a.frequency = numberOr(j, "frequency", path, a.frequency, 1e-6, 1e6);
+                a.threshold = numberOr(j, "threshold", path, 0.0, -1.0, 1.0);
+                a.seed = uint32_t(numberOr(j, "seed", path, 0, 0, 4294967295.0));
+                break;
+            case AlphaType::Strokes: {
+                checkKeys(j, path, {"type", "strokes", "file", "background"});
+                a.background = numberOr(j, "background", path, 0.0, 0.0, 1.0);
+                if (j.contains("strokes") == j.contains("file"))
+                    fail(path,
+                         "give the strokes inline (\"strokes\": [...]) or in a JSON file "
+                         "(\"file\"), one of the two");
+                json strokes;
+                std::string where = jsonPath(path, "strokes");
+                if (j.contains("file")) {
+                    const std::string f = file(j, path, "file", "strokes file");
+                    strokes = parseJson(readTextFile(f, "strokes file"), f);
+                    where = f;
+                } else {
+                    strokes = j["strokes"];
+                }
+                if (!strokes.is_array() || strokes.empty())
+                    fail(where,
+                         "must be a non-empty array of strokes [{\"at\": [x, y, z], "
+                         "\"radius\": r, \"value\": v}, ...]");
+                for (size_t i = 0; i < strokes.size(); ++i) {
+                    const std::string p = fmt::format("{}[{}]", where, i);
+                    const json& st = strokes[i];
+                    object(st, p,
+                           "must be a stroke {\"at\": [x, y, z], \"radius\": r, \"value\": v}");
+                    checkKeys(st, p, {"at", "radius", "value"});
+                    Stroke k;
+                    k.at = point(required(st, "at", p), jsonPath(p, "at"));
+                    k.radius = number(required(st, "radius", p), jsonPath(p, "radius"), 1e-9, 1e6);
+                    k.value = numberOr(st, "value", p, 1.0, 0.0, 1.0);
+                    a.strokes.push_back(k);
+                }
+                break;
+            }
+            case AlphaType::Painted:
+                checkKeys(j, path, {"type", "file"});
+                a.file = file(j, path, "file", "painted alpha file");
+                break;
+            case AlphaType::Multiply:
+            case AlphaType::Screen:
+            case AlphaType::Max:
+            case AlphaType::Min:
+            case AlphaType::Invert: {
+                checkKeys(j, path, {"type", "of"});
+                const json& of = required(j, "of", path);
+                const std::string p = jsonPath(path, "of");
+                const size_t want = a.type == AlphaType::Invert ? 1 : 0;
+                if (!of.is_array() || of.empty() || (want && of.size() != want))
+                    fail(p, want ? "must be an array of one alpha signal"
+                                 : "must be a non-empty array of alpha signals");
+                for (size_t i = 0; i < of.size(); ++i)
+                    a.of.push_back(readAlpha(of[i], fmt::format("{}[{}]", p, i)));
+                break;
+            }
+        }
+        return a;
+    }
+
+    ShaderSpec::Palette readPalette(const json& j, const std::string& path,
+                                    ShaderSpec::Palette p) const
+    {
+        object(j, path,
+               "must be a palette {\"deep\", \"shallow\", \"lowland\", \"mountain\", \"snow\"}");
+        checkKeys(j, path, {"deep", "shallow", "lowland", "mountain", "snow"});
+        auto c = [&](const char* key, glm::dvec3& out) {
+            if (j.contains(key))
+                out = colour(j[key], jsonPath(path, key));
+        };
+        c("deep", p.deep);
+        c("shallow", p.shallow);
+        c("lowland", p.lowland);
+        c("mountain", p.mountain);
+        c("snow", p.snow);
+        return p;
+    }
+
+    ShaderSpec readShader(const json& j, const std::string& path) const
+    {
+        object(j, path, "must be a shader such as {\"type\": \"terrain\", \"sea_level\": 0}");
+        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
+        if (type != "terrain")
+            fail(jsonPath(path, "type"), fmt::format("unknown shader '{}'; known: terrain", type));
+        checkKeys(j, path, {"type", "sea_level", "snow_line", "relief", "depth", "a", "b"});
+        ShaderSpec sh;
+        sh.enabled = true;
+        sh.seaLevel = numberOr(j, "sea_level", path, sh.seaLevel, -1e6, 1e6);
+        sh.snowLine = numberOr(j, "snow_line", path, sh.snowLine, -1e6, 1e6);
+        if (!(sh.snowLine > sh.seaLevel))
+            fail(jsonPath(path, "snow_line"),
+                 fmt::format("must be above the sea level ({} <= {})", sh.snowLine, sh.seaLevel));
+        sh.relief = numberOr(j, "relief", path, sh.relief, -1e6, 1e6);
+        sh.depth = numberOr(j, "depth", path, sh.depth, 1e-9, 1e6);
+        if (j.contains("a"))
+            sh.a = readPalette(j["a"], jsonPath(path, "a"), sh.a);
+        sh.b = j.contains("b") ? readPalette(j["b"], jsonPath(path, "b"), sh.b) : sh.a;
+        return sh;
+    }
+
     ColorSpec readColor(const json& j, const std::string& path) const
     {
         ColorSpec c;
@@ -393,8 +610,14 @@ private:
             return c;
         }
         object(j, path,
-               "must be [r, g, b] or a ramp {\"scalar\": [lo, hi], \"low\": [r, g, b], "
-               "\"high\": [r, g, b]}");
+               "must be [r, g, b], a ramp {\"scalar\": [lo, hi], \"low\": [r, g, b], "
+               "\"high\": [r, g, b]} or a blend's two sides {\"a\": COLOR, \"b\": COLOR}");
+        if (j.contains("a") || j.contains("b")) {
+            checkKeys(j, path, {"a", "b"});
+            c.sides.push_back(readColor(required(j, "a", path), jsonPath(path, "a")));
+            c.sides.push_back(readColor(required(j, "b", path), jsonPath(path, "b")));
+            return c;
+        }
         checkKeys(j, path, {"scalar", "low", "high"});
         c.ramp = true;
         const json& s = array(required(j, "scalar", path), jsonPath(path, "scalar"), 2,

@@ -2,6 +2,7 @@
 #include "shape/synthesis.h"
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/system.h"
 #include "shape/base_shapes.h"
 #include "shape/capture.h"
@@ -67,6 +68,14 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, Device device)
 {
 }
 
+std::vector<DetailSpec> allDetails(const ShapeSpec& spec)
+{
+    std::vector<DetailSpec> out = spec.details;
+    out.insert(out.end(), spec.blend.a.details.begin(), spec.blend.a.details.end());
+    out.insert(out.end(), spec.blend.b.details.begin(), spec.blend.b.details.end());
+    return out;
+}
+
 void checkShapeLevels(const ShapeSpec& spec, int levels)
 {
     auto check = [&](const std::string& path, const std::vector<int>& used) {
@@ -77,8 +86,11 @@ void checkShapeLevels(const ShapeSpec& spec, int levels)
                                 "synthesised",
                                 spec.source, path, l, levels));
     };
-    for (const DetailSpec& d : spec.details)
+    for (const DetailSpec& d : allDetails(spec))
         check(d.path, d.levels);
+    for (const BlendSide* side : {&spec.blend.a, &spec.blend.b})
+        for (const EditSpec& e : side->edits)
+            check(e.path, e.levels);
     for (const EditSpec& e : spec.edits)
         check(e.path, e.levels);
 }
@@ -86,7 +98,7 @@ void checkShapeLevels(const ShapeSpec& spec, int levels)
 void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base)
 {
     const double e0 = meanEdgeLength(base);
-    for (const DetailSpec& d : spec.details) {
+    for (const DetailSpec& d : allDetails(spec)) {
         if (d.type != DetailType::Rock || d.amplitude == 0.0 || !rockFoldsOnAPlane(d, e0))
             continue;
         // The largest amplitude that does not fold, to a few percent.
@@ -119,6 +131,15 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& b
     for (const DetailSpec& d : spec_.details)
         details_.push_back(makeDetail(d));
     adjacency_.resize(size_t(spec_.levels) + 1);
+    alpha_.resize(size_t(spec_.levels) + 1);
+    if (spec_.blend.enabled) {
+        for (int side = 0; side < 2; ++side)
+            for (const DetailSpec& d : (side ? spec_.blend.b : spec_.blend.a).details)
+                sideDetails_[side].push_back(makeDetail(d));
+        alphaSignal_ = std::make_unique<AlphaSignal>(spec_.blend.alpha, spec_.source);
+        for (auto& i : influence_)
+            i.resize(size_t(spec_.levels) + 1);
+    }
 }
 
 ShapeSurface::~ShapeSurface() = default;
@@ -131,20 +152,74 @@ const Adjacency& ShapeSurface::adjacency(int l)
     return *a;
 }
 
-void ShapeSurface::hook(int l, SubdivLevel& level)
+void ShapeSurface::applyDetails(int l, SubdivLevel& level, bool base,
+                                const std::vector<std::unique_ptr<Detail>>& details,
+                                const std::vector<EditSpec>& edits)
 {
-    const std::vector<glm::dvec3>& base = baseDetail_[size_t(l)];
-    if (base.empty())
+    const std::vector<glm::dvec3>& given = baseDetail_[size_t(l)];
+    if (given.empty() || !base)
         std::fill(level.detail.begin(), level.detail.end(), glm::dvec3(0.0));
     else
-        level.detail = base;
+        level.detail = given;
     std::fill(level.scalarDetail.begin(), level.scalarDetail.end(), 0.0);
+    if (l == 0)
+        return;
+    for (auto& d : details)
+        d->apply(l, level, adjacency(l));
+    for (const EditSpec& e : edits)
+        applyEdit(e, l, level, adjacency(l));
+}
+
+void ShapeSurface::hook(int l, SubdivLevel& level)
+{
+    const BlendSpec& blend = spec_.blend;
+    if (!blend.enabled) {
+        applyDetails(l, level, true, details_, spec_.edits);
+        return;
+    }
+    // Each side's details on the blended surface's level, then their linear
+    // combination by the level's alpha (the coarser levels already blended).
+    const size_t n = level.vertexCount();
+    std::vector<double>& alpha = alpha_[size_t(l)];
+    alpha = alphaSignal_->evaluate(level.subdivided, transitionWidth(blend, l));
+    applyDetails(l, level, blend.a.baseDetail, sideDetails_[0], blend.a.edits);
+    const std::vector<glm::dvec3> detailA = level.detail;
+    const std::vector<double> scalarA = level.scalarDetail;
+    applyDetails(l, level, blend.b.baseDetail, sideDetails_[1], blend.b.edits);
+    std::vector<double> influence[2];
+    for (int side = 0; side < 2; ++side)
+        influence[side] = l == 0 ? std::vector<double>(n, 0.0)
+                                 : surface_->subdivideValues(l, influence_[side][size_t(l) - 1]);
+    forEachIndex(n, [&](size_t v) {
+        const double a = alpha[v];
+        influence[0][v] += a * (glm::length(detailA[v]) + std::fabs(scalarA[v]));
+        influence[1][v] +=
+            (1.0 - a) * (glm::length(level.detail[v]) + std::fabs(level.scalarDetail[v]));
+        level.detail[v] = blendValue(detailA[v], level.detail[v], a);
+        level.scalarDetail[v] = blendValue(scalarA[v], level.scalarDetail[v], a);
+    });
+    for (int side = 0; side < 2; ++side)
+        influence_[side][size_t(l)] = std::move(influence[side]);
     if (l == 0)
         return;
     for (auto& d : details_)
         d->apply(l, level, adjacency(l));
     for (const EditSpec& e : spec_.edits)
         applyEdit(e, l, level, adjacency(l));
+}
+
+std::vector<double> ShapeSurface::blendParameter() const
+{
+    const size_t n = surface_->finest().vertexCount();
+    if (!spec_.blend.enabled)
+        return std::vector<double>(n, 1.0);
+    const size_t L = size_t(levels());
+    std::vector<double> beta(n);
+    forEachIndex(n, [&](size_t v) {
+        const double a = influence_[0][L][v], b = influence_[1][L][v];
+        beta[v] = a + b > 0.0 ? std::clamp(a / (a + b), 0.0, 1.0) : alpha_[L][v];
+    });
+    return beta;
 }
 
 void ShapeSurface::synthesize()
@@ -157,9 +232,11 @@ void ShapeSurface::synthesizeFrom(int l)
     surface_->synthesizeFrom(l, [this](int lv, SubdivLevel& level) { hook(lv, level); });
 }
 
-glm::dvec3 ShapeSurface::color(double s) const
+glm::dvec3 shapeColor(const ColorSpec& c, double s, double beta)
 {
-    const ColorSpec& c = spec_.color;
+    if (!c.sides.empty())
+        return blendValue(shapeColor(c.sides[0], s, beta), shapeColor(c.sides[1], s, beta),
+                          std::clamp(beta, 0.0, 1.0));
     if (!c.ramp)
         return c.color;
     const double t = std::clamp((s - c.low) / (c.high - c.low), 0.0, 1.0);
@@ -169,12 +246,28 @@ glm::dvec3 ShapeSurface::color(double s) const
 TriangleMesh ShapeSurface::mesh() const
 {
     const SubdivLevel& f = surface_->finest();
-    TriangleMesh m = levelMesh(f);
-    m.colors.resize(f.vertexCount());
-    for (size_t v = 0; v < f.vertexCount(); ++v) {
-        const glm::dvec3 c = color(f.scalar[v]);
-        m.colors[v] = openvdb::Vec3s(float(c.x), float(c.y), float(c.z));
+    const size_t n = f.vertexCount();
+    const std::vector<double> beta = blendParameter();
+    if (!spec_.shader.enabled) {
+        TriangleMesh m = levelMesh(f);
+        m.colors.resize(n);
+        for (size_t v = 0; v < n; ++v) {
+            const glm::dvec3 c = shapeColor(spec_.color, f.scalar[v], beta[v]);
+            m.colors[v] = openvdb::Vec3s(float(c.x), float(c.y), float(c.z));
+        }
+        return m;
     }
+    // The post-blend shader: heights along the synthesised surface's normals.
+    const std::vector<glm::dvec3> normal = vertexNormals(f, f.points);
+    std::vector<glm::dvec3> points(n);
+    std::vector<openvdb::Vec3s> colors(n);
+    forEachIndex(n, [&](size_t v) {
+        const Shade s = shade(spec_.shader, f.scalar[v], beta[v]);
+        points[v] = f.points[v] + s.height * normal[v];
+        colors[v] = openvdb::Vec3s(float(s.color.x), float(s.color.y), float(s.color.z));
+    });
+    TriangleMesh m = levelMesh(f, &points);
+    m.colors = std::move(colors);
     return m;
 }
 

@@ -7,6 +7,7 @@
 #include "core/system.h"
 #include "io/mesh_file.h"
 #include "shape/base_shapes.h"
+#include "shape/blend.h"
 #include "shape/details.h"
 #include "shape/shape.h"
 #include "subdiv/multires.h"
@@ -17,6 +18,9 @@
 #include <vector>
 
 namespace cambium {
+
+/// Every detail of a shape: its own and both blend sides'.
+std::vector<DetailSpec> allDetails(const ShapeSpec& spec);
 
 /// InputError when a detail or edit of `spec` acts at a level finer than
 /// `levels`.
@@ -56,13 +60,25 @@ public:
     const std::vector<glm::dvec3>& baseDetail(int l) const { return baseDetail_[size_t(l)]; }
 
     /// The finest level as a mesh (quads kept, normals, the colour of each
-    /// point from the file's colour or ramp of the scalar channel).
+    /// point from the file's colour or ramp of the scalar channel; with a
+    /// shader, its points moved along their normals by the shader's height
+    /// and coloured by it).
     TriangleMesh mesh() const;
-    /// The colour of a scalar value.
-    glm::dvec3 color(double scalar) const;
+
+    /// A blend's alpha at level l's vertices (empty without a blend).
+    const std::vector<double>& alpha(int l) const { return alpha_[size_t(l)]; }
+    /// The blend parameter at each vertex of the finest level (section 6.3):
+    /// A's share of the details that made it, each level's detail weighted
+    /// by its alpha and carried through the subdivision like the scalar
+    /// channel; the finest alpha where no detail acted; 1 without a blend.
+    std::vector<double> blendParameter() const;
 
 private:
     void hook(int l, SubdivLevel& level);
+    /// Level l's details from the base (or zero) and `details` and `edits`.
+    void applyDetails(int l, SubdivLevel& level, bool base,
+                      const std::vector<std::unique_ptr<Detail>>& details,
+                      const std::vector<EditSpec>& edits);
     const Adjacency& adjacency(int l);
 
     ShapeSpec spec_;
@@ -70,7 +86,15 @@ private:
     std::vector<std::vector<glm::dvec3>> baseDetail_;
     std::vector<std::unique_ptr<Detail>> details_;
     std::vector<std::unique_ptr<Adjacency>> adjacency_;
+    // A blend's sides, signal, and per level its alpha and each side's influence.
+    std::vector<std::unique_ptr<Detail>> sideDetails_[2];
+    std::unique_ptr<AlphaSignal> alphaSignal_;
+    std::vector<std::vector<double>> alpha_, influence_[2];
 };
+
+/// The colour a shape's colour spec gives a point of scalar s and blend
+/// parameter beta (without a shader).
+glm::dvec3 shapeColor(const ColorSpec& color, double s, double beta = 1.0);
 
 /// InputError naming `what` when synthesising `levels` levels of `base`
 /// would need more memory than the machine has available.

@@ -216,6 +216,17 @@ void MultiresSurface::subdivide(int l)
     refiner_->primvar->Interpolate(l, ScalarView{coarse.scalar.data()}, dstScalar);
 }
 
+std::vector<double> MultiresSurface::subdivideValues(int l, const std::vector<double>& coarse) const
+{
+    if (l < 1 || l > levels() || coarse.size() != levels_[size_t(l) - 1].vertexCount())
+        throw std::logic_error("subdivideValues: not a level's values");
+    std::vector<double> fine(levels_[size_t(l)].vertexCount());
+    std::vector<double> from = coarse;  // Far's interface takes non-const sources
+    ScalarView dst{fine.data()};
+    refiner_->primvar->Interpolate(l, ScalarView{from.data()}, dst);
+    return fine;
+}
+
 void MultiresSurface::synthesize(const DetailHook& hook)
 {
     synthesizeFrom(0, hook);
@@ -270,15 +281,15 @@ void MultiresSurface::limit(std::vector<glm::dvec3>& position,
     }
 }
 
-TriangleMesh levelMesh(const SubdivLevel& lv)
+TriangleMesh levelMesh(const SubdivLevel& lv, const std::vector<glm::dvec3>* moved)
 {
     TriangleMesh m;
-    const std::vector<glm::dvec3> normal = vertexNormals(lv, lv.points);
-    m.points.resize(lv.points.size());
-    m.normals.resize(lv.points.size());
-    for (size_t v = 0; v < lv.points.size(); ++v) {
-        m.points[v] =
-            openvdb::Vec3s(float(lv.points[v].x), float(lv.points[v].y), float(lv.points[v].z));
+    const std::vector<glm::dvec3>& p = moved ? *moved : lv.points;
+    const std::vector<glm::dvec3> normal = vertexNormals(lv, p);
+    m.points.resize(p.size());
+    m.normals.resize(p.size());
+    for (size_t v = 0; v < p.size(); ++v) {
+        m.points[v] = openvdb::Vec3s(float(p[v].x), float(p[v].y), float(p[v].z));
         m.normals[v] = openvdb::Vec3s(float(normal[v].x), float(normal[v].y), float(normal[v].z));
     }
     m.triangles.reserve(2 * lv.faceCount());

@@ -105,6 +105,10 @@ public:
     /// evaluation of the finest points), and their unit limit normals.
     void limit(std::vector<glm::dvec3>& position, std::vector<glm::dvec3>& normal) const;
 
+    /// Values per vertex of level l - 1 subdivided to level l, as the
+    /// scalar channel is (another channel carried through the levels).
+    std::vector<double> subdivideValues(int l, const std::vector<double>& coarse) const;
+
 private:
     void subdivide(int l);  // level l's Q and scalar from level l - 1
     void computeFrames(SubdivLevel& lv) const;
@@ -122,7 +126,8 @@ std::vector<glm::dvec3> vertexNormals(const SubdivLevel& topology,
 
 /// A level's synthesised points as a mesh: its faces kept as polygons
 /// (quads above level 0), fanned into triangles, unit outward normals
-/// (vertexNormals); no colours.
-TriangleMesh levelMesh(const SubdivLevel& level);
+/// (vertexNormals); no colours.  `points` (one per vertex) replace the
+/// level's synthesised points when given.
+TriangleMesh levelMesh(const SubdivLevel& level, const std::vector<glm::dvec3>* points = nullptr);
 
 }  // namespace cambium
