@@ -29,11 +29,12 @@ ShapeSpec shape(const std::string& text)
 }
 
 /// A shape blending kRockA (side a) with kRockB (side b) under `alpha`.
-std::string blend(const std::string& alpha, double width, const std::string& transition = "per-level")
+std::string blend(const std::string& alpha, double width,
+                  const std::string& transition = "per-level")
 {
     return std::string(kBase) + R"(, "blend": {"a": {"details": [)" + kRockA +
-           R"(]}, "b": {"details": [)" + kRockB + R"(]}, "alpha": )" + alpha +
-           R"(, "width": )" + std::to_string(width) + R"(, "transition": ")" + transition + "\"}";
+           R"(]}, "b": {"details": [)" + kRockB + R"(]}, "alpha": )" + alpha + R"(, "width": )" +
+           std::to_string(width) + R"(, "transition": ")" + transition + "\"}";
 }
 
 std::vector<glm::dvec3> finest(const std::string& text)
@@ -145,8 +146,8 @@ TEST(Blend, StrokesAndPaintedAlphas)
     strokes.background = 0.25;
     strokes.strokes = {{glm::dvec3(0, 0, 1), 0.3, 1.0}, {glm::dvec3(0, 0, 1.2), 0.1, 0.0}};
     const AlphaSignal signal(strokes, "test.json");
-    EXPECT_EQ(signal.at(glm::dvec3(0, 0, -1), 0.1), 0.25);   // beyond every stroke
-    EXPECT_EQ(signal.at(glm::dvec3(0, 0, 1.2), 0.1), 0.0);   // the later stroke's centre
+    EXPECT_EQ(signal.at(glm::dvec3(0, 0, -1), 0.1), 0.25);  // beyond every stroke
+    EXPECT_EQ(signal.at(glm::dvec3(0, 0, 1.2), 0.1), 0.0);  // the later stroke's centre
     EXPECT_EQ(signal.at(glm::dvec3(0, 0, 0.99), 0.1), 0.25 + 0.75 * editDropOff(0.01 / 0.3));
     // Compositing.
     AlphaSpec inv;
@@ -217,15 +218,20 @@ TEST(Blend, BadBlendsAreNamed)
     says(std::string(kBase) +
              R"(, "blend": {"a": {}, "b": {}, "alpha": {"type": "plane", "normal": [0, 0, 0]}})",
          "blend.alpha.normal: must not be zero");
+    says(
+        std::string(kBase) +
+            R"(, "blend": {"a": {}, "b": {"details": [{"type": "rock", "levels": [9]}]}, "alpha": {"type": "constant", "value": 1}})",
+        "blend.b.details[0].levels[0]: level 9 is finer than the shape's 5 levels");
+    says(
+        std::string(kBase) +
+            R"(, "blend": {"a": {}, "b": {}, "alpha": {"type": "strokes", "strokes": [{"at": [0, 0, 1]}]}})",
+        "blend.alpha.strokes[0].radius: missing");
+    says(
+        std::string(kBase) +
+            R"(, "blend": {"a": {}, "b": {}, "alpha": {"type": "painted", "file": "/nonexistent/p.ply"}})",
+        "blend.alpha.file: /nonexistent/p.ply");
     says(std::string(kBase) +
-             R"(, "blend": {"a": {}, "b": {"details": [{"type": "rock", "levels": [9]}]}, "alpha": {"type": "constant", "value": 1}})",
-         "blend.b.details[0].levels[0]: level 9 is finer than the shape's 5 levels");
-    says(std::string(kBase) +
-             R"(, "blend": {"a": {}, "b": {}, "alpha": {"type": "strokes", "strokes": [{"at": [0, 0, 1]}]}})",
-         "blend.alpha.strokes[0].radius: missing");
-    says(std::string(kBase) + R"(, "blend": {"a": {}, "b": {}, "alpha": {"type": "painted", "file": "/nonexistent/p.ply"}})",
-         "blend.alpha.file: /nonexistent/p.ply");
-    says(std::string(kBase) + R"(, "shader": {"type": "terrain", "sea_level": 0.2, "snow_line": 0.1})",
+             R"(, "shader": {"type": "terrain", "sea_level": 0.2, "snow_line": 0.1})",
          "shader.snow_line: must be above the sea level");
     says(std::string(kBase) + R"(, "color": {"a": [1, 0, 0], "b": [0, 1, 0]})",
          "colours of sides \"a\" and \"b\" need a blend");
@@ -241,8 +247,8 @@ TEST(Shader, ThresholdsAreClosedForms)
     EXPECT_EQ(shade(sh, -0.3, 1.0).height, 0.5 * 0.02);
     EXPECT_EQ(shade(sh, 0.01, 1.0).height, 0.5 * 0.02);
     EXPECT_EQ(shade(sh, -0.3, 1.0).color, sh.a.deep);
-    EXPECT_EQ(shade(sh, 0.02 - 1e-12, 1.0).color.z, (sh.a.deep + (sh.a.shallow - sh.a.deep) *
-                                                                   (1.0 - 1e-12 / 0.04)).z);
+    EXPECT_EQ(shade(sh, 0.02 - 1e-12, 1.0).color.z,
+              (sh.a.deep + (sh.a.shallow - sh.a.deep) * (1.0 - 1e-12 / 0.04)).z);
     // Land: relief times the scalar; lowland to mountain, then snow.
     EXPECT_EQ(shade(sh, 0.06, 1.0).height, 0.5 * 0.06);
     const glm::dvec3 mid = shade(sh, 0.06, 1.0).color;

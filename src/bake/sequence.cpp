@@ -130,33 +130,68 @@ SequencePlan planSequence(const SequenceRequest& request)
 
 namespace {
 
-/// Which frames of [first, last) a previous run of this plan finished (with
-/// --resume): a whole file with the plan's key.  One from another bake is
-/// not overwritten silently (InputError), a damaged one is baked again.
-std::vector<bool> finishedFrames(const SequencePlan& plan, size_t first, size_t last,
-                                 const std::function<void(const std::string&)>& notice)
+std::string rangeLockName(const std::string& pattern, const std::vector<long long>& frames,
+                          size_t first, size_t last)
 {
-    std::vector<bool> finished(plan.frames.size(), false);
-    if (!plan.request.resume)
-        return finished;
+    return first == 0 && last == frames.size()
+               ? pattern
+               : fmt::format("{}.frames-{}-{}", pattern, frames[first], frames[last - 1]);
+}
+
+}  // namespace
+
+SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<long long>& frames,
+                               const std::vector<std::string>& paths, size_t first, size_t last,
+                               const std::string& key, bool resume,
+                               const std::function<void(const std::string&)>& notice)
+    : lock_(rangeLockName(pattern, frames, first, last)),
+      finished_(paths.size(), false),
+      first_(first),
+      last_(last)
+{
+    // Temporaries that killed runs left (files appear by rename, so these
+    // were never frames), only the range's own: another range's may be in
+    // flight in another process (or thread).
+    std::set<std::string> range;  // the frames' file names (all in the pattern's directory)
     for (size_t i = first; i < last; ++i)
-        if (std::filesystem::exists(plan.paths[i])) {
+        range.insert(std::filesystem::path(paths[i]).filename().string());
+    for (const std::string& tmp : staleTemporaries(pattern)) {
+        const std::string name = std::filesystem::path(tmp).filename().string();
+        if (range.count(name.substr(0, name.rfind(".tmp-"))) && std::filesystem::remove(tmp))
+            notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
+    }
+    // With --resume: a whole file with this sequence's key is finished; one
+    // from another bake is not overwritten silently, a damaged one is baked
+    // again.
+    if (!resume)
+        return;
+    for (size_t i = first; i < last; ++i)
+        if (std::filesystem::exists(paths[i])) {
             std::string found;
             try {
-                found = readSequenceKey(plan.paths[i]);
+                found = readSequenceKey(paths[i]);
             } catch (const InputError& e) {
                 notice(fmt::format("{} (baking it again)", e.what()));
                 continue;
             }
-            if (found != plan.key)
+            if (found != key)
                 throw InputError(
                     fmt::format("{} exists from another bake (other parameters or options): remove "
                                 "it, or bake without --resume to overwrite it",
-                                plan.paths[i]));
-            finished[i] = true;
+                                paths[i]));
+            finished_[i] = true;
         }
-    return finished;
 }
+
+bool SequenceOutput::allFinished() const
+{
+    for (size_t i = first_; i < last_; ++i)
+        if (!finished_[i])
+            return false;
+    return true;
+}
+
+namespace {
 
 /// One worker's state between the frames of a reuse group.
 struct FrameBaker {
@@ -228,25 +263,8 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
             callbacks.notice(line);
     };
 
-    // One run at a time writes a pattern (or a range of it); temporaries that
-    // killed runs left (files appear by rename, so these were never frames)
-    // are removed.
-    const bool whole = first == 0 && last == plan.frames.size();
-    const OutputLock outputLock(whole ? req.output
-                                      : fmt::format("{}.frames-{}-{}", req.output,
-                                                    plan.frames[first], plan.frames[last - 1]));
-    // Only the range's own: another range's may be in flight in another
-    // process (or thread).
-    std::set<std::string> range;  // the frames' file names (all in the pattern's directory)
-    for (size_t i = first; i < last; ++i)
-        range.insert(std::filesystem::path(plan.paths[i]).filename().string());
-    for (const std::string& tmp : staleTemporaries(req.output)) {
-        const std::string name = std::filesystem::path(tmp).filename().string();
-        if (range.count(name.substr(0, name.rfind(".tmp-"))) && std::filesystem::remove(tmp))
-            notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
-    }
-    const std::vector<bool> finished = finishedFrames(plan, first, last, notice);
-
+    const SequenceOutput output(req.output, plan.frames, plan.paths, first, last, plan.key,
+                                request.resume, notice);
     const ThreadLimit threads(req.threads);
     report.frames.resize(last - first);
     std::vector<std::vector<size_t>> groups;  // the plan's groups within the range
@@ -261,8 +279,7 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
     // One sampler per worker, made here one after the other (making OpenCL
     // contexts from several threads at once fails in the ICD loader).
     std::vector<std::unique_ptr<FieldSampler>> samplers;
-    if (std::find(finished.begin() + long(first), finished.begin() + long(last), false) !=
-        finished.begin() + long(last))
+    if (!output.allFinished())
         for (int k = 0; k < report.jobs; ++k)
             samplers.push_back(makeSampler(req.device));
     report.device = samplers.empty() ? deviceName(req.device) : samplers.front()->name();
@@ -285,7 +302,7 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
                     fr.frame = plan.frames[i];
                     fr.time = plan.times[i];
                     fr.path = plan.paths[i];
-                    if (finished[i]) {
+                    if (output.finished(i)) {
                         fr.outcome = FrameReport::Outcome::Skipped;
                         baker.previous.reset();
                     } else {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include "bake/bake.h"
+#include "core/files.h"
 #include "model/growth.h"
 
 #include <functional>
@@ -80,6 +81,31 @@ struct SequenceCallbacks {
     std::function<void(const std::string&)> notice;
     /// After each frame (from worker threads, one at a time).
     std::function<void(const FrameReport&)> done;
+};
+
+/// The outputs of frames [first, last) of a sequence (`paths`, matching the
+/// output `pattern`), made ready for writing: one run at a time writes a
+/// range (a lock file: PATTERN.lock for the whole sequence,
+/// PATTERN.frames-A-B.lock for frames A to B), temporaries that killed runs
+/// left for the range's frames are removed (`notice`d), and with `resume`
+/// the frames already finished with this sequence's `key` are found (a
+/// damaged one is baked again; one from another bake is refused:
+/// InputError).  Every sequence writer (growth and shape) goes through this.
+class SequenceOutput {
+public:
+    SequenceOutput(const std::string& pattern, const std::vector<long long>& frames,
+                   const std::vector<std::string>& paths, size_t first, size_t last,
+                   const std::string& key, bool resume,
+                   const std::function<void(const std::string&)>& notice);
+    /// Whether frame i (an index into the paths) was found finished.
+    bool finished(size_t i) const { return finished_[i]; }
+    /// Whether every frame of the range was found finished.
+    bool allFinished() const;
+
+private:
+    OutputLock lock_;
+    std::vector<bool> finished_;
+    size_t first_, last_;
 };
 
 /// Bakes frames [first, last) of the plan (indices into plan.frames), `jobs`
