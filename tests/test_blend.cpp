@@ -100,8 +100,9 @@ TEST(Blend, EachLevelIsTheLinearCombinationOfBothSidesDetails)
                 const double alpha = s.alpha(l)[v];
                 ASSERT_EQ(alpha, transitionWeight(planeDistance(lv.subdivided[v]), w));
                 ASSERT_EQ(lv.detail[v], blendValue(dA[v], dB[v], alpha)) << "level " << l;
-                if (width == 0.0)  // c -> 0: a hard switch, each side's own details
+                if (width == 0.0) {  // c -> 0: a hard switch, each side's own details
                     ASSERT_EQ(lv.detail[v], planeDistance(lv.subdivided[v]) > 0 ? dA[v] : dB[v]);
+                }
                 mixed += alpha > 0.0 && alpha < 1.0;
             }
         }

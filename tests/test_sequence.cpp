@@ -23,6 +23,7 @@
 namespace {
 
 using namespace cambium;
+using cambium::test::expectIdentical;
 using cambium::test::expectInputError;
 using cambium::test::report;
 namespace fs = std::filesystem;
@@ -81,19 +82,6 @@ openvdb::Vec3fGrid::Ptr colour(const std::string& path)
         if (g->getName() == "Cd")
             return openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
     return nullptr;
-}
-
-/// Same active voxels, same values, bit for bit.
-template <class Grid>
-void expectIdentical(const Grid& a, const Grid& b, const std::string& what)
-{
-    ASSERT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
-    ASSERT_EQ(a.tree().leafCount(), b.tree().leafCount()) << what;
-    size_t differ = 0;
-    for (auto it = a.cbeginValueOn(); it; ++it)
-        if (!b.tree().isValueOn(it.getCoord()) || b.tree().getValue(it.getCoord()) != *it)
-            ++differ;
-    EXPECT_EQ(differ, 0u) << what;
 }
 
 TEST(Sequence, FilesAreNamedPaddedAndConsistent)

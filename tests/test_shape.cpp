@@ -1,6 +1,7 @@
 // Shape synthesis (paper 004): shape files, each detail's defining property,
 // placement, local edits, captured bases, and the command.
 #include "bake/mesh_levelset.h"
+#include "io/vdb.h"
 #include "cli_util.h"
 #include "shape/capture.h"
 #include "shape/details.h"
@@ -507,4 +508,79 @@ TEST(ShapeCapture, AFineMeshAnalysedOntoAGivenControlMesh)
     test::report(
         "a level-5 sphere mesh analysed onto its level 1: level 3 within {:.2g} of the sphere",
         worst);
+}
+
+TEST(ShapeAnimation, KeyframesInterpolateAndHoldBeyondTheirEnds)
+{
+    const std::string text = R"({"base": {"type": "sphere"}, "levels": 2, "details": [
+        {"type": "rock", "amplitude": {"keys": [[10, 0.02], [20, 0.06]]},
+         "frequency": {"keys": [[0, 1], [10, 2], [20, 1.5]], "interpolation": "smooth"}}]})";
+    auto at = [&](double t) { return parseShape(text, "t.json", "", t).details[0]; };
+    EXPECT_EQ(at(0).amplitude, 0.02);   // held before the first key
+    EXPECT_EQ(at(25).amplitude, 0.06);  // and after the last
+    EXPECT_NEAR(at(15).amplitude, 0.04, 1e-15);
+    EXPECT_NEAR(at(12.5).amplitude, 0.03, 1e-15);
+    EXPECT_EQ(at(10).frequency, 2.0);
+    EXPECT_GT(at(5).frequency, 1.0);
+    EXPECT_LE(at(15).frequency, 2.0);  // monotone: no overshoot past the keys
+    EXPECT_GE(at(15).frequency, 1.5);
+    EXPECT_TRUE(parseShape(text, "t.json").animated);
+
+    auto refused = [](const std::string& t, const std::string& words) {
+        try {
+            parseShape(t, "t.json");
+            ADD_FAILURE() << "accepted " << t;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+        }
+    };
+    refused(R"({"base": {"type": "sphere", "radius": {"keys": [[0, 1], [9, 2]]}}})",
+            "t.json: base.radius: the base and the levels cannot change with time");
+    refused(R"({"base": {"type": "sphere"}, "details": [{"type": "rock",
+               "amplitude": {"keys": [[2, 1], [1, 2]]}}]})",
+            "details[0].amplitude.keys[1][0]: the keys' times must increase");
+    refused(R"({"base": {"type": "sphere"}, "details": [{"type": "rock",
+               "amplitude": {"keys": [[0, -1], [1, 2]]}}]})",
+            "details[0].amplitude: must be between 0");
+}
+
+TEST(ShapeAnimation, ASequenceFrameIsTheSingleBakeAtItsTimeAndStillFramesAreIdentical)
+{
+    const std::string dir = ::testing::TempDir() + "/shape_anim";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/grow.json") << R"({"base": {"type": "sphere", "radius": 1}, "levels": 4,
+        "details": [{"type": "tentacle", "spacing": 0.8, "seed": 2, "levels": [1, 2, 3],
+                     "length": {"keys": [[1, 0.01], [3, 0.08]]}, "angle": {"keys": [[1, 0], [3, 90]]}}],
+        "blend": {"a": {"details": [{"type": "rock", "amplitude": 0.03}]}, "b": {},
+                  "alpha": {"type": "plane", "normal": [0, 0, 1], "point": [0, 0, {"keys": [[1, -1], [3, 1]]}]},
+                  "width": 0.5}})";
+    const std::string opts = " --voxel-size 0.03 --device cpu";
+    auto r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/g.####.vdb" + opts);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = test::run("shape " + dir + "/grow.json --time 2 -o " + dir + "/single.vdb" + opts);
+    ASSERT_EQ(r.status, 0) << r.err;
+    openvdb::initialize();
+    auto grids = [&](const std::string& name) { return readLevelSet(dir + "/" + name); };
+    const LevelSetGrids two = grids("g.0002.vdb"), single = grids("single.vdb");
+    test::expectIdentical(*two.surface, *single.surface, "frame 2 vs a single bake at time 2");
+    test::expectIdentical(*two.color, *single.color, "Cd of frame 2 vs the single bake");
+    // Frames 3 and 4: every key is past its last: the same shape.
+    test::expectIdentical(*grids("g.0003.vdb").surface, *grids("g.0004.vdb").surface,
+                          "frames 3 and 4");
+    // Frames 1 and 2 differ (the tentacles grow).
+    EXPECT_NE(grids("g.0001.vdb").surface->activeVoxelCount(), two.surface->activeVoxelCount());
+    // The sequence writer's metadata and --resume.
+    EXPECT_FALSE(readSequenceKey(dir + "/g.0001.vdb").empty());
+    r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/g.####.vdb --resume" +
+                  opts);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("frame 4: " + dir + "/g.0004.vdb finished before"), std::string::npos)
+        << r.out;
+    // A sequence is refused before work without a pattern, with a mesh.
+    r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/bad.vdb" + opts);
+    EXPECT_EQ(r.status, 2);
+    r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/bad.####.obj");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_FALSE(std::filesystem::exists(dir + "/bad.vdb"));
 }

@@ -43,6 +43,19 @@ void report(fmt::format_string<Args...> format, Args&&... args)
     recordMeasured(fmt::format(format, std::forward<Args>(args)...));
 }
 
+/// Same active voxels, same values, bit for bit.
+template <class Grid>
+void expectIdentical(const Grid& a, const Grid& b, const std::string& what)
+{
+    ASSERT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
+    ASSERT_EQ(a.tree().leafCount(), b.tree().leafCount()) << what;
+    size_t differ = 0;
+    for (auto it = a.cbeginValueOn(); it; ++it)
+        if (!b.tree().isValueOn(it.getCoord()) || b.tree().getValue(it.getCoord()) != *it)
+            ++differ;
+    EXPECT_EQ(differ, 0u) << what;
+}
+
 /// An internode of a hand-made skeleton (age: years since it began, or unknown).
 inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::dvec3 p1, double r0,
                            double r1, double age = -1.0)

@@ -26,8 +26,29 @@ int runShapeCommand(ShapeFlags& f)
     ProgressBar bar;
     ShapeCallbacks cb;
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
+    cb.notice = [&](const std::string& line) {
+        bar.clear();
+        fmt::print(stderr, "cambium: {}\n", line);
+    };
+    cb.frameDone = [&](const ShapeFrame& fr) {
+        bar.clear();
+        if (fr.skipped)
+            fmt::print("frame {}: {} finished before (--resume)\n", fr.frame, fr.path);
+        else
+            fmt::print("frame {}: {}, {} active voxels, {:.2f} s\n", fr.frame, fr.path,
+                       formatCount(double(fr.activeVoxels)), fr.seconds);
+    };
     const ShapeReport r = runShape(f.request, cb);
     bar.clear();
+    if (!r.frames.empty()) {
+        fmt::print(
+            "shape {}: {} frames of {} levels ({} vertices), voxel size {:.6g}{}; synthesis "
+            "{:.2f} s, bake {:.2f} s, write {:.2f} s in all; peak memory {}\n",
+            f.request.input, r.frames.size(), r.levels, formatCount(double(r.vertices)),
+            r.voxelSize, r.autoVoxelSize ? " (automatic, from the first frame)" : "",
+            r.synthesisSeconds, r.bakeSeconds, r.writeSeconds, formatBytes(r.peakMemoryBytes));
+        return 0;
+    }
     fmt::print(
         "shape {}: {} levels, {} vertices, {} faces, synthesised in {:.3f} s; area {:.6g}, "
         "volume {:.6g}\n",
@@ -66,6 +87,14 @@ void addShapeCommand(CLI::App& app, Action& action)
         ->capture_default_str();
     cmd->add_flag("--fog", f->request.fog, "Also write a 'density' fog volume");
     cmd->add_flag("--half", f->request.half, "Store the grids' floats as 16-bit halves");
+    cmd->add_option("--time", f->request.time,
+                    "Animation time of the output: keyframed numbers take their value at it")
+        ->capture_default_str();
+    cmd->add_option("--frames", f->request.frames,
+                    "A sequence: frames FIRST-LAST[:STEP] (frame f at time f) into -o with a run "
+                    "of '#', e.g. -o out/shape.####.vdb");
+    cmd->add_flag("--resume", f->request.resume,
+                  "Keep the frames an interrupted run of the same sequence finished");
     cmd->add_option("--device", f->device,
                     "opencl or cpu: the bake of a captured model (\"base\": {\"type\": \"model\"})")
         ->capture_default_str();

@@ -156,7 +156,9 @@ struct ShaderSpec {
 };
 
 struct ShapeSpec {
-    std::string source;  ///< the file, for messages
+    std::string source;     ///< the file, for messages
+    double time = 0.0;      ///< the animation time its keyframed numbers were read at
+    bool animated = false;  ///< whether any number is keyframed
     BaseSpec base;
     int levels = 5;
     std::vector<DetailSpec> details;  ///< with a blend: added to both sides' blend
@@ -166,13 +168,17 @@ struct ShapeSpec {
     ColorSpec color;
 };
 
-/// Reads a shape file: InputError "FILE: PATH: PROBLEM" (unknown keys with
-/// suggestions, missing or out-of-range values, levels beyond 15, a detail
-/// level beyond the shape's, unreadable base files) before any work.
-ShapeSpec readShapeFile(const std::string& path);
+/// Reads a shape file at animation time `time`: InputError "FILE: PATH:
+/// PROBLEM" (unknown keys with suggestions, missing or out-of-range values,
+/// levels beyond 15, a detail level beyond the shape's, unreadable base
+/// files) before any work.  Any number outside the base and the levels may
+/// be keyframed, {"keys": [[t, v], ...], "interpolation": "linear" |
+/// "smooth"}: its value at `time` (held before the first key and after the
+/// last; smooth: monotone cubic Hermite, no overshoot).
+ShapeSpec readShapeFile(const std::string& path, double time = 0.0);
 /// The same from text; relative base files are taken from `directory`.
 ShapeSpec parseShape(const std::string& text, const std::string& source,
-                     const std::string& directory = "");
+                     const std::string& directory = "", double time = 0.0);
 
 /// Whether a .json file's top level is a shape (it has "base").
 bool looksLikeShapeFile(const std::string& path);

@@ -5,6 +5,7 @@
 #include "core/files.h"
 #include "core/json.h"
 #include "core/math.h"
+#include "model/curve.h"
 #include "subdiv/multires.h"
 
 #include <fmt/format.h>
@@ -47,15 +48,18 @@ public:
     {
     }
 
-    ShapeSpec read(const std::string& text) const
+    ShapeSpec read(const std::string& text, double time) const
     {
-        const json root = parseJson(text, source());
+        bool animated = false;
+        const json root = atTime(parseJson(text, source()), "", time, animated);
         object(root, "(top level)", "must be an object");
         required(root, "base", "", "the base shape, e.g. {\"type\": \"sphere\", \"radius\": 1}");
         checkKeys(root, "",
                   {"name", "base", "levels", "details", "edits", "blend", "shader", "color"});
         ShapeSpec s;
         s.source = source();
+        s.time = time;
+        s.animated = animated;
         if (root.contains("name"))
             string(root["name"], "name");
         s.levels = wholeNumber(root, "levels", "", s.levels, 0, kMaxSubdivisionLevels,
@@ -78,6 +82,62 @@ public:
 
 private:
     std::string directory_;
+
+    /// `j` with every keyframed number replaced by its value at `time`.
+    json atTime(const json& j, const std::string& path, double time, bool& animated) const
+    {
+        if (j.is_array()) {
+            json out = json::array();
+            for (size_t i = 0; i < j.size(); ++i)
+                out.push_back(atTime(j[i], fmt::format("{}[{}]", path, i), time, animated));
+            return out;
+        }
+        if (!j.is_object())
+            return j;
+        if (!j.contains("keys")) {
+            json out = json::object();
+            for (const auto& [k, v] : j.items())
+                out[k] = atTime(v, jsonPath(path, k), time, animated);
+            return out;
+        }
+        // {"keys": [[t, v], ...], "interpolation": ...}
+        if (path == "levels" || path.rfind("base", 0) == 0)
+            fail(path,
+                 "the base and the levels cannot change with time (the refinement is built "
+                 "once for a whole sequence); keyframe the details, the blend or the shader");
+        checkKeys(j, path, {"keys", "interpolation"});
+        const std::string kp = jsonPath(path, "keys");
+        const json& keys = j["keys"];
+        if (!keys.is_array() || keys.empty())
+            fail(kp, "must be a non-empty array of keys [[time, value], ...]");
+        std::vector<std::pair<double, double>> points;
+        for (size_t i = 0; i < keys.size(); ++i) {
+            const std::string p = fmt::format("{}[{}]", kp, i);
+            const json& key = array(keys[i], p, 2, "must be a key [time, value]");
+            points.emplace_back(number(key[0], p + "[0]"), number(key[1], p + "[1]"));
+            if (i > 0 && !(points[i].first > points[i - 1].first))
+                fail(p + "[0]", "the keys' times must increase");
+        }
+        Curve::Interpolation interpolation = Curve::Interpolation::Linear;
+        if (j.contains("interpolation")) {
+            const std::string m = string(j["interpolation"], jsonPath(path, "interpolation"));
+            if (m != "linear" && m != "smooth")
+                fail(jsonPath(path, "interpolation"),
+                     fmt::format("must be \"linear\" or \"smooth\" (got '{}')", m));
+            interpolation =
+                m == "smooth" ? Curve::Interpolation::Smooth : Curve::Interpolation::Linear;
+        }
+        animated = true;
+        if (points.size() == 1)
+            return points[0].second;
+        // A curve on [0, 1] over the keys' span (the Hermite slopes scale with it).
+        const double t0 = points.front().first, span = points.back().first - t0;
+        for (auto& [t, v] : points)
+            t = (t - t0) / span;
+        points.back().first = 1.0;
+        const Curve curve(points, interpolation, source() + ": " + kp);
+        return curve(std::clamp((time - t0) / span, 0.0, 1.0));
+    }
 
     int wholeNumber(const json& obj, const char* key, const std::string& path, int value, int lo,
                     int hi, const char* why = "") const
@@ -635,15 +695,15 @@ private:
 }  // namespace
 
 ShapeSpec parseShape(const std::string& text, const std::string& source,
-                     const std::string& directory)
+                     const std::string& directory, double time)
 {
-    return Reader(source, directory).read(text);
+    return Reader(source, directory).read(text, time);
 }
 
-ShapeSpec readShapeFile(const std::string& path)
+ShapeSpec readShapeFile(const std::string& path, double time)
 {
     const std::string text = readTextFile(path, "shape file");
-    return parseShape(text, path, std::filesystem::path(path).parent_path().string());
+    return parseShape(text, path, std::filesystem::path(path).parent_path().string(), time);
 }
 
 bool looksLikeShapeFile(const std::string& path)

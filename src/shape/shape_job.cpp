@@ -3,9 +3,12 @@
 
 #include "bake/bake.h"
 #include "bake/mesh_levelset.h"
+#include "bake/sequence.h"
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/frames.h"
+#include "core/hash.h"
 #include "core/system.h"
 #include "io/vdb.h"
 #include "shape/synthesis.h"
@@ -14,6 +17,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 namespace cambium {
 
@@ -23,12 +27,21 @@ namespace {
 /// bins and the flood fill's tiles (measured about 30 bytes; with margin).
 constexpr double kMeshBakeBytesPerVoxel = 48.0;
 
-}  // namespace
-
-ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
+/// InputError when a band of `area` at `voxelSize` would not fit.
+void checkBakeMemory(double area, double voxelSize, double halfWidth, const std::string& what)
 {
-    const std::string format = fileFormat(req.output, {"vdb", "obj", "ply"}, "output");
-    const bool levelSet = format == "vdb";
+    const double voxels = area / (voxelSize * voxelSize) * 2.0 * halfWidth;
+    const double available = availableMemoryBytes();
+    if (voxels * kMeshBakeBytesPerVoxel > available)
+        throw InputError(fmt::format(
+            "{}: voxel size {} would need about {} of memory for the level set ({} available): "
+            "use a larger voxel size",
+            what, voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel), formatBytes(available)));
+}
+
+/// The request's own checks (before the shape file is read).
+void checkRequest(const ShapeRequest& req, bool levelSet)
+{
     if (req.voxelSize && !(*req.voxelSize >= kMinVoxelSize && std::isfinite(*req.voxelSize)))
         throw InputError(fmt::format("--voxel-size must be at least {} (got {})", kMinVoxelSize,
                                      *req.voxelSize));
@@ -40,12 +53,162 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
             fmt::format("--levels {}: at most {} (OpenSubdiv's uniform refinement "
                         "stops at 15)",
                         req.levels, kMaxSubdivisionLevels));
+    if (!std::isfinite(req.time))
+        throw InputError(fmt::format("--time must be a finite number (got {})", req.time));
     if (!levelSet && (req.voxelSize || req.fog || req.half))
         throw InputError(
             fmt::format("{}: --voxel-size, --fog and --half are for level sets "
                         "(.vdb)",
                         req.output));
-    const ShapeSpec spec = readShapeFile(req.input);
+    if (!req.frames.empty() && !levelSet)
+        throw InputError(fmt::format(
+            "{}: a sequence (--frames) is written as level sets: give a .vdb pattern such as "
+            "out/shape.####.vdb",
+            req.output));
+    if (req.resume && req.frames.empty())
+        throw InputError("--resume is for sequences (--frames)");
+}
+
+/// The synthesis's mesh and its measures, into the report.
+TriangleMesh synthesise(ShapeSurface& shape, ShapeReport& r)
+{
+    const auto t = Clock::now();
+    shape.synthesize();
+    TriangleMesh mesh = shape.mesh();
+    r.synthesisSeconds += secondsSince(t);
+    r.vertices = mesh.points.size();
+    r.faces = mesh.polygons.sizes.size();
+    r.area = meshArea(mesh);
+    r.volume = meshVolume(mesh);
+    return mesh;
+}
+
+/// The mesh baked into a level set (the report's voxel size) and written.
+void bakeAndWrite(const TriangleMesh& mesh, const ShapeRequest& req, const ShapeCallbacks& cb,
+                  const VdbFileInfo& info, const std::string& path, ShapeReport& r)
+{
+    MeshBakeOptions opt;
+    opt.voxelSize = r.voxelSize;
+    opt.halfWidth = req.halfWidth;
+    opt.fog = req.fog;
+    opt.progress = cb.progress;
+    auto t = Clock::now();
+    BakedGrids grids = bakeMeshLevelSet(mesh, opt, req.input);
+    r.bakeSeconds += secondsSince(t);
+    r.stats = grids.stats;
+    t = Clock::now();
+    writeVdb(grids, path, info);
+    r.writeSeconds += secondsSince(t);
+}
+
+VdbFileInfo fileInfo(const ShapeRequest& req)
+{
+    VdbFileInfo info;
+    info.scene = req.input;
+    info.halfWidth = req.halfWidth;
+    info.threshold = 0.0;
+    info.half = req.half;
+    return info;
+}
+
+/// The voxel size: given, or 512 across the mesh (checked to fit).
+void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeReport& r)
+{
+    r.autoVoxelSize = !req.voxelSize;
+    r.voxelSize =
+        req.voxelSize ? *req.voxelSize : std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
+    if (r.autoVoxelSize)
+        checkBakeMemory(r.area, r.voxelSize, req.halfWidth,
+                        fmt::format("{}: the automatic voxel size", req.input));
+}
+
+ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
+{
+    if (!isFramePattern(req.output))
+        throw InputError(
+            fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
+                        "out/shape.####.vdb",
+                        req.output));
+    const std::vector<long long> frames = parseFrames(req.frames);
+    // Every frame's file read (and so checked) before any work.
+    const std::string text = readTextFile(req.input, "shape file");
+    const std::string directory = std::filesystem::path(req.input).parent_path().string();
+    std::vector<ShapeSpec> specs;
+    std::vector<std::string> paths;
+    for (long long f : frames) {
+        specs.push_back(parseShape(text, req.input, directory, double(f)));
+        paths.push_back(framePath(req.output, f));
+        checkOutputPath(paths.back(), paths.size() == 1);
+    }
+    const int levels = req.levels >= 0 ? req.levels : specs.front().levels;
+    for (const ShapeSpec& s : specs)
+        checkShapeLevels(s, levels);
+    const BaseShape base = makeBase(specs.front().base, req.input, req.device);
+    checkSynthesisMemory(base.mesh, levels, req.input);
+    if (req.voxelSize)
+        checkBakeMemory(2.0 * surfaceArea(base.mesh), *req.voxelSize, req.halfWidth, req.input);
+
+    ShapeReport r;
+    r.levels = levels;
+    r.levelSet = true;
+    r.animated = specs.front().animated;
+    ShapeSurface shape(specs.front(), levels, base);  // the refinement, once
+    for (const ShapeSpec& s : specs)                  // every frame's details checked
+        checkShapeDetails(s, base.mesh);
+    // The first frame sizes the voxels of every frame (one transform).
+    TriangleMesh first = synthesise(shape, r);
+    chooseVoxelSize(req, first, r);
+    const std::string options =
+        fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={}", r.voxelSize,
+                    req.halfWidth, levels, req.fog, req.half, deviceName(req.device));
+    const std::string key = fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
+    auto notice = [&](const std::string& line) {
+        if (cb.notice)
+            cb.notice(line);
+    };
+    const SequenceOutput output(req.output, frames, paths, 0, frames.size(), key, req.resume,
+                                notice);
+    for (size_t i = 0; i < frames.size(); ++i) {
+        const auto t0 = Clock::now();
+        ShapeFrame fr;
+        fr.frame = frames[i];
+        fr.path = paths[i];
+        fr.skipped = output.finished(i);
+        if (!fr.skipped) {
+            TriangleMesh mesh;
+            if (i == 0) {
+                mesh = std::move(first);
+            } else {
+                shape.setSpec(specs[i]);
+                mesh = synthesise(shape, r);
+            }
+            VdbFileInfo info = fileInfo(req);
+            info.frame = frames[i];
+            info.time = double(frames[i]);
+            info.sequence = key;
+            bakeAndWrite(mesh, req, cb, info, paths[i], r);
+            fr.activeVoxels = r.stats.activeVoxels;
+        }
+        first = {};
+        fr.seconds = secondsSince(t0);
+        r.frames.push_back(fr);
+        if (cb.frameDone)
+            cb.frameDone(fr);
+    }
+    r.peakMemoryBytes = peakMemoryBytes();
+    return r;
+}
+
+}  // namespace
+
+ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
+{
+    const std::string format = fileFormat(req.output, {"vdb", "obj", "ply"}, "output");
+    const bool levelSet = format == "vdb";
+    checkRequest(req, levelSet);
+    if (!req.frames.empty())
+        return runSequence(req, cb);
+    const ShapeSpec spec = readShapeFile(req.input, req.time);
     const int levels = req.levels >= 0 ? req.levels : spec.levels;
     checkShapeLevels(spec, levels);
     checkOutputPath(req.output);
@@ -55,66 +218,27 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     // (ShapeSurface checks the details themselves before it refines.)
     const BaseShape base = makeBase(spec.base, spec.source, req.device);
     checkSynthesisMemory(base.mesh, levels, req.input);
-    const double available = availableMemoryBytes();
-    if (levelSet && req.voxelSize) {
-        const double area = 2.0 * surfaceArea(base.mesh);
-        const double voxels = area / (*req.voxelSize * *req.voxelSize) * 2.0 * req.halfWidth;
-        if (voxels * kMeshBakeBytesPerVoxel > available)
-            throw InputError(
-                fmt::format("--voxel-size {}: the level set would need about {} "
-                            "of memory ({} available): use a larger voxel size",
-                            *req.voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel),
-                            formatBytes(available)));
-    }
+    if (levelSet && req.voxelSize)
+        checkBakeMemory(2.0 * surfaceArea(base.mesh), *req.voxelSize, req.halfWidth,
+                        fmt::format("--voxel-size {}", *req.voxelSize));
 
     ShapeReport r;
-    auto t = Clock::now();
-    ShapeSurface shape(spec, levels, base);
-    shape.synthesize();
-    TriangleMesh mesh = shape.mesh();
-    r.synthesisSeconds = secondsSince(t);
     r.levels = levels;
-    r.vertices = mesh.points.size();
-    r.faces = mesh.polygons.sizes.size();
-    r.area = meshArea(mesh);
-    r.volume = meshVolume(mesh);
     r.levelSet = levelSet;
+    r.animated = spec.animated;
+    ShapeSurface shape(spec, levels, base);
+    const TriangleMesh mesh = synthesise(shape, r);
     if (cb.progress)
         cb.progress("synthesis", 1.0);
-
     if (!levelSet) {
-        t = Clock::now();
+        const auto t = Clock::now();
         writeMesh(mesh, req.output);
         r.writeSeconds = secondsSince(t);
     } else {
-        MeshBakeOptions opt;
-        r.autoVoxelSize = !req.voxelSize;
-        opt.voxelSize =
-            req.voxelSize ? *req.voxelSize : std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
-        if (r.autoVoxelSize) {
-            const double voxels = r.area / (opt.voxelSize * opt.voxelSize) * 2.0 * req.halfWidth;
-            if (voxels * kMeshBakeBytesPerVoxel > available)
-                throw InputError(fmt::format(
-                    "{}: the automatic voxel size {} would need about "
-                    "{} of memory: give a larger --voxel-size",
-                    req.input, opt.voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel)));
-        }
-        opt.halfWidth = req.halfWidth;
-        opt.fog = req.fog;
-        opt.progress = cb.progress;
-        t = Clock::now();
-        BakedGrids grids = bakeMeshLevelSet(mesh, opt, req.input);
-        r.bakeSeconds = secondsSince(t);
-        r.stats = grids.stats;
-        r.voxelSize = opt.voxelSize;
-        VdbFileInfo info;
-        info.scene = req.input;
-        info.halfWidth = req.halfWidth;
-        info.threshold = 0.0;
-        info.half = req.half;
-        t = Clock::now();
-        writeVdb(grids, req.output, info);
-        r.writeSeconds = secondsSince(t);
+        chooseVoxelSize(req, mesh, r);
+        VdbFileInfo info = fileInfo(req);
+        info.time = req.time;
+        bakeAndWrite(mesh, req, cb, info, req.output, r);
     }
     r.peakMemoryBytes = peakMemoryBytes();
     return r;

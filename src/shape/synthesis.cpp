@@ -121,6 +121,7 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& b
         spec_.levels = levels;
     checkShapeLevels(spec_, spec_.levels);
     checkShapeDetails(spec_, base.mesh);
+    base_ = base.mesh;
     surface_ = std::make_unique<MultiresSurface>(base.mesh, spec_.levels, spec_.source + ": base");
     baseDetail_.resize(size_t(spec_.levels) + 1);
     if (base.target) {
@@ -128,10 +129,21 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& b
         for (int l = 1; l <= spec_.levels; ++l)
             baseDetail_[size_t(l)] = surface_->level(l).detail;
     }
+    adjacency_.resize(size_t(spec_.levels) + 1);
+    makeDetails();
+}
+
+void ShapeSurface::makeDetails()
+{
+    details_.clear();
     for (const DetailSpec& d : spec_.details)
         details_.push_back(makeDetail(d));
-    adjacency_.resize(size_t(spec_.levels) + 1);
-    alpha_.resize(size_t(spec_.levels) + 1);
+    alpha_.assign(size_t(spec_.levels) + 1, {});
+    alphaSignal_.reset();
+    for (int side = 0; side < 2; ++side) {
+        sideDetails_[side].clear();
+        influence_[side].clear();
+    }
     if (spec_.blend.enabled) {
         for (int side = 0; side < 2; ++side)
             for (const DetailSpec& d : (side ? spec_.blend.b : spec_.blend.a).details)
@@ -140,6 +152,16 @@ ShapeSurface::ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& b
         for (auto& i : influence_)
             i.resize(size_t(spec_.levels) + 1);
     }
+}
+
+void ShapeSurface::setSpec(const ShapeSpec& spec)
+{
+    const int levels = spec_.levels;
+    spec_ = spec;
+    spec_.levels = levels;
+    checkShapeLevels(spec_, levels);
+    checkShapeDetails(spec_, base_);
+    makeDetails();
 }
 
 ShapeSurface::~ShapeSurface() = default;

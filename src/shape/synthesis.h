@@ -46,6 +46,12 @@ public:
     ShapeSurface(const ShapeSpec& spec, int levels, const BaseShape& base);
     ~ShapeSurface();
 
+    /// Another time of the same shape (an animation's frame): its details,
+    /// blend and shader replace this one's, on the same base and refinement
+    /// (the caller keeps the base and levels; the details are checked).
+    /// Synthesise again after.
+    void setSpec(const ShapeSpec& spec);
+
     /// Synthesis of every level.
     void synthesize();
     /// Synthesis from level l on (after an edit of level l's details or
@@ -74,6 +80,7 @@ public:
     std::vector<double> blendParameter() const;
 
 private:
+    void makeDetails();
     void hook(int l, SubdivLevel& level);
     /// Level l's details from the base (or zero) and `details` and `edits`.
     void applyDetails(int l, SubdivLevel& level, bool base,
@@ -82,6 +89,7 @@ private:
     const Adjacency& adjacency(int l);
 
     ShapeSpec spec_;
+    ControlMesh base_;
     std::unique_ptr<MultiresSurface> surface_;
     std::vector<std::vector<glm::dvec3>> baseDetail_;
     std::vector<std::unique_ptr<Detail>> details_;
