@@ -115,6 +115,97 @@ CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_
 }
 
 /* ---------------------------------------------------------------------------
+ * Bark: multi-scale furrows on a cone, in field space (docs/bark.md).  The
+ * cone's surface radius is displaced, r' = r - A P(s, theta, r), by a
+ * profile P of the bark's own coordinates: s, the arc length along the
+ * branch, and theta, the angle around the axis from a reference direction
+ * carried along the branch (both fixed to the wood, so the pattern stays
+ * where it is as the branch thickens).  Octave k (k < CB_BARK_OCTAVES) has
+ * n_k = around 2^k furrows around (a whole number: periodic in theta), weight
+ * 2^-k, and meanders along the stem with frequency along 2^k:
+ *   psi_k = n_k theta + phi_k + 1.2 sin(along 2^k s + chi_k),
+ *   P = sum_k 2^-k w_k ((1 + cos psi_k) / 2)^4
+ * (narrow deep furrows between broad plates).  Scale-limited: w_k fades an
+ * octave in smoothly as its wavelength around, 2 pi r / n_k, grows from lmin
+ * to 2 lmin (lmin = 4 voxels; 0: no limit).  Writes dP/ds, dP/dtheta, dP/dr. */
+#define CB_BARK_OCTAVES 3
+#define CB_BARK_MEANDER CB_R(1.2)
+
+CB_FN cb_real cb_bark_profile(cb_real s, cb_real theta, cb_real r, cb_scalar around,
+                              cb_scalar along, cb_scalar phase, cb_scalar lmin, cb_real* dPds,
+                              cb_real* dPdtheta, cb_real* dPdr)
+{
+    cb_real P = CB_R(0.0), ps = CB_R(0.0), pt = CB_R(0.0), pr = CB_R(0.0);
+    cb_scalar n = around, f = along, a = CB_R(1.0);
+    int k;
+    for (k = 0; k < CB_BARK_OCTAVES; ++k) {
+        cb_scalar phi = phase * (cb_scalar)(k + 1) * CB_R(2.399963); /* golden angle steps */
+        cb_scalar chi = phase * (cb_scalar)(k + 1) * CB_R(1.618034) + CB_R(0.5);
+        cb_real ms = CB_SIN(f * s + chi), mc = CB_COS(f * s + chi);
+        cb_real psi = n * theta + phi + CB_BARK_MEANDER * ms;
+        cb_real q = CB_R(0.5) * (CB_R(1.0) + CB_COS(psi));
+        cb_real q2 = q * q;
+        cb_real h = q2 * q2;
+        cb_real dh = CB_R(-2.0) * q2 * q * CB_SIN(psi); /* dh/dpsi */
+        cb_real w = CB_R(1.0), dw = CB_R(0.0);
+        if (lmin > CB_R(0.0)) {
+            cb_scalar du = CB_R(2.0) * CB_PI / (n * lmin); /* du/dr */
+            cb_real u = r * du - CB_R(1.0);
+            cb_real uc = cb_clamp01(u);
+            w = uc * uc * (CB_R(3.0) - CB_R(2.0) * uc);
+            dw = CB_SELECT(CB_R(0.0), CB_R(6.0) * uc * (CB_R(1.0) - uc) * du,
+                           u > CB_R(0.0) && u < CB_R(1.0));
+        }
+        P += a * w * h;
+        pt += a * w * dh * n;
+        ps += a * w * dh * CB_BARK_MEANDER * f * mc;
+        pr += a * dw * h;
+        n *= CB_R(2.0);
+        f *= CB_R(2.0);
+        a *= CB_R(0.5);
+    }
+    *dPds = ps;
+    *dPdtheta = pt;
+    *dPdr = pr;
+    return P;
+}
+
+/* A cone with bark (cb_cone_field's geometry and conventions; sigma = 1 puts
+ * the surface at r'): `ref` is the unit direction of theta = 0, across the
+ * axis; s0 the arc length of a along its branch; the depth A runs linearly
+ * from A0 at a to A1 at the tip, like the radius. */
+CB_FN cb_real cb_bark_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_real r0,
+                                 cb_real r1, cb_real sigma, cb_real xT, cb_vec3 ref, cb_scalar s0,
+                                 cb_scalar A0, cb_scalar A1, cb_scalar around, cb_scalar along,
+                                 cb_scalar phase, cb_scalar lmin, cb_vec3* grad)
+{
+    cb_vec3 d = cb_sub(p, a);
+    cb_real tt = cb_div0(cb_dot(d, axis), len);
+    cb_real t = cb_clamp01(tt);
+    cb_vec3 e = cb_madd(d, axis, -t * len);
+    cb_real dist = cb_length(e), fd, fr, Ps, Pt, Pr;
+    cb_real r = r0 + (r1 - r0) * t;
+    cb_real s = s0 + t * len;
+    cb_vec3 side = cb_cross(axis, ref);
+    cb_real ex = cb_dot(e, ref), ey = cb_dot(e, side);
+    cb_real theta = CB_ATAN2(ey, ex);
+    cb_real P = cb_bark_profile(s, theta, r, around, along, phase, lmin, &Ps, &Pt, &Pr);
+    cb_real A = A0 + (A1 - A0) * t;
+    cb_real rb = r - A * P;
+    cb_real f = cb_skeletal_field(dist, rb, sigma, xT, &fd, &fr);
+    /* d rb / d t (interior only) along the axis; d rb / d theta across it. */
+    cb_mask interior = tt > CB_R(0.0) && tt < CB_R(1.0);
+    cb_real drdt = (r1 - r0) * (CB_R(1.0) - A * Pr) - (A1 - A0) * P - A * Ps * len;
+    cb_real axial = CB_SELECT(CB_R(0.0), fr * cb_div0(drdt, len), interior);
+    cb_vec3 g = cb_madd(cb_scale(e, cb_div0(fd, dist)), axis, axial);
+    /* grad theta = (ex side - ey ref) / (ex^2 + ey^2) (e leaves the axis's
+     * normal plane beyond the ends) */
+    cb_vec3 dtheta = cb_madd(cb_scale(side, ex), ref, -ey);
+    *grad = cb_madd(g, dtheta, -fr * A * Pt * cb_div0(CB_R(1.0), ex * ex + ey * ey));
+    return f;
+}
+
+/* ---------------------------------------------------------------------------
  * Convolution line segment with linearly varying density (paper 002 eq. 3-5,
  * after Jin et al.), Cauchy kernel k(r) = 1 / (1 + s^2 r^2)^2, in closed form.
  *

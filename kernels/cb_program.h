@@ -31,6 +31,8 @@
 /* Opcodes.  Primitives use their node-type numbers (CB_SPHERE ... ), with
  * the parameter block at a and, for the host, the index of their support box
  * in c. */
+#define CB_I_BARK_CONE \
+    5                /* a cone with bark (cb_bark_cone_field), params at a; c as for primitives */
 #define CB_I_CONST 8 /* push the constant prm[a] */
 #define CB_I_OPEN                                                                                 \
     9                 /* push the accumulator of the operator whose block is at a; b = node type; \
@@ -41,10 +43,11 @@
 #define CB_I_UNWARP 13 /* restore the point, carry the gradient back */
 
 /* Parameter table header */
-#define CB_P_T 0    /* the threshold T */
-#define CB_P_XT 1   /* w^-1(T) */
-#define CB_P_ZERO 2 /* the constant 0 */
-#define CB_P_HEADER 3
+#define CB_P_T 0      /* the threshold T */
+#define CB_P_XT 1     /* w^-1(T) */
+#define CB_P_ZERO 2   /* the constant 0 */
+#define CB_P_DETAIL 3 /* the shortest wavelength of procedural detail (bark); 0: no limit */
+#define CB_P_HEADER 4
 
 /* Node parameter blocks: the offset of every field in its block (a field of
  * three reals takes three slots), and the block's size.  The compiler in
@@ -71,6 +74,16 @@
 #define CB_CONE_WEIGHT 10
 #define CB_CONE_RGB 11 /* 3 */
 #define CB_CONE_SIZE (CB_CONE_RGB + 3)
+
+/* `cone` with bark: the cone's block, then the bark's */
+#define CB_BARK_REF (CB_CONE_SIZE + 0) /* 3, unit, across the axis: theta = 0 */
+#define CB_BARK_S0 (CB_CONE_SIZE + 3)  /* arc length of p0 along its branch */
+#define CB_BARK_A0 (CB_CONE_SIZE + 4)  /* furrow depth at p0 */
+#define CB_BARK_A1 (CB_CONE_SIZE + 5)  /* and at the tip */
+#define CB_BARK_AROUND (CB_CONE_SIZE + 6)
+#define CB_BARK_ALONG (CB_CONE_SIZE + 7)
+#define CB_BARK_PHASE (CB_CONE_SIZE + 8)
+#define CB_BARK_SIZE (CB_BARK_PHASE + 1)
 
 /* `convolution_segment` */
 #define CB_CONV_P0 0   /* 3 */
@@ -407,6 +420,16 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
             cb_real f =
                 cb_cone_field(p, cb_load3(q, CB_CONE_P0), cb_load3(q, CB_CONE_AXIS), q[CB_CONE_LEN],
                               q[CB_CONE_R0], q[CB_CONE_R1], q[CB_CONE_SIGMA], xT, &g);
+            ++top;
+            cb_push_primitive(&s, top, q[CB_CONE_WEIGHT] * f, cb_scale(g, q[CB_CONE_WEIGHT]),
+                              q + CB_CONE_RGB);
+        } else if (op == CB_I_BARK_CONE) {
+            cb_vec3 g;
+            cb_real f = cb_bark_cone_field(
+                p, cb_load3(q, CB_CONE_P0), cb_load3(q, CB_CONE_AXIS), q[CB_CONE_LEN],
+                q[CB_CONE_R0], q[CB_CONE_R1], q[CB_CONE_SIGMA], xT, cb_load3(q, CB_BARK_REF),
+                q[CB_BARK_S0], q[CB_BARK_A0], q[CB_BARK_A1], q[CB_BARK_AROUND], q[CB_BARK_ALONG],
+                q[CB_BARK_PHASE], prm[CB_P_DETAIL], &g);
             ++top;
             cb_push_primitive(&s, top, q[CB_CONE_WEIGHT] * f, cb_scale(g, q[CB_CONE_WEIGHT]),
                               q + CB_CONE_RGB);

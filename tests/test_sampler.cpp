@@ -107,6 +107,38 @@ TEST_F(SamplerParity, EveryOpcode)
     }
 }
 
+TEST_F(SamplerParity, BarkCones)
+{
+    // A bent branch of three cones with bark, summed, with and without the
+    // detail limit (sample.cl's CB_I_BARK_CONE against the reference).
+    for (double limit : {0.0, 0.08}) {
+        BlobTree t;
+        const glm::dvec3 p[4] = {{0, 0, 0}, {0, 0.5, 0.05}, {0.1, 1.0, 0.1}, {0.3, 1.4, 0.1}};
+        std::vector<int> cones;
+        for (int i = 0; i < 3; ++i) {
+            const int c = t.cone(p[i], p[i + 1], 0.16 - 0.04 * i, 0.12 - 0.04 * i);
+            BarkParams b;
+            b.depth0 = 0.012 - 0.003 * i;
+            b.depth1 = 0.009 - 0.003 * i;
+            const glm::dvec3 axis = glm::normalize(p[i + 1] - p[i]);
+            b.reference = glm::normalize(glm::cross(axis, glm::dvec3(1, 0, 0)));
+            b.s0 = 0.5 * i;
+            b.around = 7;
+            b.along = 11.0;
+            b.phase = 0.2 + i;
+            t.setBark(c, b);
+            cones.push_back(c);
+        }
+        t.setRoot(t.op({NodeType::BLEND}, cones));
+        t.setDetailLimit(limit);
+        t.finalize();
+        std::mt19937 rng(77);
+        const Mismatch m = compare(*cl_, t, probePoints(t, rng, 4000));
+        EXPECT_LE(m.gradient, int(m.n / 200)) << m.gradient << " of " << m.n;
+        EXPECT_LE(m.colour, int(m.n / 200)) << m.colour << " of " << m.n;
+    }
+}
+
 TEST_F(SamplerParity, PcmPropagationRegion)
 {
     // Points where the weaker field is inside the propagation band (T - w, T):

@@ -6,6 +6,7 @@
 #include "core/clock.h"
 
 #include <algorithm>
+#include <optional>
 
 namespace cambium {
 
@@ -28,8 +29,16 @@ void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves,
     }
 }
 
-BakedGrids bakeLevelSet(const FieldProgram& program, FieldSampler& sampler, const BakeOptions& opt)
+BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const BakeOptions& opt)
 {
+    // Procedural detail (bark) keeps only the octaves four voxels or more
+    // long: what the grid can hold without aliasing.
+    std::optional<FieldProgram> limited;
+    if (given.barkCount() > 0 && given.detailLimit() != 4.0 * opt.voxelSize) {
+        limited = given;
+        limited->setDetailLimit(4.0 * opt.voxelSize);
+    }
+    const FieldProgram& program = limited ? *limited : given;
     const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
     const float background = bandBackground(h, W);

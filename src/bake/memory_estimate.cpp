@@ -33,7 +33,7 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
         double a = -1.0;
         if (in.op == CB_SPHERE)
             a = 4.0 * M_PI * q[CB_SPHERE_RADIUS] * q[CB_SPHERE_RADIUS];
-        else if (in.op == CB_SEGMENT || in.op == CB_CONE)
+        else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_I_BARK_CONE)
             a = M_PI * (q[CB_CONE_R0] + q[CB_CONE_R1]) * q[CB_CONE_LEN] +
                 2.0 * M_PI * std::max(q[CB_CONE_R0], q[CB_CONE_R1]) *
                     std::max(q[CB_CONE_R0], q[CB_CONE_R1]);

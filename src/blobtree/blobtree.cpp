@@ -164,6 +164,47 @@ int BlobTree::cone(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double
     return addSkeletal(NodeType::CONE, p0, p1, r0, r1, o);
 }
 
+void BlobTree::setDetailLimit(double wavelength)
+{
+    requireFinite(wavelength, "detail limit");
+    if (wavelength < 0.0)
+        throw ParameterError("detail limit",
+                             fmt::format("must not be negative (got {})", wavelength));
+    detailLimit_ = wavelength;
+}
+
+void BlobTree::setBark(int node, const BarkParams& b)
+{
+    Node& n = nodes_.at(size_t(node));
+    if (n.type != NodeType::CONE)
+        throw ParameterError("bark", "is for cones");
+    Primitive& p = std::get<Primitive>(n.params);
+    for (const auto& [v, name] : {std::pair{b.depth0, "bark.depth0"}, {b.depth1, "bark.depth1"}}) {
+        requireFinite(v, name);
+        if (v < 0.0)
+            throw ParameterError(name, fmt::format("must not be negative (got {})", v));
+    }
+    // The deepest furrow (P <= 7/4) leaves at least half the radius.
+    if (1.75 * b.depth0 > 0.5 * p.r0 || 1.75 * b.depth1 > 0.5 * p.r1)
+        throw ParameterError("bark.depth",
+                             fmt::format("({}, {}) reaches past half the cone's radii ({}, {})",
+                                         b.depth0, b.depth1, p.r0, p.r1));
+    requireFinite(b.reference, "bark.reference");
+    const glm::dvec3 axis = glm::normalize(p.p1 - p.p0);
+    if (std::fabs(glm::length(b.reference) - 1.0) > 1e-9 ||
+        std::fabs(glm::dot(b.reference, axis)) > 1e-6)
+        throw ParameterError("bark.reference", "must be a unit vector across the axis");
+    requireFinite(b.s0, "bark.s0");
+    requireFinite(b.phase, "bark.phase");
+    if (!(b.around >= 1.0 && b.around <= 4096.0 && b.around == std::floor(b.around)))
+        throw ParameterError(
+            "bark.around", fmt::format("must be a whole number from 1 to 4096 (got {})", b.around));
+    requireFinite(b.along, "bark.along");
+    if (b.along < 0.0)
+        throw ParameterError("bark.along", fmt::format("must not be negative (got {})", b.along));
+    p.bark = b;
+}
+
 Primitive BlobTree::primitive(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
                               double weight)
 {

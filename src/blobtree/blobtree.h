@@ -47,6 +47,19 @@ struct Combiner {
                           ///< |deformation| >= width / 10)
 };
 
+/// Bark furrows on a cone (kernels/cb_primitives.h, cb_bark_cone_field):
+/// its surface radius r becomes r - A P(s, theta, r) for the bark's own
+/// coordinates; none while both depths are zero (a plain cone).
+struct BarkParams {
+    double depth0 = 0.0, depth1 = 0.0;    ///< A at p0 and at p1 (world units)
+    glm::dvec3 reference{1.0, 0.0, 0.0};  ///< unit, across the axis: theta = 0
+    double s0 = 0.0;                      ///< arc length of p0 along its branch
+    double around = 8.0;  ///< furrows around at the coarsest octave (a whole number)
+    double along = 10.0;  ///< meander frequency along the stem, radians per unit length
+    double phase = 0.0;   ///< the branch's own phases
+    bool active() const { return depth0 > 0.0 || depth1 > 0.0; }
+};
+
 /// Parameters of a primitive.  Radii are surface radii of the isolated
 /// primitive at the tree's threshold.
 struct Primitive {
@@ -57,6 +70,7 @@ struct Primitive {
     double kernelWidth = 0.0;     ///< convolution: Cauchy kernel width s
     double support = 0.0;         ///< convolution: window radius R
     double q0 = 0.0, q1 = 0.0;    ///< convolution: densities at p0 and p1
+    BarkParams bark;              ///< cone: bark furrows
 };
 
 struct GbbParams {
@@ -103,6 +117,10 @@ public:
     explicit BlobTree(double threshold = 0.5);
 
     double threshold() const { return T_; }
+    /// The shortest wavelength of procedural detail (bark furrows fade in
+    /// above it: a bake sets 4 voxels); 0: no limit.
+    double detailLimit() const { return detailLimit_; }
+    void setDetailLimit(double wavelength);
     /// x_T = w^-1(T): where the Wyvill function crosses the threshold (1/2 at T = 1/2).
     double xT() const { return xT_; }
 
@@ -113,6 +131,10 @@ public:
                 const PrimitiveOptions& o = {});
     int cone(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
              const PrimitiveOptions& o = {});
+    /// Bark on cone `node` (ParameterError for depths that are negative,
+    /// not finite, or reach past half the cone's radius, or a reference that
+    /// is not a unit vector across the axis).
+    void setBark(int node, const BarkParams& bark);
     int convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, double r0, double r1,
                            const ConvolutionOptions& o = {});
     int op(const Combiner& c, std::vector<int> children);
@@ -154,6 +176,7 @@ private:
     int root_ = -1;
     double T_ = 0.5;
     double xT_ = 0.5;
+    double detailLimit_ = 0.0;
 };
 
 }  // namespace cambium

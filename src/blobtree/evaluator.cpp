@@ -20,7 +20,7 @@ glm::dvec3 toGlm(const cb_vec3& v)
     return {v.x, v.y, v.z};
 }
 
-FieldSample primitiveSample(const Node& n, const glm::dvec3& p, double xT)
+FieldSample primitiveSample(const Node& n, const glm::dvec3& p, double xT, double detailLimit)
 {
     const Primitive& pr = n.prim();
     cb_vec3 g = cb_v3(0, 0, 0);
@@ -34,7 +34,15 @@ FieldSample primitiveSample(const Node& n, const glm::dvec3& p, double xT)
             const glm::dvec3 axis = pr.p1 - pr.p0;
             const double len = glm::length(axis);
             const glm::dvec3 u = len > 0.0 ? axis / len : glm::dvec3(0.0);
-            f = cb_cone_field(toCb(p), toCb(pr.p0), toCb(u), len, pr.r0, pr.r1, pr.sigma, xT, &g);
+            if (pr.bark.active()) {
+                const BarkParams& b = pr.bark;
+                f = cb_bark_cone_field(toCb(p), toCb(pr.p0), toCb(u), len, pr.r0, pr.r1, pr.sigma,
+                                       xT, toCb(b.reference), b.s0, b.depth0, b.depth1, b.around,
+                                       b.along, b.phase, detailLimit, &g);
+            } else {
+                f = cb_cone_field(toCb(p), toCb(pr.p0), toCb(u), len, pr.r0, pr.r1, pr.sigma, xT,
+                                  &g);
+            }
             break;
         }
         case NodeType::CONVOLUTION_SEGMENT: {
@@ -163,7 +171,7 @@ FieldSample ReferenceEvaluator::sample(int index, const glm::dvec3& p) const
     const double T = tree_.threshold();
     switch (kindOf(n.type)) {
         case NodeKind::Primitive:
-            return primitiveSample(n, p, tree_.xT());
+            return primitiveSample(n, p, tree_.xT(), tree_.detailLimit());
         case NodeKind::Operator: {
             std::vector<FieldSample> kids;
             kids.reserve(n.children.size());

@@ -31,7 +31,7 @@ public:
     {
     }
 
-    size_t primitives = 0;
+    size_t primitives = 0, bark = 0;
     std::vector<glm::dvec3> shades;  ///< the distinct primitive colours, up to two
 
     void emit(int index)
@@ -93,8 +93,17 @@ private:
             }
             case NodeType::SEGMENT:
             case NodeType::CONE: {
-                at = newBlock(CB_CONE_SIZE);
+                at = newBlock(p.bark.active() ? CB_BARK_SIZE : CB_CONE_SIZE);
                 double* q = blockAt(at);
+                if (p.bark.active()) {
+                    put3(q + CB_BARK_REF, p.bark.reference);
+                    q[CB_BARK_S0] = p.bark.s0;
+                    q[CB_BARK_A0] = p.bark.depth0;
+                    q[CB_BARK_A1] = p.bark.depth1;
+                    q[CB_BARK_AROUND] = p.bark.around;
+                    q[CB_BARK_ALONG] = p.bark.along;
+                    q[CB_BARK_PHASE] = p.bark.phase;
+                }
                 put3(q + CB_CONE_P0, p.p0);
                 put3(q + CB_CONE_AXIS, u);
                 q[CB_CONE_LEN] = len;
@@ -120,8 +129,10 @@ private:
                 break;
             }
         }
-        code_.push_back({int(n.type), at, 0, box(current_)});
+        const bool bark_ = n.type == NodeType::CONE && p.bark.active();
+        code_.push_back({bark_ ? CB_I_BARK_CONE : int(n.type), at, 0, box(current_)});
         ++primitives;
+        bark += bark_ ? 1 : 0;
         if (shades.size() < 2 && (shades.empty() || shades[0] != n.shade))
             shades.push_back(n.shade);
     }
@@ -518,6 +529,7 @@ void FieldProgram::canonical(Code code, std::vector<double>& out) const
 {
     out.push_back(params_[CB_P_T]);
     out.push_back(params_[CB_P_XT]);
+    out.push_back(params_[CB_P_DETAIL]);
     for (size_t i = 0; i < code.size; ++i) {
         const Instr& in = code.data[i];
         size_t size = 0;
@@ -528,6 +540,9 @@ void FieldProgram::canonical(Code code, std::vector<double>& out) const
             case CB_SEGMENT:
             case CB_CONE:
                 size = CB_CONE_SIZE;
+                break;
+            case CB_I_BARK_CONE:
+                size = CB_BARK_SIZE;
                 break;
             case CB_CONVOLUTION_SEGMENT:
                 size = CB_CONV_SIZE;
@@ -569,9 +584,11 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     prog.params_[CB_P_T] = tree.threshold();
     prog.params_[CB_P_XT] = tree.xT();
     prog.params_[CB_P_ZERO] = 0.0;
+    prog.params_[CB_P_DETAIL] = tree.detailLimit();
     Compiler c(tree, prog.params_, prog.code_, prog.subtreeSupport_);
     c.emit(tree.root());
     prog.primitives_ = c.primitives;
+    prog.bark_ = c.bark;
     if (c.shades.size() == 1)
         prog.uniformColor_ = c.shades[0];
     const auto bounds = computeBounds(tree);
@@ -590,6 +607,18 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
 double FieldProgram::threshold() const
 {
     return params_[CB_P_T];
+}
+
+double FieldProgram::detailLimit() const
+{
+    return params_[CB_P_DETAIL];
+}
+
+void FieldProgram::setDetailLimit(double wavelength)
+{
+    if (!(std::isfinite(wavelength) && wavelength >= 0.0))
+        throw InputError(fmt::format("detail limit {}: must be a finite length >= 0", wavelength));
+    params_[CB_P_DETAIL] = wavelength;
 }
 
 std::vector<float> FieldProgram::paramsFloat() const
@@ -657,10 +686,14 @@ Interval FieldProgram::primitiveInterval(const Instr& in, const Box& box) const
             return skeletalInterval(dmin, dmax, r, r, sigma, xT, q[CB_SPHERE_WEIGHT]);
         }
         case CB_SEGMENT:
-        case CB_CONE: {
+        case CB_CONE:
+        case CB_I_BARK_CONE: {
             const glm::dvec3 a = load3(q + CB_CONE_P0),
                              b = a + q[CB_CONE_LEN] * load3(q + CB_CONE_AXIS);
-            const double rmin = std::min(q[CB_CONE_R0], q[CB_CONE_R1]),
+            // Bark only deepens furrows: the radius is at least r - 7/4 A.
+            const double furrow =
+                in.op == CB_I_BARK_CONE ? 1.75 * std::max(q[CB_BARK_A0], q[CB_BARK_A1]) : 0.0;
+            const double rmin = std::min(q[CB_CONE_R0], q[CB_CONE_R1]) - furrow,
                          rmax = std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
             dmin = std::sqrt(segmentBoxDistance2(a, b, box));
             if (beyondSupport(dmin, rmax, q[CB_CONE_SIGMA], xT))

@@ -41,6 +41,13 @@ public:
     static FieldProgram compile(const BlobTree& tree);
 
     double threshold() const;
+    /// The shortest wavelength of procedural detail (BlobTree::detailLimit).
+    double detailLimit() const;
+    /// Sets it (a bake: 4 voxels, so that every octave of bark it keeps
+    /// spans several voxels); InputError unless finite and >= 0.
+    void setDetailLimit(double wavelength);
+    /// Number of cones with bark.
+    size_t barkCount() const { return bark_; }
     /// The parameter table (double; the kernels get a float copy).
     const std::vector<double>& params() const { return params_; }
     std::vector<float> paramsFloat() const;
@@ -111,6 +118,7 @@ private:
     std::vector<Box> subtreeSupport_;  ///< indexed by OPEN.c / WARP.c
     Box positive_, support_;
     size_t primitives_ = 0;
+    size_t bark_ = 0;
     std::optional<glm::dvec3> uniformColor_;
 };
 
