@@ -57,8 +57,8 @@ TEST(Bark, TheSurfaceLiesWhereTheProfilePutsIt)
         const glm::dvec3 dir(0.0, -std::sin(theta), std::cos(theta));
         const double found = surfaceDistance(eval, 0.5, {x, 0, 0}, dir, 0.5);
         double ds, dt, dr;
-        const double P = cb_bark_profile(b.s0 + x, theta, r, b.around, b.along, b.phase, 0.0, &ds,
-                                         &dt, &dr);
+        const double P =
+            cb_bark_profile(b.s0 + x, theta, r, b.around, b.along, b.phase, 0.0, &ds, &dt, &dr);
         ASSERT_NEAR(found, r - A * P, 1e-9) << "x " << x << " theta " << theta;
         deepest = std::max(deepest, P);
     }

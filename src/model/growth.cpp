@@ -247,6 +247,7 @@ TreeBuildOptions GrowthModel::buildOptions() const
     TreeBuildOptions o;
     o.junction = TreeBuildOptions::Junction::Pcm;
     o.bark = p_.bark;
+    o.barkDetail = p_.barkDetail;
     o.ridgeYears = p_.ridgeYears;
     o.ridgeRadius = p_.ridgeRadius;
     return o;

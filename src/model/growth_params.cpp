@@ -77,23 +77,26 @@ public:
 
 private:
     /// obj[key] in [lo, hi], or `value` when it is absent.
-    double numberOr(const json& obj, const char* key, double value, double lo, double hi) const
+    double numberOr(const json& obj, const char* key, double value, double lo, double hi,
+                    const std::string& path = "") const
     {
         if (!obj.contains(key))
             return value;
-        return number(obj.at(key), key, lo, hi);
+        return number(obj.at(key), jsonPath(path, key), lo, hi);
     }
 
-    glm::dvec3 colour(const json& obj, const char* key, glm::dvec3 value) const
+    glm::dvec3 colour(const json& obj, const char* key, glm::dvec3 value,
+                      const std::string& path = "") const
     {
         if (!obj.contains(key))
             return value;
-        const json& v = array(obj.at(key), key, 3, "must be [r, g, b]");
+        const std::string p = jsonPath(path, key);
+        const json& v = array(obj.at(key), p, 3, "must be [r, g, b]");
         glm::dvec3 c;
         for (int k = 0; k < 3; ++k) {
             if (!v[size_t(k)].is_number() ||
                 !(v[size_t(k)].get<double>() >= 0.0 && v[size_t(k)].get<double>() <= 1.0))
-                fail(fmt::format("{}[{}]", key, k), "must be a number from 0 to 1");
+                fail(fmt::format("{}[{}]", p, k), "must be a number from 0 to 1");
             c[k] = v[size_t(k)].get<double>();
         }
         return c;
@@ -135,8 +138,33 @@ private:
         p.maxInternodes = numberOr(root, "max_internodes", p.maxInternodes, 1, 1e9);
         if (root.contains("leaves"))
             p.leaves = boolean(root["leaves"], "leaves");
-        p.bark = colour(root, "bark", p.bark);
+        if (root.contains("bark") && root["bark"].is_object())
+            readBark(root["bark"], p);
+        else
+            p.bark = colour(root, "bark", p.bark);
         p.leaf = colour(root, "leaf", p.leaf);
+    }
+
+    /// The bark section: its colour and its furrows (docs/bark.md).
+    void readBark(const json& j, GrowthParameters& p) const
+    {
+        checkKeys(
+            j, "bark",
+            {"color", "depth", "max_depth", "start_age", "full_age", "around", "along", "seed"});
+        p.bark = colour(j, "color", p.bark, "bark");
+        BarkDetail& b = p.barkDetail;
+        b.depth = numberOr(j, "depth", b.depth, 0.0, 0.28, "bark");
+        b.maxDepth = numberOr(j, "max_depth", b.maxDepth, 0.0, 1e3, "bark");
+        b.startAge = numberOr(j, "start_age", b.startAge, 0.0, 1e3, "bark");
+        b.fullAge = numberOr(j, "full_age", b.fullAge, 0.0, 1e3, "bark");
+        if (!(b.fullAge > b.startAge))
+            fail("bark.full_age",
+                 fmt::format("must exceed start_age ({} <= {})", b.fullAge, b.startAge));
+        b.around = numberOr(j, "around", b.around, 1.0, 512.0, "bark");
+        if (b.around != std::floor(b.around))
+            fail("bark.around", fmt::format("must be a whole number (got {})", b.around));
+        b.along = numberOr(j, "along", b.along, 0.0, 1e4, "bark");
+        b.seed = uint64_t(numberOr(j, "seed", double(b.seed), 0.0, 9e15, "bark"));
     }
 
     /// The graphically defined functions: every one, and no other.

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "model/curve.h"
+#include "model/tree_builder.h"
 
 #include <glm/glm.hpp>
 
@@ -44,6 +45,7 @@ struct GrowthParameters {
     double maxInternodes = 3e6;  ///< refuse parameters that grow more internodes than this
     bool leaves = true;
     glm::dvec3 bark{0.36, 0.30, 0.24};
+    BarkDetail barkDetail;  ///< "bark": {"depth", ...}: furrows (none by default)
     glm::dvec3 leaf{0.25, 0.45, 0.15};
 
     // The graphically defined functions of eq. 5-15 and section 4.3.

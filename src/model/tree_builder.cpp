@@ -27,6 +27,31 @@ void checkTreeBuildOptions(const TreeBuildOptions& o)
 {
     if (!(o.regrowth >= 0.0 && o.regrowth <= 1.0))
         throw InputError(fmt::format("--regrowth must be between 0 and 1 (got {})", o.regrowth));
+    const BarkDetail& b = o.barkDetail;
+    if (!(b.depth >= 0.0 && b.depth <= 0.28))
+        throw InputError(fmt::format(
+            "bark depth must be from 0 to 0.28 of the radius (got {}): deeper furrows would "
+            "cut through the stem",
+            b.depth));
+    if (!(b.maxDepth >= 0.0 && std::isfinite(b.maxDepth)))
+        throw InputError(fmt::format("bark max_depth must be a length >= 0 (got {})", b.maxDepth));
+    if (!(b.startAge >= 0.0 && b.fullAge > b.startAge && std::isfinite(b.fullAge)))
+        throw InputError(
+            fmt::format("bark ages: start_age ({}) must be >= 0 and below full_age ({})",
+                        b.startAge, b.fullAge));
+    if (!(b.around >= 1.0 && b.around <= 512.0 && b.around == std::floor(b.around)))
+        throw InputError(
+            fmt::format("bark around must be a whole number from 1 to 512 (got {})", b.around));
+    if (!(b.along >= 0.0 && b.along <= 1e4))
+        throw InputError(fmt::format("bark along must be from 0 to 10000 (got {})", b.along));
+}
+
+double BarkDetail::depthAt(double r, double age) const
+{
+    if (depth <= 0.0 || !(age > startAge))
+        return 0.0;
+    const double u = std::min(1.0, (age - startAge) / (fullAge - startAge));
+    return std::min({depth * r, maxDepth, 0.28 * r}) * u * u * (3.0 - 2.0 * u);
 }
 
 namespace {
@@ -204,6 +229,131 @@ int sawCut(const Internode& a, int node, const TreeBuildOptions& o, Assembly& ou
     return node;
 }
 
+/// The bark's coordinates of every internode, from the skeleton alone (so
+/// that they stay with the wood from frame to frame): the arc length of its
+/// base along its branch, the reference direction (theta = 0) carried along
+/// the branch by the rotation between successive axes, and the branch's phase.
+struct BarkFrames {
+    std::vector<double> s0;
+    std::vector<glm::dvec3> reference;
+    std::vector<double> phase;
+    std::vector<long long> next;  ///< the internode continuing the branch, -1 for none
+};
+
+/// Whether internode i continues its parent's branch: the same branch (its
+/// module) when the skeleton says, else its parent's thickest child.
+bool continuesBranch(const Skeleton& sk, const Topology& g, size_t i)
+{
+    const long long p = g.parent[i];
+    if (p < 0)
+        return false;
+    const Internode &a = sk.internodes[i], &b = sk.internodes[size_t(p)];
+    if (a.module >= 0 && b.module >= 0)
+        return a.module == b.module;
+    return g.thickest[size_t(p)] == (long long)i;
+}
+
+glm::dvec3 across(const glm::dvec3& v, const glm::dvec3& axis)
+{
+    const glm::dvec3 w = v - glm::dot(v, axis) * axis;
+    const double len = glm::length(w);
+    if (len > 1e-6)
+        return w / len;
+    const glm::dvec3 other = std::fabs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    return glm::normalize(other - glm::dot(other, axis) * axis);
+}
+
+BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
+{
+    const size_t n = sk.internodes.size();
+    BarkFrames f;
+    f.s0.assign(n, 0.0);
+    f.reference.assign(n, glm::dvec3(0.0));
+    f.phase.assign(n, 0.0);
+    f.next.assign(n, -1);
+    std::vector<char> done(n, 0);
+    std::vector<size_t> chain;
+    for (size_t start = 0; start < n; ++start) {
+        // Up to the first internode whose frame is known or that begins a branch.
+        chain.clear();
+        for (size_t i = start; !done[i];) {
+            chain.push_back(i);
+            if (!continuesBranch(sk, g, i))
+                break;
+            i = size_t(g.parent[i]);
+        }
+        for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+            const size_t i = *it;
+            const Internode& a = sk.internodes[i];
+            const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
+            if (continuesBranch(sk, g, i)) {
+                const size_t p = size_t(g.parent[i]);
+                const Internode& b = sk.internodes[p];
+                const glm::dvec3 from = glm::normalize(b.p1 - b.p0);
+                // The minimal rotation from `from` to `axis` applied to the
+                // parent's reference (Rodrigues), then made exactly across.
+                const glm::dvec3 k = glm::cross(from, axis);
+                const double c = glm::dot(from, axis), sn = glm::length(k);
+                glm::dvec3 r = f.reference[p];
+                if (sn > 1e-12) {
+                    const glm::dvec3 u = k / sn;
+                    r = r * c + glm::cross(u, r) * sn + u * glm::dot(u, r) * (1.0 - c);
+                }
+                f.reference[i] = across(r, axis);
+                f.s0[i] = f.s0[p] + glm::length(b.p1 - b.p0);
+                f.phase[i] = f.phase[p];
+                f.next[p] = (long long)i;
+            } else {
+                // A branch begins: its reference points up its parent's axis
+                // (or along the world's x for a root), its phase from its id.
+                const long long p = g.parent[i];
+                const glm::dvec3 up =
+                    p >= 0 ? sk.internodes[size_t(p)].p1 - sk.internodes[size_t(p)].p0
+                           : glm::dvec3(1.0, 0.0, 0.0);
+                f.reference[i] = across(up, axis);
+                f.s0[i] = 0.0;
+                uint64_t h = seed * 0x9e3779b97f4a7c15ull ^ uint64_t(a.id) * 0xbf58476d1ce4e5b9ull;
+                h ^= h >> 31;
+                h *= 0x94d049bb133111ebull;
+                h ^= h >> 29;
+                f.phase[i] = double(h >> 11) * 0x1.0p-53 * 6.283185307179586;
+            }
+            done[i] = 1;
+        }
+    }
+    return f;
+}
+
+/// Internode i's bark on its cone (from s.p0 to s.p1, which the junction
+/// rules may have moved along the skeleton's axis).
+void addBark(const Skeleton& sk, const TreeBuildOptions& o, const Segments& s, const BarkFrames& f,
+             size_t i, int node, BlobTree& tree)
+{
+    const BarkDetail& b = o.barkDetail;
+    const Internode& a = sk.internodes[i];
+    if (b.depth <= 0.0 || a.age < 0.0)
+        return;
+    // The tip's age is its continuation's (younger) so that depths meet.
+    const double tipAge = f.next[i] >= 0 && sk.internodes[size_t(f.next[i])].age >= 0.0
+                              ? sk.internodes[size_t(f.next[i])].age
+                              : a.age;
+    BarkParams p;
+    p.depth0 = b.depthAt(s.r0[i], a.age);
+    p.depth1 = b.depthAt(s.r1[i], tipAge);
+    if (!p.active())
+        return;
+    const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
+    const glm::dvec3 cone = s.p1[i] - s.p0[i];
+    if (glm::dot(glm::normalize(cone), axis) < 1.0 - 1e-9)
+        return;  // the rules turned it (cannot happen with cones today): leave it smooth
+    p.reference = f.reference[i];
+    p.s0 = f.s0[i] + glm::dot(s.p0[i] - a.p0, axis);
+    p.around = b.around;
+    p.along = b.along;
+    p.phase = f.phase[i];
+    tree.setBark(node, p);
+}
+
 /// Each internode's primitive (cut, bent), into its junction's group, the
 /// convolution segments or the top-level summation.
 void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology& g,
@@ -211,9 +361,13 @@ void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology
 {
     const size_t n = sk.internodes.size();
     BlobTree& tree = out.tree;
+    const BarkFrames frames =
+        o.barkDetail.depth > 0.0 ? barkFrames(sk, g, o.barkDetail.seed) : BarkFrames{};
     for (size_t i = 0; i < n; ++i) {
         int node = isCone(o, g, i) ? tree.cone(s.p0[i], s.p1[i], s.r0[i], s.r1[i])
                                    : tree.convolutionSegment(s.p0[i], s.p1[i], s.r0[i], s.r1[i]);
+        if (isCone(o, g, i) && !frames.s0.empty())
+            addBark(sk, o, s, frames, i, node, tree);
         if (sk.internodes[i].colour)
             tree.setColor(node, *sk.internodes[i].colour);
         if (sk.internodes[i].cut)

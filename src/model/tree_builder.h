@@ -9,6 +9,23 @@
 
 namespace cambium {
 
+/// Bark furrows on grown trees (docs/bark.md): every cone internode of known
+/// age gets a multi-scale furrow pattern fixed to its wood (arc length along
+/// its branch, angle from a reference carried along it), as deep as
+/// min(depth r, maxDepth, 0.28 r) times a ramp of its age from startAge
+/// (none) to fullAge (all), so young shoots stay smooth.
+struct BarkDetail {
+    double depth = 0.0;      ///< furrow depth over the radius; 0: none (today's smooth bark)
+    double maxDepth = 0.02;  ///< the deepest furrow (world units)
+    double startAge = 2.0, fullAge = 10.0;  ///< years
+    double around = 9.0;  ///< furrows around a stem at the coarsest octave (whole)
+    double along = 4.0;   ///< meander frequency along the stem, radians per unit length
+    uint64_t seed = 1;    ///< the branches' phases
+
+    /// The furrow depth of a stem of radius r and age `age` (years).
+    double depthAt(double r, double age) const;
+};
+
 struct TreeBuildOptions {
     /// Pcm: F_J = PCM(F_B0, ..., F_Bm-1) + F_A (eq. 4-5), branches moved off
     /// the branching point by delta_Bi = r_A - r_i (eq. 6) and the basal
@@ -55,6 +72,7 @@ struct TreeBuildOptions {
     /// Bark colour (linear RGB) of every internode, into the Cd grid; scars
     /// are darker (the wood under the bark).
     glm::dvec3 bark{0.36, 0.28, 0.22};
+    BarkDetail barkDetail;
 };
 
 /// The BlobTree of a skeleton.  A pruned internode (`cut`) is cut flat
