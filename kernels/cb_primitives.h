@@ -121,9 +121,11 @@ CB_FN cb_real cb_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len, cb_
  * branch, and theta, the angle around the axis from a reference direction
  * carried along the branch (both fixed to the wood, so the pattern stays
  * where it is as the branch thickens).  Octave k (k < CB_BARK_OCTAVES) has
- * n_k = around 2^k furrows around (a whole number: periodic in theta), weight
- * 2^-k, and meanders along the stem with frequency along 2^k:
- *   psi_k = n_k theta + phi_k + 1.2 sin(along 2^k s + chi_k),
+ * n_k = around 2^k + k furrows around (whole numbers without a common
+ * divisor: periodic in theta, but not within a turn), weight 2^-k, and
+ * meanders along the stem with frequency along 2^k and around it k + 1
+ * times a turn:
+ *   psi_k = n_k theta + phi_k + 1.2 sin(along 2^k s + (k + 1) theta + chi_k),
  *   P = sum_k 2^-k w_k ((1 + cos psi_k) / 2)^4
  * (narrow deep furrows between broad plates).  Scale-limited: w_k fades an
  * octave in smoothly as its wavelength around, 2 pi r / n_k, grows from lmin
@@ -136,12 +138,15 @@ CB_FN cb_real cb_bark_profile(cb_real s, cb_real theta, cb_real r, cb_scalar aro
                               cb_real* dPdtheta, cb_real* dPdr)
 {
     cb_real P = CB_R(0.0), ps = CB_R(0.0), pt = CB_R(0.0), pr = CB_R(0.0);
-    cb_scalar n = around, f = along, a = CB_R(1.0);
+    cb_scalar f = along, a = CB_R(1.0);
     int k;
     for (k = 0; k < CB_BARK_OCTAVES; ++k) {
-        cb_scalar phi = phase * (cb_scalar)(k + 1) * CB_R(2.399963); /* golden angle steps */
-        cb_scalar chi = phase * (cb_scalar)(k + 1) * CB_R(1.618034) + CB_R(0.5);
-        cb_real ms = CB_SIN(f * s + chi), mc = CB_COS(f * s + chi);
+        cb_scalar n = around * (cb_scalar)(1 << k) + (cb_scalar)k;
+        cb_scalar m = (cb_scalar)(k + 1);
+        cb_scalar phi = phase * m * CB_R(2.399963); /* golden angle steps */
+        cb_scalar chi = phase * m * CB_R(1.618034) + CB_R(0.5);
+        cb_real arg = f * s + m * theta + chi;
+        cb_real ms = CB_SIN(arg), mc = CB_COS(arg);
         cb_real psi = n * theta + phi + CB_BARK_MEANDER * ms;
         cb_real q = CB_R(0.5) * (CB_R(1.0) + CB_COS(psi));
         cb_real q2 = q * q;
@@ -157,10 +162,9 @@ CB_FN cb_real cb_bark_profile(cb_real s, cb_real theta, cb_real r, cb_scalar aro
                            u > CB_R(0.0) && u < CB_R(1.0));
         }
         P += a * w * h;
-        pt += a * w * dh * n;
+        pt += a * w * dh * (n + CB_BARK_MEANDER * mc * m);
         ps += a * w * dh * CB_BARK_MEANDER * f * mc;
         pr += a * dw * h;
-        n *= CB_R(2.0);
         f *= CB_R(2.0);
         a *= CB_R(0.5);
     }
