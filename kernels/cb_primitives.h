@@ -189,7 +189,9 @@ CB_FN cb_real cb_bark_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len
     cb_vec3 e = cb_madd(d, axis, -t * len);
     cb_real dist = cb_length(e), fd, fr, Ps, Pt, Pr;
     cb_real r = r0 + (r1 - r0) * t;
-    cb_real s = s0 + t * len;
+    /* s runs on past the ends: the caps and the junctions between cones
+     * carry on the branch's pattern (s is the skeleton's arc length there too) */
+    cb_real s = s0 + tt * len;
     cb_vec3 side = cb_cross(axis, ref);
     cb_real ex = cb_dot(e, ref), ey = cb_dot(e, side);
     cb_real theta = CB_ATAN2(ey, ex);
@@ -197,10 +199,11 @@ CB_FN cb_real cb_bark_cone_field(cb_vec3 p, cb_vec3 a, cb_vec3 axis, cb_real len
     cb_real A = A0 + (A1 - A0) * t;
     cb_real rb = r - A * P;
     cb_real f = cb_skeletal_field(dist, rb, sigma, xT, &fd, &fr);
-    /* d rb / d t (interior only) along the axis; d rb / d theta across it. */
+    /* d rb along the axis: through r and A (interior only) and through s
+     * (everywhere); d rb / d theta across it. */
     cb_mask interior = tt > CB_R(0.0) && tt < CB_R(1.0);
-    cb_real drdt = (r1 - r0) * (CB_R(1.0) - A * Pr) - (A1 - A0) * P - A * Ps * len;
-    cb_real axial = CB_SELECT(CB_R(0.0), fr * cb_div0(drdt, len), interior);
+    cb_real drdt = (r1 - r0) * (CB_R(1.0) - A * Pr) - (A1 - A0) * P;
+    cb_real axial = fr * (CB_SELECT(CB_R(0.0), cb_div0(drdt, len), interior) - A * Ps);
     cb_vec3 g = cb_madd(cb_scale(e, cb_div0(fd, dist)), axis, axial);
     /* grad theta = (ex side - ey ref) / (ex^2 + ey^2) (e leaves the axis's
      * normal plane beyond the ends) */

@@ -2,6 +2,8 @@
 // model into a frame sequence (--frames; app/sequence.cpp reports it).
 #include "app/app.h"
 
+#include "core/error.h"
+
 #include "bake/bake.h"
 #include "bake/sequence.h"
 #include "core/files.h"
@@ -53,6 +55,7 @@ void addBakeCommand(CLI::App& app, Action& action)
         double voxelSize = 0.0;
         std::string device = "opencl";
         bool timings = false;
+        std::string colouring;
     };
     auto o = std::make_shared<Options>();
     BakeRequest& bake = o->sequence.bake;
@@ -76,6 +79,12 @@ void addBakeCommand(CLI::App& app, Action& action)
     cmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
     cmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(1, 4096));
+    cmd->add_option("--bark-photo", bake.barkPhoto,
+                    "A photo (any format OpenImageIO reads) whose colour histogram colours the "
+                    "bark (paper 002 section 3.5); default: the model's \"bark.photo\"");
+    cmd->add_option("--bark-colouring", o->colouring,
+                    "coherent (smooth patches that follow the bark) or random (each voxel drawn "
+                    "alone, as paper 002); default: the model's, else coherent");
     cmd->add_flag(
         "--timings", o->timings,
         "Print the time of each stage of the bake on stderr (also with CAMBIUM_TIMING set)");
@@ -104,6 +113,14 @@ void addBakeCommand(CLI::App& app, Action& action)
             if (sequence)
                 parseFrames(request.frames);
             checkBakeOptions(req);
+            if (!o->colouring.empty()) {
+                if (o->colouring != "coherent" && o->colouring != "random")
+                    throw InputError(fmt::format(
+                        "--bark-colouring must be coherent or random (got '{}')", o->colouring));
+                req.barkCoherent = o->colouring == "coherent";
+            }
+            if (!req.barkPhoto.empty())
+                checkInputFile(req.barkPhoto, "bark photo");
             req.device = parseDevice(o->device);
             if (!sequence)
                 checkOutputPath(req.output);

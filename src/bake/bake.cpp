@@ -1,6 +1,8 @@
 // cambium — the bake command's work.
 #include "bake/bake.h"
 
+#include "bake/bark_photo.h"
+
 #include "cl/runtime.h"
 #include "io/vdb.h"
 #include "blobtree/scene_io.h"
@@ -82,6 +84,26 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     return plan;
 }
 
+BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
+{
+    BarkPaint p;
+    const BarkLook& look = tree.barkLook();
+    p.photo = req.barkPhoto.empty() ? look.photo : req.barkPhoto;
+    p.coherent = req.barkCoherent.value_or(look.coherent);
+    p.color = look.color;
+    if (!p.photo.empty())
+        p.histogram = std::make_shared<const ColourHistogram>(ColourHistogram::fromPhoto(p.photo));
+    return p;
+}
+
+void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint)
+{
+    if (paint.histogram)
+        colourBarkFromPhoto(grids, tree, *paint.histogram,
+                            paint.coherent ? BarkColouring::Coherent : BarkColouring::Random,
+                            paint.color);
+}
+
 std::unique_ptr<FieldSampler> makeSampler(Device device)
 {
     return device == Device::Cpu ? makeCpuSampler()
@@ -94,6 +116,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     checkBakeOptions(req);
     checkOutputPath(req.output);
     const BlobTree tree = loadModel(req.input, req.model);
+    const BarkPaint paint = barkPaint(req, tree);
     const FieldProgram program = FieldProgram::compile(tree);
     const VoxelPlan plan = planVoxelSize(program, req);
     report.extent = plan.extent;
@@ -124,7 +147,8 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
     opt.progress = callbacks.progress;
-    const BakedGrids grids = bakeLevelSet(program, *sampler, opt);
+    BakedGrids grids = bakeLevelSet(program, *sampler, opt);
+    paintBark(grids, tree, paint);
     if (grids.stats.activeVoxels == 0)
         throw InputError(
             fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "

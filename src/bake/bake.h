@@ -25,7 +25,25 @@ struct BakeRequest {
     bool fog = false;
     bool half = false;
     int threads = 0;  ///< 0: all cores
+    /// A photo whose colours the bark takes (paper 002 section 3.5; the
+    /// model's own "bark.photo" when empty), drawn coherently or at random
+    /// (the model's choice when unset).
+    std::string barkPhoto;
+    std::optional<bool> barkCoherent;
 };
+
+/// The bark photo of a bake, read before any work (InputError naming the
+/// file), from the request or the model.
+struct BarkPaint {
+    std::shared_ptr<const class ColourHistogram> histogram;  ///< none: no photo
+    bool coherent = true;
+    glm::dvec3 color{0.0};  ///< the bark colour the photo replaces
+    std::string photo;
+};
+BarkPaint barkPaint(const BakeRequest& request, const BlobTree& tree);
+
+/// The bake's grids with the bark painted (no-op without a photo).
+void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint);
 
 /// How a bake talks to whoever runs it (the library never prints).
 struct BakeCallbacks {

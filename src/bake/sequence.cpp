@@ -48,8 +48,9 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
     const std::string options = fmt::format(
-        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={}", voxelSize, req.bake.halfWidth,
-        req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half);
+        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={} photo={} coherent={}", voxelSize,
+        req.bake.halfWidth, req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half,
+        req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1);
     return fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
 }
 
@@ -101,7 +102,9 @@ SequencePlan planSequence(const SequenceRequest& request)
             fmt::format("{}: the tree has not begun to grow by year {:g} (the last frame): nothing "
                         "to bake",
                         req.input, plan.times.back()));
-    const FieldProgram lastProgram = FieldProgram::compile(buildTree(last, build));
+    const BlobTree lastTree = buildTree(last, build);
+    plan.paint = barkPaint(req, lastTree);
+    const FieldProgram lastProgram = FieldProgram::compile(lastTree);
     VoxelPlan voxels =
         planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
     if (req.model.leaves) {
@@ -216,11 +219,13 @@ struct FrameBaker {
             fr.outcome = FrameReport::Outcome::Empty;
             previous.reset();
         } else {
-            FieldProgram program = FieldProgram::compile(buildTree(sk, plan.model->buildOptions()));
+            const BlobTree tree = buildTree(sk, plan.model->buildOptions());
+            FieldProgram program = FieldProgram::compile(tree);
             if (previous && previous->identical(program)) {
                 fr.outcome = FrameReport::Outcome::Reused;
             } else {
                 grids = bakeLevelSet(program, *sampler, opt);
+                paintBark(grids, tree, plan.paint);
                 fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked
                                                       : FrameReport::Outcome::Empty;
                 previous = std::move(program);

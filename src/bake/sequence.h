@@ -47,6 +47,7 @@ struct SequencePlan {
     /// finds its predecessor's grids and unchanged leaves.
     std::vector<std::vector<size_t>> groups;
     std::string key;  ///< sequenceKey: what --resume compares
+    BarkPaint paint;  ///< the bark photo, read once
 };
 
 /// Validates everything (parameters, frames and their times, output pattern,

@@ -14,6 +14,7 @@
 #include <glm/glm.hpp>
 
 #include <optional>
+#include <string>
 #include <string_view>
 #include <variant>
 #include <vector>
@@ -58,6 +59,15 @@ struct BarkParams {
     double along = 10.0;  ///< meander frequency along the stem, radians per unit length
     double phase = 0.0;   ///< the branch's own phases
     bool active() const { return depth0 > 0.0 || depth1 > 0.0; }
+};
+
+/// How the bark looks when baked (bake/bark_photo.h): a photo whose colour
+/// histogram recolours the primitives of `color` (the bark's), at random or
+/// coherently.  No photo: the primitives' colours as they are.
+struct BarkLook {
+    std::string photo;
+    glm::dvec3 color{0.36, 0.28, 0.22};
+    bool coherent = true;
 };
 
 /// Parameters of a primitive.  Radii are surface radii of the isolated
@@ -121,6 +131,8 @@ public:
     /// above it: a bake sets 4 voxels); 0: no limit.
     double detailLimit() const { return detailLimit_; }
     void setDetailLimit(double wavelength);
+    const BarkLook& barkLook() const { return barkLook_; }
+    void setBarkLook(const BarkLook& look) { barkLook_ = look; }
     /// x_T = w^-1(T): where the Wyvill function crosses the threshold (1/2 at T = 1/2).
     double xT() const { return xT_; }
 
@@ -177,6 +189,7 @@ private:
     double T_ = 0.5;
     double xT_ = 0.5;
     double detailLimit_ = 0.0;
+    BarkLook barkLook_;
 };
 
 }  // namespace cambium

@@ -5,6 +5,8 @@
 #include "core/json.h"
 
 #include <fmt/format.h>
+
+#include <filesystem>
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
@@ -69,7 +71,7 @@ public:
     BlobTree read(const json& doc)
     {
         object(doc, "(top level)", "must be an object with a \"root\"");
-        checkKeys(doc, "", {"threshold", "root", "name", "description", "comment"});
+        checkKeys(doc, "", {"threshold", "root", "name", "description", "comment", "bark"});
         double threshold = 0.5;
         if (doc.contains("threshold"))
             threshold = number(doc["threshold"], "threshold");
@@ -80,11 +82,48 @@ public:
             fail("threshold", e.what());
         }
         tree_.setRoot(node(root, "root"));
+        if (doc.contains("bark"))
+            tree_.setBarkLook(barkLook(doc["bark"]));
         tree_.finalize();
         return std::move(tree_);
     }
 
 private:
+    /// "bark": {"photo": FILE, "color": [r, g, b], "colouring": ...}: the
+    /// primitives of that colour take the photo's colours when baked.
+    BarkLook barkLook(const json& j)
+    {
+        object(j, "bark",
+               "must be {\"photo\": \"bark.jpg\", \"color\": [r, g, b]} (the colour of the "
+               "primitives the photo recolours)");
+        checkKeys(j, "bark", {"photo", "color", "colouring"});
+        BarkLook look;
+        const std::string f = string(required(j, "photo", "bark"), "bark.photo");
+        const std::filesystem::path fp(f);
+        const std::string dir = std::filesystem::path(source()).parent_path().string();
+        look.photo =
+            fp.is_absolute() || dir.empty() ? f : (std::filesystem::path(dir) / fp).string();
+        try {
+            checkInputFile(look.photo, "bark photo");
+        } catch (const InputError& e) {
+            fail("bark.photo", e.what());
+        }
+        const glm::dvec3 c =
+            vec3(required(j, "color", "bark", "the colour of the bark's primitives"), "bark.color");
+        for (int k = 0; k < 3; ++k)
+            if (!(c[k] >= 0.0 && c[k] <= 1.0))
+                fail(fmt::format("bark.color[{}]", k), "must be from 0 to 1");
+        look.color = c;
+        if (j.contains("colouring")) {
+            const std::string m = string(j["colouring"], "bark.colouring");
+            if (m != "coherent" && m != "random")
+                fail("bark.colouring",
+                     fmt::format("must be \"coherent\" or \"random\" (got '{}')", m));
+            look.coherent = m == "coherent";
+        }
+        return look;
+    }
+
     glm::dvec3 vec3(const json& j, const std::string& path)
     {
         array(j, path, 3, "must be an array of 3 numbers");

@@ -1,10 +1,14 @@
 // cambium — images written with OpenImageIO through the checked writer.
 #include "io/image_file.h"
 
+#include "core/error.h"
 #include "core/files.h"
+
+#include <fmt/format.h>
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
 
 #include <algorithm>
 #include <cmath>
@@ -20,7 +24,53 @@ float toSrgb(float v)
     return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
+float fromSrgb(float v)
+{
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
 }  // namespace
+
+Photo readPhoto(const std::string& path)
+{
+    checkInputFile(path, "photo");
+    auto in = OIIO::ImageInput::open(path);
+    if (!in)
+        throw InputError(
+            fmt::format("{}: not an image OpenImageIO can read ({})", path, OIIO::geterror()));
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+        throw InputError(fmt::format("{}: the image is empty", path));
+    if (double(spec.width) * spec.height * spec.nchannels > 4e8)
+        throw InputError(
+            fmt::format("{}: {} x {} pixels is more than a bark photo needs "
+                        "(at most 100 million values): scale it down",
+                        path, spec.width, spec.height));
+    std::vector<float> px(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
+        throw InputError(fmt::format("{}: cannot read the image: {}", path, in->geterror()));
+    // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones
+    // are sRGB-encoded unless they say they are linear.
+    const std::string space = spec.get_string_attribute("oiio:ColorSpace");
+    const bool linear = space.empty() ? spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+                                            spec.format.basetype == OIIO::TypeDesc::HALF ||
+                                            spec.format.basetype == OIIO::TypeDesc::DOUBLE
+                                      : OIIO::Strutil::iequals(space, "linear") ||
+                                            OIIO::Strutil::istarts_with(space, "lin");
+    Photo out;
+    out.width = spec.width;
+    out.height = spec.height;
+    const size_t n = size_t(spec.width) * size_t(spec.height), c = size_t(spec.nchannels);
+    out.rgb.resize(3 * n);
+    for (size_t i = 0; i < n; ++i)
+        for (size_t k = 0; k < 3; ++k) {
+            const float v = px[c * i + (c >= 3 ? k : 0)];  // grey (and grey with alpha) made RGB
+            if (!std::isfinite(v))
+                throw InputError(fmt::format("{}: pixel {} is not finite", path, i));
+            out.rgb[3 * i + k] = linear ? std::max(v, 0.0f) : fromSrgb(std::clamp(v, 0.0f, 1.0f));
+        }
+    return out;
+}
 
 void checkImageOutput(const std::string& path)
 {

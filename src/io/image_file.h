@@ -26,4 +26,17 @@ void writeImage(const RenderImage& image, const std::string& path);
 /// file that can be written.
 void checkImageOutput(const std::string& path);
 
+/// A photograph's pixels as linear RGB (rows top to bottom).
+struct Photo {
+    int width = 0, height = 0;
+    std::vector<float> rgb;  ///< 3 per pixel, linear
+};
+
+/// Reads any image OpenImageIO reads (PNG, JPEG, TIFF, EXR, ...; 8, 16 or
+/// 32 bits, grey or colour, with or without alpha: alpha ignored, grey made
+/// RGB), as linear colour: files that store sRGB-encoded values (what
+/// OpenImageIO's colour space or the format says) are decoded.  InputError
+/// naming the file when it is missing, unreadable or empty.
+Photo readPhoto(const std::string& path);
+
 }  // namespace cambium

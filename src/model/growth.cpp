@@ -248,6 +248,8 @@ TreeBuildOptions GrowthModel::buildOptions() const
     o.junction = TreeBuildOptions::Junction::Pcm;
     o.bark = p_.bark;
     o.barkDetail = p_.barkDetail;
+    o.barkPhoto = p_.barkPhoto;
+    o.barkCoherent = p_.barkCoherent;
     o.ridgeYears = p_.ridgeYears;
     o.ridgeRadius = p_.ridgeRadius;
     return o;

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sys/stat.h>
 #include <map>
@@ -56,8 +57,13 @@ const std::vector<std::string>& topLevelKeys()
 /// and curves are too long to spell out in a message: the unknown ones
 /// point to docs/growth-format.md.
 class Reader : private JsonValidator {
+    std::string directory_;  ///< relative files (the bark photo) are taken from here
+
 public:
-    explicit Reader(std::string source) : JsonValidator(std::move(source)) {}
+    explicit Reader(std::string source)
+        : JsonValidator(source), directory_(std::filesystem::path(source).parent_path().string())
+    {
+    }
 
     GrowthParameters read(const std::string& text) const
     {
@@ -148,9 +154,28 @@ private:
     /// The bark section: its colour and its furrows (docs/bark.md).
     void readBark(const json& j, GrowthParameters& p) const
     {
-        checkKeys(
-            j, "bark",
-            {"color", "depth", "max_depth", "start_age", "full_age", "around", "along", "seed"});
+        checkKeys(j, "bark",
+                  {"color", "depth", "max_depth", "start_age", "full_age", "around", "along",
+                   "seed", "photo", "colouring"});
+        if (j.contains("photo")) {
+            const std::string f = string(j["photo"], "bark.photo");
+            const std::filesystem::path fp(f);
+            p.barkPhoto = fp.is_absolute() || directory_.empty()
+                              ? f
+                              : (std::filesystem::path(directory_) / fp).string();
+            try {
+                checkInputFile(p.barkPhoto, "bark photo");
+            } catch (const InputError& e) {
+                fail("bark.photo", e.what());
+            }
+        }
+        if (j.contains("colouring")) {
+            const std::string c = string(j["colouring"], "bark.colouring");
+            if (c != "coherent" && c != "random")
+                fail("bark.colouring",
+                     fmt::format("must be \"coherent\" or \"random\" (got '{}')", c));
+            p.barkCoherent = c == "coherent";
+        }
         p.bark = colour(j, "color", p.bark, "bark");
         BarkDetail& b = p.barkDetail;
         b.depth = numberOr(j, "depth", b.depth, 0.0, 0.28, "bark");

@@ -46,6 +46,8 @@ struct GrowthParameters {
     bool leaves = true;
     glm::dvec3 bark{0.36, 0.30, 0.24};
     BarkDetail barkDetail;  ///< "bark": {"depth", ...}: furrows (none by default)
+    std::string barkPhoto;  ///< "bark": {"photo"}: its colours (a path from the file's directory)
+    bool barkCoherent = true;  ///< "bark": {"colouring": "coherent" | "random"}
     glm::dvec3 leaf{0.25, 0.45, 0.15};
 
     // The graphically defined functions of eq. 5-15 and section 4.3.

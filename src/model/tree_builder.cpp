@@ -331,17 +331,17 @@ void addBark(const Skeleton& sk, const TreeBuildOptions& o, const Segments& s, c
 {
     const BarkDetail& b = o.barkDetail;
     const Internode& a = sk.internodes[i];
-    if (b.depth <= 0.0 || a.age < 0.0)
-        return;
     // The tip's age is its continuation's (younger) so that depths meet.
     const double tipAge = f.next[i] >= 0 && sk.internodes[size_t(f.next[i])].age >= 0.0
                               ? sk.internodes[size_t(f.next[i])].age
                               : a.age;
+    // Every cone gets its bark coordinates (the photo's coherent colours
+    // read them); furrows only where the bark is old enough.
     BarkParams p;
-    p.depth0 = b.depthAt(s.r0[i], a.age);
-    p.depth1 = b.depthAt(s.r1[i], tipAge);
-    if (!p.active())
-        return;
+    if (a.age >= 0.0) {
+        p.depth0 = b.depthAt(s.r0[i], a.age);
+        p.depth1 = b.depthAt(s.r1[i], tipAge);
+    }
     const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
     const glm::dvec3 cone = s.p1[i] - s.p0[i];
     if (glm::dot(glm::normalize(cone), axis) < 1.0 - 1e-9)
@@ -361,8 +361,7 @@ void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology
 {
     const size_t n = sk.internodes.size();
     BlobTree& tree = out.tree;
-    const BarkFrames frames =
-        o.barkDetail.depth > 0.0 ? barkFrames(sk, g, o.barkDetail.seed) : BarkFrames{};
+    const BarkFrames frames = barkFrames(sk, g, o.barkDetail.seed);
     for (size_t i = 0; i < n; ++i) {
         int node = isCone(o, g, i) ? tree.cone(s.p0[i], s.p1[i], s.r0[i], s.r1[i])
                                    : tree.convolutionSegment(s.p0[i], s.p1[i], s.r0[i], s.r1[i]);
@@ -536,6 +535,7 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
     }
     addJunctions(sk, o, g, out);
     setRoot(o, out);
+    out.tree.setBarkLook({o.barkPhoto, o.bark, o.barkCoherent});
     out.tree.finalize();
     return std::move(out.tree);
 }

@@ -73,6 +73,10 @@ struct TreeBuildOptions {
     /// are darker (the wood under the bark).
     glm::dvec3 bark{0.36, 0.28, 0.22};
     BarkDetail barkDetail;
+    /// A photo whose colour histogram colours the bark when baked (paper 002
+    /// section 3.5; bake/bark_photo.h), drawn coherently or at random.
+    std::string barkPhoto;
+    bool barkCoherent = true;
 };
 
 /// The BlobTree of a skeleton.  A pruned internode (`cut`) is cut flat

@@ -1,0 +1,222 @@
+// Bark colour from a photograph (paper 002, section 3.5): photos read in any
+// format, the histogram's draws, and the baked bark's colours against the
+// photo's histogram (chi-square), random and coherent.
+#include "bake/bake.h"
+#include "bake/bark_photo.h"
+#include "bake/levelset.h"
+#include "bake/sampler.h"
+#include "io/image_file.h"
+#include "model/tree_builder.h"
+#include "test_util.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <set>
+
+namespace {
+
+using namespace cambium;
+using namespace cambium::test;
+
+/// Four bark colours (linear) and their shares of the generated photos.
+const glm::dvec3 kColours[4] = {
+    {0.05, 0.04, 0.03}, {0.15, 0.12, 0.09}, {0.30, 0.25, 0.20}, {0.55, 0.50, 0.42}};
+const double kShares[4] = {0.4, 0.3, 0.2, 0.1};
+
+double srgb(double v)
+{
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+/// Writes a photo of the four colours in their shares (stripes, shuffled
+/// rows) as `format` ("uint8" PNG, "uint16" TIFF, "float" EXR, "grey" PNG).
+std::string writePhoto(const std::string& dir, const std::string& format)
+{
+    const int w = 64, hgt = 50;  // 3,200 pixels: 1,280, 960, 640, 320
+    const bool grey = format == "grey";
+    const int channels = grey ? 1 : 3;
+    std::vector<float> px;
+    for (int y = 0; y < hgt; ++y)
+        for (int x = 0; x < w; ++x) {
+            const int i = (y * w + x) * 7919 % (w * hgt);  // scattered
+            const int c = i < 1280 ? 0 : i < 2240 ? 1 : i < 2880 ? 2 : 3;
+            for (int k = 0; k < channels; ++k) {
+                const double v = grey ? kColours[c].g : kColours[c][k];
+                px.push_back(float(format == "float" ? v : srgb(v)));
+            }
+        }
+    const std::string ext = format == "float" ? "exr" : format == "uint16" ? "tif" : "png";
+    const std::string path = dir + "/photo_" + format + "." + ext;
+    auto out = OIIO::ImageOutput::create(path);
+    const OIIO::TypeDesc type = format == "float"    ? OIIO::TypeDesc::FLOAT
+                                : format == "uint16" ? OIIO::TypeDesc::UINT16
+                                                     : OIIO::TypeDesc::UINT8;
+    OIIO::ImageSpec spec(w, hgt, channels, type);
+    EXPECT_TRUE(out->open(path, spec));
+    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    out->close();
+    return path;
+}
+
+std::string tempDir()
+{
+    const std::string dir = ::testing::TempDir() + "/bark_photo";
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+/// Chi-square of observed counts against expected shares.
+double chiSquare(const std::vector<double>& observed, const double* shares)
+{
+    double n = 0.0, chi = 0.0;
+    for (double o : observed)
+        n += o;
+    for (size_t k = 0; k < observed.size(); ++k) {
+        const double e = n * shares[k];
+        chi += (observed[k] - e) * (observed[k] - e) / e;
+    }
+    return chi;
+}
+
+/// The 0.001 critical value of chi-square with 3 degrees of freedom.
+constexpr double kChi3At001 = 16.27;
+
+}  // namespace
+
+TEST(BarkPhoto, EveryFormatGivesTheSameHistogram)
+{
+    const std::string dir = tempDir();
+    for (const char* format : {"uint8", "uint16", "float"}) {
+        SCOPED_TRACE(format);
+        const ColourHistogram h = ColourHistogram::fromPhoto(writePhoto(dir, format));
+        ASSERT_EQ(h.bins(), 4u);
+        for (int c = 0; c < 4; ++c) {
+            // In order of luminance, the generated shares; colours linear.
+            EXPECT_NEAR(h.share(size_t(c)), kShares[c], 1e-12);
+            EXPECT_NEAR(glm::length(h.colour(size_t(c)) - kColours[c]), 0.0,
+                        std::string(format) == "uint8" ? 8e-3 : 1e-4);
+        }
+        // The inverse CDF: u below 0.4 is the first colour, and so on.
+        EXPECT_EQ(h.bin(0.0), 0u);
+        EXPECT_EQ(h.bin(0.399), 0u);
+        EXPECT_EQ(h.bin(0.401), 1u);
+        EXPECT_EQ(h.bin(0.95), 3u);
+    }
+    // Grey: one channel made RGB.
+    const ColourHistogram g = ColourHistogram::fromPhoto(writePhoto(dir, "grey"));
+    ASSERT_EQ(g.bins(), 4u);
+    for (int c = 0; c < 4; ++c)
+        EXPECT_NEAR(g.colour(size_t(c)).r, kColours[c].g, 4e-3);
+    // A missing or unreadable photo is named.
+    expectInputError([&] { ColourHistogram::fromPhoto(dir + "/none.png"); }, "none.png",
+                     "missing");
+    std::ofstream(dir + "/text.png") << "not an image";
+    expectInputError([&] { ColourHistogram::fromPhoto(dir + "/text.png"); }, "text.png",
+                     "unreadable");
+}
+
+TEST(BarkPhoto, TheBarksColoursFollowThePhotosHistogram)
+{
+    openvdb::initialize();
+    const std::string dir = tempDir();
+    const ColourHistogram photo = ColourHistogram::fromPhoto(writePhoto(dir, "float"));
+    // A bent branch of three internodes with bark coordinates.
+    Skeleton sk;
+    sk.internodes = {internode(0, -1, {0, 0, 0}, {0, 0.6, 0}, 0.12, 0.11, 6),
+                     internode(1, 0, {0, 0.6, 0}, {0.05, 1.2, 0}, 0.11, 0.1, 5),
+                     internode(2, 1, {0.05, 1.2, 0}, {0.15, 1.8, 0}, 0.1, 0.09, 4)};
+    TreeBuildOptions o;
+    const BlobTree tree = buildTree(sk, o);
+    const FieldProgram prog = FieldProgram::compile(tree);
+    auto sampler = makeCpuSampler();
+    BakeOptions opt;
+    opt.voxelSize = 0.004;
+    const BakedGrids base = bakeLevelSet(prog, *sampler, opt);
+    for (BarkColouring mode : {BarkColouring::Random, BarkColouring::Coherent}) {
+        const bool coherent = mode == BarkColouring::Coherent;
+        SCOPED_TRACE(coherent ? "coherent" : "random");
+        BakedGrids g;
+        g.surface = base.surface;
+        g.color = base.color->deepCopy();
+        const size_t n = colourBarkFromPhoto(g, tree, photo, mode, o.bark);
+        ASSERT_GT(n, 10000u);
+        // The surface voxels' colours: each one of the photo's, counted.
+        // Coherent colours come in patches: count voxels far enough apart to
+        // be independent.
+        std::vector<double> counts(4, 0.0);
+        const auto phi = g.surface->getConstAccessor();
+        std::map<openvdb::Coord, int> index;  // voxel -> colour, for the correlation
+        std::set<openvdb::Coord> sampled;     // coherent: the cells counted
+        for (auto v = g.color->cbeginValueOn(); v; ++v) {
+            const openvdb::Coord c = v.getCoord();
+            if (std::fabs(phi.getValue(c)) > 0.5 * opt.voxelSize)
+                continue;
+            const openvdb::Vec3f cv = *v;
+            const size_t bin = photo.binOf(glm::dvec3(cv[0], cv[1], cv[2]));
+            ASSERT_LT(bin, 4u) << "a colour the photo does not have";
+            index[c] = int(bin);
+            if (!coherent) {
+                counts[bin] += 1.0;
+            } else {
+                // One voxel of each cell of 12^3 (4.8 cm, beyond the
+                // correlation length): the first met.
+                const openvdb::Coord cell(c.x() < 0 ? (c.x() - 11) / 12 : c.x() / 12,
+                                          c.y() < 0 ? (c.y() - 11) / 12 : c.y() / 12,
+                                          c.z() < 0 ? (c.z() - 11) / 12 : c.z() / 12);
+                if (sampled.insert(cell).second)
+                    counts[bin] += 1.0;
+            }
+        }
+        double total = 0.0;
+        for (double c : counts)
+            total += c;
+        const double chi = chiSquare(counts, kShares);
+        report("{}: {} surface voxels counted, shares {:.3f} {:.3f} {:.3f} {:.3f} (photo 0.4 0.3 "
+               "0.2 0.1), chi-square {:.2f} (0.001 critical value {})",
+               coherent ? "coherent" : "random", total, counts[0] / total, counts[1] / total,
+               counts[2] / total, counts[3] / total, chi, kChi3At001);
+        EXPECT_GT(total, 300.0);
+        EXPECT_LT(chi, kChi3At001);
+        // Spatial correlation of the colour index along x between surface
+        // voxels: its length (where it falls below 1/e).
+        auto correlationAt = [&](int lag) {
+            double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, m = 0;
+            for (const auto& [c, a] : index) {
+                const auto it = index.find(c.offsetBy(lag, 0, 0));
+                if (it == index.end())
+                    continue;
+                const double b = it->second;
+                sa += a, sb += b, saa += a * a, sbb += b * b, sab += a * b, m += 1;
+            }
+            const double cov = sab / m - sa / m * sb / m;
+            return cov / std::sqrt((saa / m - sa / m * sa / m) * (sbb / m - sb / m * sb / m));
+        };
+        int length = 0;
+        while (length < 40 && correlationAt(length + 1) > std::exp(-1.0))
+            ++length;
+        report("{}: correlation length {} voxels ({:.3f} m); neighbours agree {:.2f}",
+               coherent ? "coherent" : "random", length, length * opt.voxelSize,
+               correlationAt(1));
+        if (coherent) {
+            EXPECT_GE(length, 2);
+            EXPECT_LT(length, 12);
+        } else {
+            EXPECT_EQ(length, 0);
+        }
+    }
+}
+
+TEST(BarkPhoto, ABakeRefusesAMissingPhotoBeforeWork)
+{
+    const std::string dir = tempDir();
+    BakeRequest req;
+    req.input = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    req.output = dir + "/never.vdb";
+    req.voxelSize = 0.05;
+    req.barkPhoto = dir + "/missing.jpg";
+    expectInputError([&] { runBake(req); }, "missing.jpg", "missing photo");
+    EXPECT_FALSE(std::filesystem::exists(req.output));
+}
