@@ -111,8 +111,7 @@ TEST(BarkPhoto, EveryFormatGivesTheSameHistogram)
     for (int c = 0; c < 4; ++c)
         EXPECT_NEAR(g.colour(size_t(c)).r, kColours[c].g, 4e-3);
     // A missing or unreadable photo is named.
-    expectInputError([&] { ColourHistogram::fromPhoto(dir + "/none.png"); }, "none.png",
-                     "missing");
+    expectInputError([&] { ColourHistogram::fromPhoto(dir + "/none.png"); }, "none.png", "missing");
     std::ofstream(dir + "/text.png") << "not an image";
     expectInputError([&] { ColourHistogram::fromPhoto(dir + "/text.png"); }, "text.png",
                      "unreadable");
@@ -174,10 +173,11 @@ TEST(BarkPhoto, TheBarksColoursFollowThePhotosHistogram)
         for (double c : counts)
             total += c;
         const double chi = chiSquare(counts, kShares);
-        report("{}: {} surface voxels counted, shares {:.3f} {:.3f} {:.3f} {:.3f} (photo 0.4 0.3 "
-               "0.2 0.1), chi-square {:.2f} (0.001 critical value {})",
-               coherent ? "coherent" : "random", total, counts[0] / total, counts[1] / total,
-               counts[2] / total, counts[3] / total, chi, kChi3At001);
+        report(
+            "{}: {} surface voxels counted, shares {:.3f} {:.3f} {:.3f} {:.3f} (photo 0.4 0.3 "
+            "0.2 0.1), chi-square {:.2f} (0.001 critical value {})",
+            coherent ? "coherent" : "random", total, counts[0] / total, counts[1] / total,
+            counts[2] / total, counts[3] / total, chi, kChi3At001);
         EXPECT_GT(total, 300.0);
         EXPECT_LT(chi, kChi3At001);
         // Spatial correlation of the colour index along x between surface
@@ -198,8 +198,7 @@ TEST(BarkPhoto, TheBarksColoursFollowThePhotosHistogram)
         while (length < 40 && correlationAt(length + 1) > std::exp(-1.0))
             ++length;
         report("{}: correlation length {} voxels ({:.3f} m); neighbours agree {:.2f}",
-               coherent ? "coherent" : "random", length, length * opt.voxelSize,
-               correlationAt(1));
+               coherent ? "coherent" : "random", length, length * opt.voxelSize, correlationAt(1));
         if (coherent) {
             EXPECT_GE(length, 2);
             EXPECT_LT(length, 12);

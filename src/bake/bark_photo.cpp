@@ -46,18 +46,18 @@ uint64_t mix(uint64_t h)
 
 /// The coherent noise before its calibration: two octaves of Perlin noise on
 /// a cylinder of the bark's coordinates (about 30 patches a turn, 25 cm long).
-double coherentNoise(double s, double theta, uint64_t seed)
+double coherentNoise(double s, double cosTheta, double sinTheta, uint64_t seed)
 {
-    const glm::dvec3 offset(double(mix(seed) >> 40) * 1e-4, double(mix(seed + 1) >> 40) * 1e-4,
-                            0.0);
-    double n = 0.0, a = 1.0, f = 1.0;
+    const glm::vec3 offset(float(mix(seed) >> 40) * 1e-4f, float(mix(seed + 1) >> 40) * 1e-4f,
+                           0.0f);
+    float n = 0.0f, a = 1.0f, f = 1.0f;
     for (int o = 0; o < 2; ++o) {
-        const glm::dvec3 p(5.0 * std::cos(theta) * f, 5.0 * std::sin(theta) * f, 4.0 * s * f);
+        const glm::vec3 p(float(5.0 * cosTheta) * f, float(5.0 * sinTheta) * f, float(4.0 * s) * f);
         n += a * glm::perlin(p + offset);
-        a *= 0.5;
-        f *= 2.0;
+        a *= 0.5f;
+        f *= 2.0f;
     }
-    return n;
+    return double(n);
 }
 
 /// The noise's distribution, measured once: 4096 quantiles of 2^18 samples.
@@ -68,7 +68,7 @@ const std::vector<double>& noiseQuantiles()
         for (size_t i = 0; i < v.size(); ++i) {
             const double s = double(mix(i * 2 + 1) >> 11) * 0x1.0p-53 * 50.0;
             const double t = double(mix(i * 2 + 2) >> 11) * 0x1.0p-53 * 6.283185307179586;
-            v[i] = coherentNoise(s, t, 1);
+            v[i] = coherentNoise(s, std::cos(t), std::sin(t), 1);
         }
         std::sort(v.begin(), v.end());
         std::vector<double> out(4097);
@@ -163,10 +163,10 @@ double randomDraw(const openvdb::Coord& v, uint64_t seed)
     return double(mix(h) >> 11) * 0x1.0p-53;
 }
 
-double coherentDraw(double s, double theta, uint64_t seed)
+/// The noise mapped through its measured distribution to [0, 1).
+static double calibrated(double n)
 {
     const std::vector<double>& q = noiseQuantiles();
-    const double n = coherentNoise(s, theta, seed);
     const auto it = std::upper_bound(q.begin(), q.end(), n);
     const size_t k = size_t(it - q.begin());
     if (k == 0)
@@ -177,6 +177,11 @@ double coherentDraw(double s, double theta, uint64_t seed)
     const double lo = q[k - 1], hi = q[k];
     const double f = hi > lo ? (n - lo) / (hi - lo) : 0.0;
     return std::min((double(k - 1) + f) / double(q.size() - 1), std::nextafter(1.0, 0.0));
+}
+
+double coherentDraw(double s, double theta, uint64_t seed)
+{
+    return calibrated(coherentNoise(s, std::cos(theta), std::sin(theta), seed));
 }
 
 size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const ColourHistogram& photo,
@@ -210,8 +215,9 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
         c.s0 = given ? p.bark.s0 : 0.0;
         cones.push_back(c);
     }
-    const double cell = 32.0 * h;
-    auto cellOf = [&](double x) { return int64_t(std::floor(x / cell)); };
+    // Cells of the grid's leaves (8 voxels): each leaf looks its cones up once.
+    const double cell = 8.0 * h;
+    auto cellOf = [&](double x) { return int64_t(std::floor(x / cell + 0.5 / 8.0)); };
     auto key = [](int64_t x, int64_t y, int64_t z) {
         return (uint64_t(x & 0x1FFFFF) << 42) | (uint64_t(y & 0x1FFFFF) << 21) |
                uint64_t(z & 0x1FFFFF);
@@ -221,7 +227,7 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
         for (size_t i = 0; i < cones.size(); ++i) {
             const BarkCone& c = cones[i];
             const glm::dvec3 p1 = c.p0 + c.len * c.axis;
-            const double pad = std::max(c.r0, c.r1) + 3.0 * h;
+            const double pad = std::max(c.r0, c.r1) + 2.0 * h;
             const glm::dvec3 lo = glm::min(c.p0, p1) - pad, hi = glm::max(c.p0, p1) + pad;
             for (int64_t x = cellOf(lo.x); x <= cellOf(hi.x); ++x)
                 for (int64_t y = cellOf(lo.y); y <= cellOf(hi.y); ++y)
@@ -235,10 +241,18 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
     tbb::parallel_for(leaves.leafRange(), [&](const auto& range) {
         auto phi = grids.surface->getConstAccessor();
         size_t count = 0;
-        for (auto leaf = range.begin(); leaf; ++leaf)
+        for (auto leaf = range.begin(); leaf; ++leaf) {
+            const openvdb::Coord o = leaf->origin();
+            const std::vector<uint32_t>* near = nullptr;
+            if (mode == BarkColouring::Coherent) {
+                const auto it = cells.find(key(o.x() >> 3, o.y() >> 3, o.z() >> 3));
+                if (it == cells.end())
+                    continue;
+                near = &it->second;
+            }
             for (auto v = leaf->beginValueOn(); v; ++v) {
                 const openvdb::Coord ijk = v.getCoord();
-                if (std::fabs(phi.getValue(ijk)) > 2.0 * h)
+                if (std::fabs(phi.getValue(ijk)) > 1.5 * h)
                     continue;
                 const openvdb::Vec3f cv = v.getValue();
                 const glm::dvec3 c(cv[0], cv[1], cv[2]);
@@ -251,11 +265,8 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
                 } else {
                     const openvdb::Vec3d w = grids.surface->indexToWorld(ijk);
                     const glm::dvec3 p(w[0], w[1], w[2]);
-                    const auto it = cells.find(key(cellOf(p.x), cellOf(p.y), cellOf(p.z)));
-                    if (it == cells.end())
-                        continue;
-                    double best = 1e300, s = 0.0, theta = 0.0;
-                    for (uint32_t i : it->second) {
+                    double best = 1e300, s = 0.0, ex = 1.0, ey = 0.0;
+                    for (uint32_t i : *near) {
                         const BarkCone& cn = cones[i];
                         const glm::dvec3 d = p - cn.p0;
                         const double tt = glm::dot(d, cn.axis) / cn.len;
@@ -268,17 +279,21 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
                         if (gap < best) {
                             best = gap;
                             s = cn.s0 + tt * cn.len;  // on past the ends, as the furrows
-                            theta = std::atan2(glm::dot(e, cn.side), glm::dot(e, cn.reference));
+                            ex = glm::dot(e, cn.reference);
+                            ey = glm::dot(e, cn.side);
                         }
                     }
                     if (best == 1e300)
                         continue;
-                    u = coherentDraw(s, theta, seed);
+                    const double len = std::hypot(ex, ey);
+                    u = len > 0.0 ? calibrated(coherentNoise(s, ex / len, ey / len, seed))
+                                  : coherentDraw(s, 0.0, seed);
                 }
                 const glm::dvec3 drawn = k * photo.colour(photo.bin(u));
                 v.setValue(openvdb::Vec3f(float(drawn.r), float(drawn.g), float(drawn.b)));
                 ++count;
             }
+        }
         recoloured += count;
     });
     return recoloured;

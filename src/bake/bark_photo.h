@@ -50,7 +50,7 @@ double randomDraw(const openvdb::Coord& voxel, uint64_t seed);
 /// number in [0, 1): smooth in s and theta, periodic in theta.
 double coherentDraw(double s, double theta, uint64_t seed);
 
-/// Recolours the bark of baked grids: every active Cd voxel within two
+/// Recolours the bark of baked grids: every active Cd voxel within 1.5
 /// voxels of the surface whose colour is the bark colour (`bark`) times a
 /// shade k (scars and ridges are darker) becomes k times a colour drawn from
 /// the histogram; other colours (leaves) stay.  The coherent draw takes each
