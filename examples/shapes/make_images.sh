@@ -20,3 +20,15 @@ done
 tree=(--width 480 --height 720 --camera "look:2.2,1.2,3.0:0.1,0.85,0:32")
 picture tree_captured "${tree[@]}"
 picture tree_edit "${tree[@]}"
+# Part 2 (issue 15): blending, the shader, animation.
+picture rusted_fuse --width 640 --height 480 --camera "look:4.5,-2.2,2.6:0,0,1.4:38"
+picture planet --width 640 --height 480 --camera "look:0,0.4,3.4:0,0,0:38"
+picture tree_blend_sharp "${tree[@]}"
+picture tree_blend_soft "${tree[@]}"
+# The tentacle creature at frames 1, 12 and 24: its tentacles grow and turn.
+"$cambium" shape "$here/tentacle_creature.json" --frames 1-24:11 -o "$out/creature.####.vdb"
+for f in 0001 0012 0023; do
+  "$cambium" render "$out/creature.$f.vdb" -o "$out/creature.$f.png" --spp 4 --width 400 --height 400
+done
+oiiotool "$out/creature.0001.png" "$out/creature.0012.png" "$out/creature.0023.png" --mosaic 3x1 \
+  -o "$root/docs/images/shape_tentacle_creature.png"

@@ -2,6 +2,7 @@
 #include "bake/bark_photo.h"
 
 #include "core/error.h"
+#include "core/math.h"
 #include "io/image_file.h"
 
 #include <fmt/format.h>
@@ -79,15 +80,6 @@ const std::vector<double>& noiseQuantiles()
     return q;
 }
 
-glm::dvec3 across(const glm::dvec3& v, const glm::dvec3& axis)
-{
-    const glm::dvec3 w = v - glm::dot(v, axis) * axis;
-    const double len = glm::length(w);
-    if (len > 1e-6)
-        return w / len;
-    const glm::dvec3 other = std::fabs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-    return glm::normalize(other - glm::dot(other, axis) * axis);
-}
 
 /// A cone's axis and bark coordinates.
 struct BarkCone {
@@ -210,7 +202,7 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
         c.r1 = p.r1;
         const bool given = std::fabs(glm::dot(p.bark.reference, c.axis)) < 1e-6 &&
                            std::fabs(glm::length(p.bark.reference) - 1.0) < 1e-9;
-        c.reference = given ? p.bark.reference : across(glm::dvec3(1, 0, 0), c.axis);
+        c.reference = given ? p.bark.reference : unitAcross(glm::dvec3(1, 0, 0), c.axis);
         c.side = glm::cross(c.axis, c.reference);
         c.s0 = given ? p.bark.s0 : 0.0;
         cones.push_back(c);

@@ -30,4 +30,17 @@ inline glm::dvec3 rotateAbout(const glm::dvec3& v, const glm::dvec3& axis, doubl
     return v * c + glm::cross(axis, v) * s + axis * glm::dot(axis, v) * (1.0 - c);
 }
 
+/// The unit vector across `axis` (unit) nearest v: v without its component
+/// along the axis, normalised; when v is (nearly) along the axis, x (or y
+/// when the axis is near x) made so.
+inline glm::dvec3 unitAcross(const glm::dvec3& v, const glm::dvec3& axis)
+{
+    const glm::dvec3 w = v - glm::dot(v, axis) * axis;
+    const double len = glm::length(w);
+    if (len > 1e-6)
+        return w / len;
+    const glm::dvec3 other = std::fabs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    return glm::normalize(other - glm::dot(other, axis) * axis);
+}
+
 }  // namespace cambium

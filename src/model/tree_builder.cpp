@@ -253,15 +253,6 @@ bool continuesBranch(const Skeleton& sk, const Topology& g, size_t i)
     return g.thickest[size_t(p)] == (long long)i;
 }
 
-glm::dvec3 across(const glm::dvec3& v, const glm::dvec3& axis)
-{
-    const glm::dvec3 w = v - glm::dot(v, axis) * axis;
-    const double len = glm::length(w);
-    if (len > 1e-6)
-        return w / len;
-    const glm::dvec3 other = std::fabs(axis.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-    return glm::normalize(other - glm::dot(other, axis) * axis);
-}
 
 BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
 {
@@ -299,7 +290,7 @@ BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
                     const glm::dvec3 u = k / sn;
                     r = r * c + glm::cross(u, r) * sn + u * glm::dot(u, r) * (1.0 - c);
                 }
-                f.reference[i] = across(r, axis);
+                f.reference[i] = unitAcross(r, axis);
                 f.s0[i] = f.s0[p] + glm::length(b.p1 - b.p0);
                 f.phase[i] = f.phase[p];
                 f.next[p] = (long long)i;
@@ -310,7 +301,7 @@ BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
                 const glm::dvec3 up =
                     p >= 0 ? sk.internodes[size_t(p)].p1 - sk.internodes[size_t(p)].p0
                            : glm::dvec3(1.0, 0.0, 0.0);
-                f.reference[i] = across(up, axis);
+                f.reference[i] = unitAcross(up, axis);
                 f.s0[i] = 0.0;
                 uint64_t h = seed * 0x9e3779b97f4a7c15ull ^ uint64_t(a.id) * 0xbf58476d1ce4e5b9ull;
                 h ^= h >> 31;

@@ -78,7 +78,7 @@ inline const std::map<std::string, std::function<void(const std::string&)>>& rea
              if (t == BaseType::Mesh || t == BaseType::LevelSet || t == BaseType::Model)
                  return;
              const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
-             if (base.mesh.faceCount() > 256 || spec.details.size() > 4)
+             if (base.mesh.faceCount() > 256 || allDetails(spec).size() > 4)
                  return;
              ShapeSurface surface(spec, std::min(spec.levels, 2), base);
              surface.synthesize();
