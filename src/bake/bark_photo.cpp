@@ -80,7 +80,6 @@ const std::vector<double>& noiseQuantiles()
     return q;
 }
 
-
 /// A cone's axis and bark coordinates.
 struct BarkCone {
     glm::dvec3 p0, axis, reference, side;

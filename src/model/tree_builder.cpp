@@ -253,7 +253,6 @@ bool continuesBranch(const Skeleton& sk, const Topology& g, size_t i)
     return g.thickest[size_t(p)] == (long long)i;
 }
 
-
 BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
 {
     const size_t n = sk.internodes.size();
