@@ -6,6 +6,7 @@
 #include "bake/levelset.h"
 #include "bake/sampler.h"
 #include "io/image_file.h"
+#include "io/vdb.h"
 #include "model/tree_builder.h"
 #include "test_util.h"
 
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -218,4 +220,37 @@ TEST(BarkPhoto, ABakeRefusesAMissingPhotoBeforeWork)
     req.barkPhoto = dir + "/missing.jpg";
     expectInputError([&] { runBake(req); }, "missing.jpg", "missing photo");
     EXPECT_FALSE(std::filesystem::exists(req.output));
+}
+
+TEST(BarkPhoto, ASceneFileNamesItsPhotoAndTheColourItReplaces)
+{
+    openvdb::initialize();
+    const std::string dir = tempDir();
+    const std::string photo = writePhoto(dir, "uint16");
+    std::ofstream(dir + "/branch.json")
+        << R"({"bark": {"photo": ")" + std::filesystem::path(photo).filename().string() +
+               R"(", "color": [0.5, 0.4, 0.3], "colouring": "random"},
+        "root": {"type": "cone", "p0": [0, 0, 0], "p1": [0, 1, 0], "r0": 0.1, "r1": 0.08,
+                 "color": [0.5, 0.4, 0.3]}})";
+    BakeRequest req;
+    req.input = dir + "/branch.json";
+    req.output = dir + "/branch.vdb";
+    req.voxelSize = 0.01;
+    req.device = Device::Cpu;
+    runBake(req);
+    const ColourHistogram h = ColourHistogram::fromPhoto(photo);
+    const LevelSetGrids g = readLevelSet(req.output);
+    const auto phi = g.surface->getConstAccessor();
+    size_t surface = 0;
+    for (auto v = g.color->cbeginValueOn(); v; ++v)
+        if (std::fabs(phi.getValue(v.getCoord())) < 0.005) {
+            ++surface;
+            ASSERT_LT(h.binOf(glm::dvec3((*v)[0], (*v)[1], (*v)[2])), h.bins());
+        }
+    EXPECT_GT(surface, 1000u);
+    // Without its colour the scene is refused, named.
+    std::ofstream(dir + "/nocolour.json") << R"({"bark": {"photo": "photo_uint16.tif"},
+        "root": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
+    req.input = dir + "/nocolour.json";
+    expectInputError([&] { runBake(req); }, "bark.color: missing", "no colour");
 }

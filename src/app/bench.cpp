@@ -135,6 +135,15 @@ void printShapeTable(const ShapeBenchResult& r)
         r.synthesis, v / r.synthesis * 1e-6, r.synthesis / osd);
     fmt::print("| cambium: an edit of level {} ({} vertices) re-synthesised | {:.4f} | | |\n",
                r.editLevel, r.editVertices, r.edit);
+    const double alone = r.synthesis + r.plainMesh, both = r.blendSynthesis + r.shadedMesh;
+    fmt::print(
+        "\nblending (a second rock across a plane) and the terrain shader, synthesis and the "
+        "coloured mesh:\n\n"
+        "| shape | synthesis | mesh with colours | both | vs the rock alone |\n"
+        "|---|---:|---:|---:|---:|\n"
+        "| the rock alone | {:.3f} | {:.3f} | {:.3f} | 1.00 |\n"
+        "| **blended and shaded** | {:.3f} | {:.3f} | **{:.3f}** | **{:.2f}** |\n",
+        r.synthesis, r.plainMesh, alone, r.blendSynthesis, r.shadedMesh, both, both / alone);
     fmt::print("\nmesh -> level set at voxel size {:g} (half-width 3):\n\n", r.voxelSize);
     fmt::print(
         "| method | seconds (median) | active voxels | M voxels/s | vs OpenVDB |\n"
@@ -183,6 +192,16 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
         if (y.year == lastYear && !paperShown)
             fmt::print("{}", paper);
         paperShown = paperShown || y.year == lastYear;
+        std::fflush(stdout);
+    };
+    callbacks.bark = [&](const GrowthBenchBark& b) {
+        fmt::print(
+            "\nbark furrows (year {}, {} cones with bark), bake medians of 3 in turn: {:.2f} s "
+            "with, {:.2f} s without ({:.2f}x); {} vs {} active voxels; grids {:.0f} vs {:.0f} MB "
+            "({:.2f}x)\n",
+            b.year, b.barkCones, b.withSeconds, b.withoutSeconds, b.withSeconds / b.withoutSeconds,
+            b.withVoxels, b.withoutVoxels, b.withGridBytes / 1e6, b.withoutGridBytes / 1e6,
+            b.withGridBytes / b.withoutGridBytes);
         std::fflush(stdout);
     };
     callbacks.sequence = [&](const GrowthBenchSequence& q) {

@@ -8,6 +8,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "model/growth.h"
+#include "model/tree_builder.h"
 #include "core/clock.h"
 
 #include <fmt/format.h>
@@ -57,6 +58,34 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
                             grids.stats.activeVoxels, modelSeconds, bakeSeconds, writeSeconds,
                             double(std::filesystem::file_size(path)), peakMemoryBytes()});
         std::filesystem::remove(path);
+    }
+    if (model.params().barkDetail.depth > 0.0 && callbacks.bark) {
+        // The bark's cost: the last year with and without furrows, in turn.
+        GrowthBenchBark b;
+        b.year = years.back();
+        const Skeleton sk = model.skeleton(b.year, req.leaves);
+        TreeBuildOptions plain = model.buildOptions();
+        plain.barkDetail.depth = 0.0;
+        const FieldProgram with = FieldProgram::compile(buildTree(sk, model.buildOptions()));
+        const FieldProgram without = FieldProgram::compile(buildTree(sk, plain));
+        b.barkCones = with.barkCount();
+        BakeOptions opt;
+        opt.voxelSize = req.voxelSize;
+        std::vector<double> a, c;
+        for (int run = 0; run < 3; ++run)
+            for (int k = 0; k < 2; ++k) {
+                t0 = Clock::now();
+                const BakedGrids g = bakeLevelSet(k ? without : with, *sampler, opt);
+                (k ? c : a).push_back(secondsSince(t0));
+                (k ? b.withoutVoxels : b.withVoxels) = g.stats.activeVoxels;
+                (k ? b.withoutGridBytes : b.withGridBytes) =
+                    double(g.surface->memUsage() + g.color->memUsage());
+            }
+        std::sort(a.begin(), a.end());
+        std::sort(c.begin(), c.end());
+        b.withSeconds = a[1];
+        b.withoutSeconds = c[1];
+        callbacks.bark(b);
     }
     if (req.fpsPerYear <= 0.0)
         return;

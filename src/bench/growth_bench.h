@@ -44,9 +44,20 @@ struct GrowthBenchSequence {
     int jobs = 0;
 };
 
+/// The last year's bake with the species' bark furrows and without them,
+/// in turn (medians of three pairs): what the bark detail costs.
+struct GrowthBenchBark {
+    int year = 0;
+    size_t barkCones = 0;
+    double withSeconds = 0.0, withoutSeconds = 0.0;
+    size_t withVoxels = 0, withoutVoxels = 0;
+    double withGridBytes = 0.0, withoutGridBytes = 0.0;  ///< the grids in memory
+};
+
 struct GrowthBenchCallbacks {
     std::function<void(const GrowthBenchSetup&)> setup;
     std::function<void(const GrowthBenchYear&)> year;
+    std::function<void(const GrowthBenchBark&)> bark;
     std::function<void(const GrowthBenchSequence&)> sequence;
 };
 

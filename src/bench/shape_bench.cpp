@@ -37,6 +37,27 @@ ShapeSpec rockSphere(int levels)
     return s;
 }
 
+/// rockSphere blended with a second rock (another seed and frequency) across
+/// a plane through the centre, then shaded by the terrain shader.
+ShapeSpec blendedRockSphere(int levels)
+{
+    ShapeSpec s = rockSphere(levels);
+    s.blend.enabled = true;
+    s.blend.a.details = s.details;
+    DetailSpec other = s.details.front();
+    other.seed = 11;
+    other.frequency = 4.0;
+    s.blend.b.details = {other};
+    s.details.clear();
+    s.blend.alpha.type = AlphaType::Plane;
+    s.blend.alpha.normal = glm::dvec3(1.0, 0.0, 0.0);
+    s.blend.width = 0.5;
+    s.shader.enabled = true;
+    s.shader.snowLine = 0.05;
+    s.shader.relief = 0.5;
+    return s;
+}
+
 /// OpenSubdiv alone: a refiner for the mesh, then its points refined level
 /// by level (double xyz), as a user of OpenSubdiv would subdivide it.
 void openSubdiv(const ControlMesh& mesh, int levels, double& topology, double& interpolate,
@@ -88,8 +109,10 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
     r.levels = req.levels;
     const ShapeSpec spec = rockSphere(req.levels);
     const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
-    std::vector<double> osdTop, osdInt, setup, synth, plain, edit;
+    std::vector<double> osdTop, osdInt, setup, synth, plain, edit, blendSynth, plainMesh,
+        shadedMesh;
     std::unique_ptr<ShapeSurface> shape;
+    const ShapeSpec blended = blendedRockSphere(req.levels);
     for (int run = 0; run < req.repeats; ++run) {
         say("OpenSubdiv uniform refinement");
         double a, b;
@@ -107,6 +130,21 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
         t = Clock::now();
         shape->surface().synthesize();  // the details as they are, no hook: plain
         plain.push_back(secondsSince(t));
+        shape->synthesize();
+        t = Clock::now();
+        shape->mesh();
+        plainMesh.push_back(secondsSince(t));
+
+        say("cambium synthesis, blended and shaded");
+        {
+            ShapeSurface mixed(blended, -1, base);
+            t = Clock::now();
+            mixed.synthesize();
+            blendSynth.push_back(secondsSince(t));
+            t = Clock::now();
+            mixed.mesh();
+            shadedMesh.push_back(secondsSince(t));
+        }
     }
     // An edit at the edit level: that level's details scaled near a point,
     // then re-synthesised from there.
@@ -136,6 +174,9 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
     r.synthesis = medianOf(synth);
     r.plainSynthesis = medianOf(plain);
     r.edit = medianOf(edit);
+    r.blendSynthesis = medianOf(blendSynth);
+    r.plainMesh = medianOf(plainMesh);
+    r.shadedMesh = medianOf(shadedMesh);
 
     // Mesh -> level set, both ways, on the finest mesh.
     shape->synthesize();

@@ -25,6 +25,11 @@ struct ShapeBenchResult {
     double setup = 0.0;           ///< cambium: topology and the sphere's fitted details
     double synthesis = 0.0;       ///< cambium: every level subdivided, framed, rock added
     double plainSynthesis = 0.0;  ///< cambium: the same without details (frames included)
+    /// The same rock blended with a second rock across a plane (both sides'
+    /// details, the alpha, the blend parameter's channels) and shaded by the
+    /// terrain shader, against the rock alone: synthesis, then the mesh with
+    /// its colours (where the shader runs).
+    double blendSynthesis = 0.0, plainMesh = 0.0, shadedMesh = 0.0;
     int editLevel = 0;
     size_t editVertices = 0;
     double edit = 0.0;  ///< re-synthesis of the edit level after its details changed

@@ -261,13 +261,16 @@ BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
     f.reference.assign(n, glm::dvec3(0.0));
     f.phase.assign(n, 0.0);
     f.next.assign(n, -1);
-    std::vector<char> done(n, 0);
+    std::vector<char> done(n, 0), visiting(n, 0);
     std::vector<size_t> chain;
     for (size_t start = 0; start < n; ++start) {
         // Up to the first internode whose frame is known or that begins a branch.
+        // (A cycle of parents, which a malformed skeleton may hold, ends the
+        // walk where it closes: that internode begins a branch.)
         chain.clear();
-        for (size_t i = start; !done[i];) {
+        for (size_t i = start; !done[i] && !visiting[i];) {
             chain.push_back(i);
+            visiting[i] = 1;
             if (!continuesBranch(sk, g, i))
                 break;
             i = size_t(g.parent[i]);
@@ -276,7 +279,7 @@ BarkFrames barkFrames(const Skeleton& sk, const Topology& g, uint64_t seed)
             const size_t i = *it;
             const Internode& a = sk.internodes[i];
             const glm::dvec3 axis = glm::normalize(a.p1 - a.p0);
-            if (continuesBranch(sk, g, i)) {
+            if (continuesBranch(sk, g, i) && done[size_t(g.parent[i])]) {
                 const size_t p = size_t(g.parent[i]);
                 const Internode& b = sk.internodes[p];
                 const glm::dvec3 from = glm::normalize(b.p1 - b.p0);
