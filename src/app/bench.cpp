@@ -135,15 +135,15 @@ void printShapeTable(const ShapeBenchResult& r)
         r.synthesis, v / r.synthesis * 1e-6, r.synthesis / osd);
     fmt::print("| cambium: an edit of level {} ({} vertices) re-synthesised | {:.4f} | | |\n",
                r.editLevel, r.editVertices, r.edit);
-    const double alone = r.synthesis + r.plainMesh, both = r.blendSynthesis + r.shadedMesh;
+    const double alone = r.aloneSynthesis + r.plainMesh, both = r.blendSynthesis + r.shadedMesh;
     fmt::print(
         "\nblending (a second rock across a plane) and the terrain shader, synthesis and the "
-        "coloured mesh:\n\n"
+        "coloured mesh of a surface made once (as a sequence's frames):\n\n"
         "| shape | synthesis | mesh with colours | both | vs the rock alone |\n"
         "|---|---:|---:|---:|---:|\n"
         "| the rock alone | {:.3f} | {:.3f} | {:.3f} | 1.00 |\n"
         "| **blended and shaded** | {:.3f} | {:.3f} | **{:.3f}** | **{:.2f}** |\n",
-        r.synthesis, r.plainMesh, alone, r.blendSynthesis, r.shadedMesh, both, both / alone);
+        r.aloneSynthesis, r.plainMesh, alone, r.blendSynthesis, r.shadedMesh, both, both / alone);
     fmt::print("\nmesh -> level set at voxel size {:g} (half-width 3):\n\n", r.voxelSize);
     fmt::print(
         "| method | seconds (median) | active voxels | M voxels/s | vs OpenVDB |\n"

@@ -11,7 +11,10 @@
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <openvdb/tools/MeshToVolume.h>
 
+#include <malloc.h>
+
 #include <cmath>
+#include <limits>
 #include <memory>
 
 namespace cambium {
@@ -105,14 +108,20 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
         if (progress)
             progress(s);
     };
+    // Freed memory kept for reuse (no trimming, no mmap for large blocks):
+    // otherwise which method gets pages already faulted in and which new
+    // ones (about 8 us each on the 2-core VM) depends on the order of the
+    // methods, and the stages' times measure the kernel's page faults.  The
+    // first run of each pays them; the medians are of the warm runs.
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
+    mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
     ShapeBenchResult r;
     r.levels = req.levels;
     const ShapeSpec spec = rockSphere(req.levels);
     const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
-    std::vector<double> osdTop, osdInt, setup, synth, plain, edit, blendSynth, plainMesh,
-        shadedMesh;
+    std::vector<double> osdTop, osdInt, setup, synth, plain, edit, aloneSynth, blendSynth,
+        plainMesh, shadedMesh;
     std::unique_ptr<ShapeSurface> shape;
-    const ShapeSpec blended = blendedRockSphere(req.levels);
     for (int run = 0; run < req.repeats; ++run) {
         say("OpenSubdiv uniform refinement");
         double a, b;
@@ -130,21 +139,6 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
         t = Clock::now();
         shape->surface().synthesize();  // the details as they are, no hook: plain
         plain.push_back(secondsSince(t));
-        shape->synthesize();
-        t = Clock::now();
-        shape->mesh();
-        plainMesh.push_back(secondsSince(t));
-
-        say("cambium synthesis, blended and shaded");
-        {
-            ShapeSurface mixed(blended, -1, base);
-            t = Clock::now();
-            mixed.synthesize();
-            blendSynth.push_back(secondsSince(t));
-            t = Clock::now();
-            mixed.mesh();
-            shadedMesh.push_back(secondsSince(t));
-        }
     }
     // An edit at the edit level: that level's details scaled near a point,
     // then re-synthesised from there.
@@ -168,12 +162,35 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
             edit.push_back(secondsSince(t));
         }
     }
+    // Synthesis and the coloured mesh of a surface made once, as a
+    // sequence's frames do them (the first run's pages fresh, then reused),
+    // the rock alone and blended, in turn.
+    {
+        ShapeSurface alone(spec, -1, base), mixed(blendedRockSphere(req.levels), -1, base);
+        for (int run = 0; run < req.repeats; ++run) {
+            say("cambium synthesis and mesh, the rock alone");
+            auto t = Clock::now();
+            alone.synthesize();
+            aloneSynth.push_back(secondsSince(t));
+            t = Clock::now();
+            alone.mesh();
+            plainMesh.push_back(secondsSince(t));
+            say("cambium synthesis and mesh, blended and shaded");
+            t = Clock::now();
+            mixed.synthesize();
+            blendSynth.push_back(secondsSince(t));
+            t = Clock::now();
+            mixed.mesh();
+            shadedMesh.push_back(secondsSince(t));
+        }
+    }
     r.osdTopology = medianOf(osdTop);
     r.osdInterpolate = medianOf(osdInt);
     r.setup = medianOf(setup);
     r.synthesis = medianOf(synth);
     r.plainSynthesis = medianOf(plain);
     r.edit = medianOf(edit);
+    r.aloneSynthesis = medianOf(aloneSynth);
     r.blendSynthesis = medianOf(blendSynth);
     r.plainMesh = medianOf(plainMesh);
     r.shadedMesh = medianOf(shadedMesh);

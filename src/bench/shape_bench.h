@@ -28,8 +28,9 @@ struct ShapeBenchResult {
     /// The same rock blended with a second rock across a plane (both sides'
     /// details, the alpha, the blend parameter's channels) and shaded by the
     /// terrain shader, against the rock alone: synthesis, then the mesh with
-    /// its colours (where the shader runs).
-    double blendSynthesis = 0.0, plainMesh = 0.0, shadedMesh = 0.0;
+    /// its colours (where the shader runs), each on a surface made once (as
+    /// a sequence's frames are).
+    double aloneSynthesis = 0.0, blendSynthesis = 0.0, plainMesh = 0.0, shadedMesh = 0.0;
     int editLevel = 0;
     size_t editVertices = 0;
     double edit = 0.0;  ///< re-synthesis of the edit level after its details changed

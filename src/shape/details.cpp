@@ -71,12 +71,14 @@ void addWorld(SubdivLevel& level, size_t v, const glm::dvec3& w, const DetailSpe
 class Rock : public Detail {
 public:
     explicit Rock(const DetailSpec& d) : d_(d) {}
-    void apply(int l, SubdivLevel& level, const Adjacency&) override
+    void apply(int l, SubdivLevel& level, const Adjacency&, const VertexMask* mask) override
     {
         const int k = levelIndex(d_, l);
         if (k < 0)
             return;
         forEachIndex(level.vertexCount(), [&](size_t v) {
+            if (!wanted(mask, v))
+                return;
             const double value =
                 d_.perControlPoint
                     ? rockControlValue(int(v), l, k, d_.amplitude, d_.seed)
@@ -100,7 +102,7 @@ struct Dome {
 class Berry : public Detail {
 public:
     explicit Berry(const DetailSpec& d) : d_(d) {}
-    void apply(int l, SubdivLevel& level, const Adjacency&) override
+    void apply(int l, SubdivLevel& level, const Adjacency&, const VertexMask* mask) override
     {
         const int k = levelIndex(d_, l);
         if (k < 0)
@@ -113,6 +115,8 @@ public:
             largest = std::max(largest, domes[i].radius);
         }
         forEachIndex(level.vertexCount(), [&](size_t v) {
+            if (!wanted(mask, v))
+                return;
             // The nearest seed (section 4.2.2: each point belongs to one).
             const glm::dvec3 q = level.subdivided[v];
             double best = kInf;
@@ -167,7 +171,7 @@ private:
 class Tentacle : public Detail {
 public:
     explicit Tentacle(const DetailSpec& d) : d_(d) {}
-    void apply(int l, SubdivLevel& level, const Adjacency&) override
+    void apply(int l, SubdivLevel& level, const Adjacency&, const VertexMask*) override
     {
         const int k = levelIndex(d_, l);
         if (k < 0)
@@ -195,7 +199,7 @@ private:
 class Spur : public Detail {
 public:
     explicit Spur(const DetailSpec& d) : d_(d) {}
-    void apply(int l, SubdivLevel& level, const Adjacency& adj) override
+    void apply(int l, SubdivLevel& level, const Adjacency& adj, const VertexMask*) override
     {
         const int k = levelIndex(d_, l);
         if (k < 0)
@@ -276,7 +280,7 @@ class Mushroom : public Detail {
 public:
     explicit Mushroom(const DetailSpec& d) : d_(d) {}
 
-    void apply(int l, SubdivLevel& level, const Adjacency&) override
+    void apply(int l, SubdivLevel& level, const Adjacency&, const VertexMask* mask) override
     {
         const int k = levelIndex(d_, l);
         if (k < 0)
@@ -294,6 +298,8 @@ public:
         const double share = double(j) / (0.5 * m * (m + 1));
         const double R = d_.radius, Rs = R / 3.0, H = d_.height;
         forEachIndex(level.vertexCount(), [&](size_t v) {
+            if (!wanted(mask, v))
+                return;
             const glm::dvec3 q = level.subdivided[v];
             for (const Seed& s : seeds_) {
                 const glm::dvec3 d = q - s.centre;
@@ -446,7 +452,7 @@ size_t rockFoldsOnAPlane(const DetailSpec& rock, double edge)
     s.synthesize([&](int l, SubdivLevel& lv) {
         std::fill(lv.detail.begin(), lv.detail.end(), glm::dvec3(0.0));
         if (l > 0)
-            detail.apply(l, lv, Adjacency(lv));
+            detail.apply(l, lv, Adjacency(lv), nullptr);
     });
     const SubdivLevel& f = s.finest();
     size_t flipped = 0;

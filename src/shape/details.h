@@ -133,13 +133,24 @@ glm::dvec3 tentacleDetail(double referenceLength, double theta, int level);
 /// A dome of radius R at distance r: R (1 - r^2 / R^2)^(1/2), 0 for r >= R.
 double domeHeight(double r, double R);
 
+/// The vertices of a level whose details are wanted (a blend side's, where
+/// its alpha is not 0): null for all.
+using VertexMask = std::vector<uint8_t>;
+inline bool wanted(const VertexMask* mask, size_t v)
+{
+    return !mask || (*mask)[v];
+}
+
 /// One detail of a shape, applied level by level during synthesis.
 class Detail {
 public:
     virtual ~Detail() = default;
     /// Adds its part to level `l`'s detail and scalarDetail (Q and frames are
-    /// set).  Called for every level, in order, from the first re-synthesised.
-    virtual void apply(int l, SubdivLevel& level, const Adjacency& adjacency) = 0;
+    /// set) at least at the vertices of `mask` (all when null; elsewhere it
+    /// may skip them: their details are not used).  Called for every level,
+    /// in order, from the first re-synthesised.
+    virtual void apply(int l, SubdivLevel& level, const Adjacency& adjacency,
+                       const VertexMask* mask = nullptr) = 0;
 };
 
 std::unique_ptr<Detail> makeDetail(const DetailSpec& spec);

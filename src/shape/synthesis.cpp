@@ -140,17 +140,15 @@ void ShapeSurface::makeDetails()
         details_.push_back(makeDetail(d));
     alpha_.assign(size_t(spec_.levels) + 1, {});
     alphaSignal_.reset();
-    for (int side = 0; side < 2; ++side) {
-        sideDetails_[side].clear();
-        influence_[side].clear();
-    }
+    for (auto& side : sideDetails_)
+        side.clear();
+    influence_.clear();
     if (spec_.blend.enabled) {
         for (int side = 0; side < 2; ++side)
             for (const DetailSpec& d : (side ? spec_.blend.b : spec_.blend.a).details)
                 sideDetails_[side].push_back(makeDetail(d));
         alphaSignal_ = std::make_unique<AlphaSignal>(spec_.blend.alpha, spec_.source);
-        for (auto& i : influence_)
-            i.resize(size_t(spec_.levels) + 1);
+        influence_.resize(size_t(spec_.levels) + 1);
     }
 }
 
@@ -174,9 +172,7 @@ const Adjacency& ShapeSurface::adjacency(int l)
     return *a;
 }
 
-void ShapeSurface::applyDetails(int l, SubdivLevel& level, bool base,
-                                const std::vector<std::unique_ptr<Detail>>& details,
-                                const std::vector<EditSpec>& edits)
+void ShapeSurface::resetDetails(int l, SubdivLevel& level, bool base) const
 {
     const std::vector<glm::dvec3>& given = baseDetail_[size_t(l)];
     if (given.empty() || !base)
@@ -184,10 +180,16 @@ void ShapeSurface::applyDetails(int l, SubdivLevel& level, bool base,
     else
         level.detail = given;
     std::fill(level.scalarDetail.begin(), level.scalarDetail.end(), 0.0);
+}
+
+void ShapeSurface::addDetails(int l, SubdivLevel& level,
+                              const std::vector<std::unique_ptr<Detail>>& details,
+                              const std::vector<EditSpec>& edits, const VertexMask* mask)
+{
     if (l == 0)
         return;
     for (auto& d : details)
-        d->apply(l, level, adjacency(l));
+        d->apply(l, level, adjacency(l), mask);
     for (const EditSpec& e : edits)
         applyEdit(e, l, level, adjacency(l));
 }
@@ -196,38 +198,45 @@ void ShapeSurface::hook(int l, SubdivLevel& level)
 {
     const BlendSpec& blend = spec_.blend;
     if (!blend.enabled) {
-        applyDetails(l, level, true, details_, spec_.edits);
+        resetDetails(l, level, true);
+        addDetails(l, level, details_, spec_.edits, nullptr);
         return;
     }
-    // Each side's details on the blended surface's level, then their linear
-    // combination by the level's alpha (the coarser levels already blended).
+    // Each side's details on the blended surface's level where its alpha is
+    // not 0, then their linear combination by the level's alpha (the coarser
+    // levels already blended), then the details both share.
     const size_t n = level.vertexCount();
     std::vector<double>& alpha = alpha_[size_t(l)];
     alpha = alphaSignal_->evaluate(level.subdivided, transitionWidth(blend, l));
-    applyDetails(l, level, blend.a.baseDetail, sideDetails_[0], blend.a.edits);
-    const std::vector<glm::dvec3> detailA = level.detail;
-    const std::vector<double> scalarA = level.scalarDetail;
-    applyDetails(l, level, blend.b.baseDetail, sideDetails_[1], blend.b.edits);
-    std::vector<double> influence[2];
-    for (int side = 0; side < 2; ++side)
-        influence[side] = l == 0 ? std::vector<double>(n, 0.0)
-                                 : surface_->subdivideValues(l, influence_[side][size_t(l) - 1]);
+    VertexMask wantA(n), wantB(n);
+    forEachIndex(n, [&](size_t v) {
+        wantA[v] = alpha[v] > 0.0;
+        wantB[v] = alpha[v] < 1.0;
+    });
+    std::vector<glm::dvec3> detailA(n);
+    std::vector<double> scalarA(n);
+    resetDetails(l, level, blend.a.baseDetail);
+    addDetails(l, level, sideDetails_[0], blend.a.edits, &wantA);
+    std::swap(level.detail, detailA);
+    std::swap(level.scalarDetail, scalarA);
+    resetDetails(l, level, blend.b.baseDetail);
+    addDetails(l, level, sideDetails_[1], blend.b.edits, &wantB);
+    // Each side's influence (x: A, y: B), carried through the subdivision.
+    std::vector<glm::dvec2> influence =
+        l == 0 ? std::vector<glm::dvec2>(n, glm::dvec2(0.0))
+               : surface_->subdivideValues(l, influence_[size_t(l) - 1]);
     forEachIndex(n, [&](size_t v) {
         const double a = alpha[v];
-        influence[0][v] += a * (glm::length(detailA[v]) + std::fabs(scalarA[v]));
-        influence[1][v] +=
-            (1.0 - a) * (glm::length(level.detail[v]) + std::fabs(level.scalarDetail[v]));
+        if (a > 0.0)
+            influence[v].x += a * (glm::length(detailA[v]) + std::fabs(scalarA[v]));
+        if (a < 1.0)
+            influence[v].y +=
+                (1.0 - a) * (glm::length(level.detail[v]) + std::fabs(level.scalarDetail[v]));
         level.detail[v] = blendValue(detailA[v], level.detail[v], a);
         level.scalarDetail[v] = blendValue(scalarA[v], level.scalarDetail[v], a);
     });
-    for (int side = 0; side < 2; ++side)
-        influence_[side][size_t(l)] = std::move(influence[side]);
-    if (l == 0)
-        return;
-    for (auto& d : details_)
-        d->apply(l, level, adjacency(l));
-    for (const EditSpec& e : spec_.edits)
-        applyEdit(e, l, level, adjacency(l));
+    influence_[size_t(l)] = std::move(influence);
+    addDetails(l, level, details_, spec_.edits, nullptr);
 }
 
 std::vector<double> ShapeSurface::blendParameter() const
@@ -238,7 +247,7 @@ std::vector<double> ShapeSurface::blendParameter() const
     const size_t L = size_t(levels());
     std::vector<double> beta(n);
     forEachIndex(n, [&](size_t v) {
-        const double a = influence_[0][L][v], b = influence_[1][L][v];
+        const double a = influence_[L][v].x, b = influence_[L][v].y;
         beta[v] = a + b > 0.0 ? std::clamp(a / (a + b), 0.0, 1.0) : alpha_[L][v];
     });
     return beta;
@@ -269,23 +278,24 @@ TriangleMesh ShapeSurface::mesh() const
 {
     const SubdivLevel& f = surface_->finest();
     const size_t n = f.vertexCount();
-    const std::vector<double> beta = blendParameter();
+    const std::vector<double> beta = spec_.blend.enabled ? blendParameter() : std::vector<double>();
+    auto betaAt = [&](size_t v) { return beta.empty() ? 1.0 : beta[v]; };
     if (!spec_.shader.enabled) {
         TriangleMesh m = levelMesh(f);
         m.colors.resize(n);
-        for (size_t v = 0; v < n; ++v) {
-            const glm::dvec3 c = shapeColor(spec_.color, f.scalar[v], beta[v]);
+        forEachIndex(n, [&](size_t v) {
+            const glm::dvec3 c = shapeColor(spec_.color, f.scalar[v], betaAt(v));
             m.colors[v] = openvdb::Vec3s(float(c.x), float(c.y), float(c.z));
-        }
+        });
         return m;
     }
-    // The post-blend shader: heights along the synthesised surface's normals.
-    const std::vector<glm::dvec3> normal = vertexNormals(f, f.points);
+    // The post-blend shader: heights along the finest level's normals (its
+    // frames', the surface its last details displace).
     std::vector<glm::dvec3> points(n);
     std::vector<openvdb::Vec3s> colors(n);
     forEachIndex(n, [&](size_t v) {
-        const Shade s = shade(spec_.shader, f.scalar[v], beta[v]);
-        points[v] = f.points[v] + s.height * normal[v];
+        const Shade s = shade(spec_.shader, f.scalar[v], betaAt(v));
+        points[v] = f.points[v] + s.height * f.frames[v].n;
         colors[v] = openvdb::Vec3s(float(s.color.x), float(s.color.y), float(s.color.z));
     });
     TriangleMesh m = levelMesh(f, &points);

@@ -82,10 +82,12 @@ public:
 private:
     void makeDetails();
     void hook(int l, SubdivLevel& level);
-    /// Level l's details from the base (or zero) and `details` and `edits`.
-    void applyDetails(int l, SubdivLevel& level, bool base,
-                      const std::vector<std::unique_ptr<Detail>>& details,
-                      const std::vector<EditSpec>& edits);
+    /// Level l's details set to the base's (`base` and the base has them)
+    /// or zero.
+    void resetDetails(int l, SubdivLevel& level, bool base) const;
+    /// `details` (at least at `mask`'s vertices) and `edits` added to level l's.
+    void addDetails(int l, SubdivLevel& level, const std::vector<std::unique_ptr<Detail>>& details,
+                    const std::vector<EditSpec>& edits, const VertexMask* mask);
     const Adjacency& adjacency(int l);
 
     ShapeSpec spec_;
@@ -94,10 +96,12 @@ private:
     std::vector<std::vector<glm::dvec3>> baseDetail_;
     std::vector<std::unique_ptr<Detail>> details_;
     std::vector<std::unique_ptr<Adjacency>> adjacency_;
-    // A blend's sides, signal, and per level its alpha and each side's influence.
+    // A blend's sides, signal, and per level its alpha and the sides'
+    // influence (x: A, y: B).
     std::vector<std::unique_ptr<Detail>> sideDetails_[2];
     std::unique_ptr<AlphaSignal> alphaSignal_;
-    std::vector<std::vector<double>> alpha_, influence_[2];
+    std::vector<std::vector<double>> alpha_;
+    std::vector<std::vector<glm::dvec2>> influence_;
 };
 
 /// The colour a shape's colour spec gives a point of scalar s and blend

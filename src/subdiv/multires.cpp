@@ -19,26 +19,22 @@ namespace Sdc = OpenSubdiv::Sdc;
 
 namespace {
 
-/// Far's primvar interface (Clear, AddWithWeight) over plain arrays of points
-/// or scalars, through proxies, so that the surface stores glm vectors.
-struct PointRef {
-    glm::dvec3& p;
-    void Clear(void* = nullptr) { p = glm::dvec3(0.0); }
-    void AddWithWeight(const PointRef& s, double w) { p += w * s.p; }
+/// Far's primvar interface (Clear, AddWithWeight) over plain arrays of
+/// values (points, scalars, pairs), through proxies, so that the surface
+/// stores glm vectors.
+template <class T>
+struct ValueRef {
+    T& v;
+    void Clear(void* = nullptr) { v = T(0.0); }
+    void AddWithWeight(const ValueRef& s, double w) { v += w * s.v; }
 };
-struct PointView {
-    glm::dvec3* data;
-    PointRef operator[](int i) const { return {data[i]}; }
+template <class T>
+struct ValueView {
+    T* data;
+    ValueRef<T> operator[](int i) const { return {data[i]}; }
 };
-struct ScalarRef {
-    double& v;
-    void Clear(void* = nullptr) { v = 0.0; }
-    void AddWithWeight(const ScalarRef& s, double w) { v += w * s.v; }
-};
-struct ScalarView {
-    double* data;
-    ScalarRef operator[](int i) const { return {data[i]}; }
-};
+using PointView = ValueView<glm::dvec3>;
+using ScalarView = ValueView<double>;
 
 glm::dvec3 anyPerpendicular(const glm::dvec3& n)
 {
@@ -216,14 +212,16 @@ void MultiresSurface::subdivide(int l)
     refiner_->primvar->Interpolate(l, ScalarView{coarse.scalar.data()}, dstScalar);
 }
 
-std::vector<double> MultiresSurface::subdivideValues(int l, const std::vector<double>& coarse) const
+std::vector<glm::dvec2> MultiresSurface::subdivideValues(
+    int l, const std::vector<glm::dvec2>& coarse) const
 {
     if (l < 1 || l > levels() || coarse.size() != levels_[size_t(l) - 1].vertexCount())
         throw std::logic_error("subdivideValues: not a level's values");
-    std::vector<double> fine(levels_[size_t(l)].vertexCount());
-    std::vector<double> from = coarse;  // Far's interface takes non-const sources
-    ScalarView dst{fine.data()};
-    refiner_->primvar->Interpolate(l, ScalarView{from.data()}, dst);
+    std::vector<glm::dvec2> fine(levels_[size_t(l)].vertexCount());
+    // Far's interface takes the sources through the same view; it only reads them.
+    ValueView<glm::dvec2> dst{fine.data()};
+    refiner_->primvar->Interpolate(l, ValueView<glm::dvec2>{const_cast<glm::dvec2*>(coarse.data())},
+                                   dst);
     return fine;
 }
 

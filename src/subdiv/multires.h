@@ -105,9 +105,9 @@ public:
     /// evaluation of the finest points), and their unit limit normals.
     void limit(std::vector<glm::dvec3>& position, std::vector<glm::dvec3>& normal) const;
 
-    /// Values per vertex of level l - 1 subdivided to level l, as the
-    /// scalar channel is (another channel carried through the levels).
-    std::vector<double> subdivideValues(int l, const std::vector<double>& coarse) const;
+    /// Pairs of values per vertex of level l - 1 subdivided to level l, as
+    /// the scalar channel is (other channels carried through the levels).
+    std::vector<glm::dvec2> subdivideValues(int l, const std::vector<glm::dvec2>& coarse) const;
 
 private:
     void subdivide(int l);  // level l's Q and scalar from level l - 1
