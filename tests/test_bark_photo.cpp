@@ -5,6 +5,7 @@
 #include "bake/bark_photo.h"
 #include "bake/levelset.h"
 #include "bake/sampler.h"
+#include "core/error.h"
 #include "io/image_file.h"
 #include "io/vdb.h"
 #include "model/tree_builder.h"
@@ -12,6 +13,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -253,4 +255,28 @@ TEST(BarkPhoto, ASceneFileNamesItsPhotoAndTheColourItReplaces)
         "root": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
     req.input = dir + "/nocolour.json";
     expectInputError([&] { runBake(req); }, "bark.color: missing", "no colour");
+    // A colouring that is neither, in a scene file and in a species file,
+    // is refused with its path, as is a species file's missing photo.
+    req.output = dir + "/never.vdb";
+    std::ofstream(dir + "/sideways.json")
+        << R"({"bark": {"photo": "photo_uint16.tif", "color": [0.5, 0.4, 0.3],
+                        "colouring": "sideways"},
+        "root": {"type": "sphere", "center": [0, 0, 0], "radius": 1}})";
+    req.input = dir + "/sideways.json";
+    expectInputError([&] { runBake(req); },
+                     R"(bark.colouring: must be "coherent" or "random" (got 'sideways'))",
+                     "scene colouring");
+    nlohmann::json species = nlohmann::json::parse(
+        readTextFile(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json", "species"));
+    species["bark"]["colouring"] = "sideways";
+    std::ofstream(dir + "/species.json") << species.dump();
+    req.input = dir + "/species.json";
+    expectInputError([&] { runBake(req); },
+                     R"(bark.colouring: must be "coherent" or "random" (got 'sideways'))",
+                     "species colouring");
+    species["bark"]["colouring"] = "random";
+    species["bark"]["photo"] = "no_such_photo.jpg";
+    std::ofstream(dir + "/species.json") << species.dump();
+    expectInputError([&] { runBake(req); }, "bark.photo", "species photo");
+    EXPECT_FALSE(std::filesystem::exists(req.output));
 }

@@ -10,7 +10,9 @@
 #include "core/frames.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cstdlib>
 
 namespace cambium {
@@ -114,10 +116,11 @@ void addBakeCommand(CLI::App& app, Action& action)
                 parseFrames(request.frames);
             checkBakeOptions(req);
             if (!o->colouring.empty()) {
-                if (o->colouring != "coherent" && o->colouring != "random")
-                    throw InputError(fmt::format(
-                        "--bark-colouring must be coherent or random (got '{}')", o->colouring));
-                req.barkCoherent = o->colouring == "coherent";
+                const auto& names = kBarkColourings;
+                if (std::find(names.begin(), names.end(), o->colouring) == names.end())
+                    throw InputError(fmt::format("--bark-colouring must be {} (got '{}')",
+                                                 fmt::join(names, " or "), o->colouring));
+                req.barkCoherent = o->colouring == names.front();
             }
             if (!req.barkPhoto.empty())
                 checkInputFile(req.barkPhoto, "bark photo");

@@ -70,6 +70,9 @@ struct BarkLook {
     bool coherent = true;
 };
 
+/// The colourings' names in files and options: "coherent" (coherent true), "random".
+inline const std::vector<std::string> kBarkColourings{"coherent", "random"};
+
 /// Parameters of a primitive.  Radii are surface radii of the isolated
 /// primitive at the tree's threshold.
 struct Primitive {

@@ -98,29 +98,17 @@ private:
                "primitives the photo recolours)");
         checkKeys(j, "bark", {"photo", "color", "colouring"});
         BarkLook look;
-        const std::string f = string(required(j, "photo", "bark"), "bark.photo");
-        const std::filesystem::path fp(f);
-        const std::string dir = std::filesystem::path(source()).parent_path().string();
         look.photo =
-            fp.is_absolute() || dir.empty() ? f : (std::filesystem::path(dir) / fp).string();
-        try {
-            checkInputFile(look.photo, "bark photo");
-        } catch (const InputError& e) {
-            fail("bark.photo", e.what());
-        }
+            inputFile(required(j, "photo", "bark"), "bark.photo",
+                      std::filesystem::path(source()).parent_path().string(), "bark photo");
         const glm::dvec3 c =
             vec3(required(j, "color", "bark", "the colour of the bark's primitives"), "bark.color");
         for (int k = 0; k < 3; ++k)
             if (!(c[k] >= 0.0 && c[k] <= 1.0))
                 fail(fmt::format("bark.color[{}]", k), "must be from 0 to 1");
         look.color = c;
-        if (j.contains("colouring")) {
-            const std::string m = string(j["colouring"], "bark.colouring");
-            if (m != "coherent" && m != "random")
-                fail("bark.colouring",
-                     fmt::format("must be \"coherent\" or \"random\" (got '{}')", m));
-            look.coherent = m == "coherent";
-        }
+        if (j.contains("colouring"))
+            look.coherent = choice(j["colouring"], "bark.colouring", kBarkColourings) == 0;
         return look;
     }
 

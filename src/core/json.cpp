@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <set>
 #include <vector>
 
@@ -274,6 +275,37 @@ std::string JsonValidator::string(const json& j, const std::string& path) const
     if (!j.is_string())
         fail(path, fmt::format("must be a string (got {})", jsonKind(j)));
     return j.get<std::string>();
+}
+
+size_t JsonValidator::choice(const json& j, const std::string& path,
+                             const std::vector<std::string>& names) const
+{
+    const std::string s = string(j, path);
+    const auto it = std::find(names.begin(), names.end(), s);
+    if (it != names.end())
+        return size_t(it - names.begin());
+    std::vector<std::string> quoted;
+    for (const std::string& n : names)
+        quoted.push_back("\"" + n + "\"");
+    const std::string list =
+        names.size() == 2 ? quoted[0] + " or " + quoted[1] : "one of " + joinWords(quoted);
+    fail(path, fmt::format("must be {} (got '{}')", list, s));
+}
+
+std::string JsonValidator::inputFile(const json& j, const std::string& path,
+                                     const std::string& directory, const char* what) const
+{
+    const std::string f = string(j, path);
+    const std::filesystem::path fp(f);
+    const std::string file = fp.is_absolute() || directory.empty()
+                                 ? f
+                                 : (std::filesystem::path(directory) / fp).string();
+    try {
+        checkInputFile(file, what);
+    } catch (const InputError& e) {
+        fail(path, e.what());
+    }
+    return file;
 }
 
 bool JsonValidator::boolean(const json& j, const std::string& path) const

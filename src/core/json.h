@@ -94,6 +94,17 @@ public:
     /// `j` as a boolean: "must be true or false (got KIND)".
     bool boolean(const nlohmann::json& j, const std::string& path) const;
 
+    /// The index in `names` of the string `j`: "must be \"A\" or \"B\" (got
+    /// 'X')" (for more names, "one of ...") otherwise.
+    size_t choice(const nlohmann::json& j, const std::string& path,
+                  const std::vector<std::string>& names) const;
+
+    /// The file named by the string `j`, relative to `directory` (that of
+    /// the document) unless absolute or `directory` is empty, checked
+    /// readable (checkInputFile, its message after "PATH: ").
+    std::string inputFile(const nlohmann::json& j, const std::string& path,
+                          const std::string& directory, const char* what) const;
+
 private:
     std::string source_;
 };

@@ -157,25 +157,10 @@ private:
         checkKeys(j, "bark",
                   {"color", "depth", "max_depth", "start_age", "full_age", "around", "along",
                    "seed", "photo", "colouring"});
-        if (j.contains("photo")) {
-            const std::string f = string(j["photo"], "bark.photo");
-            const std::filesystem::path fp(f);
-            p.barkPhoto = fp.is_absolute() || directory_.empty()
-                              ? f
-                              : (std::filesystem::path(directory_) / fp).string();
-            try {
-                checkInputFile(p.barkPhoto, "bark photo");
-            } catch (const InputError& e) {
-                fail("bark.photo", e.what());
-            }
-        }
-        if (j.contains("colouring")) {
-            const std::string c = string(j["colouring"], "bark.colouring");
-            if (c != "coherent" && c != "random")
-                fail("bark.colouring",
-                     fmt::format("must be \"coherent\" or \"random\" (got '{}')", c));
-            p.barkCoherent = c == "coherent";
-        }
+        if (j.contains("photo"))
+            p.barkPhoto = inputFile(j["photo"], "bark.photo", directory_, "bark photo");
+        if (j.contains("colouring"))
+            p.barkCoherent = choice(j["colouring"], "bark.colouring", kBarkColourings) == 0;
         p.bark = colour(j, "color", p.bark, "bark");
         BarkDetail& b = p.barkDetail;
         b.depth = numberOr(j, "depth", b.depth, 0.0, 0.28, "bark");

@@ -179,7 +179,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
             if (i == 0) {
                 mesh = std::move(first);
             } else {
-                shape.setSpec(specs[i]);
+                shape.setSpec(specs[i], true);  // checked above
                 mesh = synthesise(shape, r);
             }
             VdbFileInfo info = fileInfo(req);

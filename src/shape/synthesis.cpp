@@ -152,13 +152,15 @@ void ShapeSurface::makeDetails()
     }
 }
 
-void ShapeSurface::setSpec(const ShapeSpec& spec)
+void ShapeSurface::setSpec(const ShapeSpec& spec, bool checked)
 {
     const int levels = spec_.levels;
     spec_ = spec;
     spec_.levels = levels;
-    checkShapeLevels(spec_, levels);
-    checkShapeDetails(spec_, base_);
+    if (!checked) {
+        checkShapeLevels(spec_, levels);
+        checkShapeDetails(spec_, base_);
+    }
     makeDetails();
 }
 

@@ -48,9 +48,10 @@ public:
 
     /// Another time of the same shape (an animation's frame): its details,
     /// blend and shader replace this one's, on the same base and refinement
-    /// (the caller keeps the base and levels; the details are checked).
-    /// Synthesise again after.
-    void setSpec(const ShapeSpec& spec);
+    /// (the caller keeps the base and levels; the details are checked
+    /// unless `checked` says the caller ran checkShapeLevels and
+    /// checkShapeDetails on it).  Synthesise again after.
+    void setSpec(const ShapeSpec& spec, bool checked = false);
 
     /// Synthesis of every level.
     void synthesize();
