@@ -296,6 +296,8 @@ std::string JsonValidator::inputFile(const json& j, const std::string& path,
                                      const std::string& directory, const char* what) const
 {
     const std::string f = string(j, path);
+    if (f.empty())
+        fail(path, "must name a file");
     const std::filesystem::path fp(f);
     const std::string file = fp.is_absolute() || directory.empty()
                                  ? f

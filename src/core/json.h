@@ -99,9 +99,10 @@ public:
     size_t choice(const nlohmann::json& j, const std::string& path,
                   const std::vector<std::string>& names) const;
 
-    /// The file named by the string `j`, relative to `directory` (that of
-    /// the document) unless absolute or `directory` is empty, checked
-    /// readable (checkInputFile, its message after "PATH: ").
+    /// The file named by the string `j` ("must name a file" when empty),
+    /// relative to `directory` (that of the document) unless absolute or
+    /// `directory` is empty, checked readable (checkInputFile, its message
+    /// after "PATH: ").
     std::string inputFile(const nlohmann::json& j, const std::string& path,
                           const std::string& directory, const char* what) const;
 

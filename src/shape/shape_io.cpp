@@ -179,32 +179,29 @@ private:
     std::string file(const json& obj, const std::string& path, const char* key = "file",
                      const char* what = "base file") const
     {
-        const std::string f = string(required(obj, key, path), jsonPath(path, key));
-        if (f.empty())
-            fail(jsonPath(path, key), "must name a file");
-        const std::filesystem::path p(f);
-        const std::string full = p.is_absolute() || directory_.empty()
-                                     ? f
-                                     : (std::filesystem::path(directory_) / p).string();
-        try {
-            checkInputFile(full, what);
-        } catch (const InputError& e) {
-            fail(jsonPath(path, key), e.what());
-        }
-        return full;
+        return inputFile(required(obj, key, path), jsonPath(path, key), directory_, what);
+    }
+
+    /// Member "type" of the object `j` as one of `kinds`: "PATH.type: unknown
+    /// NOUN 'X' (did you mean ...); known: ..." otherwise.
+    template <class T>
+    T typeOf(const json& j, const std::string& path, const std::map<std::string, T>& kinds,
+             const char* noun) const
+    {
+        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
+        const auto it = kinds.find(type);
+        if (it == kinds.end())
+            fail(jsonPath(path, "type"),
+                 fmt::format("unknown {} '{}'{}; known: {}", noun, type,
+                             didYouMean(type, names(kinds)), joinWords(names(kinds))));
+        return it->second;
     }
 
     BaseSpec readBase(const json& j, const std::string& path) const
     {
         object(j, path, "must be an object such as {\"type\": \"sphere\", \"radius\": 1}");
-        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
-        const auto it = kBaseTypes.find(type);
-        if (it == kBaseTypes.end())
-            fail(jsonPath(path, "type"),
-                 fmt::format("unknown base '{}'{}; known: {}", type,
-                             didYouMean(type, names(kBaseTypes)), joinWords(names(kBaseTypes))));
         BaseSpec b;
-        b.type = it->second;
+        b.type = typeOf(j, path, kBaseTypes, "base");
         const double big = 1e6;
         switch (b.type) {
             case BaseType::Cube:
@@ -336,14 +333,8 @@ private:
     DetailSpec readDetail(const json& j, const std::string& path, int shapeLevels) const
     {
         object(j, path, "must be an object such as {\"type\": \"rock\", \"amplitude\": 0.05}");
-        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
-        const auto it = kDetailTypes.find(type);
-        if (it == kDetailTypes.end())
-            fail(jsonPath(path, "type"), fmt::format("unknown detail '{}'{}; known: {}", type,
-                                                     didYouMean(type, names(kDetailTypes)),
-                                                     joinWords(names(kDetailTypes))));
         DetailSpec d;
-        d.type = it->second;
+        d.type = typeOf(j, path, kDetailTypes, "detail");
         d.path = path;
         const int L = shapeLevels;
         if (L < 1)
@@ -528,14 +519,8 @@ private:
             {"invert", AlphaType::Invert}};
         object(j, path,
                "must be an alpha signal such as {\"type\": \"plane\", \"normal\": [1, 2, 0]}");
-        const std::string type = string(required(j, "type", path), jsonPath(path, "type"));
-        const auto it = kinds.find(type);
-        if (it == kinds.end())
-            fail(jsonPath(path, "type"),
-                 fmt::format("unknown alpha signal '{}'{}; known: {}", type,
-                             didYouMean(type, names(kinds)), joinWords(names(kinds))));
         AlphaSpec a;
-        a.type = it->second;
+        a.type = typeOf(j, path, kinds, "alpha signal");
         a.path = path;
         switch (a.type) {
             case AlphaType::Constant:
