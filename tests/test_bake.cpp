@@ -5,7 +5,6 @@
 #include "bake/topology.h"
 #include "core/files.h"
 #include "io/vdb.h"
-#include "io/vdb.h"
 
 #include "blobtree/bounds.h"
 #include "bake_util.h"
@@ -383,6 +382,51 @@ TEST(BakeColour, OneColourIsTheBackgroundOfAnEmptyCdGrid)
 }
 
 // --- round trip ------------------------------------------------------------------
+
+TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
+{
+    // Two coloured spheres (surface, Cd with many colours, density), with
+    // and without halves: the leaves compressed on all cores give the bytes
+    // of OpenVDB's serial writer past the header's random UUID (byte 57).
+    openvdb::initialize();
+    BlobTree t;
+    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
+    t.setColor(a, {1, 0, 0});
+    t.setColor(b, {0, 0, 1});
+    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
+    t.finalize();
+    const FieldProgram prog = FieldProgram::compile(t);
+    auto sampler = makeCpuSampler();
+    BakeOptions o;
+    o.voxelSize = 0.007;
+    o.fog = true;
+    const BakedGrids g = bakeLevelSet(prog, *sampler, o);
+    ASSERT_GT(g.surface->tree().leafCount(), 4 * 256u);  // several blocks of leaves
+    ASSERT_GT(g.color->activeVoxelCount(), 1000u);
+    for (bool half : {false, true}) {
+        VdbFileInfo info;
+        info.scene = "two spheres";
+        info.half = half;
+        const std::vector<char> ours = encodeVdb(g, info, true), theirs = encodeVdb(g, info, false);
+        ASSERT_EQ(ours.size(), theirs.size()) << "half " << half;
+        constexpr size_t kUuidEnd = 57;
+        EXPECT_FALSE(std::equal(ours.begin(), ours.begin() + kUuidEnd, theirs.begin()));
+        EXPECT_TRUE(std::equal(ours.begin() + kUuidEnd, ours.end(), theirs.begin() + kUuidEnd))
+            << "half " << half;
+        // writeVdb streams the same bytes into its file, checksum patched in.
+        const std::string path = (std::filesystem::temp_directory_path() /
+                                  ("cambium_pw_" + std::to_string(::getpid()) + ".vdb"))
+                                     .string();
+        writeVdb(g, path, info);
+        std::ifstream in(path, std::ios::binary);
+        const std::vector<char> file((std::istreambuf_iterator<char>(in)),
+                                     std::istreambuf_iterator<char>());
+        ASSERT_EQ(file.size(), theirs.size());
+        EXPECT_TRUE(std::equal(file.begin() + kUuidEnd, file.end(), theirs.begin() + kUuidEnd));
+        EXPECT_TRUE(verifyVdbChecksum(path, inspectVdb(path)));
+        std::filesystem::remove(path);
+    }
+}
 
 TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
 {

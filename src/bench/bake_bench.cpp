@@ -6,18 +6,21 @@
 #include "bench/median.h"
 #include "core/error.h"
 #include "core/system.h"
+#include "io/vdb.h"
 #include "model/skeleton.h"
 
 #include "cb_primitives.h"
 #include "core/clock.h"
 
 #include <fmt/format.h>
+#include <openvdb/io/File.h>
 #include <openvdb/tools/ParticlesToLevelSet.h>
 #include <tbb/parallel_for.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 #include <unistd.h>
@@ -99,6 +102,40 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
     return t * voxels / double(patch);
 }
 
+/// The writers of BakeBenchResult, in turn, `repeats` rounds, medians.
+void benchWriters(const BakedGrids& g, int repeats, BakeBenchResult& result)
+{
+    const std::string path =
+        (std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}.vdb", ::getpid()))
+            .string();
+    VdbFileInfo info;
+    info.scene = "bench";
+    std::vector<double> parallel, serial, whole, file;
+    for (int rep = 0; rep < repeats; ++rep) {
+        auto t = Clock::now();
+        result.fileBytes = double(encodeVdb(g, info, true).size());
+        parallel.push_back(secondsSince(t));
+        t = Clock::now();
+        encodeVdb(g, info, false);
+        serial.push_back(secondsSince(t));
+        t = Clock::now();
+        writeVdb(g, path, info);
+        whole.push_back(secondsSince(t));
+        t = Clock::now();
+        {
+            openvdb::io::File f(path);
+            f.write({g.surface, g.color});
+            f.close();
+        }
+        file.push_back(secondsSince(t));
+    }
+    std::filesystem::remove(path);
+    result.encodeParallel = medianOf(parallel);
+    result.encodeSerial = medianOf(serial);
+    result.writeVdbSeconds = medianOf(whole);
+    result.fileWrite = medianOf(file);
+}
+
 }  // namespace
 
 std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu,
@@ -139,6 +176,7 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         rows.push_back(
             {fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", formatCount(sp.size()))});
         std::vector<std::vector<double>> times(rows.size());
+        BakedGrids written;  // (a)'s last grids, for the writers
         for (int rep = 0; rep < repeats; ++rep) {
             for (size_t m = 0; m < rows.size(); ++m) {
                 BakeBenchRow& r = rows[m];
@@ -163,6 +201,8 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
                     BakedGrids g;
                     times[m].push_back(timed([&] { g = bakeLevelSet(program, s, opt); }, peak));
                     r.activeVoxels = double(g.stats.activeVoxels);
+                    if (m == 0)
+                        written = std::move(g);
                 }
                 r.peakBytes = std::max(r.peakBytes, peak);
             }
@@ -182,6 +222,7 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         }
         BakeBenchResult result{
             c.label, skeleton.internodes.size(), h, c.halfWidth, boxVoxels, repeats, rows};
+        benchWriters(written, repeats, result);
         if (done)
             done(result);
         all.push_back(std::move(result));

@@ -33,6 +33,12 @@ struct BakeBenchResult {
     double boxVoxels = 0.0;  ///< voxels of the bounding box (what (c) evaluates)
     int repeats = 0;
     std::vector<BakeBenchRow> rows;  ///< (a), (b) unless skipped, (c), (d)
+    /// Writing (a)'s grids (surface and Cd, Blosc), medians: cambium's file
+    /// made in memory (leaves compressed on all cores), the same through
+    /// OpenVDB's serial writer, cambium's whole checked write (temporary,
+    /// fsync, rename), and io::File::write as a user of OpenVDB writes.
+    double encodeParallel = 0.0, encodeSerial = 0.0, writeVdbSeconds = 0.0, fileWrite = 0.0;
+    double fileBytes = 0.0;
 };
 
 /// Runs, for each case: (a) cambium's OpenCL bake, (b) cambium's CPU bake

@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <system_error>
 #include <dirent.h>
 #include <fcntl.h>
 #include <fstream>
@@ -250,7 +251,47 @@ std::string checkOutputPath(const std::string& path, bool probe)
     return target;
 }
 
+uint64_t WrittenFile::size() const
+{
+    struct stat st;
+    if (::fstat(fd_, &st) != 0)
+        throw std::system_error(errno, std::generic_category(), "fstat");
+    return uint64_t(st.st_size);
+}
+
+void WrittenFile::read(uint64_t offset, void* data, size_t n) const
+{
+    char* p = static_cast<char*>(data);
+    while (n > 0) {
+        const ssize_t r = ::pread(fd_, p, n, off_t(offset));
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0)
+            throw std::system_error(r < 0 ? errno : EIO, std::generic_category(), "pread");
+        p += r, n -= size_t(r), offset += uint64_t(r);
+    }
+}
+
+void WrittenFile::write(uint64_t offset, const void* data, size_t n)
+{
+    const char* p = static_cast<const char*>(data);
+    while (n > 0) {
+        const ssize_t w = ::pwrite(fd_, p, n, off_t(offset));
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0)
+            throw std::system_error(w < 0 ? errno : ENOSPC, std::generic_category(), "pwrite");
+        p += w, n -= size_t(w), offset += uint64_t(w);
+    }
+}
+
 void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write)
+{
+    writeFile(path, write, {});
+}
+
+void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write,
+               const std::function<void(WrittenFile&)>& finish)
 {
     const std::string target = checkOutputPath(path);
     struct stat old;
@@ -259,7 +300,7 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
     // Registered before the file exists: a signal between its creation and
     // the registration would leave it behind.
     RemoveOnSignal guard(tmp);
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    const int fd = ::open(tmp.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) {
         const int e = errno;
         guard.release();
@@ -278,6 +319,12 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
         out.exceptions(std::ios::badbit | std::ios::failbit);
         write(out);
         out.flush();
+        if (!buf.flush())
+            throw std::system_error(buf.error(), std::generic_category(), "write");
+        if (finish) {
+            WrittenFile file(fd);
+            finish(file);
+        }
     } catch (const InputError&) {
         abandon();
         throw;

@@ -2,6 +2,8 @@
 // writer; the lock that keeps two runs out of one sequence.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <iosfwd>
 #include <memory>
@@ -42,6 +44,24 @@ std::string temporaryPathFor(const std::string& path);
 void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write);
 /// writeFile for bytes already in memory.
 void writeFile(const std::string& path, const void* data, size_t size);
+
+/// The temporary file writeFile has filled, open for reads and writes at
+/// any offset before it is synced and renamed (a checksum patched in).
+/// Failures throw std::system_error (writeFile reports them as WriteError).
+class WrittenFile {
+public:
+    explicit WrittenFile(int fd) : fd_(fd) {}
+    uint64_t size() const;
+    void read(uint64_t offset, void* data, size_t n) const;
+    void write(uint64_t offset, const void* data, size_t n);
+
+private:
+    int fd_;
+};
+
+/// writeFile whose `finish` runs on the whole temporary after `write`.
+void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write,
+               const std::function<void(WrittenFile&)>& finish);
 
 /// Installs handlers that, on SIGINT, SIGTERM or SIGHUP, remove the
 /// temporaries and lock files this process has open, then end it by the same

@@ -31,6 +31,12 @@ struct VdbFileInfo {
 /// InputError for a path that cannot be an output.
 void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info);
 
+/// The bytes writeVdb writes.  `parallel`: the grids' leaves compressed on
+/// all cores (the bytes are those OpenVDB's serial writer makes, apart from
+/// the header's random UUID; false: OpenVDB's own writer, for the tests).
+std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
+                            bool parallel = true);
+
 /// What the structure of a .vdb file says, read without reading any grid.
 struct VdbSummary {
     uint64_t bytes = 0;  ///< file size
