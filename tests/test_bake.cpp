@@ -83,6 +83,18 @@ void expectAccurate(const Errors& e, const char* what)
     EXPECT_EQ(e.extra, 0u) << what;
 }
 
+/// A red and a blue sphere of radius 0.3 at x = -0.3 and 0.3, blended.
+BlobTree redAndBlueSpheres()
+{
+    BlobTree t;
+    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
+    t.setColor(a, {1, 0, 0});
+    t.setColor(b, {0, 0, 1});
+    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
+    t.finalize();
+    return t;
+}
+
 TEST(BakeAccuracy, SphereMatchesItsExactDistance)
 {
     for (bool cpu : {true, false}) {
@@ -312,12 +324,7 @@ TEST(BakeColour, TwoColoursGiveCdOnEveryBandVoxel)
     // A red and a blue sphere blended: Cd is defined on exactly the band's
     // voxels, red at the red sphere's far side, blue at the blue one's, and a
     // field-weighted mix (r + b = 1, g = 0) everywhere.
-    BlobTree t;
-    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
-    t.setColor(a, {1, 0, 0});
-    t.setColor(b, {0, 0, 1});
-    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
-    t.finalize();
+    const BlobTree t = redAndBlueSpheres();
     ASSERT_FALSE(FieldProgram::compile(t).uniformColor());
     const double h = 0.02;
     for (bool cpu : {true, false}) {
@@ -389,12 +396,7 @@ TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
     // and without halves: the leaves compressed on all cores give the bytes
     // of OpenVDB's serial writer past the header's random UUID (byte 57).
     openvdb::initialize();
-    BlobTree t;
-    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
-    t.setColor(a, {1, 0, 0});
-    t.setColor(b, {0, 0, 1});
-    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
-    t.finalize();
+    const BlobTree t = redAndBlueSpheres();
     const FieldProgram prog = FieldProgram::compile(t);
     auto sampler = makeCpuSampler();
     BakeOptions o;

@@ -259,30 +259,40 @@ uint64_t WrittenFile::size() const
     return uint64_t(st.st_size);
 }
 
-void WrittenFile::read(uint64_t offset, void* data, size_t n) const
+namespace {
+
+/// Repeats `op(offset, done, left)` (a pread or pwrite of the bytes from
+/// `done` on) until `n` bytes are done; std::system_error naming `what` on
+/// failure (`shortError` when it does no more).
+template <class Op>
+void positionedAll(uint64_t offset, size_t n, int shortError, const char* what, const Op& op)
 {
-    char* p = static_cast<char*>(data);
-    while (n > 0) {
-        const ssize_t r = ::pread(fd_, p, n, off_t(offset));
+    for (size_t done = 0; done < n;) {
+        const ssize_t r = op(off_t(offset + done), done, n - done);
         if (r < 0 && errno == EINTR)
             continue;
         if (r <= 0)
-            throw std::system_error(r < 0 ? errno : EIO, std::generic_category(), "pread");
-        p += r, n -= size_t(r), offset += uint64_t(r);
+            throw std::system_error(r < 0 ? errno : shortError, std::generic_category(), what);
+        done += size_t(r);
     }
+}
+
+}  // namespace
+
+void WrittenFile::read(uint64_t offset, void* data, size_t n) const
+{
+    char* p = static_cast<char*>(data);
+    positionedAll(offset, n, EIO, "pread", [&](off_t at, size_t done, size_t left) {
+        return ::pread(fd_, p + done, left, at);
+    });
 }
 
 void WrittenFile::write(uint64_t offset, const void* data, size_t n)
 {
     const char* p = static_cast<const char*>(data);
-    while (n > 0) {
-        const ssize_t w = ::pwrite(fd_, p, n, off_t(offset));
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0)
-            throw std::system_error(w < 0 ? errno : ENOSPC, std::generic_category(), "pwrite");
-        p += w, n -= size_t(w), offset += uint64_t(w);
-    }
+    positionedAll(offset, n, ENOSPC, "pwrite", [&](off_t at, size_t done, size_t left) {
+        return ::pwrite(fd_, p + done, left, at);
+    });
 }
 
 void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write)
