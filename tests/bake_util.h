@@ -8,13 +8,15 @@
 namespace cambium::test {
 
 /// The tree baked with voxel size h and half-width W, by the CPU path or OpenCL.
-inline BakedGrids bakeTree(const BlobTree& tree, double h, double W = 3.0, bool cpu = true)
+inline BakedGrids bakeTree(const BlobTree& tree, double h, double W = 3.0, bool cpu = true,
+                           bool fog = false)
 {
     const FieldProgram prog = FieldProgram::compile(tree);
     auto sampler = cpu ? makeCpuSampler() : makeOpenCLSampler();
     BakeOptions o;
     o.voxelSize = h;
     o.halfWidth = W;
+    o.fog = fog;
     return bakeLevelSet(prog, *sampler, o);
 }
 

@@ -396,13 +396,7 @@ TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
     // and without halves: the leaves compressed on all cores give the bytes
     // of OpenVDB's serial writer past the header's random UUID (byte 57).
     openvdb::initialize();
-    const BlobTree t = redAndBlueSpheres();
-    const FieldProgram prog = FieldProgram::compile(t);
-    auto sampler = makeCpuSampler();
-    BakeOptions o;
-    o.voxelSize = 0.007;
-    o.fog = true;
-    const BakedGrids g = bakeLevelSet(prog, *sampler, o);
+    const BakedGrids g = bakeTree(redAndBlueSpheres(), 0.007, 3.0, true, /*fog=*/true);
     ASSERT_GT(g.surface->tree().leafCount(), 4 * 256u);  // several blocks of leaves
     ASSERT_GT(g.color->activeVoxelCount(), 1000u);
     for (bool half : {false, true}) {
@@ -433,13 +427,7 @@ TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
 TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
 {
     openvdb::initialize();
-    const BlobTree tree = completenessScene(1);
-    const FieldProgram prog = FieldProgram::compile(tree);
-    auto sampler = makeCpuSampler();
-    BakeOptions o;
-    o.voxelSize = 0.04;
-    o.fog = true;
-    const BakedGrids g = bakeLevelSet(prog, *sampler, o);
+    const BakedGrids g = bakeTree(completenessScene(1), 0.04, 3.0, true, /*fog=*/true);
     for (bool half : {false, true}) {
         const std::string path = (std::filesystem::temp_directory_path() /
                                   (std::string(half ? "cambium_rt_half_" : "cambium_rt_") +
