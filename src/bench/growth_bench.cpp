@@ -5,6 +5,7 @@
 #include "cl/runtime.h"
 #include "bake/sequence.h"
 #include "io/vdb.h"
+#include "bench/median.h"
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "model/growth.h"
@@ -81,10 +82,8 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
                 (k ? b.withoutGridBytes : b.withGridBytes) =
                     double(g.surface->memUsage() + g.color->memUsage());
             }
-        std::sort(a.begin(), a.end());
-        std::sort(c.begin(), c.end());
-        b.withSeconds = a[1];
-        b.withoutSeconds = c[1];
+        b.withSeconds = medianOf(a);
+        b.withoutSeconds = medianOf(c);
         callbacks.bark(b);
     }
     if (req.fpsPerYear <= 0.0)

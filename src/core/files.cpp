@@ -342,10 +342,6 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
         abandon();
         failWrite(path, buf.error() ? std::strerror(buf.error()) : e.what());
     }
-    if (!buf.flush()) {
-        abandon();
-        failWrite(path, std::strerror(buf.error()));
-    }
     if (replacing)
         ::fchmod(fd, old.st_mode & 07777);  // the new file keeps the old one's permissions
     if (::fsync(fd) != 0) {

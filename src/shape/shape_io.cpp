@@ -120,12 +120,10 @@ private:
         }
         Curve::Interpolation interpolation = Curve::Interpolation::Linear;
         if (j.contains("interpolation")) {
-            const std::string m = string(j["interpolation"], jsonPath(path, "interpolation"));
-            if (m != "linear" && m != "smooth")
-                fail(jsonPath(path, "interpolation"),
-                     fmt::format("must be \"linear\" or \"smooth\" (got '{}')", m));
-            interpolation =
-                m == "smooth" ? Curve::Interpolation::Smooth : Curve::Interpolation::Linear;
+            interpolation = choice(j["interpolation"], jsonPath(path, "interpolation"),
+                                   {"linear", "smooth"}) == 1
+                                ? Curve::Interpolation::Smooth
+                                : Curve::Interpolation::Linear;
         }
         animated = true;
         if (points.size() == 1)
@@ -405,11 +403,10 @@ private:
                 d.height = numberOr(j, "height", path, d.height, -big, big);
                 readSeeds(j, path, d);
                 if (j.contains("placement")) {
-                    const std::string p = string(j["placement"], jsonPath(path, "placement"));
-                    if (p != "control-points" && p != "chart")
-                        fail(jsonPath(path, "placement"),
-                             fmt::format("must be \"control-points\" or \"chart\" (got '{}')", p));
-                    d.placement = p == "chart" ? Placement::Chart : Placement::ControlPoints;
+                    d.placement = choice(j["placement"], jsonPath(path, "placement"),
+                                         {"control-points", "chart"}) == 1
+                                      ? Placement::Chart
+                                      : Placement::ControlPoints;
                 }
                 break;
         }
@@ -430,11 +427,8 @@ private:
         if (e.levels.empty())
             fail(path, "an edit needs at least one subdivision level (\"levels\" is 0)");
         if (j.contains("distance")) {
-            const std::string d = string(j["distance"], jsonPath(path, "distance"));
-            if (d != "metric" && d != "topological")
-                fail(jsonPath(path, "distance"),
-                     fmt::format("must be \"metric\" or \"topological\" (got '{}')", d));
-            e.topological = d == "topological";
+            e.topological =
+                choice(j["distance"], jsonPath(path, "distance"), {"metric", "topological"}) == 1;
         }
         return e;
     }
