@@ -93,19 +93,45 @@ public:
 
 /// The stream state OpenVDB's writers read (format and library version,
 /// compression, grid class, half floats, the background for mask
-/// compression, statistics, stream metadata) copied from `from` to `to`.
-void copyStreamState(std::ostream& from, std::ostream& to)
-{
-    namespace io = openvdb::io;
-    io::setVersion(to, io::getLibraryVersion(from), io::getFormatVersion(from));
-    io::setDataCompression(to, io::getDataCompression(from));
-    io::setGridClass(to, io::getGridClass(from));
-    io::setHalfFloat(to, io::getHalfFloat(from));
-    io::setGridBackgroundValuePtr(to, io::getGridBackgroundValuePtr(from));
-    io::setWriteGridStatsMetadata(to, io::getWriteGridStatsMetadata(from));
-    if (auto meta = io::getStreamMetadataPtr(from))
-        io::setStreamMetadataPtr(to, meta, /*transfer=*/false);
-}
+/// compression, statistics, stream metadata), read once from a stream and
+/// set on others.  Read before the threads start: the getters call
+/// ios_base::iword/pword, which may grow the stream's word array, so
+/// concurrent reads of one stream race (AddressSanitizer saw a double free).
+struct StreamState {
+    explicit StreamState(std::ios_base& from)
+        : library(openvdb::io::getLibraryVersion(from)),
+          format(openvdb::io::getFormatVersion(from)),
+          compression(openvdb::io::getDataCompression(from)),
+          gridClass(openvdb::io::getGridClass(from)),
+          half(openvdb::io::getHalfFloat(from)),
+          background(openvdb::io::getGridBackgroundValuePtr(from)),
+          stats(openvdb::io::getWriteGridStatsMetadata(from)),
+          meta(openvdb::io::getStreamMetadataPtr(from))
+    {
+    }
+    void setOn(std::ios_base& to) const
+    {
+        namespace io = openvdb::io;
+        io::setVersion(to, library, format);
+        io::setDataCompression(to, compression);
+        io::setGridClass(to, gridClass);
+        io::setHalfFloat(to, half);
+        io::setGridBackgroundValuePtr(to, background);
+        io::setWriteGridStatsMetadata(to, stats);
+        if (meta)
+            io::setStreamMetadataPtr(to, meta, /*transfer=*/false);
+    }
+
+    openvdb::VersionId library;
+    uint32_t format;
+    uint32_t compression;
+    uint32_t gridClass;
+    bool half;
+    const void* background;
+    bool stats;
+    mutable openvdb::io::StreamMetadata::Ptr
+        meta;  // (setStreamMetadataPtr takes a non-const reference)
+};
 
 /// A grid (sharing the tree, metadata and transform of the grid it views)
 /// whose leaf buffers are written as Grid::writeBuffers writes them (the
@@ -141,6 +167,7 @@ public:
         tbb::concurrent_queue<MemoryBuf*> free;
         for (MemoryBuf& b : buffers)
             free.push(&b);
+        const StreamState state(os);
         size_t next = 0;
         tbb::parallel_pipeline(
             inFlight,
@@ -158,7 +185,7 @@ public:
                         }
                         buf->clear();
                         std::ostream block(buf);
-                        copyStreamState(os, block);
+                        state.setOn(block);
                         const size_t end = std::min(leaves.size(), (b + 1) * kBlock);
                         for (size_t i = b * kBlock; i < end; ++i)
                             leaves[i]->writeBuffers(block, half);
