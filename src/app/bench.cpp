@@ -21,12 +21,18 @@ namespace cambium {
 
 namespace {
 
-/// The benchmark tree of `internodes` internodes (bench/tree_generator.h).
-Skeleton benchTree(int internodes)
+/// The text of the benchmark tree of `internodes` internodes
+/// (bench/tree_generator.h).
+std::string benchTreeText(int internodes)
 {
     TreeGeneratorOptions o;
     o.internodes = internodes;
-    return parseSkeleton(generateBenchSkeleton(o),
+    return generateBenchSkeleton(o);
+}
+
+Skeleton benchTree(int internodes)
+{
+    return parseSkeleton(benchTreeText(internodes),
                          fmt::format("benchmark tree of {} internodes", internodes));
 }
 
@@ -54,6 +60,29 @@ void printBakeTable(const BakeBenchResult& c)
         "checked write (fsync, rename) {:.3f} s, io::File::write {:.3f} s ({:.2f}x)\n",
         c.fileBytes / 1e6, c.encodeParallel, c.encodeSerial, c.encodeSerial / c.encodeParallel,
         c.writeVdbSeconds, c.fileWrite, c.fileWrite / c.writeVdbSeconds);
+    fmt::print(
+        "Eikonal check (checkLevelSet test 9: zero-crossing voxels with |grad|^2 outside "
+        "[0.5, 1.5]): (a) {:.3f} % of {}, (d) {:.3f} % of {}\n",
+        100.0 * c.eikonal.fraction(), formatCount(double(c.eikonal.crossing)),
+        100.0 * c.peerEikonal.fraction(), formatCount(double(c.peerEikonal.crossing)));
+    if (c.process.seconds > 0.0) {
+        fmt::print("whole processes, file written, in turn; median (fastest-slowest) of {} runs\n",
+                   c.repeats);
+        fmt::print("{:<48} {:>20} {:>10} {:>10} {:>10}\n", "command", "seconds", "peak MB",
+                   "file MB", "time/ours");
+        auto row = [&](const char* name, const ProcessSummary& p) {
+            fmt::print("{:<48} {:>20} {:>10.0f} {:>10.0f} {:>10.2f}\n", name,
+                       fmt::format("{:.2f} ({:.2f}-{:.2f})", p.seconds, p.minSeconds, p.maxSeconds),
+                       p.peakBytes / 1e6, p.fileBytes / 1e6, p.seconds / c.process.seconds);
+        };
+        row("cambium bake (OpenCL)", c.process);
+        row("cambium-ptls (ParticlesToLevelSet, File::write)", c.peerProcess);
+        fmt::print(
+            "peer's time over cambium's {:.2f}x (goal 1.5x), cambium's peak memory over the "
+            "peer's {:.2f}x (goal <= 1)\n",
+            c.peerProcess.seconds / c.process.seconds,
+            c.process.peakBytes / c.peerProcess.peakBytes);
+    }
 }
 
 void printMeshTable(const MeshBenchResult& r)
@@ -261,7 +290,9 @@ void addBenchCommand(CLI::App& app, Action& action)
                     throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
                 const int n = std::stoi(c.substr(0, colon));
                 BakeBenchCase bc;
-                bc.skeleton = benchTree(n);
+                bc.text = benchTreeText(n);
+                bc.skeleton =
+                    parseSkeleton(bc.text, fmt::format("benchmark tree of {} internodes", n));
                 bc.label = fmt::format("tree of {} internodes", n);
                 bc.voxelSize = std::stod(c.substr(colon + 1));
                 cases.push_back(std::move(bc));

@@ -4,6 +4,8 @@
 #include "bake/levelset.h"
 #include "bake/topology.h"
 #include "bench/median.h"
+#include "bench/process_run.h"
+#include "bench/ptls_peer.h"
 #include "core/error.h"
 #include "core/system.h"
 #include "io/vdb.h"
@@ -14,8 +16,10 @@
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
-#include <openvdb/tools/ParticlesToLevelSet.h>
+#include <openvdb/tools/Diagnostics.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <atomic>
 #include <chrono>
@@ -59,19 +63,6 @@ double timed(F&& f, double& peakBytes)
     peakBytes = std::max(peak.load(), residentBytes());
     return s;
 }
-
-struct Spheres {
-    std::vector<openvdb::Vec3R> p;
-    std::vector<openvdb::Real> r;
-    using PosType = openvdb::Vec3R;
-    size_t size() const { return p.size(); }
-    void getPos(size_t n, openvdb::Vec3R& xyz) const { xyz = p[n]; }
-    void getPosRad(size_t n, openvdb::Vec3R& xyz, openvdb::Real& rad) const
-    {
-        xyz = p[n];
-        rad = r[n];
-    }
-};
 
 /// The naive way: every voxel of the box, every primitive, summed.  Times a
 /// patch of voxels and extrapolates to the whole box.
@@ -136,6 +127,97 @@ void benchWriters(const BakedGrids& g, int repeats, BakeBenchResult& result)
     result.fileWrite = medianOf(file);
 }
 
+/// The zero-crossing voxels of `grid` and those whose squared gradient norm
+/// (fifth-order WENO) is outside [0.5, 1.5]: checkLevelSet's test 9,
+/// counted (CheckEikonal's own functor).
+EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid)
+{
+    using Check = openvdb::tools::CheckEikonal<openvdb::FloatGrid>;
+    std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
+    grid.tree().getNodes(leaves);
+    struct Counts {
+        size_t crossing = 0, outside = 0;
+    };
+    const Counts total = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, leaves.size()), Counts{},
+        [&](const tbb::blocked_range<size_t>& range, Counts c) {
+            Check check(grid, 0.5f, 1.5f);
+            for (size_t i = range.begin(); i != range.end(); ++i)
+                for (auto it = leaves[i]->cbeginValueOn(); it; ++it) {
+                    check.stencil.moveTo(it.getCoord());
+                    if (!check.stencil.zeroCrossing())
+                        continue;
+                    ++c.crossing;
+                    if (check(check.stencil.normSqGrad()))
+                        ++c.outside;
+                }
+            return c;
+        },
+        [](Counts a, const Counts& b) {
+            a.crossing += b.crossing;
+            a.outside += b.outside;
+            return a;
+        });
+    return {total.crossing, total.outside};
+}
+
+/// The whole commands, in turn, `repeats` rounds: `cambium bake` of the
+/// case's skeleton file and the peer program (cambium-ptls, built beside
+/// cambium) on the same file, voxel size and band.
+void benchProcesses(const BakeBenchCase& c, int repeats, BakeBenchResult& result)
+{
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}", ::getpid());
+    std::filesystem::create_directories(dir);
+    struct Cleanup {
+        std::filesystem::path dir;
+        ~Cleanup()
+        {
+            std::error_code ec;
+            std::filesystem::remove_all(dir, ec);
+        }
+    } cleanup{dir};
+    const std::string tree = (dir / "tree.txt").string(), log = (dir / "log.txt").string();
+    {
+        std::ofstream out(tree);
+        out << c.text;
+        if (!out.flush())
+            throw std::runtime_error("cannot write the benchmark tree to " + tree);
+    }
+    const std::string exe = executableDirectory();
+    const std::vector<std::string> common = {tree, "--voxel-size", fmt::format("{}", c.voxelSize),
+                                             "--half-width", fmt::format("{}", c.halfWidth)};
+    auto command = [&](std::vector<std::string> head, const std::string& out) {
+        head.insert(head.end(), common.begin(), common.end());
+        head.insert(head.end(), {"-o", (dir / out).string()});
+        return head;
+    };
+    const std::vector<std::string> ours = command({exe + "/cambium", "bake"}, "cambium.vdb"),
+                                   peer = command({exe + "/cambium-ptls"}, "peer.vdb");
+    std::vector<ProcessRun> a, b;
+    for (int rep = 0; rep < repeats; ++rep) {
+        a.push_back(runProcess(ours, log));
+        b.push_back(runProcess(peer, log));
+    }
+    auto summary = [](const std::vector<ProcessRun>& runs) {
+        ProcessSummary s;
+        std::vector<double> t, m;
+        for (const ProcessRun& r : runs) {
+            t.push_back(r.seconds);
+            m.push_back(r.peakBytes);
+        }
+        s.seconds = medianOf(t);
+        s.minSeconds = *std::min_element(t.begin(), t.end());
+        s.maxSeconds = *std::max_element(t.begin(), t.end());
+        s.peakBytes = medianOf(m);
+        return s;
+    };
+    result.process = summary(a);
+    result.peerProcess = summary(b);
+    result.process.fileBytes = double(std::filesystem::file_size(dir / "cambium.vdb"));
+    result.peerProcess.fileBytes = double(std::filesystem::file_size(dir / "peer.vdb"));
+}
+
 }  // namespace
 
 std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& cases, bool skipCpu,
@@ -155,17 +237,7 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         BakeOptions opt;
         opt.voxelSize = h;
         opt.halfWidth = c.halfWidth;
-        Spheres sp;  // (d)'s input, built outside its timing
-        for (const Internode& n : skeleton.internodes) {
-            const double L = glm::length(n.p1 - n.p0), rmin = std::min(n.r0, n.r1);
-            const int steps = std::max(1, int(std::ceil(L / (0.5 * rmin))));
-            for (int k = 0; k <= steps; ++k) {
-                const double t = double(k) / steps;
-                const glm::dvec3 q = n.p0 + t * (n.p1 - n.p0);
-                sp.p.emplace_back(q.x, q.y, q.z);
-                sp.r.push_back(n.r0 + t * (n.r1 - n.r0));
-            }
-        }
+        const PeerSpheres sp = internodeSpheres(skeleton);  // (d)'s input, outside its timing
         // The measured methods run in turn, `repeats` rounds (a b d a b d ...),
         // so that a drift of the machine's speed touches all of them alike;
         // each row reports its median.
@@ -176,26 +248,16 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         rows.push_back(
             {fmt::format("(d) OpenVDB ParticlesToLevelSet ({} spheres)", formatCount(sp.size()))});
         std::vector<std::vector<double>> times(rows.size());
-        BakedGrids written;  // (a)'s last grids, for the writers
+        BakedGrids written;                // (a)'s last grids, for the writers
+        openvdb::FloatGrid::Ptr peerGrid;  // (d)'s last
         for (int rep = 0; rep < repeats; ++rep) {
             for (size_t m = 0; m < rows.size(); ++m) {
                 BakeBenchRow& r = rows[m];
                 double peak = 0.0;
                 if (r.method.rfind("(d)", 0) == 0) {
-                    openvdb::FloatGrid::Ptr grid;
-                    times[m].push_back(timed(
-                        [&] {
-                            grid = openvdb::FloatGrid::create(float(c.halfWidth * h));
-                            grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
-                            grid->setGridClass(openvdb::GRID_LEVEL_SET);
-                            openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
-                            raster.setRmin(
-                                1.0);  // thin twigs would vanish under the default 1.5 voxels
-                            raster.rasterizeSpheres(sp);
-                            raster.finalize(true);
-                        },
-                        peak));
-                    r.activeVoxels = double(grid->activeVoxelCount());
+                    times[m].push_back(
+                        timed([&] { peerGrid = ptlsLevelSet(sp, h, c.halfWidth); }, peak));
+                    r.activeVoxels = double(peerGrid->activeVoxelCount());
                 } else {
                     FieldSampler& s = m == 0 ? *opencl : *cpu;
                     BakedGrids g;
@@ -220,9 +282,21 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
             r.peakBytes = voxels * sizeof(float);  // the dense grid it would fill
             rows.insert(rows.end() - 1, r);
         }
-        BakeBenchResult result{
-            c.label, skeleton.internodes.size(), h, c.halfWidth, boxVoxels, repeats, rows};
+        BakeBenchResult result;
+        result.label = c.label;
+        result.primitives = skeleton.internodes.size();
+        result.voxelSize = h;
+        result.halfWidth = c.halfWidth;
+        result.boxVoxels = boxVoxels;
+        result.repeats = repeats;
+        result.rows = rows;
         benchWriters(written, repeats, result);
+        result.eikonal = eikonalOutliers(*written.surface);
+        result.peerEikonal = eikonalOutliers(*peerGrid);
+        written = {};
+        peerGrid.reset();
+        if (!c.text.empty())
+            benchProcesses(c, repeats, result);
         if (done)
             done(result);
         all.push_back(std::move(result));

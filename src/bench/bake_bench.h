@@ -15,6 +15,24 @@ struct BakeBenchCase {
     std::string label;  ///< e.g. "1k internodes"
     double voxelSize = 0.01;
     double halfWidth = 3.0;
+    /// The skeleton's text (what generateBenchSkeleton wrote), for the
+    /// whole-process rows: cambium bake and cambium-ptls read it from a
+    /// file.  Empty: no whole-process rows.
+    std::string text;
+};
+
+/// A whole command's runs: median, fastest and slowest wall time, median
+/// peak memory, the file it wrote.
+struct ProcessSummary {
+    double seconds = 0.0, minSeconds = 0.0, maxSeconds = 0.0;
+    double peakBytes = 0.0, fileBytes = 0.0;
+};
+
+/// checkLevelSet's Eikonal test (9) counted: zero-crossing voxels, and those
+/// of them whose squared gradient norm is outside [0.5, 1.5].
+struct EikonalCount {
+    size_t crossing = 0, outside = 0;
+    double fraction() const { return crossing ? double(outside) / double(crossing) : 0.0; }
 };
 
 struct BakeBenchRow {
@@ -39,6 +57,10 @@ struct BakeBenchResult {
     /// fsync, rename), and io::File::write as a user of OpenVDB writes.
     double encodeParallel = 0.0, encodeSerial = 0.0, writeVdbSeconds = 0.0, fileWrite = 0.0;
     double fileBytes = 0.0;
+    EikonalCount eikonal, peerEikonal;  ///< (a)'s and (d)'s grids
+    /// Whole processes (when the case has its text): `cambium bake` and the
+    /// peer program cambium-ptls (ParticlesToLevelSet, io::File::write).
+    ProcessSummary process, peerProcess;
 };
 
 /// Runs, for each case: (a) cambium's OpenCL bake, (b) cambium's CPU bake
@@ -46,8 +68,9 @@ struct BakeBenchResult {
 /// (every voxel of the bounding box, every primitive; extrapolated from a
 /// timed slab), (d) OpenVDB's ParticlesToLevelSet of spheres along every
 /// internode (minimum radius lowered to 1 voxel).  (a), (b) and (d) run in
-/// turn `repeats` times and report their median.  `done` gets each case's
-/// table as it is finished.
+/// turn `repeats` times and report their median.  Then, for a case with its
+/// text, the whole commands `cambium bake` and `cambium-ptls` in turn
+/// `repeats` times.  `done` gets each case's table as it is finished.
 std::vector<BakeBenchResult> runBakeBench(
     const std::vector<BakeBenchCase>& cases, bool skipCpu = false, int repeats = 3,
     const std::function<void(const BakeBenchResult&)>& done = {});
