@@ -12,6 +12,13 @@
 
 #define CB_LEAF_VOXELS 512
 
+/* Which kernels a program holds (-D CB_KERNELS=mask; default all): 1 values,
+ * 2 surface, 4 points.  A program holds only what it runs, since a driver may
+ * compile every kernel of it (PoCL does, for the program's binary). */
+#ifndef CB_KERNELS
+#define CB_KERNELS 7
+#endif
+
 /* Values of every voxel of 8^3 leaves (built with -D CB_GRADIENT=0 -D CB_COLOR=0).
  * 16 wide: one work-group of 32 work-items per leaf, work-item r evaluates
  * rows 2 r and 2 r + 1, the voxels (x0 + 0..7, y0 + 2 (r & 3) + 0..1,
@@ -21,6 +28,7 @@
  * leaves: 5 ints per leaf: x0 y0 z0, offset and length of its program in code.
  * out: 512 halves per leaf, x fastest: F - T, rounded to nearest even (relative
  * precision 2^-11 where it matters, next to the surface; its sign is the side). */
+#if CB_KERNELS & 1
 __kernel void sample_values(__global const int* code, __global const float* prm,
                             __global const int* leaves, const float voxelSize, __global half* out)
 {
@@ -45,6 +53,7 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
     vstore_half8_rte(s.v - prm[CB_P_T], 0, out + (size_t)leaf * CB_LEAF_VOXELS + 8 * row);
 #endif
 }
+#endif
 
 /* Gradient and colour at chosen voxels of chosen leaves (the voxels next to
  * the surface), CB_LANES (8 or 16) voxels of one leaf per work-item:
@@ -68,6 +77,7 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
 #define CB_CONVERT_UCHAR convert_uchar8_sat_rte
 #define CB_INT int8
 #endif
+#if CB_KERNELS & 2
 __kernel void sample_surface(__global const int* code, __global const float* prm,
                              __global const int* leaves, const float voxelSize,
                              __global const int* chunkLeaf, __global const ushort* chunkVoxels,
@@ -87,8 +97,9 @@ __kernel void sample_surface(__global const int* code, __global const float* prm
     CB_VSTORE(CB_CONVERT_UCHAR(s.c.y * 255.0f), chunk, color + stride);
     CB_VSTORE(CB_CONVERT_UCHAR(s.c.z * 255.0f), chunk, color + 2 * stride);
 }
+#endif
 
-#if CB_LANES == 8
+#if CB_LANES == 8 && (CB_KERNELS & 4)
 /* Evaluates one program at arbitrary points, eight per work-item: points and
  * out are planes (x, y, z / value, gx, gy, gz, r, g, b) of `stride` floats,
  * stride a multiple of 8. */

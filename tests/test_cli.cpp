@@ -135,6 +135,57 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
     std::filesystem::remove(out);
 }
 
+/// Whether the dynamic loader's trace (LD_DEBUG=files) of a run shows
+/// OpenImageIO loaded.
+bool loadsOpenImageIO(const std::string& args, Result& r)
+{
+    ::setenv("LD_DEBUG", "files", 1);
+    r = run(args);
+    ::unsetenv("LD_DEBUG");
+    return r.err.find("file=libOpenImageIO.so") != std::string::npos;
+}
+
+// OpenImageIO and its some 240 libraries cost a command 0.4 s and 130 MB
+// before main (issue 16): only the commands that read or write an image
+// load it (io/image_codec.h), and those still work.
+TEST(Cli, OnlyCommandsWithImagesLoadOpenImageIO)
+{
+    std::string vdb;
+    const auto dir = bakedDir("cambium_cli_startup", vdb);
+    Result r;
+    EXPECT_FALSE(loadsOpenImageIO(
+        "bake " + kExamples + "sphere_and_cone.json -o " + vdb + " --voxel-size 0.05", r));
+    EXPECT_EQ(r.status, 0);
+    EXPECT_NE(r.err.find("file=libopenvdb"), std::string::npos)  // the trace is there
+        << r.err.substr(0, 2000);
+    EXPECT_FALSE(loadsOpenImageIO("mesh " + vdb + " -o " + (dir / "s.ply").string(), r));
+    EXPECT_EQ(r.status, 0);
+    const std::string png = (dir / "s.png").string();
+    EXPECT_TRUE(loadsOpenImageIO("render " + vdb + " -o " + png + " --width 32 --height 24", r));
+    EXPECT_EQ(r.status, 0);
+    EXPECT_GT(std::filesystem::file_size(png), 100u);
+    std::filesystem::remove_all(dir);
+}
+
+// `cambium prepare` (run by tools/setup.sh) builds every program the bake
+// and the march use into the program cache.
+TEST(Cli, PrepareCachesEveryOpenCLProgram)
+{
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cambium_prepare_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    ::setenv("CAMBIUM_CACHE_DIR", dir.c_str(), 1);
+    const Result r = run("prepare");
+    ::unsetenv("CAMBIUM_CACHE_DIR");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("prepared the OpenCL kernels on"), std::string::npos) << r.out;
+    int programs = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir / "opencl"))
+        programs += e.path().extension() == ".bin";
+    EXPECT_EQ(programs, 4);  // values, surface, points; the march
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, MeshWritesAMeshOfABakedGrid)
 {
     std::string vdb;

@@ -42,6 +42,8 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release
 fi
 cmake --build "$build" -j"$(nproc)"
+# The OpenCL kernels compiled once here, not on the first bake or render.
+case "$mode" in run | test) "$build/cambium" prepare ;; esac
 
 case "$mode" in
   run)

@@ -32,6 +32,7 @@ void addLSystemCommand(CLI::App& app, Action& action);
 void addGrowthCommand(CLI::App& app, Action& action);
 void addShapeCommand(CLI::App& app, Action& action);
 void addVersionCommand(CLI::App& app, Action& action);
+void addPrepareCommand(CLI::App& app, Action& action);
 
 /// The model options of info and bake as the command line gives them.
 struct ModelFlags {

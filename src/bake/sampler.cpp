@@ -87,15 +87,15 @@ public:
     {
         const std::string source = assembleKernelSource(kernelFile("sample.cl"));
         const std::string options = "-cl-std=CL1.2 -cl-mad-enable";
-        program_ = ctx_.build(source, options + " -D CB_LANES=8");
+        program_ = ctx_.build(source, options + " -D CB_LANES=8 -D CB_KERNELS=4");
         // Values 16 points wide: one interpreter dispatch per two rows (0.35 s
         // -> 0.22 s on the 20k-internode tree; one AVX-512 register, two AVX2).
-        valuesProgram_ =
-            ctx_.build(source, options + " -D CB_LANES=16 -D CB_GRADIENT=0 -D CB_COLOR=0");
+        valuesProgram_ = ctx_.build(
+            source, options + " -D CB_LANES=16 -D CB_GRADIENT=0 -D CB_COLOR=0 -D CB_KERNELS=1");
         cl_int err;
         valuesKernel_ = clCreateKernel(valuesProgram_, "sample_values", &err);
         checkCL(err, "clCreateKernel(sample_values)");
-        surfaceProgram_ = ctx_.build(source, options + " -D CB_LANES=16");
+        surfaceProgram_ = ctx_.build(source, options + " -D CB_LANES=16 -D CB_KERNELS=2");
         surfaceKernel_ = clCreateKernel(surfaceProgram_, "sample_surface", &err);
         checkCL(err, "clCreateKernel(sample_surface)");
         pointsKernel_ = clCreateKernel(program_, "sample_points", &err);

@@ -10,7 +10,6 @@
 
 #include <fcntl.h>
 #include <fstream>
-#include <filesystem>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -51,23 +50,19 @@ ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& l
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0)
         if (errno != EINTR)
-            throw std::runtime_error(fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
+            throw std::runtime_error(
+                fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
     ProcessRun run;
     run.seconds = secondsSince(t0);
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        throw std::runtime_error(fmt::format("{} failed (status {}); its output is in {}", argv[0],
-                                             status, logPath));
+        throw std::runtime_error(
+            fmt::format("{} failed (status {}); its output is in {}", argv[0], status, logPath));
     std::ifstream in(rss);
     double kb = 0.0;
     if (!(in >> kb))
         throw std::runtime_error("GNU time wrote no peak memory to " + rss);
     run.peakBytes = kb * 1024.0;
     return run;
-}
-
-std::string executableDirectory()
-{
-    return std::filesystem::read_symlink("/proc/self/exe").parent_path().string();
 }
 
 }  // namespace cambium

@@ -18,8 +18,4 @@ struct ProcessRun {
 /// be started or does not exit with status 0 (naming the log).
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath);
 
-/// The directory of this process's executable (where `cambium-ptls` is
-/// built beside `cambium`).
-std::string executableDirectory();
-
 }  // namespace cambium

@@ -25,8 +25,7 @@ PeerSpheres internodeSpheres(const Skeleton& skeleton)
     return sp;
 }
 
-openvdb::FloatGrid::Ptr ptlsLevelSet(const PeerSpheres& spheres, double voxelSize,
-                                     double halfWidth)
+openvdb::FloatGrid::Ptr ptlsLevelSet(const PeerSpheres& spheres, double voxelSize, double halfWidth)
 {
     auto grid = openvdb::FloatGrid::create(float(halfWidth * voxelSize));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));

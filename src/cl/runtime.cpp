@@ -2,10 +2,16 @@
 #include "cl/runtime.h"
 
 #include "core/error.h"
+#include "core/files.h"
+#include "core/hash.h"
 
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 
 namespace cambium {
 
@@ -24,7 +30,34 @@ std::string infoString(Query query, Handle h, Param what)
     return s;
 }
 
+/// A cached program's file: the key's length (8 bytes), the key (what
+/// identifies the build: the driver, the device, the options and the whole
+/// source), then the device's binary.  The file is named by a hash of the
+/// key and used only when the key stored in it is the same, byte for byte.
+std::string readCachedBinary(const std::string& path, const std::string& key)
+{
+    std::ifstream in(path, std::ios::binary);
+    uint64_t n = 0;
+    if (!in.read(reinterpret_cast<char*>(&n), sizeof n) || n != key.size())
+        return {};
+    std::string stored(n, '\0');
+    if (!in.read(stored.data(), std::streamsize(n)) || stored != key)
+        return {};
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 }  // namespace
+
+std::string programCacheDirectory()
+{
+    if (const char* d = std::getenv("CAMBIUM_CACHE_DIR"))
+        return *d ? std::string(d) + "/opencl" : std::string();
+    if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x)
+        return std::string(x) + "/cambium/opencl";
+    if (const char* h = std::getenv("HOME"); h && *h)
+        return std::string(h) + "/.cache/cambium/opencl";
+    return {};
+}
 
 void throwOpenCLHint(const OpenCLError& e, const char* action)
 {
@@ -98,7 +131,8 @@ OpenCLContext::~OpenCLContext()
         clReleaseContext(context_);
 }
 
-cl_program OpenCLContext::build(const std::string& source, const std::string& options) const
+cl_program OpenCLContext::buildFromSource(const std::string& source,
+                                          const std::string& options) const
 {
     const char* text = source.c_str();
     const size_t length = source.size();
@@ -116,6 +150,57 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
         clReleaseProgram(program);
         throw OpenCLError(fmt::format("OpenCL kernel build failed on {} (error {}):\n{}",
                                       info_.device, err, log));
+    }
+    return program;
+}
+
+cl_program OpenCLContext::build(const std::string& source, const std::string& options) const
+{
+    // A driver compiles from source every time (PoCL preprocesses the whole
+    // of OpenCL C's headers first, about 0.1 s a program even when its own
+    // cache holds the result); a program built before is loaded from its
+    // binary instead.
+    const std::string dir = programCacheDirectory();
+    if (dir.empty())
+        return buildFromSource(source, options);
+    const std::string key =
+        fmt::format("cambium OpenCL program 1\n{}\n{}\n{}\n{}\n{}\n{}\n", info_.platform,
+                    infoString(clGetPlatformInfo, info_.platformId, CL_PLATFORM_VERSION),
+                    info_.device, info_.version,
+                    infoString(clGetDeviceInfo, info_.deviceId, CL_DRIVER_VERSION), options) +
+        source;
+    const std::string path = fmt::format("{}/{:016x}.bin", dir, fnv1a64(key));
+    const std::string binary = readCachedBinary(path, key);
+    if (!binary.empty()) {
+        const auto* bytes = reinterpret_cast<const unsigned char*>(binary.data());
+        const size_t size = binary.size();
+        cl_int status = CL_SUCCESS, err = CL_SUCCESS;
+        cl_program program =
+            clCreateProgramWithBinary(context_, 1, &info_.deviceId, &size, &bytes, &status, &err);
+        if (err == CL_SUCCESS && status == CL_SUCCESS &&
+            clBuildProgram(program, 1, &info_.deviceId, options.c_str(), nullptr, nullptr) ==
+                CL_SUCCESS)
+            return program;
+        if (program)
+            clReleaseProgram(program);  // (a damaged file: rebuilt and replaced below)
+    }
+    cl_program program = buildFromSource(source, options);
+    size_t size = 0;
+    if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) ==
+            CL_SUCCESS &&
+        size > 0) {
+        std::string out(sizeof(uint64_t) + key.size() + size, '\0');
+        const uint64_t n = key.size();
+        std::memcpy(out.data(), &n, sizeof n);
+        std::memcpy(out.data() + sizeof n, key.data(), key.size());
+        unsigned char* at = reinterpret_cast<unsigned char*>(out.data() + sizeof n + key.size());
+        if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof at, &at, nullptr) == CL_SUCCESS) {
+            try {  // a cache that cannot be written costs the next run time, nothing else
+                std::filesystem::create_directories(dir);
+                writeFile(path, out.data(), out.size());
+            } catch (const std::exception&) {
+            }
+        }
     }
     return program;
 }

@@ -39,6 +39,11 @@ auto withOpenCLHint(const char* action, F&& f) -> decltype(f());
 /// Throws OpenCLError naming `what` and the error code when `status` is not CL_SUCCESS.
 void checkCL(cl_int status, const char* what);
 
+/// Where OpenCLContext::build keeps built programs: $CAMBIUM_CACHE_DIR/opencl
+/// (an empty value: nowhere, an empty result), else
+/// $XDG_CACHE_HOME/cambium/opencl, else ~/.cache/cambium/opencl.
+std::string programCacheDirectory();
+
 /// A context and in-order queue on one device (the first device found unless
 /// CAMBIUM_OPENCL_DEVICE names a substring of the wanted device's name).
 class OpenCLContext {
@@ -55,9 +60,14 @@ public:
 
     /// Builds a program from one source string (see assembleKernelSource).
     /// Throws OpenCLError with the build log on failure.  The caller releases it.
+    /// The device's binary is kept in a cache on disk ($CAMBIUM_CACHE_DIR,
+    /// else ~/.cache/cambium; docs/baking.md) keyed by the driver, the device,
+    /// the options and the whole source, and loaded from there next time.
     cl_program build(const std::string& source, const std::string& options = "") const;
 
 private:
+    cl_program buildFromSource(const std::string& source, const std::string& options) const;
+
     OpenCLDeviceInfo info_;
     cl_context context_ = nullptr;
     cl_command_queue queue_ = nullptr;

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -30,6 +31,12 @@ double peakMemoryBytes()
     struct rusage r;
     ::getrusage(RUSAGE_SELF, &r);
     return double(r.ru_maxrss) * 1024.0;
+}
+
+std::string executableDirectory()
+{
+    std::error_code ec;
+    return std::filesystem::read_symlink("/proc/self/exe", ec).parent_path().string();
 }
 
 std::string formatBytes(double b)

@@ -13,6 +13,9 @@ namespace cambium {
 double availableMemoryBytes();
 /// Peak resident memory of this process so far.
 double peakMemoryBytes();
+/// The directory of this process's executable (where the build puts
+/// cambium-ptls and the image codec beside cambium).
+std::string executableDirectory();
 /// "1.5 GB": bytes in decimal units, three significant digits.
 std::string formatBytes(double bytes);
 /// "1,234,567": a count with thousands separated (rounded to a whole number).

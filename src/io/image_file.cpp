@@ -3,15 +3,16 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/system.h"
+#include "io/image_codec.h"
 
 #include <fmt/format.h>
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-#include <OpenImageIO/strutil.h>
-
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <dlfcn.h>
 #include <stdexcept>
 
 namespace cambium {
@@ -29,42 +30,65 @@ float fromSrgb(float v)
     return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
 }
 
+const ImageCodecApi* loadImageCodec()
+{
+    std::vector<std::string> places;
+    if (const char* env = std::getenv("CAMBIUM_IMAGE_CODEC"))
+        places.push_back(env);
+    places.push_back(executableDirectory() + "/libcambium_oiio.so");
+#ifdef CAMBIUM_IMAGE_CODEC_PATH
+    places.push_back(CAMBIUM_IMAGE_CODEC_PATH);
+#endif
+    std::string tried;
+    for (const std::string& place : places) {
+        if (void* lib = ::dlopen(place.c_str(), RTLD_NOW | RTLD_LOCAL)) {
+            using Entry = const ImageCodecApi* (*)();
+            auto entry = reinterpret_cast<Entry>(::dlsym(lib, "cambium_image_codec"));
+            const ImageCodecApi* api = entry ? entry() : nullptr;
+            if (api && api->abi == kImageCodecAbi)
+                return api;
+            tried += fmt::format("; {}: not cambium's image codec of this version", place);
+        } else {
+            tried += fmt::format("; {}", ::dlerror());
+        }
+    }
+    throw std::runtime_error("cannot load the image codec (OpenImageIO)" + tried);
+}
+
 }  // namespace
+
+const ImageCodecApi& imageCodec()
+{
+    static const ImageCodecApi* api = loadImageCodec();
+    return *api;
+}
 
 Photo readPhoto(const std::string& path)
 {
     checkInputFile(path, "photo");
-    auto in = OIIO::ImageInput::open(path);
-    if (!in)
-        throw InputError(
-            fmt::format("{}: not an image OpenImageIO can read ({})", path, OIIO::geterror()));
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-        throw InputError(fmt::format("{}: the image is empty", path));
-    if (double(spec.width) * spec.height * spec.nchannels > 4e8)
-        throw InputError(
-            fmt::format("{}: {} x {} pixels is more than a bark photo needs "
-                        "(at most 100 million values): scale it down",
-                        path, spec.width, spec.height));
-    std::vector<float> px(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
-        throw InputError(fmt::format("{}: cannot read the image: {}", path, in->geterror()));
+    CodecImage img;
+    constexpr size_t kMaxValues = 400'000'000;  // far more than a bark photo needs
+    const std::string error = imageCodec().decode(path, kMaxValues, img);
+    if (!error.empty())
+        throw InputError(error);
     // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones
     // are sRGB-encoded unless they say they are linear.
-    const std::string space = spec.get_string_attribute("oiio:ColorSpace");
-    const bool linear = space.empty() ? spec.format.basetype == OIIO::TypeDesc::FLOAT ||
-                                            spec.format.basetype == OIIO::TypeDesc::HALF ||
-                                            spec.format.basetype == OIIO::TypeDesc::DOUBLE
-                                      : OIIO::Strutil::iequals(space, "linear") ||
-                                            OIIO::Strutil::istarts_with(space, "lin");
+    const std::string& space = img.colourSpace;
+    auto lower = [](std::string t) {
+        for (char& ch : t)
+            ch = char(std::tolower(static_cast<unsigned char>(ch)));
+        return t;
+    };
+    const bool linear = space.empty() ? img.floatFormat : lower(space).rfind("lin", 0) == 0;
     Photo out;
-    out.width = spec.width;
-    out.height = spec.height;
-    const size_t n = size_t(spec.width) * size_t(spec.height), c = size_t(spec.nchannels);
+    out.width = img.width;
+    out.height = img.height;
+    const size_t n = size_t(img.width) * size_t(img.height), c = size_t(img.channels);
     out.rgb.resize(3 * n);
     for (size_t i = 0; i < n; ++i)
         for (size_t k = 0; k < 3; ++k) {
-            const float v = px[c * i + (c >= 3 ? k : 0)];  // grey (and grey with alpha) made RGB
+            const float v =
+                img.pixels[c * i + (c >= 3 ? k : 0)];  // grey (and grey with alpha) made RGB
             if (!std::isfinite(v))
                 throw InputError(fmt::format("{}: pixel {} is not finite", path, i));
             out.rgb[3 * i + k] = linear ? std::max(v, 0.0f) : fromSrgb(std::clamp(v, 0.0f, 1.0f));
@@ -82,45 +106,39 @@ void writeImage(const RenderImage& img, const std::string& path)
 {
     const std::string ext = fileFormat(path, {"png", "exr"}, "image");
     // OpenImageIO encodes into memory; the checked writer writes the bytes.
-    std::vector<unsigned char> bytes;
-    {
-        auto out = OIIO::ImageOutput::create(path);  // the plugin by the name's extension
-        if (!out || !out->supports("ioproxy"))
-            throw std::runtime_error(out ? "OpenImageIO cannot encode ." + ext + " into memory"
-                                         : OIIO::geterror());
-        OIIO::Filesystem::IOVecOutput memory(bytes);
-        const size_t n = size_t(img.width) * size_t(img.height);
-        std::vector<float> px;
-        OIIO::ImageSpec spec;
-        if (ext == "png") {
-            spec = OIIO::ImageSpec(img.width, img.height, 4, OIIO::TypeDesc::UINT8);
-            spec.attribute("oiio:ColorSpace", "sRGB");
-            px.resize(4 * n);
-            for (size_t i = 0; i < n; ++i) {
-                for (int k = 0; k < 3; ++k)
-                    px[4 * i + size_t(k)] = toSrgb(img.rgb[3 * i + size_t(k)]);
-                px[4 * i + 3] = 1.0f;  // the background is drawn: opaque
-            }
-        } else {
-            spec = OIIO::ImageSpec(img.width, img.height, 8, OIIO::TypeDesc::FLOAT);
-            spec.channelnames = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z"};
-            spec.alpha_channel = 3;
-            spec.z_channel = 4;
-            px.resize(8 * n);
-            for (size_t i = 0; i < n; ++i) {
-                for (int k = 0; k < 3; ++k) {
-                    px[8 * i + size_t(k)] = img.rgb[3 * i + size_t(k)];
-                    px[8 * i + 5 + size_t(k)] = img.normal[3 * i + size_t(k)];
-                }
-                px[8 * i + 3] = img.alpha[i];
-                px[8 * i + 4] = img.depth[i];
-            }
+    const size_t n = size_t(img.width) * size_t(img.height);
+    CodecImage c;
+    c.width = img.width;
+    c.height = img.height;
+    if (ext == "png") {
+        c.channels = 4;
+        c.eightBit = true;
+        c.colourSpace = "sRGB";
+        c.pixels.resize(4 * n);
+        for (size_t i = 0; i < n; ++i) {
+            for (int k = 0; k < 3; ++k)
+                c.pixels[4 * i + size_t(k)] = toSrgb(img.rgb[3 * i + size_t(k)]);
+            c.pixels[4 * i + 3] = 1.0f;  // the background is drawn: opaque
         }
-        spec.attribute("Software", "cambium");
-        if (!out->set_ioproxy(&memory) || !out->open(path, spec) ||
-            !out->write_image(OIIO::TypeDesc::FLOAT, px.data()) || !out->close())
-            throw std::runtime_error(out->geterror());
+    } else {
+        c.channels = 8;
+        c.channelNames = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z"};
+        c.alphaChannel = 3;
+        c.zChannel = 4;
+        c.pixels.resize(8 * n);
+        for (size_t i = 0; i < n; ++i) {
+            for (int k = 0; k < 3; ++k) {
+                c.pixels[8 * i + size_t(k)] = img.rgb[3 * i + size_t(k)];
+                c.pixels[8 * i + 5 + size_t(k)] = img.normal[3 * i + size_t(k)];
+            }
+            c.pixels[8 * i + 3] = img.alpha[i];
+            c.pixels[8 * i + 4] = img.depth[i];
+        }
     }
+    std::vector<unsigned char> bytes;
+    const std::string error = imageCodec().encode(path, c, bytes);
+    if (!error.empty())
+        throw std::runtime_error(error);
     writeFile(path, bytes.data(), bytes.size());
 }
 

@@ -1,0 +1,52 @@
+// cambium — image files' pixels through OpenImageIO, loaded on first use.
+// OpenImageIO brings some 240 shared libraries (codecs, GDAL, OpenCV,
+// FFmpeg): linked into cambium they cost every command 0.4 s and 130 MB
+// before main, and a cold first start far more.  So it lives in a plugin,
+// libcambium_oiio.so (src/io/oiio_codec.cpp), which only the commands that
+// read or write an image load.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+/// Pixels as float channels, interleaved, rows top to bottom.
+struct CodecImage {
+    int width = 0, height = 0, channels = 0;
+    std::vector<float> pixels;
+    /// Encoding: channel names (empty: the format's), the alpha and depth
+    /// channels (-1: none), 8 bits per channel (else float).
+    std::vector<std::string> channelNames;
+    int alphaChannel = -1, zChannel = -1;
+    bool eightBit = false;
+    /// Decoding: the file's colour space (oiio:ColorSpace, may be empty) and
+    /// whether it stores floating-point values.  Encoding: the colour space
+    /// to record (empty: none).
+    std::string colourSpace;
+    bool floatFormat = false;
+};
+
+/// The plugin's entry points.  Errors come back as messages (exceptions do
+/// not cross the plugin's boundary): an empty string is success.
+struct ImageCodecApi {
+    int abi;
+    /// Reads `path`; refuses, before reading the pixels, an image of more
+    /// than `maxValues` channel values.  The message names the file.
+    std::string (*decode)(const std::string& path, size_t maxValues, CodecImage& out);
+    /// Encodes `image` into `bytes` in the format of `path`'s extension.
+    std::string (*encode)(const std::string& path, const CodecImage& image,
+                          std::vector<unsigned char>& bytes);
+};
+
+constexpr int kImageCodecAbi = 1;
+
+/// The plugin, loaded on the first call: from $CAMBIUM_IMAGE_CODEC, else
+/// beside the executable, else where the build put it.  std::runtime_error
+/// naming the places tried when none loads.
+const ImageCodecApi& imageCodec();
+
+}  // namespace cambium
+
+/// The plugin's one exported symbol.
+extern "C" const cambium::ImageCodecApi* cambium_image_codec();

@@ -1,0 +1,78 @@
+// cambium — the OpenImageIO plugin (libcambium_oiio.so, io/image_codec.h):
+// decoding any image OpenImageIO reads, encoding PNG and EXR into memory.
+#include "io/image_codec.h"
+
+#include <fmt/format.h>
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <exception>
+
+namespace {
+
+std::string decode(const std::string& path, size_t maxValues, cambium::CodecImage& out)
+try {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in)
+        return fmt::format("{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+        return fmt::format("{}: the image is empty", path);
+    if (double(spec.width) * spec.height * spec.nchannels > double(maxValues))
+        return fmt::format(
+            "{}: {} x {} pixels of {} channels is more than the {:g} million values read: scale "
+            "it down",
+            path, spec.width, spec.height, spec.nchannels, double(maxValues) / 1e6);
+    out.width = spec.width;
+    out.height = spec.height;
+    out.channels = spec.nchannels;
+    out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
+        return fmt::format("{}: cannot read the image: {}", path, in->geterror());
+    out.colourSpace = spec.get_string_attribute("oiio:ColorSpace");
+    out.floatFormat = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+                      spec.format.basetype == OIIO::TypeDesc::HALF ||
+                      spec.format.basetype == OIIO::TypeDesc::DOUBLE;
+    return {};
+} catch (const std::exception& e) {
+    return fmt::format("{}: {}", path, e.what());
+}
+
+std::string encode(const std::string& path, const cambium::CodecImage& img,
+                   std::vector<unsigned char>& bytes)
+try {
+    auto out = OIIO::ImageOutput::create(path);  // the plugin by the name's extension
+    if (!out)
+        return OIIO::geterror();
+    if (!out->supports("ioproxy"))
+        return "OpenImageIO cannot encode " + path + " into memory";
+    OIIO::Filesystem::IOVecOutput memory(bytes);
+    OIIO::ImageSpec spec(img.width, img.height, img.channels,
+                         img.eightBit ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT);
+    if (!img.channelNames.empty())
+        spec.channelnames = img.channelNames;
+    if (img.alphaChannel >= 0)
+        spec.alpha_channel = img.alphaChannel;
+    if (img.zChannel >= 0)
+        spec.z_channel = img.zChannel;
+    if (!img.colourSpace.empty())
+        spec.attribute("oiio:ColorSpace", img.colourSpace);
+    spec.attribute("Software", "cambium");
+    if (!out->set_ioproxy(&memory) || !out->open(path, spec) ||
+        !out->write_image(OIIO::TypeDesc::FLOAT, img.pixels.data()) || !out->close())
+        return out->geterror();
+    return {};
+} catch (const std::exception& e) {
+    return e.what();
+}
+
+const cambium::ImageCodecApi kApi = {cambium::kImageCodecAbi, decode, encode};
+
+}  // namespace
+
+extern "C" __attribute__((visibility("default"))) const cambium::ImageCodecApi*
+cambium_image_codec()
+{
+    return &kApi;
+}
