@@ -30,8 +30,8 @@ float runAffine(const OpenCLContext& ctx, int k)
     cl_kernel kernel = clCreateKernel(program, "affine", &err);
     EXPECT_EQ(err, CL_SUCCESS);
     float x[4] = {3.0f, 3.0f, 3.0f, 3.0f};
-    cl_mem buf = clCreateBuffer(ctx.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof x,
-                                x, &err);
+    cl_mem buf =
+        clCreateBuffer(ctx.context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof x, x, &err);
     EXPECT_EQ(err, CL_SUCCESS);
     clSetKernelArg(kernel, 0, sizeof buf, &buf);
     const size_t global = 4, local = 4;
@@ -76,7 +76,8 @@ struct CacheFile {
 
 TEST(ProgramCache, AProgramIsLoadedFromItsBinaryKeyedByItsOptionsAndADamagedFileIsRebuilt)
 {
-    const fs::path dir = fs::temp_directory_path() / ("cambium_cache_" + std::to_string(::getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("cambium_cache_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     ::setenv("CAMBIUM_CACHE_DIR", dir.c_str(), 1);
     const fs::path programs = dir / "opencl";

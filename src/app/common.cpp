@@ -101,11 +101,12 @@ void printTimings(const BakeStats& s)
                "{:.3f}, z {:.3f}), "
                "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, "
                "tree {:.3f} s, "
-               "flood fill {:.3f} s\n",
+               "flood fill {:.3f} s; the first leaf sampled {:.2f} s after the process "
+               "started\n",
                s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
                t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
                t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
-               s.candidateLeaves, t.freeing, t.tree, t.floodFill);
+               s.candidateLeaves, t.freeing, t.tree, t.floodFill, t.startToSampling);
 }
 
 }  // namespace cambium

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <memory>
 #include <sys/resource.h>
@@ -115,6 +116,11 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     BakeReport report;
     checkBakeOptions(req);
     checkOutputPath(req.output);
+    const ThreadLimit threads(req.threads);
+    // The device starts (PoCL: its libraries, the device, the programs from
+    // cambium's cache; about 0.2 s) while the model is read and compiled.
+    std::future<std::unique_ptr<FieldSampler>> starting =
+        std::async(std::launch::async, [device = req.device] { return makeSampler(device); });
     const BlobTree tree = loadModel(req.input, req.model);
     const BarkPaint paint = barkPaint(req, tree);
     const FieldProgram program = FieldProgram::compile(tree);
@@ -138,8 +144,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
             "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
             thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
 
-    const ThreadLimit threads(req.threads);
-    std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);
+    std::unique_ptr<FieldSampler> sampler = starting.get();
     report.device = sampler->name();
 
     BakeOptions opt;

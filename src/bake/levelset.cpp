@@ -1,6 +1,7 @@
 // cambium — a FieldProgram baked into a narrow-band level set: the stages in
 // order (bake/stages.h names the file of each).
 #include "bake/levelset.h"
+#include "core/system.h"
 
 #include "bake/stages.h"
 #include "core/clock.h"
@@ -65,6 +66,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     auto value = parallelArray<uint16_t>(n * kLeafVoxels);
     sampler.setProgram(program);
     sampler.setLeafCode(topo.pool);
+    tm.startToSampling = processAgeSeconds();
     if (opt.reuse)
         sampleWithReuse(program, sampler, topo, h, *opt.reuse, value.get(), st.reusedLeaves,
                         progress);

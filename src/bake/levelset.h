@@ -50,6 +50,7 @@ struct BakeTimings {
     double halos = 0.0, points = 0.0, sweeps = 0.0, sweepAxis[3] = {0.0, 0.0, 0.0},
            leaves = 0.0;  ///< thread time
     double freeing = 0.0, tree = 0.0, floodFill = 0.0;
+    double startToSampling = 0.0;  ///< process start to the first leaf sampled (processAgeSeconds)
     size_t tiles = 0, tileLeaves = 0;  ///< 64^3 tiles, and their leaves with halos
 };
 

@@ -8,7 +8,10 @@
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <ctime>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -31,6 +34,28 @@ double peakMemoryBytes()
     struct rusage r;
     ::getrusage(RUSAGE_SELF, &r);
     return double(r.ru_maxrss) * 1024.0;
+}
+
+double processAgeSeconds()
+{
+    // Field 22 of /proc/self/stat: the start time in clock ticks after boot
+    // (after the command name, which may hold spaces, in parentheses).
+    std::ifstream in("/proc/self/stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), {});
+    const size_t close = stat.rfind(')');
+    if (close == std::string::npos)
+        return 0.0;
+    std::istringstream fields(stat.substr(close + 2));
+    std::string field;
+    for (int i = 3; i < 22 && fields >> field; ++i) {
+    }
+    unsigned long long startTicks = 0;
+    if (!(fields >> startTicks))
+        return 0.0;
+    timespec boot{};
+    ::clock_gettime(CLOCK_BOOTTIME, &boot);
+    const double now = double(boot.tv_sec) + 1e-9 * double(boot.tv_nsec);
+    return now - double(startTicks) / double(::sysconf(_SC_CLK_TCK));
 }
 
 std::string executableDirectory()

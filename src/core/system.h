@@ -13,6 +13,9 @@ namespace cambium {
 double availableMemoryBytes();
 /// Peak resident memory of this process so far.
 double peakMemoryBytes();
+/// Seconds since this process started (the kernel's start time, to its
+/// clock tick, 10 ms): what a user waiting for a command sees.
+double processAgeSeconds();
 /// The directory of this process's executable (where the build puts
 /// cambium-ptls and the image codec beside cambium).
 std::string executableDirectory();
