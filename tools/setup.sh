@@ -43,7 +43,7 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
 fi
 cmake --build "$build" -j"$(nproc)"
 # The OpenCL kernels compiled once here, not on the first bake or render.
-case "$mode" in run | test) "$build/cambium" prepare ;; esac
+case "$mode" in run | test | build) "$build/cambium" prepare ;; esac
 
 case "$mode" in
   run)
