@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <exception>
 #include <fstream>
 #include <future>
 #include <limits>
@@ -117,11 +118,22 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     checkBakeOptions(req);
     checkOutputPath(req.output);
     const ThreadLimit threads(req.threads);
-    // The device starts (PoCL: its libraries, the device, the programs from
-    // cambium's cache; about 0.2 s) while the model is read and compiled.
-    std::future<std::unique_ptr<FieldSampler>> starting =
-        std::async(std::launch::async, [device = req.device] { return makeSampler(device); });
-    const BlobTree tree = loadModel(req.input, req.model);
+    // The model is read on a thread of its own while this one starts the
+    // device (PoCL: its libraries, the device, the programs from cambium's
+    // cache; about 0.2 s).  The device starts here, not on that thread:
+    // PoCL's first call sets up per-thread state (an alternate signal stack)
+    // that must not go away with a short-lived thread.  A bad model is
+    // reported before a missing device.
+    std::future<BlobTree> loading =
+        std::async(std::launch::async, [&req] { return loadModel(req.input, req.model); });
+    std::unique_ptr<FieldSampler> sampler;
+    std::exception_ptr deviceError;
+    try {
+        sampler = makeSampler(req.device);
+    } catch (...) {
+        deviceError = std::current_exception();
+    }
+    const BlobTree tree = loading.get();
     const BarkPaint paint = barkPaint(req, tree);
     const FieldProgram program = FieldProgram::compile(tree);
     const VoxelPlan plan = planVoxelSize(program, req);
@@ -144,7 +156,8 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
             "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
             thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
 
-    std::unique_ptr<FieldSampler> sampler = starting.get();
+    if (deviceError)
+        std::rethrow_exception(deviceError);
     report.device = sampler->name();
 
     BakeOptions opt;
