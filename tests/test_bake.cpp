@@ -138,6 +138,37 @@ TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
 
+TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
+{
+    // Twelve units of branch at 0.01: 19 slabs of 64 voxels.  The bake holds
+    // the values and surface points of a few slabs at a time, not of the
+    // whole band, and the distances across the slabs' borders are exact.
+    BlobTree tree;
+    const glm::dvec3 a(0.003, 0.002, -0.001), b(12.0, 0.05, 0.02);
+    const double r = 0.1;
+    tree.setRoot(tree.segment(a, b, r));
+    tree.finalize();
+    const double h = 0.01;
+    const BakedGrids g = bakeTree(tree, h);
+    const BakeStats& s = g.stats;
+    report("long branch: {} leaves, values of {} held at most, {} of {} surface points",
+           s.candidateLeaves, s.heldLeaves, s.heldSurfacePoints, s.surfacePoints);
+    EXPECT_GT(s.heldLeaves, 0u);
+    EXPECT_LT(double(s.heldLeaves), 0.25 * double(s.candidateLeaves));
+    EXPECT_GT(s.heldSurfacePoints, 0u);
+    EXPECT_LT(double(s.heldSurfacePoints), 0.25 * double(s.surfacePoints));
+    auto exact = [&](const glm::dvec3& p) {
+        const double t = std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0);
+        return glm::length(p - (a + t * (b - a))) - r;
+    };
+    Box box;
+    box.expand(a);
+    box.expand(b);
+    const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
+    expectAccurate(e, "long branch");
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
+}
+
 /// Exact signed distance to cambium's cone: in the (axial s, radial rho) half
 /// plane the surface is the segment from (0, r0) to (L, r1) and the cap arcs of
 /// radius r0 around (0, 0) for s <= 0 and r1 around (L, 0) for s >= L.

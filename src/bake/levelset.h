@@ -62,6 +62,8 @@ struct BakeStats {
     size_t reusedLeaves = 0;         ///< sampled leaves whose values came from BakeOptions::reuse
     size_t activeVoxels = 0;         ///< voxels in the band
     size_t surfacePoints = 0;        ///< voxels next to a sign change (the first layer)
+    size_t heldLeaves = 0;           ///< most leaves whose values were held at once (streaming)
+    size_t heldSurfacePoints = 0;    ///< most surface points held at once
     double meanProgramLength = 0.0;  ///< instructions per leaf program
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
     BakeTimings timings;

@@ -175,8 +175,7 @@ public:
     Propagation(const PropagationInput& in, BandLeaves& out)
         : in_(in),
           out_(out),
-          first_(in.surface.first),
-          edges_(in.surface.edges.get()),
+          state_(in.state),
           invH_(float(1.0 / in.voxelSize)),
           limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
     {
@@ -208,9 +207,8 @@ private:
     SurfacePoint surfacePoint(size_t l, size_t k) const
     {
         const int32_t* o = in_.leaves[l].origin;
-        const size_t q = first_[l] + k;
-        const SurfaceEdge& ed = edges_[q];
-        const SurfaceSample& sample = in_.samples[q];
+        const SurfaceEdge& ed = state_.edge[l][k];
+        const SurfaceSample& sample = state_.sample[l][k];
         const int i = ed.voxel;
         const float fv = ed.f;
         const bool inside = fv > 0.0f;
@@ -253,7 +251,7 @@ private:
         for (size_t l = t0; l < t1; ++l)
             for (int32_t m : in_.nb[l])
                 if (m >= 0 && (size_t(m) < t0 || size_t(m) >= t1) &&
-                    first_[size_t(m) + 1] > first_[size_t(m)])
+                    state_.surfaceVoxels(size_t(m)) > 0)
                     S.leaves.push_back(m);
         std::sort(S.leaves.begin() + long(t1 - t0), S.leaves.end());
         S.leaves.erase(std::unique(S.leaves.begin() + long(t1 - t0), S.leaves.end()),
@@ -271,7 +269,7 @@ private:
         S.local.resize(nl);
         size_t count = 1;  // point 0: none
         for (size_t k = 0; k < nl; ++k)
-            count += first_[size_t(S.leaves[k]) + 1] - first_[size_t(S.leaves[k])];
+            count += state_.surfaceVoxels(size_t(S.leaves[k]));
         if (!in_.uniformColor)  // a model of one colour needs no colours per point
             S.rgb.resize(count);
         for (auto& v : S.nrm) {
@@ -289,9 +287,9 @@ private:
             std::fill_n(S.src.begin() + long(lb), kLeafVoxels, 0);
             for (auto& p : S.pos)
                 std::fill_n(p.begin() + long(lb), kLeafVoxels, 1e15f);
-            for (size_t e = 0; e < first_[l + 1] - first_[l]; ++e, ++next) {
+            for (size_t e = 0; e < state_.surfaceVoxels(l); ++e, ++next) {
                 const SurfacePoint sp = surfacePoint(l, e);
-                const size_t at = k * kLeafVoxels + size_t(edges_[first_[l] + e].voxel);
+                const size_t at = k * kLeafVoxels + size_t(state_.edge[l][e].voxel);
                 S.src[at] = next;
                 if (!in_.uniformColor)
                     S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
@@ -333,10 +331,10 @@ private:
             uint8_t on[kLeafVoxels];
             const int32_t* src = S.src.data() + k * kLeafVoxels;
             const size_t at = k * kLeafVoxels;
-            const int active = leafDistances(o, in_.value + l * kLeafVoxels, S.pos[0].data() + at,
-                                             S.pos[1].data() + at, S.pos[2].data() + at, src,
-                                             S.nrm[0].data(), S.nrm[1].data(), S.nrm[2].data(),
-                                             float(in_.voxelSize), background, sd, on);
+            const int active =
+                leafDistances(o, state_.value[l], S.pos[0].data() + at, S.pos[1].data() + at,
+                              S.pos[2].data() + at, src, S.nrm[0].data(), S.nrm[1].data(),
+                              S.nrm[2].data(), float(in_.voxelSize), background, sd, on);
             out_.active[l] = size_t(active);
             if (!active)
                 continue;
@@ -381,40 +379,32 @@ private:
 
     const PropagationInput& in_;
     BandLeaves& out_;
-    const std::vector<size_t>& first_;
-    const SurfaceEdge* edges_;
+    const LeafState& state_;
     const float invH_, limit2_;
 };
 
 }  // namespace
 
-BandLeaves propagate(const PropagationInput& in, const Progress& progress, BakeTimings& timings)
+void propagate(const PropagationInput& in, size_t begin, size_t end, BandLeaves& out,
+               BakeTimings& timings)
 {
     const auto t = Clock::now();
-    const size_t n = in.leaves.size();
-    BandLeaves out;
-    out.surface.assign(n, nullptr);
-    out.color.assign(n, nullptr);
-    out.active.assign(n, 0);
-    const std::vector<size_t> tileStart = cubeRuns(in.leaves, 6);
+    const std::vector<size_t> tileStart = cubeRuns(in.leaves, 6, begin, end);
     const size_t tiles = tileStart.size() - 1;
     Propagation work(in, out);
-    std::atomic<size_t> tilesDone{0};
     tbb::enumerable_thread_specific<TileScratch> scratch;
     tbb::parallel_for(size_t(0), tiles, [&](size_t tile) {
         work.tile(tileStart[tile], tileStart[tile + 1], scratch.local());
-        progress("assembly", double(++tilesDone) / double(tiles));
     });
-    timings.propagation = secondsSince(t);
-    timings.halos = double(work.haloNs) * 1e-9;
-    timings.points = double(work.pointsNs) * 1e-9;
-    timings.sweeps = double(work.sweepNs) * 1e-9;
+    timings.propagation += secondsSince(t);
+    timings.halos += double(work.haloNs) * 1e-9;
+    timings.points += double(work.pointsNs) * 1e-9;
+    timings.sweeps += double(work.sweepNs) * 1e-9;
     for (int k = 0; k < 3; ++k)
-        timings.sweepAxis[k] = double(work.axisNs[k]) * 1e-9;
-    timings.leaves = double(work.leavesNs) * 1e-9;
-    timings.tiles = tiles;
-    timings.tileLeaves = work.localLeaves;
-    return out;
+        timings.sweepAxis[k] += double(work.axisNs[k]) * 1e-9;
+    timings.leaves += double(work.leavesNs) * 1e-9;
+    timings.tiles += tiles;
+    timings.tileLeaves += work.localLeaves;
 }
 
 }  // namespace cambium

@@ -11,6 +11,9 @@
 //                                               tile, into distances and leaves (bake/sweep.inc)
 //   5. assembly        bake/assembly.cpp        the grids: leaves, flood fill, fog
 //   memory estimate    bake/memory_estimate.cpp
+// Stages 2-4 stream through the topology's slabs (bake/levelset.cpp): each
+// runs up to a slab ahead of the next, and a slab's values and surface voxels
+// are freed once its neighbours' stages are done with them.
 // clang-format on
 #pragma once
 
@@ -22,6 +25,7 @@
 #include <openvdb/openvdb.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -47,26 +51,60 @@ inline uint64_t nodeKey(int x, int y, int z, int log2)
            uint64_t(uint32_t(z >> log2) & 0x1FFFFF);
 }
 
-/// Where each run of consecutive leaves inside one cube of 2^shift voxels a
-/// side starts, then leaves.size().  The topology lists leaves depth-first
-/// within its 128^3 tiles, so each such cube (shift <= 7) is one run.
-std::vector<size_t> cubeRuns(const std::vector<LeafJob>& leaves, int shift);
+/// Where each run of consecutive leaves [begin, end) inside one cube of
+/// 2^shift voxels a side starts, then end.  The topology lists leaves
+/// depth-first within its 64^3 cubes, so each such cube (shift <= 6) is one
+/// run.
+std::vector<size_t> cubeRuns(const std::vector<LeafJob>& leaves, int shift, size_t begin = 0,
+                             size_t end = SIZE_MAX);
+
+/// Where each of the topology's slabs (64 voxels thick across `axis`)
+/// starts, then leaves.size().
+std::vector<size_t> slabRuns(const std::vector<LeafJob>& leaves, int axis);
 
 using Progress = std::function<void(const char* stage, double fraction)>;
 
+/// A leaf's inside bits (F > T): one 64-bit plane (bit x + 8 y) per z.
+using InsideBits = std::array<uint64_t, 8>;
+
+struct SurfaceEdge;
+
+/// What the stages have made of each leaf so far.  The bake streams through
+/// the topology's slabs: a leaf's values and surface voxels are held only
+/// while the stages of its own and its neighbouring slabs need them (null
+/// pointers otherwise).
+struct LeafState {
+    explicit LeafState(size_t n) : value(n), inside(n), first(n + 1, 0), edge(n), sample(n) {}
+    std::vector<const uint16_t*> value;    ///< F - T, kLeafVoxels halves (x + 8 y + 64 z)
+    std::vector<InsideBits> inside;        ///< the inside bits of the values
+    std::vector<size_t> first;             ///< leaf l's surface voxels: [first[l], first[l + 1])
+    std::vector<const SurfaceEdge*> edge;  ///< its first surface voxel's edge
+    std::vector<const SurfaceSample*> sample;  ///< and the sampler's answer there
+    size_t surfaceVoxels(size_t l) const { return first[l + 1] - first[l]; }
+};
+
 // --- 2. values ----------------------------------------------------------------
 
-/// Every voxel's F - T (half floats, kLeafVoxels per leaf, in the leaves'
-/// order) into `value`, in batches.
-void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, double h,
-                      uint16_t* value, const Progress& progress);
+/// Every voxel's F - T (half floats, kLeafVoxels per leaf) of leaves
+/// [begin, end) into `value`, in batches.
+void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, size_t begin,
+                      size_t end, double h, uint16_t* value);
 
-/// The same with a cache: leaves whose canonical program the cache holds for
-/// their origin get its values, the rest are sampled; the cache then holds
-/// this bake's leaves.  `reused`: how many leaves were not sampled.
+/// The same with a cache: leaves whose canonical program `cache` holds for
+/// their origin get its values, the rest are sampled; `next` (a cache with
+/// room for every leaf of this bake, see startReuse) collects this bake's.
+/// `reused`: how many leaves were not sampled.
 void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo,
-                     double h, LeafValueCache& cache, uint16_t* value, size_t& reused,
-                     const Progress& progress);
+                     size_t begin, size_t end, double h, const LeafValueCache& cache,
+                     LeafValueCache& next, uint16_t* value, size_t& reused);
+
+/// An empty cache with room for the topology's leaves; once every leaf's
+/// values are in, finishReuse makes it the one a next bake uses.
+LeafValueCache startReuse(const BandTopology& topo, double h);
+void finishReuse(const BandTopology& topo, LeafValueCache& next, LeafValueCache& cache);
+
+/// The inside bits of leaves [begin, end) from their values.
+void findInsideBits(LeafState& state, size_t begin, size_t end);
 
 // --- 3. neighbours and surface voxels -------------------------------------------
 
@@ -101,21 +139,23 @@ struct SurfaceEdge {
     float f;  ///< F - T at the voxel, kept so that making the point reads no values
 };
 
-/// The surface voxels of all leaves in one array, leaf by leaf in voxel
-/// order: leaf l's are [first[l], first[l + 1]).  `queries` ask the sampler
-/// for their gradients and colours.
+/// The surface voxels of leaves [begin, end) in one array, leaf by leaf in
+/// voxel order from LeafState::first[begin]; `queries` ask the sampler for
+/// their gradients and colours, its answers go to `samples`.
 struct SurfaceVoxels {
-    std::vector<size_t> first;
     ParallelArray<SurfaceEdge> edges;
     ParallelArray<SurfaceQuery> queries;
-    size_t count() const { return first.empty() ? 0 : first.back(); }
+    ParallelArray<SurfaceSample> samples;
+    size_t count = 0;
 };
 
-/// Finds them from the values and neighbours (a missing neighbour leaf, with
-/// no surface within a voxel of it, counts as the same side); the time of
-/// each step into `timings` (neighbours excluded).
-SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16_t* value,
-                                const std::vector<LeafNeighbours>& nb, BakeTimings& timings);
+/// Finds them from the values and inside bits of the leaves and of their
+/// neighbours (a missing neighbour leaf, with no surface within a voxel of
+/// it, counts as the same side), sets state.first[begin + 1 .. end] (first
+/// [begin] is already set) and points state.edge at them; the time into
+/// `timings`.
+SurfaceVoxels findSurfaceVoxels(size_t begin, size_t end, const std::vector<LeafNeighbours>& nb,
+                                LeafState& state, BakeTimings& timings);
 
 // --- 4. propagation -------------------------------------------------------------
 
@@ -131,18 +171,19 @@ struct BandLeaves {
 /// The inputs of propagation: the bake's leaves and what stages 2 and 3 found.
 struct PropagationInput {
     const std::vector<LeafJob>& leaves;
-    const uint16_t* value;
     const std::vector<LeafNeighbours>& nb;
-    const SurfaceVoxels& surface;
-    const SurfaceSample* samples;  ///< the sampler's answers to surface.queries
+    const LeafState& state;
     double voxelSize, halfWidth;
     float background;
     bool uniformColor;  ///< one colour everywhere: no colour per point
 };
 
-/// Stage 4, tile by tile: each tile's surface points swept through its
-/// leaves and a halo, then its signed distances and grid leaves.
-BandLeaves propagate(const PropagationInput& in, const Progress& progress, BakeTimings& timings);
+/// Stage 4 for leaves [begin, end) (whole 64^3 cubes), tile by tile: each
+/// tile's surface points swept through its leaves and a halo (whose surface
+/// voxels must be known), then its signed distances and grid leaves into
+/// `out` (sized for all leaves).  Times add up in `timings`.
+void propagate(const PropagationInput& in, size_t begin, size_t end, BandLeaves& out,
+               BakeTimings& timings);
 
 // --- 5. assembly ----------------------------------------------------------------
 

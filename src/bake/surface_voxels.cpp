@@ -13,34 +13,25 @@ namespace cambium {
 const int kFaceDirections[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
                                    {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
 
-namespace {
-
-/// Inside bits (F > T) of every leaf: one 64-bit plane (bit x + 8 y) per z.
-std::vector<std::array<uint64_t, 8>> leafInsideBits(const uint16_t* value, size_t n)
+void findInsideBits(LeafState& state, size_t begin, size_t end)
 {
-    std::vector<std::array<uint64_t, 8>> insideBits(n);
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const uint16_t* v = value + l * kLeafVoxels;
+    tbb::parallel_for(begin, end, [&](size_t l) {
+        const uint16_t* v = state.value[l];
         for (int z = 0; z < 8; ++z) {
             uint64_t m = 0;
             for (int i = 0; i < 64; ++i)
                 m |= uint64_t(halfPositive(v[64 * z + i])) << i;
-            insideBits[l][size_t(z)] = m;
+            state.inside[l][size_t(z)] = m;
         }
     });
-    return insideBits;
 }
 
-}  // namespace
-
-SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16_t* value,
-                                const std::vector<LeafNeighbours>& nb, BakeTimings& timings)
+SurfaceVoxels findSurfaceVoxels(size_t begin, size_t end, const std::vector<LeafNeighbours>& nb,
+                                LeafState& state, BakeTimings& timings)
 {
     const auto start = Clock::now();
-    const size_t n = leaves.size();
     SurfaceVoxels out;
-    const std::vector<std::array<uint64_t, 8>> insideBits = leafInsideBits(value, n);
-    const double tBits = secondsSince(start);
+    const std::vector<InsideBits>& insideBits = state.inside;
     // The voxels of leaf l with a face neighbour on the other side of the
     // surface, per plane z and direction (the order of dirs), by shifting the
     // inside bits; a missing neighbour leaf (no surface within a voxel of it)
@@ -74,31 +65,32 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
         }
         return count;
     };
-    // The surface voxels of all leaves in one array, leaf by leaf: counted,
+    // The surface voxels of the leaves in one array, leaf by leaf: counted,
     // then written (one block: no allocation per leaf).
-    std::vector<size_t>& first = out.first;
-    first.assign(n + 1, 0);
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
+    std::vector<size_t>& first = state.first;
+    tbb::parallel_for(begin, end, [&](size_t l) {
         uint64_t across[8][6];
         first[l + 1] = crossings(l, across);
     });
-    for (size_t l = 0; l < n; ++l)
+    for (size_t l = begin; l < end; ++l)
         first[l + 1] += first[l];
-    const size_t np = first[n];
+    const size_t q0 = first[begin], np = first[end] - q0;
+    out.count = np;
     out.edges = parallelArray<SurfaceEdge>(np);
     out.queries = parallelArray<SurfaceQuery>(np);
     SurfaceEdge* edges = out.edges.get();
     SurfaceQuery* queries = out.queries.get();
-    tbb::parallel_for(size_t(0), n, [&](size_t l) {
-        const uint16_t* own = value + l * kLeafVoxels;
+    tbb::parallel_for(begin, end, [&](size_t l) {
+        const uint16_t* own = state.value[l];
+        state.edge[l] = edges + (first[l] - q0);
         // The values were last read long ago (they are out of the caches) and
         // are read here at scattered voxels: fetch the next leaf's ahead.
-        if (l + 1 < n)
+        if (l + 1 < end)
             for (int i = 0; i < kLeafVoxels; i += 32)
-                __builtin_prefetch(own + kLeafVoxels + i);
+                __builtin_prefetch(state.value[l + 1] + i);
         uint64_t across[8][6];
         crossings(l, across);
-        size_t j = first[l];
+        size_t j = first[l] - q0;
         for (int z = 0; z < 8; ++z) {
             const uint64_t* d = across[z];
             uint64_t change = d[0] | d[1] | d[2] | d[3] | d[4] | d[5];
@@ -123,10 +115,10 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
                               oz = nz < 0 ? -1 : (nz > 7);
                     const int32_t nl =
                         (ox | oy | oz) ? nb[l][size_t(neighbourSlot(ox, oy, oz))] : int32_t(l);
-                    const size_t at = cross ? size_t(nl) * kLeafVoxels +
-                                                  size_t(vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz))
-                                            : l * kLeafVoxels + size_t(i);
-                    const float fu = halfToFloat(value[at]);
+                    const uint16_t* at =
+                        cross ? state.value[size_t(nl)] + vox(nx - 8 * ox, ny - 8 * oy, nz - 8 * oz)
+                              : own + i;
+                    const float fu = halfToFloat(*at);
                     const float tc = cross ? fv / (fv - fu) : INFINITY;
                     e = tc < edge ? k : e;
                     edge = tc < edge ? tc : edge;
@@ -139,8 +131,7 @@ SurfaceVoxels findSurfaceVoxels(const std::vector<LeafJob>& leaves, const uint16
         }
         // Voxels come out plane by plane in x + 8 y order: voxel order.
     });
-    timings.insideBits = tBits;
-    timings.signChanges = secondsSince(start) - tBits;
+    timings.signChanges += secondsSince(start);
     return out;
 }
 

@@ -1,9 +1,13 @@
 // cambium — narrow-band topology by interval subdivision.
 #include "bake/topology.h"
 
+#include "bake/stages.h"
+
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 
@@ -140,14 +144,35 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
         if (progress)
             progress(double(d) / double(tiles));
     });
+    std::vector<LeafJob> found;
     for (size_t t = 0; t < tiles; ++t) {
         const int32_t base = int32_t(out.pool.size());
         for (LeafJob job : tileLeaves[t]) {
             job.codeOffset += base;
-            out.leaves.push_back(job);
+            found.push_back(job);
         }
         out.pool.insert(out.pool.end(), tilePools[t].begin(), tilePools[t].end());
+        tileLeaves[t] = {};
+        tilePools[t] = {};
     }
+    // Slab order: the 64^3 cubes (each one run of the depth-first descent)
+    // sorted by their coordinate across the longest axis first, so that a
+    // bake can finish slab after slab and free what it no longer needs.
+    const int axis = int(std::max_element(nt, nt + 3) - nt), a = (axis + 1) % 3, b = (axis + 2) % 3;
+    out.slabAxis = axis;
+    const std::vector<size_t> cube = cubeRuns(found, 6);
+    std::vector<size_t> order(cube.size() - 1);
+    for (size_t i = 0; i < order.size(); ++i)
+        order[i] = i;
+    auto key = [&](size_t i) {
+        const int32_t* o = found[cube[i]].origin;
+        return std::array<int32_t, 3>{o[axis] >> 6, o[a] >> 6, o[b] >> 6};
+    };
+    std::sort(order.begin(), order.end(), [&](size_t i, size_t j) { return key(i) < key(j); });
+    out.leaves.reserve(found.size());
+    for (size_t i : order)
+        out.leaves.insert(out.leaves.end(), found.begin() + long(cube[i]),
+                          found.begin() + long(cube[i + 1]));
     out.boxesTested = search.boxes;
     return out;
 }

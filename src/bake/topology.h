@@ -13,9 +13,13 @@
 namespace cambium {
 
 struct BandTopology {
-    std::vector<LeafJob> leaves;  ///< sorted by tile, then by position (deterministic)
-    std::vector<Instr> pool;      ///< the leaves' programs
-    size_t boxesTested = 0;       ///< interval evaluations over boxes
+    /// In slabs 64 voxels thick across slabAxis (the box's longest), then
+    /// 64^3 cube by cube, depth-first within each cube (deterministic): the
+    /// bake streams its stages through the slabs in this order.
+    std::vector<LeafJob> leaves;
+    int slabAxis = 0;
+    std::vector<Instr> pool;  ///< the leaves' programs
+    size_t boxesTested = 0;   ///< interval evaluations over boxes
 };
 
 /// Finds every leaf (origin a multiple of 8, voxel (i, j, k) at (i, j, k) * h)
