@@ -196,7 +196,7 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
     auto cpu = makeCpuSampler();
     for (FieldSampler* s : {cpu.get(), cl_}) {
         s->setProgram(prog);
-        s->setLeafCode(pool);
+        s->setLeaves(jobs, pool);
     }
     std::vector<uint16_t> a(jobs.size() * kLeafVoxels), b(a.size());  // F - T as halves
     cpu->sampleValues(jobs, 0, jobs.size(), h, a.data());
@@ -207,8 +207,8 @@ TEST_F(SamplerParity, LeavesMatchTheCpuPath)
         for (int i = int(l) % 7; i < kLeafVoxels; i += 5 + int(l % 3))
             queries.push_back({int32_t(l), uint16_t(i)});
     std::vector<SurfaceSample> sa(queries.size()), sb(queries.size());
-    cpu->sampleSurface(jobs, queries.data(), queries.size(), h, sa.data());
-    cl_->sampleSurface(jobs, queries.data(), queries.size(), h, sb.data());
+    cpu->sampleSurface(queries.data(), queries.size(), h, sa.data());
+    cl_->sampleSurface(queries.data(), queries.size(), h, sb.data());
     ReferenceEvaluator ref(tree);
     auto position = [&](size_t l, int i) {
         return glm::dvec3(float(jobs[l].origin[0] + (i & 7)) * float(h),

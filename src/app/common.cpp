@@ -102,11 +102,12 @@ void printTimings(const BakeStats& s)
                "leaves {:.3f} s; {} tiles, {} leaves with halos for {} leaves); freeing {:.3f} s, "
                "tree {:.3f} s, "
                "flood fill {:.3f} s; the first leaf sampled {:.2f} s after the process "
-               "started\n",
+               "started; held at once: the values of {} leaves, {} surface points\n",
                s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
                t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
                t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
-               s.candidateLeaves, t.freeing, t.tree, t.floodFill, t.startToSampling);
+               s.candidateLeaves, t.freeing, t.tree, t.floodFill, t.startToSampling, s.heldLeaves,
+               s.heldSurfacePoints);
 }
 
 }  // namespace cambium

@@ -40,13 +40,14 @@ void finishReuse(const BandTopology& topo, LeafValueCache& next, LeafValueCache&
 }
 
 void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo,
-                     size_t begin, size_t end, double h, const LeafValueCache& cache,
-                     LeafValueCache& next, uint16_t* value, size_t& reused)
+                     LeafList list, double h, const LeafValueCache& cache, LeafValueCache& next,
+                     uint16_t* value, size_t& reused)
 {
-    std::vector<uint8_t> have(end - begin, 0);
+    std::vector<uint8_t> have(list.size, 0);
     const bool usable = cache.voxelSize == h;
     tbb::enumerable_thread_specific<std::vector<double>> scratch;
-    tbb::parallel_for(begin, end, [&](size_t l) {
+    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
+        const size_t l = list.index[k];
         const LeafJob& job = topo.leaves[l];
         std::vector<double>& canonical = scratch.local();
         canonical.clear();
@@ -57,30 +58,25 @@ void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const B
             return;
         const auto it = cache.slot.find(packOrigin(job.origin));
         if (it != cache.slot.end() && cache.programs[it->second] == next.programs[l]) {
-            std::memcpy(value + (l - begin) * kLeafVoxels,
-                        cache.values.data() + it->second * kLeafVoxels,
+            std::memcpy(value + k * kLeafVoxels, cache.values.data() + it->second * kLeafVoxels,
                         kLeafVoxels * sizeof(uint16_t));
-            have[l - begin] = 1;
+            have[k] = 1;
         }
     });
-    std::vector<LeafJob> todo;
-    std::vector<size_t> where;
-    for (size_t l = begin; l < end; ++l)
-        if (!have[l - begin]) {
-            todo.push_back(topo.leaves[l]);
-            where.push_back(l - begin);
-        }
-    reused += (end - begin) - todo.size();
-    std::vector<uint16_t> batch(std::min<size_t>(kBatchLeaves, todo.size()) * kLeafVoxels);
-    for (size_t b0 = 0; b0 < todo.size(); b0 += kBatchLeaves) {
-        const size_t b1 = std::min(todo.size(), b0 + kBatchLeaves);
-        sampler.sampleValues(todo, b0, b1, h, batch.data());
-        for (size_t k = b0; k < b1; ++k)
-            std::memcpy(value + where[k] * kLeafVoxels, batch.data() + (k - b0) * kLeafVoxels,
+    std::vector<uint32_t> todo;
+    for (size_t k = 0; k < list.size; ++k)
+        if (!have[k])
+            todo.push_back(list.index[k]);
+    reused += list.size - todo.size();
+    std::vector<uint16_t> batch(todo.size() * kLeafVoxels);
+    sampleLeafValues(sampler, topo.leaves, {todo.data(), todo.size()}, h, batch.data());
+    for (size_t k = 0, t = 0; k < list.size; ++k) {
+        if (!have[k])
+            std::memcpy(value + k * kLeafVoxels, batch.data() + t++ * kLeafVoxels,
                         kLeafVoxels * sizeof(uint16_t));
+        std::memcpy(next.values.data() + size_t(list.index[k]) * kLeafVoxels,
+                    value + k * kLeafVoxels, kLeafVoxels * sizeof(uint16_t));
     }
-    std::copy(value, value + (end - begin) * kLeafVoxels,
-              next.values.begin() + long(begin * kLeafVoxels));
 }
 
 }  // namespace cambium

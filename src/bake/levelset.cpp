@@ -7,6 +7,7 @@
 #include "core/clock.h"
 
 #include <algorithm>
+#include <limits>
 #include <optional>
 
 namespace cambium {
@@ -19,12 +20,16 @@ double autoVoxelSize(const FieldProgram& program, double voxels)
     return extent > 0.0 ? extent / voxels : 0.0;
 }
 
-void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, size_t begin,
-                      size_t end, double h, uint16_t* value)
+void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, LeafList list,
+                      double h, uint16_t* value)
 {
-    for (size_t b0 = begin; b0 < end; b0 += kBatchLeaves) {
-        const size_t b1 = std::min(end, b0 + kBatchLeaves);
-        sampler.sampleValues(leaves, b0, b1, h, value + (b0 - begin) * kLeafVoxels);
+    std::vector<LeafJob> batch;
+    for (size_t b0 = 0; b0 < list.size; b0 += kBatchLeaves) {
+        const size_t b1 = std::min(list.size, b0 + kBatchLeaves);
+        batch.clear();
+        for (size_t k = b0; k < b1; ++k)
+            batch.push_back(leaves[list.index[k]]);
+        sampler.sampleValues(batch, 0, batch.size(), h, value + b0 * kLeafVoxels);
     }
 }
 
@@ -59,26 +64,52 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     st.candidateLeaves = n;
     st.meanProgramLength = n ? double(topo.pool.size()) / double(n) : 0.0;
 
-    // 2-4, slab by slab (the topology's order): the values of a slab, the
-    // voxels next to a sign change of F - T with their gradients and
-    // colours, then propagation into signed distances and grid leaves.  Each
-    // stage of a slab needs the one before it on the neighbouring slabs too,
-    // so the stages run up to a slab ahead of each other, and what a slab's
-    // neighbours no longer need is freed: the bake holds its output and the
-    // stages' state of about four slabs, not of the whole band.
+    // 2-4, streamed through the topology's slabs: the values of each layer
+    // of leaves (a leaf thick), the voxels next to a sign change of F - T
+    // with their gradients and colours, then each slab's propagation into
+    // signed distances and grid leaves.  A layer's surface voxels need the
+    // values of the layers next to it, a slab's propagation the surface
+    // voxels of the layers next to it: the stages run a layer or two ahead
+    // of each other, and a layer's values and surface voxels are freed once
+    // the stages of its neighbours are done with them.  The bake holds its
+    // output and the state of about a slab and a quarter, not of the band.
     sampler.setProgram(program);
-    sampler.setLeafCode(topo.pool);
+    sampler.setLeaves(topo.leaves, topo.pool);
     t = Clock::now();
     const std::vector<LeafNeighbours> nb = findNeighbours(topo.leaves);
     tm.neighbours = secondsSince(t);
-    const std::vector<size_t> slab = slabRuns(topo.leaves, topo.slabAxis);
+    const int axis = topo.slabAxis;
+    const std::vector<size_t> slab = slabRuns(topo.leaves, axis);
     const size_t slabs = slab.size() - 1;
-    std::vector<int> coord(slabs);
-    for (size_t i = 0; i < slabs; ++i)
-        coord[i] = topo.leaves[slab[i]].origin[topo.slabAxis] >> 6;
+    // The layers: each slab's leaves by their layer (counting sort), in order.
+    struct Layer {
+        size_t slab, begin, end;  ///< its slab, its leaves order[begin, end)
+        int coord;                ///< origin[axis] / 8
+    };
+    std::vector<uint32_t> order(n);
+    std::vector<Layer> layer;
+    for (size_t i = 0; i < slabs; ++i) {
+        size_t count[8] = {};
+        for (size_t l = slab[i]; l < slab[i + 1]; ++l)
+            ++count[(topo.leaves[l].origin[axis] >> 3) & 7];
+        size_t at[8], next = slab[i];
+        const int base = (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
+        for (int k = 0; k < 8; ++k) {
+            at[k] = next;
+            if (count[k])
+                layer.push_back({i, next, next + count[k], base + k});
+            next += count[k];
+        }
+        for (size_t l = slab[i]; l < slab[i + 1]; ++l)
+            order[at[(topo.leaves[l].origin[axis] >> 3) & 7]++] = uint32_t(l);
+    }
+    const size_t layers = layer.size();
+    auto listOf = [&](size_t u) {
+        return LeafList{order.data() + layer[u].begin, layer[u].end - layer[u].begin};
+    };
     LeafState state(n);
-    std::vector<ParallelArray<uint16_t>> values(slabs);
-    std::vector<SurfaceVoxels> surface(slabs);
+    std::vector<ParallelArray<uint16_t>> values(layers);
+    std::vector<SurfaceVoxels> surface(layers);
     std::optional<LeafValueCache> next;
     if (opt.reuse)
         next = startReuse(topo, h);
@@ -90,71 +121,79 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     const PropagationInput propagation{topo.leaves,        nb, state, h, W, background,
                                        uniform.has_value()};
     size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
-    auto sampleSlab = [&](size_t i) {
+    auto sampleLayer = [&](size_t u) {
         auto t0 = Clock::now();
-        const size_t b = slab[i], e = slab[i + 1];
-        values[i] = parallelArray<uint16_t>((e - b) * kLeafVoxels);
-        if (i == 0)
+        const LeafList list = listOf(u);
+        values[u] = parallelArray<uint16_t>(list.size * kLeafVoxels);
+        if (u == 0)
             tm.startToSampling = processAgeSeconds();
         if (next)
-            sampleWithReuse(program, sampler, topo, b, e, h, *opt.reuse, *next, values[i].get(),
+            sampleWithReuse(program, sampler, topo, list, h, *opt.reuse, *next, values[u].get(),
                             st.reusedLeaves);
         else
-            sampleLeafValues(sampler, topo.leaves, b, e, h, values[i].get());
-        for (size_t l = b; l < e; ++l)
-            state.value[l] = values[i].get() + (l - b) * kLeafVoxels;
+            sampleLeafValues(sampler, topo.leaves, list, h, values[u].get());
+        for (size_t k = 0; k < list.size; ++k)
+            state.value[list.index[k]] = values[u].get() + k * kLeafVoxels;
         tm.values += secondsSince(t0);
         t0 = Clock::now();
-        findInsideBits(state, b, e);
+        findInsideBits(state, list);
         tm.insideBits += secondsSince(t0);
-        sampled += e - b;
-        heldLeaves += e - b;
+        sampled += list.size;
+        heldLeaves += list.size;
         st.heldLeaves = std::max(st.heldLeaves, heldLeaves);
         progress("sampling", double(sampled) / double(n));
     };
-    auto surfaceSlab = [&](size_t i) {
-        const size_t b = slab[i], e = slab[i + 1];
-        SurfaceVoxels& sv = surface[i];
-        sv = findSurfaceVoxels(b, e, nb, state, tm);
+    auto surfaceLayer = [&](size_t u) {
+        const LeafList list = listOf(u);
+        SurfaceVoxels& sv = surface[u];
+        sv = findSurfaceVoxels(list, nb, state, tm);
         const auto t0 = Clock::now();
         sv.samples = parallelArray<SurfaceSample>(sv.count);
-        sampler.sampleSurface(topo.leaves, sv.queries.get(), sv.count, h, sv.samples.get());
+        sampler.sampleSurface(sv.queries.get(), sv.count, h, sv.samples.get());
         sv.queries.reset();
-        for (size_t l = b; l < e; ++l)
-            state.sample[l] = sv.samples.get() + (state.first[l] - state.first[b]);
+        for (size_t k = 0; k < list.size; ++k) {
+            const size_t l = list.index[k];
+            state.sample[l] = sv.samples.get() + (state.edge[l] - sv.edges.get());
+        }
         tm.surfaceSamples += secondsSince(t0);
         st.surfacePoints += sv.count;
         heldPoints += sv.count;
         st.heldSurfacePoints = std::max(st.heldSurfacePoints, heldPoints);
     };
-    auto release = [&](auto& array, auto& pointers, size_t i) {
+    auto release = [&](auto& array, auto& pointers, size_t u) {
         array.reset();
-        std::fill(pointers.begin() + long(slab[i]), pointers.begin() + long(slab[i + 1]), nullptr);
+        const LeafList list = listOf(u);
+        for (size_t k = 0; k < list.size; ++k)
+            pointers[list.index[k]] = nullptr;
     };
-    size_t sampledSlabs = 0, surfaced = 0, valuesFreed = 0, surfaceFreed = 0;
+    size_t sampledLayers = 0, surfaced = 0, valuesFreed = 0, surfaceFreed = 0;
     for (size_t p = 0; p < slabs; ++p) {
-        // Slab p's propagation needs the surface voxels of the slabs next to
-        // it, which need the values of the slabs next to them.
-        while (surfaced < slabs && coord[surfaced] <= coord[p] + 1) {
-            while (sampledSlabs < slabs && coord[sampledSlabs] <= coord[surfaced] + 1)
-                sampleSlab(sampledSlabs++);
-            surfaceSlab(surfaced++);
+        // Slab p's propagation needs the surface voxels of its layers and of
+        // the layers next to it, which need the values of the layers next to
+        // them.
+        const int first = (topo.leaves[slab[p]].origin[axis] >> 6) * 8;
+        while (surfaced < layers && layer[surfaced].coord <= first + 8) {
+            while (sampledLayers < layers &&
+                   layer[sampledLayers].coord <= layer[surfaced].coord + 1)
+                sampleLayer(sampledLayers++);
+            surfaceLayer(surfaced++);
         }
         propagate(propagation, slab[p], slab[p + 1], leaves, tm);
         propagated += slab[p + 1] - slab[p];
         progress("assembly", double(propagated) / double(n));
         // Values serve the surface voxels of their own and the neighbouring
-        // slabs and their own propagation; surface voxels the propagation of
-        // their own and the neighbouring slabs.
+        // layers and their slab's propagation; surface voxels the
+        // propagation of their own and the neighbouring slabs.
         const auto t0 = Clock::now();
-        while (valuesFreed <= p &&
-               (surfaced == slabs || coord[surfaced] > coord[valuesFreed] + 1)) {
+        while (valuesFreed < sampledLayers && layer[valuesFreed].slab <= p &&
+               (surfaced == layers || layer[surfaced].coord > layer[valuesFreed].coord + 1)) {
             release(values[valuesFreed], state.value, valuesFreed);
-            heldLeaves -= slab[valuesFreed + 1] - slab[valuesFreed];
+            heldLeaves -= layer[valuesFreed].end - layer[valuesFreed].begin;
             ++valuesFreed;
         }
-        while (surfaceFreed < surfaced &&
-               (p + 1 == slabs || coord[p + 1] > coord[surfaceFreed] + 1)) {
+        const int needed = p + 1 < slabs ? (topo.leaves[slab[p + 1]].origin[axis] >> 6) * 8 - 1
+                                         : std::numeric_limits<int>::max();
+        while (surfaceFreed < surfaced && layer[surfaceFreed].coord < needed) {
             release(surface[surfaceFreed].edges, state.edge, surfaceFreed);
             release(surface[surfaceFreed].samples, state.sample, surfaceFreed);
             heldPoints -= surface[surfaceFreed].count;

@@ -23,7 +23,11 @@ namespace {
 class CpuSampler final : public FieldSampler {
 public:
     void setProgram(const FieldProgram& program) override { program_ = &program; }
-    void setLeafCode(const std::vector<Instr>& pool) override { pool_ = &pool; }
+    void setLeaves(const std::vector<LeafJob>& leaves, const std::vector<Instr>& pool) override
+    {
+        leaves_ = &leaves;
+        pool_ = &pool;
+    }
 
     /// The world position of voxel i of a leaf, computed as the kernels do (in float).
     static glm::dvec3 voxelPosition(const LeafJob& job, int i, double h)
@@ -46,11 +50,11 @@ public:
         });
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
-                       size_t count, double h, SurfaceSample* out) override
+    void sampleSurface(const SurfaceQuery* queries, size_t count, double h,
+                       SurfaceSample* out) override
     {
         tbb::parallel_for(size_t(0), count, [&](size_t q) {
-            const LeafJob& job = leaves[size_t(queries[q].leaf)];
+            const LeafJob& job = (*leaves_)[size_t(queries[q].leaf)];
             const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
             const FieldSample s = program_->evaluate(code, voxelPosition(job, queries[q].voxel, h));
             for (int k = 0; k < 3; ++k) {
@@ -79,6 +83,7 @@ public:
 private:
     const FieldProgram* program_ = nullptr;
     const std::vector<Instr>* pool_ = nullptr;
+    const std::vector<LeafJob>* leaves_ = nullptr;
 };
 
 class OpenCLSampler final : public FieldSampler {
@@ -117,9 +122,10 @@ public:
         params_.upload(ctx_, p.data(), p.size() * sizeof(float), CL_MEM_READ_ONLY);
     }
 
-    void setLeafCode(const std::vector<Instr>& pool) override
+    void setLeaves(const std::vector<LeafJob>& leaves, const std::vector<Instr>& pool) override
     {
         pool_.upload(ctx_, pool.data(), pool.size() * sizeof(Instr), CL_MEM_READ_ONLY);
+        leaves_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
     }
 
     void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end, double h,
@@ -170,8 +176,8 @@ public:
             "clEnqueueReadBuffer");
     }
 
-    void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
-                       size_t count, double h, SurfaceSample* out) override
+    void sampleSurface(const SurfaceQuery* queries, size_t count, double h,
+                       SurfaceSample* out) override
     {
         if (count == 0)
             return;
@@ -215,8 +221,7 @@ public:
         chunkLeaf_.unmap(ctx_, cLeaf);
         chunkVoxels_.unmap(ctx_, cVox);
         cl_mem code = pool_.get(), params = params_.get();
-        cl_mem table =
-            table_.upload(ctx_, leaves.data(), leaves.size() * sizeof(LeafJob), CL_MEM_READ_ONLY);
+        cl_mem table = leaves_.get();
         cl_mem cl = chunkLeaf_.get(), cv = chunkVoxels_.get();
         cl_mem grad = out_.reserve(ctx_, 3 * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
         cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
@@ -277,7 +282,7 @@ private:
     OpenCLContext ctx_;
     cl_program program_ = nullptr, valuesProgram_ = nullptr, surfaceProgram_ = nullptr;
     cl_kernel valuesKernel_ = nullptr, surfaceKernel_ = nullptr, pointsKernel_ = nullptr;
-    DeviceBuffer params_, pool_, code_, table_, out_, out2_, chunkLeaf_, chunkVoxels_;
+    DeviceBuffer params_, pool_, leaves_, code_, table_, out_, out2_, chunkLeaf_, chunkVoxels_;
 };
 
 }  // namespace

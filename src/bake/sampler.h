@@ -71,18 +71,21 @@ public:
     virtual ~FieldSampler() = default;
     /// Fixes the program whose parameter table the leaf programs use.
     virtual void setProgram(const FieldProgram& program) = 0;
-    /// Fixes the pool of leaf programs that LeafJobs refer to.
-    virtual void setLeafCode(const std::vector<Instr>& codePool) = 0;
+    /// Fixes the pool of leaf programs that LeafJobs refer to, and the
+    /// bake's leaves that sampleSurface's queries name (both kept until the
+    /// next call: the leaves are uploaded once, not per query batch).
+    virtual void setLeaves(const std::vector<LeafJob>& leaves,
+                           const std::vector<Instr>& codePool) = 0;
     /// F - T at every voxel of leaves[begin, end), as IEEE halves (rounded to
     /// nearest even, from F - T in float): 512 per leaf into out, voxel
     /// x + 8 y + 64 z.  Relative precision where it matters, next to the
     /// surface; the sign bit tells the side (inside: positive, not zero).
     virtual void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end,
                               double voxelSize, uint16_t* out) = 0;
-    /// Gradient and colour at the queried voxels, `count` queries grouped by
-    /// leaf, into out[0, count).
-    virtual void sampleSurface(const std::vector<LeafJob>& leaves, const SurfaceQuery* queries,
-                               size_t count, double voxelSize, SurfaceSample* out) = 0;
+    /// Gradient and colour at the queried voxels (of setLeaves's leaves),
+    /// `count` queries grouped by leaf, into out[0, count).
+    virtual void sampleSurface(const SurfaceQuery* queries, size_t count, double voxelSize,
+                               SurfaceSample* out) = 0;
     /// Evaluates `code` at arbitrary points (tests and diagnostics):
     /// out = 7 planes of points.size() floats.
     virtual std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) = 0;

@@ -70,41 +70,47 @@ using InsideBits = std::array<uint64_t, 8>;
 struct SurfaceEdge;
 
 /// What the stages have made of each leaf so far.  The bake streams through
-/// the topology's slabs: a leaf's values and surface voxels are held only
-/// while the stages of its own and its neighbouring slabs need them (null
-/// pointers otherwise).
+/// the topology's slabs, one layer of leaves at a time: a leaf's values and
+/// surface voxels are held only while the stages of its own and its
+/// neighbouring layers need them (null pointers otherwise).
 struct LeafState {
-    explicit LeafState(size_t n) : value(n), inside(n), first(n + 1, 0), edge(n), sample(n) {}
-    std::vector<const uint16_t*> value;    ///< F - T, kLeafVoxels halves (x + 8 y + 64 z)
-    std::vector<InsideBits> inside;        ///< the inside bits of the values
-    std::vector<size_t> first;             ///< leaf l's surface voxels: [first[l], first[l + 1])
-    std::vector<const SurfaceEdge*> edge;  ///< its first surface voxel's edge
-    std::vector<const SurfaceSample*> sample;  ///< and the sampler's answer there
-    size_t surfaceVoxels(size_t l) const { return first[l + 1] - first[l]; }
+    explicit LeafState(size_t n) : value(n), inside(n), count(n, 0), edge(n), sample(n) {}
+    std::vector<const uint16_t*> value;        ///< F - T, kLeafVoxels halves (x + 8 y + 64 z)
+    std::vector<InsideBits> inside;            ///< the inside bits of the values
+    std::vector<uint32_t> count;               ///< how many surface voxels the leaf has
+    std::vector<const SurfaceEdge*> edge;      ///< its surface voxels' edges, in voxel order
+    std::vector<const SurfaceSample*> sample;  ///< and the sampler's answers there
+    size_t surfaceVoxels(size_t l) const { return count[l]; }
+};
+
+/// Some of the topology's leaves, by index: a layer of a slab.
+struct LeafList {
+    const uint32_t* index;
+    size_t size;
 };
 
 // --- 2. values ----------------------------------------------------------------
 
-/// Every voxel's F - T (half floats, kLeafVoxels per leaf) of leaves
-/// [begin, end) into `value`, in batches.
-void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, size_t begin,
-                      size_t end, double h, uint16_t* value);
+/// Every voxel's F - T (half floats, kLeafVoxels per leaf) of the listed
+/// leaves into `value`, in their order, in batches.
+void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves, LeafList list,
+                      double h, uint16_t* value);
 
 /// The same with a cache: leaves whose canonical program `cache` holds for
 /// their origin get its values, the rest are sampled; `next` (a cache with
 /// room for every leaf of this bake, see startReuse) collects this bake's.
 /// `reused`: how many leaves were not sampled.
 void sampleWithReuse(const FieldProgram& program, FieldSampler& sampler, const BandTopology& topo,
-                     size_t begin, size_t end, double h, const LeafValueCache& cache,
-                     LeafValueCache& next, uint16_t* value, size_t& reused);
+                     LeafList list, double h, const LeafValueCache& cache, LeafValueCache& next,
+                     uint16_t* value, size_t& reused);
 
 /// An empty cache with room for the topology's leaves; once every leaf's
 /// values are in, finishReuse makes it the one a next bake uses.
 LeafValueCache startReuse(const BandTopology& topo, double h);
 void finishReuse(const BandTopology& topo, LeafValueCache& next, LeafValueCache& cache);
 
-/// The inside bits of leaves [begin, end) from their values.
-void findInsideBits(LeafState& state, size_t begin, size_t end);
+/// The inside bits of the listed leaves from their values.
+void findInsideBits(LeafState& state, LeafList list);
 
 // --- 3. neighbours and surface voxels -------------------------------------------
 
@@ -139,9 +145,9 @@ struct SurfaceEdge {
     float f;  ///< F - T at the voxel, kept so that making the point reads no values
 };
 
-/// The surface voxels of leaves [begin, end) in one array, leaf by leaf in
-/// voxel order from LeafState::first[begin]; `queries` ask the sampler for
-/// their gradients and colours, its answers go to `samples`.
+/// The surface voxels of some leaves in one array, leaf by leaf in voxel
+/// order; `queries` ask the sampler for their gradients and colours, its
+/// answers go to `samples`.
 struct SurfaceVoxels {
     ParallelArray<SurfaceEdge> edges;
     ParallelArray<SurfaceQuery> queries;
@@ -149,12 +155,11 @@ struct SurfaceVoxels {
     size_t count = 0;
 };
 
-/// Finds them from the values and inside bits of the leaves and of their
-/// neighbours (a missing neighbour leaf, with no surface within a voxel of
-/// it, counts as the same side), sets state.first[begin + 1 .. end] (first
-/// [begin] is already set) and points state.edge at them; the time into
-/// `timings`.
-SurfaceVoxels findSurfaceVoxels(size_t begin, size_t end, const std::vector<LeafNeighbours>& nb,
+/// Finds those of the listed leaves from the values and inside bits of the
+/// leaves and of their neighbours (a missing neighbour leaf, with no surface
+/// within a voxel of it, counts as the same side), and sets their
+/// state.count and state.edge; the time into `timings`.
+SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>& nb,
                                 LeafState& state, BakeTimings& timings);
 
 // --- 4. propagation -------------------------------------------------------------

@@ -13,9 +13,10 @@ namespace cambium {
 const int kFaceDirections[6][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
                                    {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
 
-void findInsideBits(LeafState& state, size_t begin, size_t end)
+void findInsideBits(LeafState& state, LeafList list)
 {
-    tbb::parallel_for(begin, end, [&](size_t l) {
+    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
+        const size_t l = list.index[k];
         const uint16_t* v = state.value[l];
         for (int z = 0; z < 8; ++z) {
             uint64_t m = 0;
@@ -26,7 +27,7 @@ void findInsideBits(LeafState& state, size_t begin, size_t end)
     });
 }
 
-SurfaceVoxels findSurfaceVoxels(size_t begin, size_t end, const std::vector<LeafNeighbours>& nb,
+SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>& nb,
                                 LeafState& state, BakeTimings& timings)
 {
     const auto start = Clock::now();
@@ -67,30 +68,28 @@ SurfaceVoxels findSurfaceVoxels(size_t begin, size_t end, const std::vector<Leaf
     };
     // The surface voxels of the leaves in one array, leaf by leaf: counted,
     // then written (one block: no allocation per leaf).
-    std::vector<size_t>& first = state.first;
-    tbb::parallel_for(begin, end, [&](size_t l) {
+    std::vector<size_t> first(list.size + 1, 0);
+    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
         uint64_t across[8][6];
-        first[l + 1] = crossings(l, across);
+        const size_t l = list.index[k];
+        state.count[l] = uint32_t(crossings(l, across));
+        first[k + 1] = state.count[l];
     });
-    for (size_t l = begin; l < end; ++l)
-        first[l + 1] += first[l];
-    const size_t q0 = first[begin], np = first[end] - q0;
+    for (size_t k = 0; k < list.size; ++k)
+        first[k + 1] += first[k];
+    const size_t np = first[list.size];
     out.count = np;
     out.edges = parallelArray<SurfaceEdge>(np);
     out.queries = parallelArray<SurfaceQuery>(np);
     SurfaceEdge* edges = out.edges.get();
     SurfaceQuery* queries = out.queries.get();
-    tbb::parallel_for(begin, end, [&](size_t l) {
+    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
+        const size_t l = list.index[k];
         const uint16_t* own = state.value[l];
-        state.edge[l] = edges + (first[l] - q0);
-        // The values were last read long ago (they are out of the caches) and
-        // are read here at scattered voxels: fetch the next leaf's ahead.
-        if (l + 1 < end)
-            for (int i = 0; i < kLeafVoxels; i += 32)
-                __builtin_prefetch(state.value[l + 1] + i);
+        state.edge[l] = edges + first[k];
         uint64_t across[8][6];
         crossings(l, across);
-        size_t j = first[l] - q0;
+        size_t j = first[k];
         for (int z = 0; z < 8; ++z) {
             const uint64_t* d = across[z];
             uint64_t change = d[0] | d[1] | d[2] | d[3] | d[4] | d[5];
