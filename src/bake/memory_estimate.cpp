@@ -46,11 +46,17 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
             area += std::min(
                 {a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
     }
-    // Band voxels; about three sampled voxels per band voxel, each holding its
-    // value (4 bytes), propagation state (8) and a share of the surface points
-    // (3); the output grids (16 bytes per band voxel).
+    // Band voxels, and per band voxel: the output grid (a float leaf of 2 KB
+    // holds about 150 of them on a tree: 14 bytes; a colour that varies adds
+    // three floats per leaf voxel: 41 bytes), the per-leaf tables
+    // (neighbours, state, jobs: 1 byte) and the stages' state streamed
+    // through the slabs (about three sampled voxels per band voxel, 2 bytes
+    // of value and a share of the surface points each, of which a slab and a
+    // quarter is held: on a tree a fifth, counted as half); plus the
+    // libraries (OpenVDB and PoCL's LLVM, about 150 MB).
     const double bandVoxels = area / (h * h) * 2.0 * halfWidth;
-    return bandVoxels * (3.0 * (4.0 + 8.0 + 3.0) + 16.0) + 64e6;
+    const double perVoxel = 14.0 + (program.uniformColor() ? 0.0 : 41.0) + 1.0 + 0.5 * 3.0 * 3.0;
+    return bandVoxels * perVoxel + 150e6;
 }
 
 }  // namespace cambium
