@@ -140,7 +140,8 @@ TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
 
 TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
 {
-    // Twelve units of branch at 0.01: 19 slabs of 64 voxels.  The bake holds
+    // Twelve units of branch at 0.01: 19 slabs of 64 voxels, 150 layers of
+    // leaves.  The bake holds
     // the values and surface points of a few slabs at a time, not of the
     // whole band, and the distances across the slabs' borders are exact.
     BlobTree tree;
@@ -149,7 +150,11 @@ TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
     tree.setRoot(tree.segment(a, b, r));
     tree.finalize();
     const double h = 0.01;
-    const BakedGrids g = bakeTree(tree, h);
+    BakeOptions opt;
+    opt.voxelSize = h;
+    opt.layerGroupLeaves = 64;  // a layer is about 30 leaves here
+    auto sampler = makeCpuSampler();
+    const BakedGrids g = bakeLevelSet(FieldProgram::compile(tree), *sampler, opt);
     const BakeStats& s = g.stats;
     report("long branch: {} leaves, values of {} held at most, {} of {} surface points",
            s.candidateLeaves, s.heldLeaves, s.heldSurfacePoints, s.surfacePoints);

@@ -81,10 +81,12 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     const int axis = topo.slabAxis;
     const std::vector<size_t> slab = slabRuns(topo.leaves, axis);
     const size_t slabs = slab.size() - 1;
-    // The layers: each slab's leaves by their layer (counting sort), in order.
+    // The layers: each slab's leaves by their layer (counting sort), in
+    // order; consecutive small layers go together (a sampler call costs
+    // about half a millisecond however few its leaves).
     struct Layer {
-        size_t slab, begin, end;  ///< its slab, its leaves order[begin, end)
-        int coord;                ///< origin[axis] / 8
+        size_t slab, begin, end;  ///< its (last) slab, its leaves order[begin, end)
+        int lo, hi;               ///< its layers' origin[axis] / 8
     };
     std::vector<uint32_t> order(n);
     std::vector<Layer> layer;
@@ -96,8 +98,11 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         const int base = (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
         for (int k = 0; k < 8; ++k) {
             at[k] = next;
-            if (count[k])
-                layer.push_back({i, next, next + count[k], base + k});
+            if (count[k] && !layer.empty() &&
+                layer.back().end - layer.back().begin < opt.layerGroupLeaves)
+                layer.back() = {i, layer.back().begin, next + count[k], layer.back().lo, base + k};
+            else if (count[k])
+                layer.push_back({i, next, next + count[k], base + k, base + k});
             next += count[k];
         }
         for (size_t l = slab[i]; l < slab[i + 1]; ++l)
@@ -172,9 +177,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         // the layers next to it, which need the values of the layers next to
         // them.
         const int first = (topo.leaves[slab[p]].origin[axis] >> 6) * 8;
-        while (surfaced < layers && layer[surfaced].coord <= first + 8) {
-            while (sampledLayers < layers &&
-                   layer[sampledLayers].coord <= layer[surfaced].coord + 1)
+        while (surfaced < layers && layer[surfaced].lo <= first + 8) {
+            while (sampledLayers < layers && layer[sampledLayers].lo <= layer[surfaced].hi + 1)
                 sampleLayer(sampledLayers++);
             surfaceLayer(surfaced++);
         }
@@ -186,14 +190,14 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         // propagation of their own and the neighbouring slabs.
         const auto t0 = Clock::now();
         while (valuesFreed < sampledLayers && layer[valuesFreed].slab <= p &&
-               (surfaced == layers || layer[surfaced].coord > layer[valuesFreed].coord + 1)) {
+               (surfaced == layers || layer[surfaced].lo > layer[valuesFreed].hi + 1)) {
             release(values[valuesFreed], state.value, valuesFreed);
             heldLeaves -= layer[valuesFreed].end - layer[valuesFreed].begin;
             ++valuesFreed;
         }
         const int needed = p + 1 < slabs ? (topo.leaves[slab[p + 1]].origin[axis] >> 6) * 8 - 1
                                          : std::numeric_limits<int>::max();
-        while (surfaceFreed < surfaced && layer[surfaceFreed].coord < needed) {
+        while (surfaceFreed < surfaced && layer[surfaceFreed].hi < needed) {
             release(surface[surfaceFreed].edges, state.edge, surfaceFreed);
             release(surface[surfaceFreed].samples, state.sample, surfaceFreed);
             heldPoints -= surface[surfaceFreed].count;

@@ -33,6 +33,10 @@ struct BakeOptions {
     double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
     double halfWidth = 3.0;  ///< narrow-band half-width in voxels
     bool fog = false;        ///< also make a `density` fog volume
+    /// Consecutive layers of leaves (a leaf thick across the slabs) are
+    /// sampled together up to this many leaves: fewer sampler calls, a
+    /// little more held at once.
+    size_t layerGroupLeaves = 4096;
     LeafValueCache* reuse =
         nullptr;  ///< values of unchanged leaves from an earlier bake (sequences)
     /// Called with a stage name and the fraction done; may be called from
