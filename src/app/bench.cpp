@@ -21,19 +21,21 @@ namespace cambium {
 
 namespace {
 
-/// The text of the benchmark tree of `internodes` internodes
-/// (bench/tree_generator.h).
-std::string benchTreeText(int internodes)
+/// The benchmark tree of `internodes` internodes (bench/tree_generator.h):
+/// its skeleton file's text and the skeleton read from it.
+struct BenchTree {
+    std::string text;
+    Skeleton skeleton;
+};
+
+BenchTree benchTree(int internodes)
 {
     TreeGeneratorOptions o;
     o.internodes = internodes;
-    return generateBenchSkeleton(o);
-}
-
-Skeleton benchTree(int internodes)
-{
-    return parseSkeleton(benchTreeText(internodes),
-                         fmt::format("benchmark tree of {} internodes", internodes));
+    BenchTree t;
+    t.text = generateBenchSkeleton(o);
+    t.skeleton = parseSkeleton(t.text, fmt::format("benchmark tree of {} internodes", internodes));
+    return t;
 }
 
 void printBakeTable(const BakeBenchResult& c)
@@ -290,9 +292,9 @@ void addBenchCommand(CLI::App& app, Action& action)
                     throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
                 const int n = std::stoi(c.substr(0, colon));
                 BakeBenchCase bc;
-                bc.text = benchTreeText(n);
-                bc.skeleton =
-                    parseSkeleton(bc.text, fmt::format("benchmark tree of {} internodes", n));
+                BenchTree tree = benchTree(n);
+                bc.text = std::move(tree.text);
+                bc.skeleton = std::move(tree.skeleton);
                 bc.label = fmt::format("tree of {} internodes", n);
                 bc.voxelSize = std::stod(c.substr(colon + 1));
                 cases.push_back(std::move(bc));
@@ -317,7 +319,7 @@ void addBenchCommand(CLI::App& app, Action& action)
     useOptions(mesh);
     mesh->callback([o, label, &action] {
         action = [o, label] {
-            printMeshTable(runMeshBench(benchTree(o->internodes), label(o->internodes),
+            printMeshTable(runMeshBench(benchTree(o->internodes).skeleton, label(o->internodes),
                                         o->voxelSize, o->repeats));
             return 0;
         };
@@ -331,7 +333,7 @@ void addBenchCommand(CLI::App& app, Action& action)
     render->add_option("--height", o->height, "Image height")->capture_default_str();
     render->callback([o, label, &action] {
         action = [o, label] {
-            printRenderTable(runRenderBench(benchTree(o->internodes), label(o->internodes),
+            printRenderTable(runRenderBench(benchTree(o->internodes).skeleton, label(o->internodes),
                                             o->voxelSize, o->width, o->height, o->repeats));
             return 0;
         };

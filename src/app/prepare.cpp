@@ -41,7 +41,8 @@ int runPrepare()
             const int pixels = voxelSize > 0.01 ? 8 : 320;
             OpenCLMarcher marcher(*g.surface, g.color.get());
             marcher.render(framingCamera(activeWorldBounds(*g.surface), 1.0), pixels, pixels, 1);
-            device = marcher.deviceName();
+            if (device.empty())
+                device = marcher.deviceName();
         }
         return 0;
     });

@@ -88,7 +88,9 @@ std::vector<OpenCLDeviceInfo> listOpenCLDevices()
         for (cl_device_id d : devices)
             out.push_back({infoString(clGetPlatformInfo, p, CL_PLATFORM_NAME),
                            infoString(clGetDeviceInfo, d, CL_DEVICE_NAME),
-                           infoString(clGetDeviceInfo, d, CL_DEVICE_VERSION), p, d});
+                           infoString(clGetDeviceInfo, d, CL_DEVICE_VERSION),
+                           infoString(clGetPlatformInfo, p, CL_PLATFORM_VERSION),
+                           infoString(clGetDeviceInfo, d, CL_DRIVER_VERSION), p, d});
     }
     return out;
 }
@@ -163,12 +165,10 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
     const std::string dir = programCacheDirectory();
     if (dir.empty())
         return buildFromSource(source, options);
-    const std::string key =
-        fmt::format("cambium OpenCL program 1\n{}\n{}\n{}\n{}\n{}\n{}\n", info_.platform,
-                    infoString(clGetPlatformInfo, info_.platformId, CL_PLATFORM_VERSION),
-                    info_.device, info_.version,
-                    infoString(clGetDeviceInfo, info_.deviceId, CL_DRIVER_VERSION), options) +
-        source;
+    const std::string key = fmt::format("cambium OpenCL program 1\n{}\n{}\n{}\n{}\n{}\n{}\n",
+                                        info_.platform, info_.platformVersion, info_.device,
+                                        info_.version, info_.driverVersion, options) +
+                            source;
     const std::string path = fmt::format("{}/{:016x}.bin", dir, fnv1a64(key));
     const std::string binary = readCachedBinary(path, key);
     if (!binary.empty()) {

@@ -22,6 +22,7 @@ struct OpenCLDeviceInfo {
     std::string platform;  ///< platform name, e.g. "Portable Computing Language"
     std::string device;    ///< device name
     std::string version;   ///< device OpenCL version string
+    std::string platformVersion, driverVersion;  ///< (they key cambium's program cache)
     cl_platform_id platformId = nullptr;
     cl_device_id deviceId = nullptr;
 };
