@@ -260,7 +260,11 @@ void expectOpenCLMatchesCpu(const BlobTree& tree, double h, const char* what,
     // of tools/sanitize.sh (other rounding in the bake's sweeps and in the
     // intersector's secant step).  Within one voxel either way.
     EXPECT_LT(c.worstT, 1.0) << what;
-    EXPECT_LT(c.worstNormal, 1e-3) << what;
+    // The two normals come from different stencils (OpenVDB's gradient at
+    // the hit, the march's trilinear one), which reach voxels two or three
+    // inside; at a capsule's caps those are up to 0.17 voxel off, and one
+    // ray in 8,000 sees normals 2.6 degrees apart (1 - cos 1.05e-3).
+    EXPECT_LT(c.worstNormal, 2e-3) << what;
     EXPECT_LT(c.worstAlbedo, 0.01) << what;
     if (exact) {
         double worstCpu = 0.0, worstCl = 0.0;

@@ -123,8 +123,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     leaves.surface.assign(n, nullptr);
     leaves.color.assign(n, nullptr);
     leaves.active.assign(n, 0);
-    const PropagationInput propagation{topo.leaves,        nb, state, h, W, background,
-                                       uniform.has_value()};
+    const PropagationInput propagation{
+        topo.leaves, nb, state, h, W, background, uniform.has_value(), program.threshold()};
     size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
     auto sampleLayer = [&](size_t u) {
         auto t0 = Clock::now();

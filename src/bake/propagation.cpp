@@ -5,6 +5,8 @@
 
 #include "core/clock.h"
 
+#include "cb_primitives.h"
+
 #include <glm/glm.hpp>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -23,7 +25,48 @@ namespace {
 struct SurfacePoint {
     float p[3];      // position
     float n[3];      // outward unit normal
+    float bend;      // lateral offset (voxels) from which the plane gives way (leafDistances)
     uint8_t rgb[3];  // colour
+};
+
+/// The inverse of the Wyvill falloff w on [0, 1] (kernels/cb_primitives.h):
+/// a table of u at F = i / N, then a Newton step.
+class FalloffInverse {
+public:
+    static const FalloffInverse& get()
+    {
+        static const FalloffInverse inverse;
+        return inverse;
+    }
+    FalloffInverse()
+    {
+        for (int i = 0; i <= kN; ++i) {
+            double lo = 0.0, hi = 1.0, dw;
+            for (int k = 0; k < 60; ++k) {
+                const double mid = 0.5 * (lo + hi);
+                (cb_wyvill(mid, &dw) > double(i) / kN ? lo : hi) = mid;
+            }
+            table_[i] = float(0.5 * (lo + hi));
+        }
+    }
+    /// u with w(u) = F and w'(u), for F in (0, 1).
+    float operator()(float F, float& slope) const
+    {
+        const float x = F * float(kN);
+        const int i = std::min(int(x), kN - 1);
+        float u = table_[i] + (x - float(i)) * (table_[i + 1] - table_[i]);
+        double dw;
+        const double w = cb_wyvill(double(u), &dw);
+        if (dw < 0.0)
+            u -= float((w - double(F)) / dw);
+        cb_wyvill(double(u), &dw);
+        slope = float(-dw);
+        return u;
+    }
+
+private:
+    static constexpr int kN = 1024;
+    float table_[kN + 1];
 };
 
 /// Chains of consecutive leaves along one axis, leaf by leaf (indices into
@@ -77,16 +120,20 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis, 
 /// distance corrects for the spacing of the surface points (about a voxel)
 /// where the surface is smooth: there the nearest point lies near the foot of
 /// the perpendicular.  A lateral offset of several voxels means a crease (CSG,
-/// a scar's rim) whose nearest point is the point itself: the Euclidean
-/// distance takes over from 1.5 to 2.5 voxels of offset; it also takes over
-/// where the plane disagrees with the field's sign.  Branch-free, so that it
+/// a scar's rim) whose nearest point is the point itself, and on a surface
+/// curved as tightly as a thin twig the plane falls short by l^2 / 2 rho at
+/// lateral offset l: the Euclidean distance takes over from bend[src] (1.5
+/// voxels, less where the point's radius of curvature rho is small) to a voxel
+/// further; it also takes over where the plane disagrees with the field's
+/// sign.  Branch-free, so that it
 /// runs as vectors (clones chosen at run time, as for the sweeps; the file is
 /// compiled without errno and trapping math, which would keep it scalar).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
     const int32_t* origin, const uint16_t* __restrict value, const float* __restrict px,
     const float* __restrict py, const float* __restrict pz, const int32_t* __restrict src,
-    const float* __restrict nx, const float* __restrict ny, const float* __restrict nz, float h,
-    float background, float* __restrict sd, uint8_t* __restrict on)
+    const float* __restrict nx, const float* __restrict ny, const float* __restrict nz,
+    const float* __restrict bend, float h, float background, float* __restrict sd,
+    uint8_t* __restrict on)
 {
     const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
     int active = 0;
@@ -100,7 +147,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
         const float euclid = std::sqrt(e2);
         const float l2 = e2 - plane * plane;
         const float lateral = std::sqrt(l2 > 0.0f ? l2 : 0.0f);
-        const float b0 = lateral - 1.5f, b1 = b0 > 0.0f ? b0 : 0.0f, b = b1 < 1.0f ? b1 : 1.0f;
+        const float b0 = lateral - bend[j], b1 = b0 > 0.0f ? b0 : 0.0f, b = b1 < 1.0f ? b1 : 1.0f;
         const float flat = std::fabs(plane);
         const float blended = flat + (euclid - flat) * (b * b * (3.0f - 2.0f * b));
         const float mag = (plane < 0.0f) != (sign < 0.0f) ? euclid : blended;
@@ -158,6 +205,7 @@ struct TileScratch {
     std::vector<std::array<uint8_t, 3>>
         rgb;                     // the colours of the tile's points (with its halo's; 0: none)
     std::vector<float> nrm[3];   // their normals, as planes (gathered by index)
+    std::vector<float> bend;     // and where their planes give way
     std::vector<float> turned;   // the x-sweeps' transposed chains
     std::vector<LeafJob> local;  // the tile's leaves, then its halo
     Chains rows[3];              // the chains along each axis
@@ -177,8 +225,12 @@ public:
           out_(out),
           state_(in.state),
           invH_(float(1.0 / in.voxelSize)),
+          T_(float(in.threshold)),
           limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
     {
+        float slope;
+        if (T_ > 0.0f && T_ < 1.0f)
+            xT_ = falloff_(T_, slope);
     }
 
     void tile(size_t t0, size_t t1, TileScratch& S)
@@ -218,7 +270,26 @@ private:
         // Outward normal: against the gradient (F grows inwards).
         const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
         glm::vec3 nrm = -inv * g;
+        // The distance to F = T along the gradient.  Near a primitive's
+        // surface F is the falloff w(u) of an argument u that grows linearly
+        // with the distance (cb_skeletal_field, the convolution segments):
+        // linear in u, the estimate is exact for one primitive however thin,
+        // where linear in F it overestimates outside (w flattens) by up to a
+        // fifth of a voxel on twigs a voxel or two thick.  Away from
+        // (0, 1), linear in F.
+        // |grad u| also tells the primitive's radius, xT / |grad u| (sigma
+        // 1): the surface's radius of curvature across it, which decides how
+        // far its tangent plane holds (leafDistances: within 0.05 voxel up to
+        // a lateral offset of sqrt(0.1 rho)).
         float dist = g2 > 0.0f ? std::abs(fv) * inv * invH_ : INFINITY;
+        float bend = 1.5f;
+        const float F = fv + T_;
+        if (g2 > 0.0f && F > 0.02f && F < 0.98f && xT_ > 0.0f) {
+            float slope;
+            const float u = falloff_(F, slope);
+            dist = std::abs(u - xT_) * slope * inv * invH_;
+            bend = std::min(1.5f, std::sqrt(0.2f * xT_ * slope * inv * invH_));
+        }
         if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
             dist = ed.t;
             if (!(g2 > 0.0f)) {
@@ -237,6 +308,7 @@ private:
             sp.n[c] = nrm[c];
             sp.rgb[c] = sample.color[c];
         }
+        sp.bend = bend;
         return sp;
     }
 
@@ -276,6 +348,8 @@ private:
             v.resize(count);
             v[0] = 0.0f;
         }
+        S.bend.resize(count);
+        S.bend[0] = 1.5f;
         int32_t next = 1;
         for (size_t k = 0; k < nl; ++k) {
             const size_t l = size_t(S.leaves[k]);
@@ -293,6 +367,7 @@ private:
                 S.src[at] = next;
                 if (!in_.uniformColor)
                     S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
+                S.bend[size_t(next)] = sp.bend;
                 for (int c = 0; c < 3; ++c) {
                     S.nrm[c][size_t(next)] = sp.n[c];
                     S.pos[c][at] = sp.p[c];
@@ -331,10 +406,10 @@ private:
             uint8_t on[kLeafVoxels];
             const int32_t* src = S.src.data() + k * kLeafVoxels;
             const size_t at = k * kLeafVoxels;
-            const int active =
-                leafDistances(o, state_.value[l], S.pos[0].data() + at, S.pos[1].data() + at,
-                              S.pos[2].data() + at, src, S.nrm[0].data(), S.nrm[1].data(),
-                              S.nrm[2].data(), float(in_.voxelSize), background, sd, on);
+            const int active = leafDistances(
+                o, state_.value[l], S.pos[0].data() + at, S.pos[1].data() + at,
+                S.pos[2].data() + at, src, S.nrm[0].data(), S.nrm[1].data(), S.nrm[2].data(),
+                S.bend.data(), float(in_.voxelSize), background, sd, on);
             out_.active[l] = size_t(active);
             if (!active)
                 continue;
@@ -380,7 +455,9 @@ private:
     const PropagationInput& in_;
     BandLeaves& out_;
     const LeafState& state_;
-    const float invH_, limit2_;
+    const float invH_, T_, limit2_;
+    float xT_ = 0.0f;
+    const FalloffInverse& falloff_ = FalloffInverse::get();
 };
 
 }  // namespace

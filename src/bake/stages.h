@@ -181,6 +181,7 @@ struct PropagationInput {
     double voxelSize, halfWidth;
     float background;
     bool uniformColor;  ///< one colour everywhere: no colour per point
+    double threshold;   ///< T
 };
 
 /// Stage 4 for leaves [begin, end) (whole 64^3 cubes), tile by tile: each
