@@ -115,23 +115,37 @@ TEST(BakeAccuracy, SphereMatchesItsExactDistance)
     }
 }
 
+/// A capsule from a to b of radius r, and its baked grid's errors against
+/// its exact signed distance.
+struct Capsule {
+    glm::dvec3 a, b;
+    double r;
+    BlobTree tree() const
+    {
+        BlobTree t;
+        t.setRoot(t.segment(a, b, r));
+        t.finalize();
+        return t;
+    }
+    Errors errors(const openvdb::FloatGrid& grid, double h) const
+    {
+        auto exact = [&](const glm::dvec3& p) {
+            const double t = std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0);
+            return glm::length(p - (a + t * (b - a))) - r;
+        };
+        Box box;
+        box.expand(a);
+        box.expand(b);
+        return compareWithExact(grid, exact, box.padded(r), h, 3.0);
+    }
+};
+
 TEST(BakeAccuracy, CapsuleMatchesItsExactDistance)
 {
-    BlobTree tree;
-    const glm::dvec3 a(-0.3, -0.2, 0.1), b(0.4, 0.5, -0.2);
-    const double r = 0.17;
-    tree.setRoot(tree.segment(a, b, r));
-    tree.finalize();
+    const Capsule c{{-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, 0.17};
     const double h = 0.01;
-    const BakedGrids g = bakeTree(tree, h);
-    auto exact = [&](const glm::dvec3& p) {
-        const double t = std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0);
-        return glm::length(p - (a + t * (b - a))) - r;
-    };
-    Box box;
-    box.expand(a);
-    box.expand(b);
-    const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
+    const BakedGrids g = bakeTree(c.tree(), h);
+    const Errors e = c.errors(*g.surface, h);
     report("capsule: near max {:.4f}, far max {:.4f}, mean {:.4f} voxels, {} active", e.nearMax,
            e.farMax, e.mean, e.active);
     expectAccurate(e, "capsule");
@@ -147,20 +161,10 @@ TEST(BakeAccuracy, ThinTwigsMatchTheirExactDistance)
     // overestimated outside by up to a fifth of a voxel), and the Euclidean
     // distance takes over from the plane where the radius is small.
     for (const double rv : {1.0, 1.5, 2.0}) {
-        BlobTree tree;
-        const double h = 0.01, r = rv * h;
-        const glm::dvec3 a(-0.3, -0.2, 0.1), b(0.4, 0.5, -0.2);
-        tree.setRoot(tree.segment(a, b, r));
-        tree.finalize();
-        const BakedGrids g = bakeTree(tree, h);
-        auto exact = [&](const glm::dvec3& p) {
-            const double t = std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0);
-            return glm::length(p - (a + t * (b - a))) - r;
-        };
-        Box box;
-        box.expand(a);
-        box.expand(b);
-        const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
+        const double h = 0.01;
+        const Capsule c{{-0.3, -0.2, 0.1}, {0.4, 0.5, -0.2}, rv * h};
+        const BakedGrids g = bakeTree(c.tree(), h);
+        const Errors e = c.errors(*g.surface, h);
         report("twig of radius {} voxels: near max {:.4f}, far max {:.4f}, mean {:.4f} voxels", rv,
                e.nearMax, e.farMax, e.mean);
         EXPECT_LT(e.nearMax, 0.1) << rv;  // linear in F and planes only: 0.26, 0.18, 0.14
@@ -173,20 +177,16 @@ TEST(BakeAccuracy, ThinTwigsMatchTheirExactDistance)
 TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
 {
     // Twelve units of branch at 0.01: 19 slabs of 64 voxels, 150 layers of
-    // leaves.  The bake holds
-    // the values and surface points of a few slabs at a time, not of the
-    // whole band, and the distances across the slabs' borders are exact.
-    BlobTree tree;
-    const glm::dvec3 a(0.003, 0.002, -0.001), b(12.0, 0.05, 0.02);
-    const double r = 0.1;
-    tree.setRoot(tree.segment(a, b, r));
-    tree.finalize();
+    // leaves.  The bake holds the values and surface points of a few layers
+    // at a time, not of the whole band, and the distances across the slabs'
+    // borders are exact.
+    const Capsule c{{0.003, 0.002, -0.001}, {12.0, 0.05, 0.02}, 0.1};
     const double h = 0.01;
     BakeOptions opt;
     opt.voxelSize = h;
     opt.layerGroupLeaves = 64;  // a layer is about 30 leaves here
     auto sampler = makeCpuSampler();
-    const BakedGrids g = bakeLevelSet(FieldProgram::compile(tree), *sampler, opt);
+    const BakedGrids g = bakeLevelSet(FieldProgram::compile(c.tree()), *sampler, opt);
     const BakeStats& s = g.stats;
     report("long branch: {} leaves, values of {} held at most, {} of {} surface points",
            s.candidateLeaves, s.heldLeaves, s.heldSurfacePoints, s.surfacePoints);
@@ -194,14 +194,7 @@ TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
     EXPECT_LT(double(s.heldLeaves), 0.25 * double(s.candidateLeaves));
     EXPECT_GT(s.heldSurfacePoints, 0u);
     EXPECT_LT(double(s.heldSurfacePoints), 0.25 * double(s.surfacePoints));
-    auto exact = [&](const glm::dvec3& p) {
-        const double t = std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0);
-        return glm::length(p - (a + t * (b - a))) - r;
-    };
-    Box box;
-    box.expand(a);
-    box.expand(b);
-    const Errors e = compareWithExact(*g.surface, exact, box.padded(r), h, 3.0);
+    const Errors e = c.errors(*g.surface, h);
     expectAccurate(e, "long branch");
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
