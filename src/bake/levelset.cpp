@@ -123,6 +123,21 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     leaves.surface.assign(n, nullptr);
     leaves.color.assign(n, nullptr);
     leaves.active.assign(n, 0);
+    // The grid leaves are this function's until the grids take them: a
+    // sampler that fails mid-stream must not leave the finished slabs' leaves
+    // behind (a long-lived process bakes again).
+    struct LeafOwner {
+        BandLeaves& leaves;
+        bool owned = true;
+        ~LeafOwner()
+        {
+            if (owned)
+                for (size_t l = 0; l < leaves.surface.size(); ++l) {
+                    delete leaves.surface[l];
+                    delete leaves.color[l];
+                }
+        }
+    } owner{leaves};
     const PropagationInput propagation{
         topo.leaves, nb, state, h, W, background, uniform.has_value(), program.threshold()};
     size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
@@ -144,9 +159,9 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         findInsideBits(state, list);
         tm.insideBits += secondsSince(t0);
         sampled += list.size;
+        progress("baking", 0.5 * double(sampled + propagated) / double(n));
         heldLeaves += list.size;
         st.heldLeaves = std::max(st.heldLeaves, heldLeaves);
-        progress("sampling", double(sampled) / double(n));
     };
     auto surfaceLayer = [&](size_t u) {
         const LeafList list = listOf(u);
@@ -184,7 +199,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         }
         propagate(propagation, slab[p], slab[p + 1], leaves, tm);
         propagated += slab[p + 1] - slab[p];
-        progress("assembly", double(propagated) / double(n));
+        progress("baking", 0.5 * double(sampled + propagated) / double(n));
         // Values serve the surface voxels of their own and the neighbouring
         // layers and their slab's propagation; surface voxels the
         // propagation of their own and the neighbouring slabs.
@@ -217,6 +232,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     t = Clock::now();
     const glm::dvec3 rgb = uniform.value_or(glm::dvec3(0.0));
     createGrids(out, h, background, openvdb::Vec3f(float(rgb.x), float(rgb.y), float(rgb.z)));
+    owner.owned = false;
     assembleGrids(out, leaves, st, tm);
     tm.tree = secondsSince(t) - tm.floodFill;
     if (opt.fog)

@@ -108,4 +108,9 @@ double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);
 /// surface area): used to refuse a voxel size the machine cannot hold.
 double estimateBakeBytes(const FieldProgram& program, double voxelSize, double halfWidth);
 
+/// Estimated bytes of the two leaf-value caches a sequence's bake holds
+/// besides (BakeOptions::reuse: the last frame's and the one being filled,
+/// each about 1.1 KB per sampled leaf).
+double estimateReuseBytes(const FieldProgram& program, double voxelSize, double halfWidth);
+
 }  // namespace cambium

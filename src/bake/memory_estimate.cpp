@@ -9,7 +9,10 @@
 
 namespace cambium {
 
-double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
+namespace {
+
+/// Voxels within the band, from the primitives' surface area.
+double bandVoxels(const FieldProgram& program, double h, double halfWidth)
 {
     // Surface area of the primitives (an overestimate where they overlap).
     // Each is convex, so the part of it inside a box has at most the box's
@@ -46,17 +49,34 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
             area += std::min(
                 {a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
     }
-    // Band voxels, and per band voxel: the output grid (a float leaf of 2 KB
-    // holds about 150 of them on a tree: 14 bytes; a colour that varies adds
-    // three floats per leaf voxel: 41 bytes), the per-leaf tables
-    // (neighbours, state, jobs: 1 byte) and the stages' state streamed
-    // through the slabs (about three sampled voxels per band voxel, 2 bytes
-    // of value and a share of the surface points each, of which a slab and a
-    // quarter is held: on a tree a fifth, counted as half); plus the
-    // libraries (OpenVDB and PoCL's LLVM, about 150 MB).
-    const double bandVoxels = area / (h * h) * 2.0 * halfWidth;
-    const double perVoxel = 14.0 + (program.uniformColor() ? 0.0 : 41.0) + 1.0 + 0.5 * 3.0 * 3.0;
-    return bandVoxels * perVoxel + 150e6;
+    return area / (h * h) * 2.0 * halfWidth;
+}
+
+/// Leaves sampled per band voxel (a leaf holds about 150 band voxels of its
+/// 512; about 1.4 times as many leaves are sampled as hold any).
+constexpr double kSampledLeavesPerBandVoxel = 1.4 / 150.0;
+
+}  // namespace
+
+double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
+{
+    // Per band voxel: the output grid (a float leaf of 2 KB holds about 150
+    // of them on a tree: 14 bytes; a colour that varies adds three floats per
+    // leaf voxel: 41 bytes), the per-leaf tables (neighbours, inside bits,
+    // state, jobs: about 250 bytes per sampled leaf, 2.5 bytes) and the
+    // stages' state streamed through the slabs (about three sampled voxels
+    // per band voxel, 2 bytes of value and a share of the surface points
+    // each, of which a slab and a quarter is held: on a tree a fifth,
+    // counted as half); plus the libraries (OpenVDB and PoCL's LLVM, about
+    // 150 MB).
+    const double perVoxel = 14.0 + (program.uniformColor() ? 0.0 : 41.0) +
+                            250.0 * kSampledLeavesPerBandVoxel + 0.5 * 3.0 * 3.0;
+    return bandVoxels(program, h, halfWidth) * perVoxel + 150e6;
+}
+
+double estimateReuseBytes(const FieldProgram& program, double h, double halfWidth)
+{
+    return 2.0 * 1100.0 * kSampledLeavesPerBandVoxel * bandVoxels(program, h, halfWidth);
 }
 
 }  // namespace cambium

@@ -8,9 +8,6 @@
 
 namespace cambium {
 
-/// Where each run of consecutive leaves inside one cube of 2^shift voxels a
-/// side starts, then leaves.size().  The topology lists leaves depth-first
-/// within its 128^3 tiles, so each such cube (shift <= 7) is one run.
 std::vector<size_t> cubeRuns(const std::vector<LeafJob>& leaves, int shift, size_t begin,
                              size_t end)
 {

@@ -212,8 +212,8 @@ struct TileScratch {
     std::vector<int> table;      // (building them)
 };
 
-/// Propagation over the tiles (64^3 voxels: octants of the topology's tiles,
-/// whose leaves are contiguous in its depth-first order): each tile's leaves
+/// Propagation over the tiles (the topology's 64^3 cubes, whose leaves are
+/// contiguous in its order): each tile's leaves
 /// and a one-leaf halo of their neighbours (a band voxel's nearest point is
 /// within halfWidth + 2 voxels, well inside a leaf), then the tile's grid
 /// leaves.  A 64^3 tile's state stays in the caches through the twelve
@@ -270,17 +270,22 @@ private:
         // Outward normal: against the gradient (F grows inwards).
         const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
         glm::vec3 nrm = -inv * g;
-        // The distance to F = T along the gradient.  Near a primitive's
-        // surface F is the falloff w(u) of an argument u that grows linearly
-        // with the distance (cb_skeletal_field, the convolution segments):
-        // linear in u, the estimate is exact for one primitive however thin,
+        // The distance to F = T along the gradient.  Near a skeletal
+        // primitive's surface (cb_skeletal_field, weight 1) F is the falloff
+        // w(u) of an argument u that grows linearly with the distance: linear
+        // in u, the estimate is exact for one such primitive however thin,
         // where linear in F it overestimates outside (w flattens) by up to a
-        // fifth of a voxel on twigs a voxel or two thick.  Away from
-        // (0, 1), linear in F.
-        // |grad u| also tells the primitive's radius, xT / |grad u| (sigma
-        // 1): the surface's radius of curvature across it, which decides how
-        // far its tangent plane holds (leafDistances: within 0.05 voxel up to
-        // a lateral offset of sqrt(0.1 rho)).
+        // fifth of a voxel on twigs a voxel or two thick.  Elsewhere (blends,
+        // convolution segments, whose field near the surface is the kernel's
+        // integral, weights other than 1) it is a first-order estimate like
+        // the linear one, bounded the same way by the edge crossing.  Away
+        // from F in (0, 1), linear in F.
+        // |grad u| also tells a skeletal primitive's radius, xT / |grad u|
+        // (sigma 1): the surface's radius of curvature across it, which
+        // decides how far its tangent plane holds (leafDistances: within 0.1
+        // voxel up to a lateral offset of sqrt(0.2 rho); never beyond 1.5
+        // voxels, as for flat surfaces).  On a convolution segment it comes
+        // out about half the radius: its planes give way a little early.
         float dist = g2 > 0.0f ? std::abs(fv) * inv * invH_ : INFINITY;
         float bend = 1.5f;
         const float F = fv + T_;

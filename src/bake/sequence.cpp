@@ -124,7 +124,8 @@ SequencePlan planSequence(const SequenceRequest& request)
     }
     plan.voxelSize = voxels.voxelSize;
     plan.autoVoxelSize = voxels.automatic;
-    plan.bytesPerFrame = voxels.bytes;
+    plan.bytesPerFrame =  // each worker also holds the caches of unchanged leaves' values
+        voxels.bytes + estimateReuseBytes(lastProgram, voxels.voxelSize, req.halfWidth);
     plan.threshold = lastProgram.threshold();
     plan.groups = yearRuns(plan.times);
     plan.key = sequenceKey(request, text, plan.voxelSize);

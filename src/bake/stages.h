@@ -11,9 +11,10 @@
 //                                               tile, into distances and leaves (bake/sweep.inc)
 //   5. assembly        bake/assembly.cpp        the grids: leaves, flood fill, fog
 //   memory estimate    bake/memory_estimate.cpp
-// Stages 2-4 stream through the topology's slabs (bake/levelset.cpp): each
-// runs up to a slab ahead of the next, and a slab's values and surface voxels
-// are freed once its neighbours' stages are done with them.
+// Stages 2-4 stream through the topology's slabs (bake/levelset.cpp): values
+// and surface voxels a layer of leaves at a time, propagation a slab at a
+// time, each a layer or two ahead of the next; a layer's values and surface
+// voxels are freed once its neighbours' stages are done with them.
 // clang-format on
 #pragma once
 
@@ -129,7 +130,7 @@ static_assert(kNeighbourXPlus == 14 && kNeighbourXMinus == 12 && kNeighbourYPlus
                   kNeighbourYMinus == 10 && kNeighbourZPlus == 22 && kNeighbourZMinus == 4,
               "the slots of the face neighbours");
 
-/// Every leaf's neighbours, found through the 128^3 tiles the topology
+/// Every leaf's neighbours, found through the 64^3 cubes the topology
 /// grouped the leaves by.
 std::vector<LeafNeighbours> findNeighbours(const std::vector<LeafJob>& leaves);
 
