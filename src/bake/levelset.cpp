@@ -6,6 +6,8 @@
 #include "bake/stages.h"
 #include "core/clock.h"
 
+#include "cb_program.h"
+
 #include <algorithm>
 #include <limits>
 #include <optional>
@@ -81,6 +83,9 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     const int axis = topo.slabAxis;
     const std::vector<size_t> slab = slabRuns(topo.leaves, axis);
     const size_t slabs = slab.size() - 1;
+    auto firstLayer = [&](size_t i) {  // of slab i: origin[axis] / 8 of its first layer
+        return (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
+    };
     // The layers: each slab's leaves by their layer (counting sort), in
     // order; consecutive small layers go together (a sampler call costs
     // about half a millisecond however few its leaves).
@@ -95,7 +100,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         for (size_t l = slab[i]; l < slab[i + 1]; ++l)
             ++count[(topo.leaves[l].origin[axis] >> 3) & 7];
         size_t at[8], next = slab[i];
-        const int base = (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
+        const int base = firstLayer(i);
         for (int k = 0; k < 8; ++k) {
             at[k] = next;
             if (count[k] && !layer.empty() &&
@@ -138,8 +143,15 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
                 }
         }
     } owner{leaves};
-    const PropagationInput propagation{
-        topo.leaves, nb, state, h, W, background, uniform.has_value(), program.threshold()};
+    const PropagationInput propagation{topo.leaves,
+                                       nb,
+                                       state,
+                                       h,
+                                       W,
+                                       background,
+                                       uniform.has_value(),
+                                       program.threshold(),
+                                       program.params()[CB_P_XT]};
     size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
     auto sampleLayer = [&](size_t u) {
         auto t0 = Clock::now();
@@ -191,7 +203,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         // Slab p's propagation needs the surface voxels of its layers and of
         // the layers next to it, which need the values of the layers next to
         // them.
-        const int first = (topo.leaves[slab[p]].origin[axis] >> 6) * 8;
+        const int first = firstLayer(p);
         while (surfaced < layers && layer[surfaced].lo <= first + 8) {
             while (sampledLayers < layers && layer[sampledLayers].lo <= layer[surfaced].hi + 1)
                 sampleLayer(sampledLayers++);
@@ -210,8 +222,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
             heldLeaves -= layer[valuesFreed].end - layer[valuesFreed].begin;
             ++valuesFreed;
         }
-        const int needed = p + 1 < slabs ? (topo.leaves[slab[p + 1]].origin[axis] >> 6) * 8 - 1
-                                         : std::numeric_limits<int>::max();
+        const int needed = p + 1 < slabs ? firstLayer(p + 1) - 1 : std::numeric_limits<int>::max();
         while (surfaceFreed < surfaced && layer[surfaceFreed].hi < needed) {
             release(surface[surfaceFreed].edges, state.edge, surfaceFreed);
             release(surface[surfaceFreed].samples, state.sample, surfaceFreed);

@@ -30,7 +30,7 @@ struct SurfacePoint {
 };
 
 /// The inverse of the Wyvill falloff w on [0, 1] (kernels/cb_primitives.h):
-/// a table of u at F = i / N, then a Newton step.
+/// a table of cb_wyvill_inverse at F = i / N, then a Newton step.
 class FalloffInverse {
 public:
     static const FalloffInverse& get()
@@ -40,14 +40,8 @@ public:
     }
     FalloffInverse()
     {
-        for (int i = 0; i <= kN; ++i) {
-            double lo = 0.0, hi = 1.0, dw;
-            for (int k = 0; k < 60; ++k) {
-                const double mid = 0.5 * (lo + hi);
-                (cb_wyvill(mid, &dw) > double(i) / kN ? lo : hi) = mid;
-            }
-            table_[i] = float(0.5 * (lo + hi));
-        }
+        for (int i = 0; i <= kN; ++i)
+            table_[i] = float(cb_wyvill_inverse(double(i) / kN));
     }
     /// u with w(u) = F and w'(u), for F in (0, 1).
     float operator()(float F, float& slope) const
@@ -226,11 +220,9 @@ public:
           state_(in.state),
           invH_(float(1.0 / in.voxelSize)),
           T_(float(in.threshold)),
+          xT_(in.threshold > 0.0 && in.threshold < 1.0 ? float(in.xT) : 0.0f),
           limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
     {
-        float slope;
-        if (T_ > 0.0f && T_ < 1.0f)
-            xT_ = falloff_(T_, slope);
     }
 
     void tile(size_t t0, size_t t1, TileScratch& S)
@@ -460,8 +452,7 @@ private:
     const PropagationInput& in_;
     BandLeaves& out_;
     const LeafState& state_;
-    const float invH_, T_, limit2_;
-    float xT_ = 0.0f;
+    const float invH_, T_, xT_, limit2_;
     const FalloffInverse& falloff_ = FalloffInverse::get();
 };
 

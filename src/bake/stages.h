@@ -183,6 +183,7 @@ struct PropagationInput {
     float background;
     bool uniformColor;  ///< one colour everywhere: no colour per point
     double threshold;   ///< T
+    double xT;          ///< w^-1(T): the falloff's argument at the surface (CB_P_XT)
 };
 
 /// Stage 4 for leaves [begin, end) (whole 64^3 cubes), tile by tile: each

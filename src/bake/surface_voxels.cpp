@@ -83,13 +83,13 @@ SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>
     out.queries = parallelArray<SurfaceQuery>(np);
     SurfaceEdge* edges = out.edges.get();
     SurfaceQuery* queries = out.queries.get();
-    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
-        const size_t l = list.index[k];
+    tbb::parallel_for(size_t(0), list.size, [&](size_t m) {
+        const size_t l = list.index[m];
         const uint16_t* own = state.value[l];
-        state.edge[l] = edges + first[k];
+        state.edge[l] = edges + first[m];
         uint64_t across[8][6];
         crossings(l, across);
-        size_t j = first[k];
+        size_t j = first[m];
         for (int z = 0; z < 8; ++z) {
             const uint64_t* d = across[z];
             uint64_t change = d[0] | d[1] | d[2] | d[3] | d[4] | d[5];
