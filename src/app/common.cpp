@@ -95,7 +95,8 @@ void printTimings(const BakeStats& s)
     fmt::print(stderr,
                "timings: topology {:.3f} s; values {:.3f} s; neighbours {:.3f} s, inside bits "
                "{:.3f} s, sign "
-               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points); propagation "
+               "changes and queries {:.3f} s; surface samples {:.3f} s ({} points), their points "
+               "{:.3f} s; propagation "
                "and leaves {:.3f} s "
                "(thread time: halos {:.3f} s, points {:.3f} s, sweeps {:.3f} s (x {:.3f}, y "
                "{:.3f}, z {:.3f}), "
@@ -104,10 +105,10 @@ void printTimings(const BakeStats& s)
                "flood fill {:.3f} s; the first leaf sampled {:.2f} s after the process "
                "started; held at once: the values of {} leaves, {} surface points\n",
                s.topologySeconds, t.values, t.neighbours, t.insideBits, t.signChanges,
-               t.surfaceSamples, s.surfacePoints, t.propagation, t.halos, t.points, t.sweeps,
-               t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles, t.tileLeaves,
-               s.candidateLeaves, t.freeing, t.tree, t.floodFill, t.startToSampling, s.heldLeaves,
-               s.heldSurfacePoints);
+               t.surfaceSamples, s.surfacePoints, t.surfacePoints, t.propagation, t.halos, t.points,
+               t.sweeps, t.sweepAxis[0], t.sweepAxis[1], t.sweepAxis[2], t.leaves, t.tiles,
+               t.tileLeaves, s.candidateLeaves, t.freeing, t.tree, t.floodFill, t.startToSampling,
+               s.heldLeaves, s.heldSurfacePoints);
 }
 
 }  // namespace cambium

@@ -183,11 +183,10 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         sv.samples = parallelArray<SurfaceSample>(sv.count);
         sampler.sampleSurface(sv.queries.get(), sv.count, h, sv.samples.get());
         sv.queries.reset();
-        for (size_t k = 0; k < list.size; ++k) {
-            const size_t l = list.index[k];
-            state.sample[l] = sv.samples.get() + (state.edge[l] - sv.edges.get());
-        }
         tm.surfaceSamples += secondsSince(t0);
+        const auto t1 = Clock::now();
+        makeSurfacePoints(propagation, list, sv, state);
+        tm.surfacePoints += secondsSince(t1);
         st.surfacePoints += sv.count;
         heldPoints += sv.count;
         st.heldSurfacePoints = std::max(st.heldSurfacePoints, heldPoints);
@@ -224,8 +223,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         }
         const int needed = p + 1 < slabs ? firstLayer(p + 1) - 1 : std::numeric_limits<int>::max();
         while (surfaceFreed < surfaced && layer[surfaceFreed].hi < needed) {
-            release(surface[surfaceFreed].edges, state.edge, surfaceFreed);
-            release(surface[surfaceFreed].samples, state.sample, surfaceFreed);
+            release(surface[surfaceFreed].points, state.point, surfaceFreed);
             heldPoints -= surface[surfaceFreed].count;
             ++surfaceFreed;
         }

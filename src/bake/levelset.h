@@ -50,6 +50,7 @@ struct BakeTimings {
     double values = 0.0;  ///< sampling every voxel of the candidate leaves
     double neighbours = 0.0, insideBits = 0.0, signChanges = 0.0;  ///< finding the surface voxels
     double surfaceSamples = 0.0;  ///< sampling gradients and colours there
+    double surfacePoints = 0.0;   ///< their surface points made from them
     double propagation = 0.0;     ///< propagation and grid leaves, wall time
     double halos = 0.0, points = 0.0, sweeps = 0.0, sweepAxis[3] = {0.0, 0.0, 0.0},
            leaves = 0.0;  ///< thread time

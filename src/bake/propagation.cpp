@@ -21,14 +21,6 @@ namespace cambium {
 
 namespace {
 
-/// A point on the surface found next to a sign change, in index space.
-struct SurfacePoint {
-    float p[3];      // position
-    float n[3];      // outward unit normal
-    float bend;      // lateral offset (voxels) from which the plane gives way (leafDistances)
-    uint8_t rgb[3];  // colour
-};
-
 /// The inverse of the Wyvill falloff w on [0, 1] (kernels/cb_primitives.h):
 /// a table of cb_wyvill_inverse at F = i / N, then a Newton step.
 class FalloffInverse {
@@ -43,25 +35,89 @@ public:
         for (int i = 0; i <= kN; ++i)
             table_[i] = float(cb_wyvill_inverse(double(i) / kN));
     }
-    /// u with w(u) = F and w'(u), for F in (0, 1).
+    /// u with w(u) = F and w'(u), for F in (0, 1) (a half's precision: a
+    /// float Newton step is plenty).
     float operator()(float F, float& slope) const
     {
         const float x = F * float(kN);
         const int i = std::min(int(x), kN - 1);
         float u = table_[i] + (x - float(i)) * (table_[i + 1] - table_[i]);
-        double dw;
-        const double w = cb_wyvill(double(u), &dw);
-        if (dw < 0.0)
-            u -= float((w - double(F)) / dw);
-        cb_wyvill(double(u), &dw);
-        slope = float(-dw);
+        float dw;
+        const float w = wyvill(u, dw);
+        if (dw < 0.0f)
+            u -= (w - F) / dw;
+        wyvill(u, dw);
+        slope = -dw;
         return u;
     }
 
 private:
+    /// cb_wyvill on [0, 1] in single precision.
+    static float wyvill(float u, float& dw)
+    {
+        const float y = u * u;
+        dw = u * (-44.0f / 9.0f + y * (68.0f / 9.0f - y * (24.0f / 9.0f)));
+        return 1.0f + y * (-22.0f / 9.0f + y * (17.0f / 9.0f - y * (4.0f / 9.0f)));
+    }
     static constexpr int kN = 1024;
     float table_[kN + 1];
 };
+
+/// A surface voxel's point from its edge and the sampler's answer there.
+SurfacePoint surfacePoint(const SurfaceEdge& ed, const SurfaceSample& sample, float invH, float T,
+                          float xT, const FalloffInverse& falloff)
+{
+    const float fv = ed.f;
+    const bool inside = fv > 0.0f;
+    const glm::vec3 g(halfToFloat(sample.gradient[0]), halfToFloat(sample.gradient[1]),
+                      halfToFloat(sample.gradient[2]));
+    const float g2 = glm::dot(g, g);
+    // Outward normal: against the gradient (F grows inwards).
+    const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
+    glm::vec3 nrm = -inv * g;
+    // The distance to F = T along the gradient.  Near a skeletal
+    // primitive's surface (cb_skeletal_field, weight 1) F is the falloff
+    // w(u) of an argument u that grows linearly with the distance: linear
+    // in u, the estimate is exact for one such primitive however thin,
+    // where linear in F it overestimates outside (w flattens) by up to a
+    // fifth of a voxel on twigs a voxel or two thick.  Elsewhere (blends,
+    // convolution segments, whose field near the surface is the kernel's
+    // integral, weights other than 1) it is a first-order estimate like
+    // the linear one, bounded the same way by the edge crossing.  Away
+    // from F in (0, 1), linear in F.
+    // |grad u| also tells a skeletal primitive's radius, xT / |grad u|
+    // (sigma 1): the surface's radius of curvature across it, which
+    // decides how far its tangent plane holds (leafDistances: within 0.1
+    // voxel up to a lateral offset of sqrt(0.2 rho); never beyond 1.5
+    // voxels, as for flat surfaces).  On a convolution segment it comes
+    // out about half the radius: its planes give way a little early.
+    float dist = g2 > 0.0f ? std::abs(fv) * inv * invH : INFINITY;
+    float bend = 1.5f;
+    const float F = fv + T;
+    if (g2 > 0.0f && F > 0.02f && F < 0.98f && xT > 0.0f) {
+        float slope;
+        const float u = falloff(F, slope);
+        dist = std::abs(u - xT) * slope * inv * invH;
+        bend = std::min(1.5f, std::sqrt(0.2f * xT * slope * inv * invH));
+    }
+    if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
+        dist = ed.t;
+        if (!(g2 > 0.0f)) {
+            const int* dir = kFaceDirections[ed.dir];
+            nrm = (inside ? 1.0f : -1.0f) * glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
+        }
+    }
+    SurfacePoint sp;
+    for (int c = 0; c < 3; ++c) {
+        sp.n[c] = nrm[c];
+        sp.rgb[c] = sample.color[c];
+    }
+    // From outside the point lies inwards, along -n; from inside, outwards.
+    sp.offset = inside ? dist : -dist;
+    sp.voxel = ed.voxel;
+    sp.bend = floatToHalf(bend);
+    return sp;
+}
 
 /// Chains of consecutive leaves along one axis, leaf by leaf (indices into
 /// the tile's local leaves): directional sweeps run along them.
@@ -218,9 +274,6 @@ public:
         : in_(in),
           out_(out),
           state_(in.state),
-          invH_(float(1.0 / in.voxelSize)),
-          T_(float(in.threshold)),
-          xT_(in.threshold > 0.0 && in.threshold < 1.0 ? float(in.xT) : 0.0f),
           limit2_(float((in.halfWidth + 2.0) * (in.halfWidth + 2.0)))
     {
     }
@@ -245,70 +298,6 @@ public:
                         localLeaves{0};
 
 private:
-    /// A surface voxel's point (leaf l's k-th): computed where a tile needs
-    /// it (tiles share halo leaves, but a point costs less than storing all
-    /// of them).
-    SurfacePoint surfacePoint(size_t l, size_t k) const
-    {
-        const int32_t* o = in_.leaves[l].origin;
-        const SurfaceEdge& ed = state_.edge[l][k];
-        const SurfaceSample& sample = state_.sample[l][k];
-        const int i = ed.voxel;
-        const float fv = ed.f;
-        const bool inside = fv > 0.0f;
-        const glm::vec3 g(halfToFloat(sample.gradient[0]), halfToFloat(sample.gradient[1]),
-                          halfToFloat(sample.gradient[2]));
-        const float g2 = glm::dot(g, g);
-        // Outward normal: against the gradient (F grows inwards).
-        const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
-        glm::vec3 nrm = -inv * g;
-        // The distance to F = T along the gradient.  Near a skeletal
-        // primitive's surface (cb_skeletal_field, weight 1) F is the falloff
-        // w(u) of an argument u that grows linearly with the distance: linear
-        // in u, the estimate is exact for one such primitive however thin,
-        // where linear in F it overestimates outside (w flattens) by up to a
-        // fifth of a voxel on twigs a voxel or two thick.  Elsewhere (blends,
-        // convolution segments, whose field near the surface is the kernel's
-        // integral, weights other than 1) it is a first-order estimate like
-        // the linear one, bounded the same way by the edge crossing.  Away
-        // from F in (0, 1), linear in F.
-        // |grad u| also tells a skeletal primitive's radius, xT / |grad u|
-        // (sigma 1): the surface's radius of curvature across it, which
-        // decides how far its tangent plane holds (leafDistances: within 0.1
-        // voxel up to a lateral offset of sqrt(0.2 rho); never beyond 1.5
-        // voxels, as for flat surfaces).  On a convolution segment it comes
-        // out about half the radius: its planes give way a little early.
-        float dist = g2 > 0.0f ? std::abs(fv) * inv * invH_ : INFINITY;
-        float bend = 1.5f;
-        const float F = fv + T_;
-        if (g2 > 0.0f && F > 0.02f && F < 0.98f && xT_ > 0.0f) {
-            float slope;
-            const float u = falloff_(F, slope);
-            dist = std::abs(u - xT_) * slope * inv * invH_;
-            bend = std::min(1.5f, std::sqrt(0.2f * xT_ * slope * inv * invH_));
-        }
-        if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
-            dist = ed.t;
-            if (!(g2 > 0.0f)) {
-                const int* dir = kFaceDirections[ed.dir];
-                nrm = (inside ? 1.0f : -1.0f) *
-                      glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
-            }
-        }
-        // Closest point: from outside, inwards along -n; from inside, outwards.
-        const glm::vec3 cp =
-            glm::vec3(float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)), float(o[2] + (i >> 6))) +
-            (inside ? dist : -dist) * nrm;
-        SurfacePoint sp;
-        for (int c = 0; c < 3; ++c) {
-            sp.p[c] = cp[c];
-            sp.n[c] = nrm[c];
-            sp.rgb[c] = sample.color[c];
-        }
-        sp.bend = bend;
-        return sp;
-    }
-
     /// The tile's leaves [t0, t1), then its halo.
     void gatherLeaves(size_t t0, size_t t1, TileScratch& S)
     {
@@ -358,16 +347,21 @@ private:
             std::fill_n(S.src.begin() + long(lb), kLeafVoxels, 0);
             for (auto& p : S.pos)
                 std::fill_n(p.begin() + long(lb), kLeafVoxels, 1e15f);
+            const int32_t* o = in_.leaves[l].origin;
+            const SurfacePoint* points = state_.point[l];
             for (size_t e = 0; e < state_.surfaceVoxels(l); ++e, ++next) {
-                const SurfacePoint sp = surfacePoint(l, e);
-                const size_t at = k * kLeafVoxels + size_t(state_.edge[l][e].voxel);
+                const SurfacePoint& sp = points[e];
+                const int i = sp.voxel;
+                const size_t at = lb + size_t(i);
                 S.src[at] = next;
                 if (!in_.uniformColor)
                     S.rgb[size_t(next)] = {sp.rgb[0], sp.rgb[1], sp.rgb[2]};
-                S.bend[size_t(next)] = sp.bend;
+                S.bend[size_t(next)] = halfToFloat(sp.bend);
+                const float v[3] = {float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
+                                    float(o[2] + (i >> 6))};
                 for (int c = 0; c < 3; ++c) {
                     S.nrm[c][size_t(next)] = sp.n[c];
-                    S.pos[c][at] = sp.p[c];
+                    S.pos[c][at] = v[c] + sp.offset * sp.n[c];
                 }
             }
         }
@@ -452,11 +446,26 @@ private:
     const PropagationInput& in_;
     BandLeaves& out_;
     const LeafState& state_;
-    const float invH_, T_, xT_, limit2_;
-    const FalloffInverse& falloff_ = FalloffInverse::get();
+    const float limit2_;
 };
 
 }  // namespace
+
+void makeSurfacePoints(const PropagationInput& in, LeafList list, SurfaceVoxels& sv,
+                       LeafState& state)
+{
+    sv.points = parallelArray<SurfacePoint>(sv.count);
+    const float invH = float(1.0 / in.voxelSize), T = float(in.threshold),
+                xT = in.threshold > 0.0 && in.threshold < 1.0 ? float(in.xT) : 0.0f;
+    const FalloffInverse& falloff = FalloffInverse::get();
+    tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
+        for (size_t j = sv.first[k]; j < sv.first[k + 1]; ++j)
+            sv.points[j] = surfacePoint(sv.edges[j], sv.samples[j], invH, T, xT, falloff);
+        state.point[list.index[k]] = sv.points.get() + sv.first[k];
+    });
+    sv.edges.reset();
+    sv.samples.reset();
+}
 
 void propagate(const PropagationInput& in, size_t begin, size_t end, BandLeaves& out,
                BakeTimings& timings)

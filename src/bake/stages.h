@@ -68,19 +68,18 @@ using Progress = std::function<void(const char* stage, double fraction)>;
 /// A leaf's inside bits (F > T): one 64-bit plane (bit x + 8 y) per z.
 using InsideBits = std::array<uint64_t, 8>;
 
-struct SurfaceEdge;
+struct SurfacePoint;
 
 /// What the stages have made of each leaf so far.  The bake streams through
 /// the topology's slabs, one layer of leaves at a time: a leaf's values and
 /// surface voxels are held only while the stages of its own and its
 /// neighbouring layers need them (null pointers otherwise).
 struct LeafState {
-    explicit LeafState(size_t n) : value(n), inside(n), count(n, 0), edge(n), sample(n) {}
-    std::vector<const uint16_t*> value;        ///< F - T, kLeafVoxels halves (x + 8 y + 64 z)
-    std::vector<InsideBits> inside;            ///< the inside bits of the values
-    std::vector<uint32_t> count;               ///< how many surface voxels the leaf has
-    std::vector<const SurfaceEdge*> edge;      ///< its surface voxels' edges, in voxel order
-    std::vector<const SurfaceSample*> sample;  ///< and the sampler's answers there
+    explicit LeafState(size_t n) : value(n), inside(n), count(n, 0), point(n) {}
+    std::vector<const uint16_t*> value;      ///< F - T, kLeafVoxels halves (x + 8 y + 64 z)
+    std::vector<InsideBits> inside;          ///< the inside bits of the values
+    std::vector<uint32_t> count;             ///< how many surface voxels the leaf has
+    std::vector<const SurfacePoint*> point;  ///< their surface points, in voxel order
     size_t surfaceVoxels(size_t l) const { return count[l]; }
 };
 
@@ -146,20 +145,34 @@ struct SurfaceEdge {
     float f;  ///< F - T at the voxel, kept so that making the point reads no values
 };
 
+/// A surface voxel's nearest point on the surface, made once from its edge
+/// and the sampler's answer (makeSurfacePoints): at voxel + offset n, in
+/// index space.
+struct SurfacePoint {
+    float n[3];      ///< outward unit normal
+    float offset;    ///< voxels along n from the voxel to the point
+    uint16_t voxel;  ///< x + 8 y + 64 z
+    uint16_t bend;   ///< (half) the lateral offset, voxels, from which its plane gives way
+    uint8_t rgb[3];  ///< colour
+};
+
 /// The surface voxels of some leaves in one array, leaf by leaf in voxel
-/// order; `queries` ask the sampler for their gradients and colours, its
-/// answers go to `samples`.
+/// order (the list's k-th leaf's from first[k]); `queries` ask the sampler
+/// for their gradients and colours, its answers go to `samples`; edges and
+/// samples become `points`.
 struct SurfaceVoxels {
     ParallelArray<SurfaceEdge> edges;
     ParallelArray<SurfaceQuery> queries;
     ParallelArray<SurfaceSample> samples;
+    ParallelArray<SurfacePoint> points;
+    std::vector<size_t> first;
     size_t count = 0;
 };
 
 /// Finds those of the listed leaves from the values and inside bits of the
 /// leaves and of their neighbours (a missing neighbour leaf, with no surface
 /// within a voxel of it, counts as the same side), and sets their
-/// state.count and state.edge; the time into `timings`.
+/// state.count; the time into `timings`.
 SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>& nb,
                                 LeafState& state, BakeTimings& timings);
 
@@ -185,6 +198,12 @@ struct PropagationInput {
     double threshold;   ///< T
     double xT;          ///< w^-1(T): the falloff's argument at the surface (CB_P_XT)
 };
+
+/// The surface points of the listed leaves (the ones `sv` was found for,
+/// with their samples) into sv.points and state.point; frees sv's edges and
+/// samples.
+void makeSurfacePoints(const PropagationInput& in, LeafList list, SurfaceVoxels& sv,
+                       LeafState& state);
 
 /// Stage 4 for leaves [begin, end) (whole 64^3 cubes), tile by tile: each
 /// tile's surface points swept through its leaves and a halo (whose surface

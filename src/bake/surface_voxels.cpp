@@ -68,7 +68,8 @@ SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>
     };
     // The surface voxels of the leaves in one array, leaf by leaf: counted,
     // then written (one block: no allocation per leaf).
-    std::vector<size_t> first(list.size + 1, 0);
+    std::vector<size_t>& first = out.first;
+    first.assign(list.size + 1, 0);
     tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
         uint64_t across[8][6];
         const size_t l = list.index[k];
@@ -86,7 +87,6 @@ SurfaceVoxels findSurfaceVoxels(LeafList list, const std::vector<LeafNeighbours>
     tbb::parallel_for(size_t(0), list.size, [&](size_t m) {
         const size_t l = list.index[m];
         const uint16_t* own = state.value[l];
-        state.edge[l] = edges + first[m];
         uint64_t across[8][6];
         crossings(l, across);
         size_t j = first[m];
