@@ -485,6 +485,58 @@ TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
     }
 }
 
+TEST(BakeRoundTrip, APackedBakeWritesTheBytesItsValuesWould)
+{
+    // A bake that serialises its leaves as it finishes them (the command's
+    // way: the grid never holds its values) writes the file the values would
+    // give OpenVDB's own writer, past the UUID: the buffers, the delayed-load
+    // metadata read from them, the statistics counting the absent values, and
+    // the flood fill above the leaves from their first and last signs.  A
+    // coloured model (Cd packed too) and one of a single colour.
+    openvdb::initialize();
+    struct Case {
+        const char* name;
+        BlobTree tree;
+        double h;
+    };
+    const Case cases[] = {{"two spheres", redAndBlueSpheres(), 0.007},
+                          {"junction", completenessScene(1), 0.01}};
+    for (const Case& c : cases)
+        for (bool half : {false, true}) {
+            SCOPED_TRACE(std::string(c.name) + (half ? ", half" : ""));
+            const BakedGrids values = bakeTree(c.tree, c.h);
+            const FieldProgram prog = FieldProgram::compile(c.tree);
+            auto sampler = makeCpuSampler();
+            BakeOptions o;
+            o.voxelSize = c.h;
+            o.pack = true;
+            o.half = half;
+            const BakedGrids packed = bakeLevelSet(prog, *sampler, o);
+            ASSERT_TRUE(packed.surfacePacked);
+            EXPECT_EQ(bool(packed.colorPacked), values.color->tree().leafCount() > 0);
+            EXPECT_EQ(packed.stats.activeVoxels, values.stats.activeVoxels);
+            EXPECT_GT(packed.stats.packedBytes, 0u);
+            // The leaves hold no values; the tiles inside were filled.
+            for (auto it = packed.surface->tree().cbeginLeaf(); it; ++it)
+                ASSERT_EQ(it->buffer().memUsage(), sizeof(it->buffer()));
+            size_t insideTiles = 0;
+            for (auto it = packed.surface->tree().cbeginValueAll(); it; ++it)
+                insideTiles += !it.isVoxelValue() && *it < 0.0f;
+            EXPECT_GT(insideTiles, 0u);
+            VdbFileInfo info;
+            info.scene = c.name;
+            info.half = half;
+            const std::vector<char> ours = encodeVdb(packed, info),
+                                    theirs = encodeVdb(values, info, false);
+            ASSERT_EQ(ours.size(), theirs.size());
+            constexpr size_t kUuidEnd = 57;
+            EXPECT_TRUE(std::equal(ours.begin() + kUuidEnd, ours.end(), theirs.begin() + kUuidEnd));
+            // A packed grid is refused where its halves differ from the file's.
+            info.half = !half;
+            EXPECT_THROW(encodeVdb(packed, info), std::logic_error);
+        }
+}
+
 TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
 {
     openvdb::initialize();

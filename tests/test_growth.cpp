@@ -337,10 +337,10 @@ TEST(Growth, TheMemoryEstimateCountsLeavesAsLeaves)
     // world space (counted as a unit sphere, mid-summer of year 10 needed
     // 43 GB at voxel size 0.01; it bakes in 0.33 GB).
     const FieldProgram program = FieldProgram::compile(populusModel().tree(9.5, true));
-    const double estimate = estimateBakeBytes(program, 0.01, 3.0);
+    const double estimate = estimateBakeBytes(program, 0.01, 3.0, true);
     EXPECT_LT(estimate, 2e9);
-    EXPECT_GT(estimate,
-              estimateBakeBytes(FieldProgram::compile(populusModel().tree(9.5, false)), 0.01, 3.0));
+    EXPECT_GT(estimate, estimateBakeBytes(FieldProgram::compile(populusModel().tree(9.5, false)),
+                                          0.01, 3.0, true));
 }
 
 TEST(Growth, DormantSeasonsChangeNothing)

@@ -75,7 +75,9 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
             "OpenVDB's index space (about 2e9 voxels each way); move the model nearer the "
             "origin or use a larger --voxel-size",
             req.input, far, span, h));
-    plan.bytes = estimateBakeBytes(program, h, req.halfWidth);
+    // (A species file's bark photo, which the program does not tell, stops
+    // the packing too: its frames need about 8 bytes a band voxel more.)
+    plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));
     const double have = availableMemoryBytes();
     if (!(plan.bytes <= have))
         throw InputError(fmt::format(
@@ -164,6 +166,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.voxelSize = plan.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
+    // The grids only go to the file: each leaf is serialised as it is made
+    // (unless the fog or a photo's colours need the values afterwards).
+    opt.pack = packs(req) && !paint.histogram;
+    opt.half = req.half;
     opt.progress = callbacks.progress;
     BakedGrids grids = bakeLevelSet(program, *sampler, opt);
     paintBark(grids, tree, paint);

@@ -32,6 +32,14 @@ struct BakeRequest {
     std::optional<bool> barkCoherent;
 };
 
+/// Whether a bake of `req` serialises its leaves as it makes them
+/// (BakeOptions::pack): unless a fog volume or a photo's colours need the
+/// values afterwards (a species file's photo is found later: barkPaint).
+inline bool packs(const BakeRequest& req)
+{
+    return !req.fog && req.barkPhoto.empty();
+}
+
 /// The bark photo of a bake, read before any work (InputError naming the
 /// file), from the request or the model.
 struct BarkPaint {

@@ -128,6 +128,20 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     leaves.surface.assign(n, nullptr);
     leaves.color.assign(n, nullptr);
     leaves.active.assign(n, 0);
+    // The grids first: packing serialises leaves against their backgrounds.
+    const glm::dvec3 rgb = uniform.value_or(glm::dvec3(0.0));
+    createGrids(out, h, background, openvdb::Vec3f(float(rgb.x), float(rgb.y), float(rgb.z)));
+    std::shared_ptr<PackedLeaves> surfacePack, colorPack;
+    if (opt.pack) {
+        if (opt.fog)
+            throw std::logic_error("bakeLevelSet: a fog volume needs the values: no packing");
+        surfacePack = std::make_shared<PackedLeaves>(*out.surface, opt.half, n);
+        if (!uniform)
+            colorPack = std::make_shared<PackedLeaves>(*out.color, opt.half, n);
+        leaves.surfacePack = surfacePack.get();
+        leaves.colorPack = colorPack.get();
+        leaves.ends.assign(n, 0);
+    }
     // The grid leaves are this function's until the grids take them: a
     // sampler that fails mid-stream must not leave the finished slabs' leaves
     // behind (a long-lived process bakes again).
@@ -239,10 +253,11 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     // voxels (on the 20k benchmark tree the voxels would take 1.1 GB and a
     // sixth of the time).
     t = Clock::now();
-    const glm::dvec3 rgb = uniform.value_or(glm::dvec3(0.0));
-    createGrids(out, h, background, openvdb::Vec3f(float(rgb.x), float(rgb.y), float(rgb.z)));
     owner.owned = false;
     assembleGrids(out, leaves, st, tm);
+    out.surfacePacked = surfacePack;
+    out.colorPacked = colorPack;
+    st.packedBytes = (surfacePack ? surfacePack->size() : 0) + (colorPack ? colorPack->size() : 0);
     tm.tree = secondsSince(t) - tm.floodFill;
     if (opt.fog)
         addFog(out);

@@ -39,6 +39,12 @@ struct BakeOptions {
     size_t layerGroupLeaves = 4096;
     LeafValueCache* reuse =
         nullptr;  ///< values of unchanged leaves from an earlier bake (sequences)
+    /// For writeVdb only: each finished leaf is serialised for the file at
+    /// once (stored as halves where `half`) and keeps its value mask only, so
+    /// that the bake never holds the grid's values (a third of its memory as
+    /// compressed bytes: LevelSetGrids::surfacePacked).  Not with `fog`.
+    bool pack = false;
+    bool half = false;
     /// Called with a stage name and the fraction done; may be called from
     /// several threads at once.
     std::function<void(const char* stage, double fraction)> progress;
@@ -69,6 +75,7 @@ struct BakeStats {
     size_t surfacePoints = 0;        ///< voxels next to a sign change (the first layer)
     size_t heldLeaves = 0;           ///< most leaves whose values were held at once (streaming)
     size_t heldSurfacePoints = 0;    ///< most surface points held at once
+    size_t packedBytes = 0;          ///< the leaves' buffers serialised (BakeOptions::pack)
     double meanProgramLength = 0.0;  ///< instructions per leaf program
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
     BakeTimings timings;
@@ -107,7 +114,9 @@ double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);
 
 /// Estimated bytes a bake needs at this voxel size (from the primitives'
 /// surface area): used to refuse a voxel size the machine cannot hold.
-double estimateBakeBytes(const FieldProgram& program, double voxelSize, double halfWidth);
+/// `packed`: the bake packs its leaves (BakeOptions::pack).
+double estimateBakeBytes(const FieldProgram& program, double voxelSize, double halfWidth,
+                         bool packed);
 
 /// Estimated bytes of the two leaf-value caches a sequence's bake holds
 /// besides (BakeOptions::reuse: the last frame's and the one being filled,

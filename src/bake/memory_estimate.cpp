@@ -58,18 +58,20 @@ constexpr double kSampledLeavesPerBandVoxel = 1.4 / 150.0;
 
 }  // namespace
 
-double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth)
+double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth, bool packed)
 {
     // Per band voxel: the output grid (a float leaf of 2 KB holds about 150
-    // of them on a tree: 14 bytes; a colour that varies adds three floats per
-    // leaf voxel: 41 bytes), the per-leaf tables (neighbours, inside bits,
+    // of them on a tree: 14 bytes; packed, its compressed bytes and a leaf of
+    // value mask only: 4.5 and 0.7 bytes on the benchmark trees, counted as
+    // 6; a colour that varies adds three floats per leaf voxel: 41 bytes,
+    // counted so packed too), the per-leaf tables (neighbours, inside bits,
     // state, jobs: about 250 bytes per sampled leaf, 2.5 bytes) and the
     // stages' state streamed through the slabs (about three sampled voxels
     // per band voxel, 2 bytes of value and a share of the surface points
     // each, of which a slab and a quarter is held: on a tree a fifth,
     // counted as half); plus the libraries (OpenVDB and PoCL's LLVM, about
     // 150 MB).
-    const double perVoxel = 14.0 + (program.uniformColor() ? 0.0 : 41.0) +
+    const double perVoxel = (packed ? 6.0 : 14.0) + (program.uniformColor() ? 0.0 : 41.0) +
                             250.0 * kSampledLeavesPerBandVoxel + 0.5 * 3.0 * 3.0;
     return bandVoxels(program, h, halfWidth) * perVoxel + 150e6;
 }

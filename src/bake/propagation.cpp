@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace cambium {
 
@@ -260,6 +261,10 @@ struct TileScratch {
     std::vector<LeafJob> local;  // the tile's leaves, then its halo
     Chains rows[3];              // the chains along each axis
     std::vector<int> table;      // (building them)
+    // Packing: leaves to serialise from, and this thread's blocks of bytes.
+    std::unique_ptr<openvdb::FloatTree::LeafNodeType> packSurface;
+    std::unique_ptr<openvdb::Vec3fTree::LeafNodeType> packColor;
+    std::optional<PackedLeaves::Block> surfaceBlock, colorBlock;
 };
 
 /// Propagation over the tiles (the topology's 64^3 cubes, whose leaves are
@@ -387,7 +392,7 @@ private:
     }
 
     /// The tile's grid leaves, written straight into their buffers.
-    void writeLeaves(size_t t0, size_t t1, const TileScratch& S)
+    void writeLeaves(size_t t0, size_t t1, TileScratch& S)
     {
         const float background = in_.background;
         for (size_t k = 0; k < t1 - t0; ++k) {
@@ -405,13 +410,33 @@ private:
             if (!active)
                 continue;
             const openvdb::Coord origin(o[0], o[1], o[2]);
-            // (PartialCreate: the buffer is allocated by data() and not filled:
-            // every value is written below.)
-            auto* sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin,
-                                                            background, false);
-            auto* cl = in_.uniformColor ? nullptr
-                                        : new openvdb::Vec3fTree::LeafNodeType(
-                                              origin, openvdb::Vec3f(0.0f), false);
+            const bool pack = out_.surfacePack != nullptr;
+            openvdb::FloatTree::LeafNodeType* sl;
+            openvdb::Vec3fTree::LeafNodeType* cl;
+            if (pack) {
+                // The values go into a leaf of this thread's, to be serialised.
+                if (!S.packSurface) {
+                    S.packSurface = std::make_unique<openvdb::FloatTree::LeafNodeType>(
+                        origin, background, false);
+                    S.packColor = std::make_unique<openvdb::Vec3fTree::LeafNodeType>(
+                        origin, openvdb::Vec3f(0.0f), false);
+                    S.surfaceBlock.emplace(*out_.surfacePack);
+                    if (out_.colorPack)
+                        S.colorBlock.emplace(*out_.colorPack);
+                }
+                sl = S.packSurface.get();
+                cl = in_.uniformColor ? nullptr : S.packColor.get();
+                if (cl)
+                    cl->buffer().fill(openvdb::Vec3f(0.0f));
+            } else {
+                // (PartialCreate: the buffer is allocated by data() and not
+                // filled: every value is written below.)
+                sl = new openvdb::FloatTree::LeafNodeType(openvdb::PartialCreate(), origin,
+                                                          background, false);
+                cl = in_.uniformColor ? nullptr
+                                      : new openvdb::Vec3fTree::LeafNodeType(
+                                            origin, openvdb::Vec3f(0.0f), false);
+            }
             float* sv = sl->buffer().data();
             openvdb::Vec3f* cv = cl ? cl->buffer().data() : nullptr;
             // VDB leaves index x slowest: offset = 64 x + 8 y + z, so mask
@@ -438,9 +463,37 @@ private:
                 if (cl)
                     cl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
             }
-            out_.surface[l] = sl;
-            out_.color[l] = cl;
+            if (!pack) {
+                out_.surface[l] = sl;
+                out_.color[l] = cl;
+                continue;
+            }
+            // Packed: the bytes for the file, and a leaf of the value mask
+            // only (no buffer) that names its slot.
+            const uint32_t slot = uint32_t(l);
+            S.surfaceBlock->add(slot, *sl);
+            out_.surface[l] = maskLeaf(*sl, origin, background, slot);
+            if (cl) {
+                S.colorBlock->add(slot, *cl);
+                out_.color[l] = maskLeaf(*cl, origin, openvdb::Vec3f(0.0f), slot);
+            }
+            out_.ends[l] = uint8_t((sv[0] < 0.0f ? 1 : 0) | (sv[kLeafVoxels - 1] < 0.0f ? 2 : 0));
         }
+        if (S.surfaceBlock)
+            S.surfaceBlock->keep();
+        if (S.colorBlock)
+            S.colorBlock->keep();
+    }
+
+    /// A leaf with `from`'s value mask and no buffer, its transient data `slot`.
+    template <class LeafT>
+    static LeafT* maskLeaf(const LeafT& from, const openvdb::Coord& origin,
+                           const typename LeafT::ValueType& background, uint32_t slot)
+    {
+        auto* leaf = new LeafT(openvdb::PartialCreate(), origin, background, false);
+        leaf->getValueMask() = from.getValueMask();
+        leaf->setTransientData(slot);
+        return leaf;
     }
 
     const PropagationInput& in_;

@@ -214,6 +214,8 @@ struct FrameBaker {
         opt.voxelSize = plan.voxelSize;
         opt.halfWidth = req.halfWidth;
         opt.fog = req.fog;
+        opt.pack = packs(req) && !plan.paint.histogram;
+        opt.half = req.half;
         opt.reuse = &cache;
         if (sk.internodes.empty()) {
             grids = emptyLevelSet(opt);

@@ -22,6 +22,7 @@
 #include "bake/sampler.h"
 #include "bake/topology.h"
 #include "core/memory.h"
+#include "io/vdb.h"
 
 #include <openvdb/openvdb.h>
 
@@ -185,6 +186,13 @@ struct BandLeaves {
     std::vector<openvdb::FloatTree::LeafNodeType*> surface;
     std::vector<openvdb::Vec3fTree::LeafNodeType*> color;
     std::vector<size_t> active;
+    /// Packing (BakeOptions::pack): the leaves' buffers go here and the
+    /// leaves keep their value masks only, their slot (the topology's leaf
+    /// index) in their transient data; `ends` holds whether each leaf's first
+    /// (bit 0) and last (bit 1) values are negative, for the flood fill.
+    PackedLeaves* surfacePack = nullptr;
+    PackedLeaves* colorPack = nullptr;
+    std::vector<uint8_t> ends;
 };
 
 /// The inputs of propagation: the bake's leaves and what stages 2 and 3 found.

@@ -4,7 +4,11 @@
 
 #include <openvdb/openvdb.h>
 
+#include <memory>
+
 namespace cambium {
+
+class PackedLeaves;
 
 /// The level set: signed distance in world units, negative inside, class
 /// GRID_LEVEL_SET (the name renderers look for).
@@ -19,6 +23,10 @@ struct LevelSetGrids {
     openvdb::FloatGrid::Ptr surface;
     openvdb::Vec3fGrid::Ptr color;
     openvdb::FloatGrid::Ptr density;
+    /// Where set, that grid's leaves hold their value masks only (no values)
+    /// and their buffers are here, serialised for the writer (io/vdb.h): a
+    /// grid that only writeVdb can use.
+    std::shared_ptr<const PackedLeaves> surfacePacked, colorPacked;
 };
 
 }  // namespace cambium

@@ -8,7 +8,9 @@
 
 #include <fmt/format.h>
 #include <openvdb/io/Archive.h>
+#include <openvdb/io/DelayedLoadMetadata.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
 #include <tbb/concurrent_queue.h>
 #include <tbb/parallel_pipeline.h>
@@ -21,6 +23,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <type_traits>
 #include <vector>
@@ -79,15 +82,188 @@ private:
 
 const char kChecksumKey[] = "cambium_checksum";
 
+/// A grid whose statistics count its leaves' buffers as held in memory:
+/// what a packed grid's (PackedLeaves) would be with its values.
+template <class GridT>
+class ResidentGrid : public GridT {
+public:
+    explicit ResidentGrid(const GridT& grid)
+        : GridT(const_cast<GridT&>(grid), openvdb::ShallowCopy())
+    {
+    }
+    openvdb::Index64 memUsage() const override
+    {
+        using LeafT = typename GridT::TreeType::LeafNodeType;
+        return GridT::memUsage() +
+               this->tree().leafCount() *
+                   openvdb::Index64(LeafT::SIZE * sizeof(typename GridT::ValueType));
+    }
+};
+
+/// A grid with its packed leaves (null: a grid written from its values, which
+/// writePacked accepts only without leaves).
+struct PackedGrid {
+    openvdb::GridBase::ConstPtr grid;
+    const PackedLeaves* packed;
+};
+
 /// OpenVDB's archive writer on a stream of our own: what io::File::write
 /// does (a seekable stream, so that readers find every grid by its offsets),
 /// but on the checked writer's stream instead of an unchecked std::ofstream.
+/// Blosc and active-mask compression, grid statistics.
 class StreamArchive : public openvdb::io::Archive {
 public:
+    StreamArchive()
+    {
+        // The archive adds the grids' statistics (file_bbox_min/max,
+        // file_mem_bytes, file_voxel_count: Arnold and others read them) and
+        // file_compression to a shallow copy of each grid's metadata.
+        setGridStatsMetadataEnabled(true);
+        setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+    }
+
     void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids,
                  const openvdb::MetaMap& meta) const
     {
         write(os, grids, /*seekable=*/true, meta);
+    }
+
+    /// The compression the archive applies to `grid`'s buffers.
+    uint32_t gridCompression(const openvdb::GridBase& grid) const
+    {
+        MemoryBuf scratch;
+        std::ostream os(&scratch);
+        setGridCompression(os, grid);
+        return openvdb::io::getDataCompression(os);
+    }
+
+    /// Archive::write (OpenVDB 10) for grids whose buffers were serialised
+    /// while they were made: the same bytes, but the buffers are the packed
+    /// ones and the delayed-load metadata (each leaf's mask-compression byte
+    /// and compressed size, which Archive::writeGrid finds by compressing
+    /// every leaf once more) is read from them.  Archive::write cannot be
+    /// given such grids: it reads every leaf's values.
+    void writePacked(std::ostream& os, const std::vector<PackedGrid>& grids,
+                     const openvdb::MetaMap& meta) const
+    {
+        namespace io = openvdb::io;
+        io::StreamMetadata::Ptr fileMeta = io::getStreamMetadataPtr(os);
+        if (!fileMeta) {
+            fileMeta = std::make_shared<io::StreamMetadata>();
+            io::setStreamMetadataPtr(os, fileMeta, /*transfer=*/false);
+        }
+        io::setDataCompression(os, compression());
+        io::setWriteGridStatsMetadata(os, isGridStatsMetadataEnabled());
+        writeHeader(os, /*seekable=*/true);
+        meta.writeMeta(os);
+        const int32_t count = int32_t(grids.size());
+        os.write(reinterpret_cast<const char*>(&count), sizeof(count));
+        std::set<std::string> names;
+        for (const PackedGrid& g : grids) {
+            const openvdb::GridBase& grid = *g.grid;
+            // (Archive::write suffixes empty and repeated names.)
+            if (grid.getName().empty() || !names.insert(grid.getName()).second)
+                throw std::logic_error("writePacked: grid names must be unique and not empty");
+            writePackedGrid(os, g, fileMeta);
+            io::setStreamMetadataPtr(os, fileMeta, /*transfer=*/false);
+            io::setDataCompression(os, compression());
+        }
+    }
+
+private:
+    void writePackedGrid(std::ostream& os, const PackedGrid& g,
+                         const openvdb::io::StreamMetadata::Ptr& fileMeta) const
+    {
+        namespace io = openvdb::io;
+        const openvdb::GridBase& grid = *g.grid;
+        auto gridMeta = std::make_shared<io::StreamMetadata>(*fileMeta);
+        gridMeta->setHalfFloat(grid.saveFloatAsHalf());
+        gridMeta->gridMetadata() = static_cast<const openvdb::MetaMap&>(grid);
+        io::setStreamMetadataPtr(os, gridMeta, /*transfer=*/false);
+        io::GridDescriptor gd(grid.getName(), grid.type(), grid.saveFloatAsHalf());
+        gd.writeHeader(os);
+        const int64_t offsetPos = int64_t(os.tellp());
+        gd.writeStreamPos(os);
+        gd.setGridPos(os.tellp());
+        setGridCompression(os, grid);
+        const bool known = grid.apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>(
+            [&](const auto& typed) {
+                using G = std::decay_t<decltype(typed)>;
+                const auto& tree = typed.tree();
+                const size_t leaves = tree.leafCount();
+                if (leaves && !g.packed)
+                    throw std::logic_error("writePacked: a grid with leaves but no packed leaves");
+                // Metadata as Archive::writeGrid writes it: delayed-load
+                // metadata on a shallow copy, then the statistics.
+                auto copy = std::make_shared<ResidentGrid<G>>(typed);
+                io::DelayedLoadMetadata delayed;
+                if (leaves) {
+                    delayed.resizeMask(leaves);
+                    if (compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))
+                        delayed.resizeCompressedSize(leaves);
+                    size_t i = 0;
+                    for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
+                        const std::string_view b = g.packed->bytes(it->transientData());
+                        const auto [mask, values] =
+                            packedLeafLayout<typename G::ValueType>(b, it->getValueMask());
+                        delayed.setMask(i, io::DelayedLoadMetadata::MaskType(mask));
+                        if (compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))
+                            delayed.setCompressedSize(
+                                i, io::DelayedLoadMetadata::CompressedSizeType(b.size() - values));
+                    }
+                }
+                copy->insertMeta(openvdb::GridBase::META_FILE_DELAYED_LOAD, delayed);
+                if (io::getWriteGridStatsMetadata(os)) {
+                    copy->addStatsMetadata();
+                    copy->insertMeta(openvdb::GridBase::META_FILE_COMPRESSION,
+                                     openvdb::StringMetadata(
+                                         io::compressionToString(io::getDataCompression(os))));
+                }
+                copy->writeMeta(os);
+                grid.writeTransform(os);
+                grid.writeTopology(os);
+                gd.setBlockPos(os.tellp());
+                for (auto it = tree.cbeginLeaf(); it; ++it) {
+                    const std::string_view b = g.packed->bytes(it->transientData());
+                    os.write(b.data(), std::streamsize(b.size()));
+                }
+            });
+        if (!known)
+            throw std::logic_error("writePacked: a grid of a type cambium does not pack");
+        gd.setEndPos(os.tellp());
+        os.seekp(offsetPos, std::ios_base::beg);
+        gd.writeStreamPos(os);
+        gd.seekToEnd(os);
+    }
+
+    /// A packed leaf's mask-compression byte and where its compressed values
+    /// begin (writeCompressedValues: value mask, that byte, up to two
+    /// inactive values, a selection mask, the values).
+    template <class ValueT, class MaskT>
+    static std::pair<int8_t, size_t> packedLeafLayout(std::string_view b, const MaskT& mask)
+    {
+        namespace io = openvdb::io;
+        const size_t maskBytes = MaskT::WORD_COUNT * sizeof(typename MaskT::Word);
+        bool same = b.size() > maskBytes;
+        for (openvdb::Index w = 0; same && w < MaskT::WORD_COUNT; ++w) {
+            typename MaskT::Word word;
+            std::memcpy(&word, b.data() + w * sizeof(word), sizeof(word));
+            same = word == mask.template getWord<typename MaskT::Word>(w);
+        }
+        if (!same)
+            throw std::logic_error("writePacked: a leaf whose packed bytes are not its own");
+        const int8_t m = int8_t(b[maskBytes]);
+        size_t at = maskBytes + 1;
+        if (m == io::NO_MASK_AND_ONE_INACTIVE_VAL || m == io::MASK_AND_ONE_INACTIVE_VAL)
+            at += sizeof(ValueT);
+        if (m == io::MASK_AND_TWO_INACTIVE_VALS)
+            at += 2 * sizeof(ValueT);
+        if (m == io::MASK_AND_NO_INACTIVE_VALS || m == io::MASK_AND_ONE_INACTIVE_VAL ||
+            m == io::MASK_AND_TWO_INACTIVE_VALS)
+            at += maskBytes;
+        if (at > b.size())
+            throw std::logic_error("writePacked: a packed leaf shorter than its header");
+        return {m, at};
     }
 };
 
@@ -216,6 +392,7 @@ const char kPlaceholder[] = "0000000000000000";  // the checksum's 16 hex digits
 /// the checksum's placeholder in the file's.
 struct PreparedVdb {
     openvdb::GridCPtrVec grids;
+    std::vector<PackedGrid> packed;  ///< the same grids where any is packed
     openvdb::MetaMap meta;
 };
 
@@ -226,9 +403,12 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
     openvdb::MetaMap& fileMeta = v.meta;
     if (!grids.surface)
         throw std::logic_error("writeVdb: no surface grid");  // (it sets the file's voxel size)
-    for (openvdb::GridBase::Ptr g :
-         {openvdb::GridBase::Ptr(grids.surface), openvdb::GridBase::Ptr(grids.color),
-          openvdb::GridBase::Ptr(grids.density)}) {
+    const bool packed = grids.surfacePacked || grids.colorPacked;
+    const std::pair<openvdb::GridBase::Ptr, const PackedLeaves*> all[] = {
+        {grids.surface, grids.surfacePacked.get()},
+        {grids.color, grids.colorPacked.get()},
+        {grids.density, nullptr}};
+    for (const auto& [g, leaves] : all) {
         if (!g)
             continue;
         g->insertMeta("cambium_scene", openvdb::StringMetadata(info.scene));
@@ -239,7 +419,12 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
         g->insertMeta("cambium_time", openvdb::DoubleMetadata(info.time));
         g->insertMeta("cambium_version", openvdb::StringMetadata(version()));
         g->setSaveFloatAsHalf(info.half);
-        out.push_back(parallel ? parallelWriter(g) : g);
+        if (leaves && leaves->half() != info.half)
+            throw std::logic_error("writeVdb: leaves packed with another half setting");
+        if (packed)
+            v.packed.push_back({g, leaves});
+        else
+            out.push_back(parallel ? parallelWriter(g) : g);
     }
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
     if (!info.sequence.empty())
@@ -250,13 +435,11 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
 
 void writeArchive(std::ostream& os, const PreparedVdb& v)
 {
-    // The archive adds the grids' statistics (file_bbox_min/max,
-    // file_mem_bytes, file_voxel_count: Arnold and others read them) and
-    // file_compression to a shallow copy of each grid's metadata.
-    StreamArchive archive;
-    archive.setGridStatsMetadataEnabled(true);
-    archive.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
-    archive.writeTo(os, v.grids, v.meta);
+    const StreamArchive archive;
+    if (v.packed.empty())
+        archive.writeTo(os, v.grids, v.meta);
+    else
+        archive.writePacked(os, v.packed, v.meta);
 }
 
 /// Fills in the checksum of a file OpenVDB wrote from prepareVdb's grids:
@@ -318,6 +501,80 @@ std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
         [&](uint64_t at, char* data, size_t n) { std::memcpy(data, bytes.data() + at, n); },
         [&](uint64_t at, const char* data, size_t n) { std::memcpy(bytes.data() + at, data, n); });
     return bytes;
+}
+
+PackedLeaves::PackedLeaves(const openvdb::GridBase& grid, bool half, size_t slots)
+    : half_(half), compression_(StreamArchive().gridCompression(grid)), slots_(slots)
+{
+    const bool known = grid.apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>(
+        [&](const auto& typed) {
+            using V = typename std::decay_t<decltype(typed)>::ValueType;
+            background_ = std::make_shared<V>(typed.background());
+        });
+    if (!known)
+        throw std::logic_error("PackedLeaves: a grid of a type cambium does not pack");
+}
+
+PackedLeaves::~PackedLeaves() = default;
+
+std::string_view PackedLeaves::bytes(uint32_t slot) const
+{
+    return {slots_[slot].data, slots_[slot].size};
+}
+
+struct PackedLeaves::Block::Impl {
+    explicit Impl(PackedLeaves& o) : owner(o), os(&buf)
+    {
+        // The stream state writeCompressedValues reads: the compression and
+        // the background inactive values are compared with.
+        openvdb::io::setDataCompression(os, owner.compression_);
+        openvdb::io::setGridBackgroundValuePtr(os, owner.background_.get());
+    }
+    template <class LeafT>
+    void add(uint32_t slot, const LeafT& leaf)
+    {
+        starts.emplace_back(slot, buf.data().size());
+        leaf.writeBuffers(os, owner.half_);
+    }
+    PackedLeaves& owner;
+    MemoryBuf buf;
+    std::ostream os;
+    std::vector<std::pair<uint32_t, size_t>> starts;
+};
+
+PackedLeaves::Block::Block(PackedLeaves& owner) : impl_(std::make_unique<Impl>(owner)) {}
+PackedLeaves::Block::~Block() = default;
+
+void PackedLeaves::Block::add(uint32_t slot, const openvdb::FloatTree::LeafNodeType& leaf)
+{
+    impl_->add(slot, leaf);
+}
+
+void PackedLeaves::Block::add(uint32_t slot, const openvdb::Vec3fTree::LeafNodeType& leaf)
+{
+    impl_->add(slot, leaf);
+}
+
+void PackedLeaves::Block::keep()
+{
+    Impl& b = *impl_;
+    const size_t n = b.buf.data().size();
+    if (n) {
+        // An exact copy: the buffer grew by doubling and is reused.
+        auto chunk = std::make_unique<char[]>(n);
+        std::memcpy(chunk.get(), b.buf.data().data(), n);
+        PackedLeaves& o = b.owner;
+        const std::lock_guard<std::mutex> lock(o.mutex_);
+        for (size_t k = 0; k < b.starts.size(); ++k) {
+            const size_t end = k + 1 < b.starts.size() ? b.starts[k + 1].second : n;
+            o.slots_[b.starts[k].first] = {chunk.get() + b.starts[k].second,
+                                           uint32_t(end - b.starts[k].second)};
+        }
+        o.total_ += n;
+        o.chunks_.push_back(std::move(chunk));
+    }
+    b.buf.clear();
+    b.starts.clear();
 }
 
 namespace {

@@ -6,7 +6,10 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace cambium {
@@ -36,6 +39,59 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
 /// the header's random UUID; false: OpenVDB's own writer, for the tests).
 std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
                             bool parallel = true);
+
+/// A grid's leaf buffers serialised as writeVdb writes them (each leaf's value
+/// mask, then its compressed values), made while a bake runs so that the grid
+/// never holds all its values at once: the grid keeps each leaf's value mask
+/// only (a leaf without a buffer) and names its slot here in the leaf's
+/// transient data.  writeVdb writes such a grid (LevelSetGrids::surfacePacked,
+/// colorPacked) from these bytes: the file is byte for byte the one its
+/// values would have given (tests/test_bake.cpp).
+class PackedLeaves {
+public:
+    /// For the leaves of `grid` (a FloatGrid or a Vec3fGrid: its background
+    /// and class decide the compression, as the writer's would), stored as
+    /// halves or not; `slots` slots.
+    PackedLeaves(const openvdb::GridBase& grid, bool half, size_t slots);
+    ~PackedLeaves();
+    PackedLeaves(const PackedLeaves&) = delete;
+    PackedLeaves& operator=(const PackedLeaves&) = delete;
+
+    /// Leaves serialised one after another by one thread into one buffer,
+    /// then kept together.
+    class Block {
+    public:
+        explicit Block(PackedLeaves& owner);
+        ~Block();
+        void add(uint32_t slot, const openvdb::FloatTree::LeafNodeType& leaf);
+        void add(uint32_t slot, const openvdb::Vec3fTree::LeafNodeType& leaf);
+        /// The bytes into the owner (thread-safe); empty again.
+        void keep();
+
+    private:
+        struct Impl;
+        std::unique_ptr<Impl> impl_;
+    };
+
+    bool half() const { return half_; }
+    /// A slot's bytes (empty where nothing was packed).
+    std::string_view bytes(uint32_t slot) const;
+    /// Every slot's, in all.
+    size_t size() const { return total_; }
+
+private:
+    struct Slot {
+        const char* data = nullptr;
+        uint32_t size = 0;
+    };
+    bool half_;
+    uint32_t compression_;
+    std::shared_ptr<void> background_;  // the value the writer's mask compression compares with
+    std::vector<Slot> slots_;
+    std::vector<std::unique_ptr<char[]>> chunks_;
+    std::mutex mutex_;
+    size_t total_ = 0;
+};
 
 /// What the structure of a .vdb file says, read without reading any grid.
 struct VdbSummary {
