@@ -12,9 +12,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
-#include <tbb/concurrent_queue.h>
-#include <tbb/parallel_pipeline.h>
-#include <tbb/task_arena.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <functional>
@@ -105,6 +103,7 @@ public:
 struct PackedGrid {
     openvdb::GridBase::ConstPtr grid;
     const PackedLeaves* packed;
+    bool byOrder = false;  ///< slots: the leaves' order, not their transient data
 };
 
 /// OpenVDB's archive writer on a stream of our own: what io::File::write
@@ -195,15 +194,19 @@ private:
                     throw std::logic_error("writePacked: a grid with leaves but no packed leaves");
                 // Metadata as Archive::writeGrid writes it: delayed-load
                 // metadata on a shallow copy, then the statistics.
-                auto copy = std::make_shared<ResidentGrid<G>>(typed);
+                // (A packed grid's statistics count the values it does not hold.)
+                const openvdb::GridBase::Ptr copy =
+                    g.byOrder ? openvdb::ConstPtrCast<openvdb::GridBase>(typed.copyGrid())
+                              : std::make_shared<ResidentGrid<G>>(typed);
                 io::DelayedLoadMetadata delayed;
                 if (leaves) {
                     delayed.resizeMask(leaves);
                     if (compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))
                         delayed.resizeCompressedSize(leaves);
-                    size_t i = 0;
+                    uint32_t i = 0;
                     for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
-                        const std::string_view b = g.packed->bytes(it->transientData());
+                        const std::string_view b =
+                            g.packed->bytes(g.byOrder ? i : it->transientData());
                         const auto [mask, values] =
                             packedLeafLayout<typename G::ValueType>(b, it->getValueMask());
                         delayed.setMask(i, io::DelayedLoadMetadata::MaskType(mask));
@@ -223,8 +226,9 @@ private:
                 grid.writeTransform(os);
                 grid.writeTopology(os);
                 gd.setBlockPos(os.tellp());
-                for (auto it = tree.cbeginLeaf(); it; ++it) {
-                    const std::string_view b = g.packed->bytes(it->transientData());
+                uint32_t i = 0;
+                for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
+                    const std::string_view b = g.packed->bytes(g.byOrder ? i : it->transientData());
                     os.write(b.data(), std::streamsize(b.size()));
                 }
             });
@@ -267,134 +271,40 @@ private:
     }
 };
 
-/// The stream state OpenVDB's writers read (format and library version,
-/// compression, grid class, half floats, the background for mask
-/// compression, statistics, stream metadata), read once from a stream and
-/// set on others.  Read before the threads start: the getters call
-/// ios_base::iword/pword, which may grow the stream's word array, so
-/// concurrent reads of one stream race (AddressSanitizer saw a double free).
-struct StreamState {
-    explicit StreamState(std::ios_base& from)
-        : library(openvdb::io::getLibraryVersion(from)),
-          format(openvdb::io::getFormatVersion(from)),
-          compression(openvdb::io::getDataCompression(from)),
-          gridClass(openvdb::io::getGridClass(from)),
-          half(openvdb::io::getHalfFloat(from)),
-          background(openvdb::io::getGridBackgroundValuePtr(from)),
-          stats(openvdb::io::getWriteGridStatsMetadata(from)),
-          meta(openvdb::io::getStreamMetadataPtr(from))
-    {
-    }
-    void setOn(std::ios_base& to) const
-    {
-        namespace io = openvdb::io;
-        io::setVersion(to, library, format);
-        io::setDataCompression(to, compression);
-        io::setGridClass(to, gridClass);
-        io::setHalfFloat(to, half);
-        io::setGridBackgroundValuePtr(to, background);
-        io::setWriteGridStatsMetadata(to, stats);
-        if (meta)
-            io::setStreamMetadataPtr(to, meta, /*transfer=*/false);
-    }
-
-    openvdb::VersionId library;
-    uint32_t format;
-    uint32_t compression;
-    uint32_t gridClass;
-    bool half;
-    const void* background;
-    bool stats;
-    mutable openvdb::io::StreamMetadata::Ptr
-        meta;  // (setStreamMetadataPtr takes a non-const reference)
-};
-
-/// A grid (sharing the tree, metadata and transform of the grid it views)
-/// whose leaf buffers are written as Grid::writeBuffers writes them (the
-/// root and internal nodes write their children depth first, so the file
-/// holds each leaf's value mask and compressed values in the order of the
-/// tree's leaf iterator) but compressed on all cores: blocks of leaves
-/// serialised into buffers of their own with the stream's state, in a
-/// pipeline that writes the buffers in order, a few blocks in flight.  The
-/// bytes are Grid::writeBuffers's (tests/test_vdb.cpp compares them).
-template <class GridT>
-class ParallelWriteGrid : public GridT {
-public:
-    explicit ParallelWriteGrid(GridT& grid) : GridT(grid, openvdb::ShallowCopy()) {}
-
-    void writeBuffers(std::ostream& os) const override
-    {
-        using LeafT = typename GridT::TreeType::LeafNodeType;
-        if (GridT::hasMultiPassIO()) {
-            GridT::writeBuffers(os);
-            return;
-        }
-        std::vector<const LeafT*> leaves;
-        leaves.reserve(this->tree().leafCount());
-        for (auto it = this->tree().cbeginLeaf(); it; ++it)
-            leaves.push_back(it.getLeaf());
-        const bool half = this->saveFloatAsHalf();
-        constexpr size_t kBlock = 256;  // leaves per buffer (about 100-300 kB)
-        const size_t blocks = (leaves.size() + kBlock - 1) / kBlock;
-        const size_t inFlight = 4 * size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
-        // Buffers reused from block to block: fresh pages cost more than
-        // the compression (about 8 us each on the 2-core VM).
-        std::vector<MemoryBuf> buffers(inFlight);
-        tbb::concurrent_queue<MemoryBuf*> free;
-        for (MemoryBuf& b : buffers)
-            free.push(&b);
-        const StreamState state(os);
-        size_t next = 0;
-        tbb::parallel_pipeline(
-            inFlight,
-            tbb::make_filter<void, size_t>(tbb::filter_mode::serial_in_order,
-                                           [&](tbb::flow_control& fc) -> size_t {
-                                               if (next == blocks)
-                                                   fc.stop();
-                                               return next++;
-                                           }) &
-                tbb::make_filter<size_t, MemoryBuf*>(
-                    tbb::filter_mode::parallel,
-                    [&](size_t b) {
-                        MemoryBuf* buf = nullptr;
-                        while (!free.try_pop(buf)) {  // (the pipeline's tokens bound the blocks)
-                        }
-                        buf->clear();
-                        std::ostream block(buf);
-                        state.setOn(block);
-                        const size_t end = std::min(leaves.size(), (b + 1) * kBlock);
-                        for (size_t i = b * kBlock; i < end; ++i)
-                            leaves[i]->writeBuffers(block, half);
-                        return buf;
-                    }) &
-                tbb::make_filter<MemoryBuf*, void>(
-                    tbb::filter_mode::serial_in_order, [&](MemoryBuf* buf) {
-                        os.write(buf->data().data(), std::streamsize(buf->data().size()));
-                        free.push(buf);
-                    }));
-    }
-};
-
-/// `grid` behind a ParallelWriteGrid (the grid types cambium writes), else itself.
-openvdb::GridBase::ConstPtr parallelWriter(const openvdb::GridBase::Ptr& grid)
-{
-    openvdb::GridBase::ConstPtr out = grid;
-    grid->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3SGrid>>([&](auto& g) {
-        using G = std::decay_t<decltype(g)>;
-        out = std::make_shared<const ParallelWriteGrid<G>>(g);
-    });
-    return out;
-}
-
 const char kPlaceholder[] = "0000000000000000";  // the checksum's 16 hex digits, before
 
 /// The grids and file metadata of a .vdb: cambium's metadata on every grid,
 /// the checksum's placeholder in the file's.
 struct PreparedVdb {
-    openvdb::GridCPtrVec grids;
-    std::vector<PackedGrid> packed;  ///< the same grids where any is packed
+    openvdb::GridCPtrVec grids;      ///< for OpenVDB's own writer (the tests)
+    std::vector<PackedGrid> packed;  ///< or packed
+    std::vector<std::shared_ptr<const PackedLeaves>> owned;  ///< (packed here)
     openvdb::MetaMap meta;
 };
+
+/// A grid's leaves packed on all cores, slots in their order: what OpenVDB's
+/// serial writer does a leaf at a time, after compressing every leaf once
+/// more for the delayed-load metadata.
+std::shared_ptr<const PackedLeaves> packGrid(const openvdb::GridBase& grid, bool half)
+{
+    std::shared_ptr<PackedLeaves> out;
+    grid.apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](const auto& typed) {
+        using LeafT = typename std::decay_t<decltype(typed)>::TreeType::LeafNodeType;
+        std::vector<const LeafT*> leaves;
+        leaves.reserve(typed.tree().leafCount());
+        for (auto it = typed.tree().cbeginLeaf(); it; ++it)
+            leaves.push_back(it.getLeaf());
+        out = std::make_shared<PackedLeaves>(grid, half, leaves.size());
+        constexpr size_t kBlock = 256;  // leaves per block (about 100-300 kB)
+        tbb::parallel_for(size_t(0), (leaves.size() + kBlock - 1) / kBlock, [&](size_t b) {
+            PackedLeaves::Block block(*out);
+            for (size_t i = b * kBlock; i < std::min(leaves.size(), (b + 1) * kBlock); ++i)
+                block.add(uint32_t(i), *leaves[i]);
+            block.keep();
+        });
+    });
+    return out;
+}
 
 PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool parallel)
 {
@@ -421,10 +331,18 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
         g->setSaveFloatAsHalf(info.half);
         if (leaves && leaves->half() != info.half)
             throw std::logic_error("writeVdb: leaves packed with another half setting");
-        if (packed)
+        if (packed) {
             v.packed.push_back({g, leaves});
-        else
-            out.push_back(parallel ? parallelWriter(g) : g);
+        } else if (parallel) {
+            if (g->isType<openvdb::FloatGrid>() || g->isType<openvdb::Vec3fGrid>()) {
+                v.owned.push_back(packGrid(*g, info.half));
+                v.packed.push_back({g, v.owned.back().get(), /*byOrder=*/true});
+            } else {
+                v.packed.push_back({g, nullptr});  // (without leaves: writePacked checks)
+            }
+        } else {
+            out.push_back(g);
+        }
     }
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
     if (!info.sequence.empty())
@@ -436,7 +354,7 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
 void writeArchive(std::ostream& os, const PreparedVdb& v)
 {
     const StreamArchive archive;
-    if (v.packed.empty())
+    if (!v.grids.empty())
         archive.writeTo(os, v.grids, v.meta);
     else
         archive.writePacked(os, v.packed, v.meta);
