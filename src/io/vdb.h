@@ -36,7 +36,8 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
 
 /// The bytes writeVdb writes.  `parallel`: the grids' leaves compressed on
 /// all cores (the bytes are those OpenVDB's serial writer makes, apart from
-/// the header's random UUID; false: OpenVDB's own writer, for the tests).
+/// the header's random UUID; false: OpenVDB's own writer, for the tests;
+/// packed grids are always written from their bytes).
 std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
                             bool parallel = true);
 
