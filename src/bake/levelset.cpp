@@ -257,7 +257,6 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     assembleGrids(out, leaves, st, tm);
     out.surfacePacked = surfacePack;
     out.colorPacked = colorPack;
-    st.packedBytes = (surfacePack ? surfacePack->size() : 0) + (colorPack ? colorPack->size() : 0);
     tm.tree = secondsSince(t) - tm.floodFill;
     if (opt.fog)
         addFog(out);

@@ -75,7 +75,6 @@ struct BakeStats {
     size_t surfacePoints = 0;        ///< voxels next to a sign change (the first layer)
     size_t heldLeaves = 0;           ///< most leaves whose values were held at once (streaming)
     size_t heldSurfacePoints = 0;    ///< most surface points held at once
-    size_t packedBytes = 0;          ///< the leaves' buffers serialised (BakeOptions::pack)
     double meanProgramLength = 0.0;  ///< instructions per leaf program
     double topologySeconds = 0.0, samplingSeconds = 0.0, assemblySeconds = 0.0, seconds = 0.0;
     BakeTimings timings;

@@ -36,30 +36,22 @@ public:
         for (int i = 0; i <= kN; ++i)
             table_[i] = float(cb_wyvill_inverse(double(i) / kN));
     }
-    /// u with w(u) = F and w'(u), for F in (0, 1) (a half's precision: a
-    /// float Newton step is plenty).
+    /// u with w(u) = F and w'(u), for F in (0, 1).
     float operator()(float F, float& slope) const
     {
         const float x = F * float(kN);
         const int i = std::min(int(x), kN - 1);
         float u = table_[i] + (x - float(i)) * (table_[i + 1] - table_[i]);
-        float dw;
-        const float w = wyvill(u, dw);
-        if (dw < 0.0f)
-            u -= (w - F) / dw;
-        wyvill(u, dw);
-        slope = -dw;
+        double dw;
+        const double w = cb_wyvill(double(u), &dw);
+        if (dw < 0.0)
+            u -= float((w - double(F)) / dw);
+        cb_wyvill(double(u), &dw);
+        slope = float(-dw);
         return u;
     }
 
 private:
-    /// cb_wyvill on [0, 1] in single precision.
-    static float wyvill(float u, float& dw)
-    {
-        const float y = u * u;
-        dw = u * (-44.0f / 9.0f + y * (68.0f / 9.0f - y * (24.0f / 9.0f)));
-        return 1.0f + y * (-22.0f / 9.0f + y * (17.0f / 9.0f - y * (4.0f / 9.0f)));
-    }
     static constexpr int kN = 1024;
     float table_[kN + 1];
 };
@@ -395,6 +387,17 @@ private:
     void writeLeaves(size_t t0, size_t t1, TileScratch& S)
     {
         const float background = in_.background;
+        const bool pack = out_.surfacePack != nullptr;
+        if (pack && !S.packSurface) {
+            // Packing: the values go into leaves of this thread's, to be serialised.
+            S.packSurface = std::make_unique<openvdb::FloatTree::LeafNodeType>(openvdb::Coord(),
+                                                                               background, false);
+            S.packColor = std::make_unique<openvdb::Vec3fTree::LeafNodeType>(
+                openvdb::Coord(), openvdb::Vec3f(0.0f), false);
+            S.surfaceBlock.emplace(*out_.surfacePack);
+            if (out_.colorPack)
+                S.colorBlock.emplace(*out_.colorPack);
+        }
         for (size_t k = 0; k < t1 - t0; ++k) {
             const size_t l = t0 + k;
             const int32_t* o = in_.leaves[l].origin;
@@ -410,20 +413,9 @@ private:
             if (!active)
                 continue;
             const openvdb::Coord origin(o[0], o[1], o[2]);
-            const bool pack = out_.surfacePack != nullptr;
             openvdb::FloatTree::LeafNodeType* sl;
             openvdb::Vec3fTree::LeafNodeType* cl;
             if (pack) {
-                // The values go into a leaf of this thread's, to be serialised.
-                if (!S.packSurface) {
-                    S.packSurface = std::make_unique<openvdb::FloatTree::LeafNodeType>(
-                        origin, background, false);
-                    S.packColor = std::make_unique<openvdb::Vec3fTree::LeafNodeType>(
-                        origin, openvdb::Vec3f(0.0f), false);
-                    S.surfaceBlock.emplace(*out_.surfacePack);
-                    if (out_.colorPack)
-                        S.colorBlock.emplace(*out_.colorPack);
-                }
                 sl = S.packSurface.get();
                 cl = in_.uniformColor ? nullptr : S.packColor.get();
                 if (cl)
@@ -479,9 +471,9 @@ private:
             }
             out_.ends[l] = uint8_t((sv[0] < 0.0f ? 1 : 0) | (sv[kLeafVoxels - 1] < 0.0f ? 2 : 0));
         }
-        if (S.surfaceBlock)
+        if (pack)
             S.surfaceBlock->keep();
-        if (S.colorBlock)
+        if (pack && S.colorBlock)
             S.colorBlock->keep();
     }
 

@@ -200,19 +200,23 @@ private:
                 const openvdb::GridBase::Ptr copy =
                     g.byOrder ? openvdb::ConstPtrCast<openvdb::GridBase>(typed.copyGrid())
                               : std::make_shared<ResidentGrid<G>>(typed);
+                // Leaf i's packed bytes (i: its place in the tree's order).
+                auto bytesOf = [&](const auto& leaf, uint32_t i) {
+                    return g.packed->bytes(g.byOrder ? i : leaf.transientData());
+                };
                 io::DelayedLoadMetadata delayed;
+                const bool sizes = compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP);
                 if (leaves) {
                     delayed.resizeMask(leaves);
-                    if (compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))
+                    if (sizes)
                         delayed.resizeCompressedSize(leaves);
                     uint32_t i = 0;
                     for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
-                        const std::string_view b =
-                            g.packed->bytes(g.byOrder ? i : it->transientData());
+                        const std::string_view b = bytesOf(*it, i);
                         const auto [mask, values] =
                             packedLeafLayout<typename G::ValueType>(b, it->getValueMask());
                         delayed.setMask(i, io::DelayedLoadMetadata::MaskType(mask));
-                        if (compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP))
+                        if (sizes)
                             delayed.setCompressedSize(
                                 i, io::DelayedLoadMetadata::CompressedSizeType(b.size() - values));
                     }
@@ -230,7 +234,7 @@ private:
                 gd.setBlockPos(os.tellp());
                 uint32_t i = 0;
                 for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
-                    const std::string_view b = g.packed->bytes(g.byOrder ? i : it->transientData());
+                    const std::string_view b = bytesOf(*it, i);
                     os.write(b.data(), std::streamsize(b.size()));
                 }
             });
