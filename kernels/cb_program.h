@@ -513,4 +513,32 @@ CB_FN cb_sample cb_run_program(CB_GLOBAL const int* code, int n, CB_GLOBAL const
     }
 }
 
+/* A surface voxel's sample (sample_surface and its CPU reference, the
+ * sampler's CPU path): one Newton step from p toward F = T along the
+ * gradient, at most `reach` long, into *step, and the program's sample where
+ * it lands.  The field's first-order distance at p is off by a fifth of a
+ * voxel where F is far from linear across a voxel (twigs a voxel or two
+ * thick, blends); a second step from the landing point (the host's, with the
+ * sample returned) is off by a fiftieth, and its gradient is the surface's
+ * normal there rather than the field's at the voxel.  The loop evaluates the
+ * program from one place in the code, not two. */
+CB_FN cb_sample cb_surface_step(CB_GLOBAL const int* code, int n, CB_GLOBAL const cb_scalar* prm,
+                                cb_vec3 p, cb_real reach, cb_vec3* step)
+{
+    cb_sample s;
+    int i;
+    *step = cb_v3(CB_R(0.0), CB_R(0.0), CB_R(0.0));
+    for (i = 0; i < 2; ++i) {
+        if (i == 1) {
+            cb_real g2 = cb_dot(s.g, s.g);
+            cb_real k = cb_div0(prm[CB_P_T] - s.v, g2); /* the step is k grad F */
+            cb_real len = CB_FABS(k) * CB_SQRT(g2);
+            k = CB_SELECT(k, k * cb_div0(reach, len), len > reach);
+            *step = cb_scale(s.g, k);
+        }
+        s = cb_run_program(code, n, prm, cb_add(p, *step));
+    }
+    return s;
+}
+
 #endif /* CAMBIUM_CB_PROGRAM_H */

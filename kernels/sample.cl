@@ -55,11 +55,14 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
 }
 #endif
 
-/* Gradient and colour at chosen voxels of chosen leaves (the voxels next to
+/* The surface samples of chosen voxels of chosen leaves (the voxels next to
  * the surface), CB_LANES (8 or 16) voxels of one leaf per work-item:
  * chunkLeaf[i] is the leaf of chunk i, chunkVoxels[CB_LANES i + lane] its
- * voxel indices (x + 8 y + 64 z).  out: gradient as 3 planes of `stride`
- * halves, colour as 3 planes of `stride` bytes, entry CB_LANES i + lane. */
+ * voxel indices (x + 8 y + 64 z).  Each voxel's Newton step toward the
+ * surface (cb_surface_step, at most a voxel: the leaves' programs hold that
+ * far beyond their voxels) and the sample where it lands.  out: 7 planes of
+ * `stride` halves, entry CB_LANES i + lane: the step (voxels) x, y, z, F - T,
+ * the gradient x, y, z; colour as 3 planes of `stride` bytes. */
 #if CB_LANES == 16
 #define CB_VLOAD vload16
 #define CB_VSTORE vstore16
@@ -81,7 +84,7 @@ __kernel void sample_values(__global const int* code, __global const float* prm,
 __kernel void sample_surface(__global const int* code, __global const float* prm,
                              __global const int* leaves, const float voxelSize,
                              __global const int* chunkLeaf, __global const ushort* chunkVoxels,
-                             const int stride, __global half* gradient, __global uchar* color)
+                             const int stride, __global half* out, __global uchar* color)
 {
     int chunk = (int)get_global_id(0);
     __global const int* L = leaves + 5 * chunkLeaf[chunk];
@@ -89,10 +92,16 @@ __kernel void sample_surface(__global const int* code, __global const float* prm
     cb_vec3 p = cb_v3(CB_CONVERT_FLOAT((CB_INT)(L[0]) + (v & 7)) * voxelSize,
                       CB_CONVERT_FLOAT((CB_INT)(L[1]) + ((v >> 3) & 7)) * voxelSize,
                       CB_CONVERT_FLOAT((CB_INT)(L[2]) + (v >> 6)) * voxelSize);
-    cb_sample s = cb_run_program(code + 4 * L[3], L[4], prm, p);
-    CB_VSTORE_HALF(s.g.x, chunk, gradient);
-    CB_VSTORE_HALF(s.g.y, chunk, gradient + stride);
-    CB_VSTORE_HALF(s.g.z, chunk, gradient + 2 * stride);
+    cb_vec3 d;
+    cb_sample s = cb_surface_step(code + 4 * L[3], L[4], prm, p, (cb_real)(voxelSize), &d);
+    const float inv = 1.0f / voxelSize;
+    CB_VSTORE_HALF(d.x * inv, chunk, out);
+    CB_VSTORE_HALF(d.y * inv, chunk, out + stride);
+    CB_VSTORE_HALF(d.z * inv, chunk, out + 2 * stride);
+    CB_VSTORE_HALF(s.v - prm[CB_P_T], chunk, out + 3 * stride);
+    CB_VSTORE_HALF(s.g.x, chunk, out + 4 * stride);
+    CB_VSTORE_HALF(s.g.y, chunk, out + 5 * stride);
+    CB_VSTORE_HALF(s.g.z, chunk, out + 6 * stride);
     CB_VSTORE(CB_CONVERT_UCHAR(s.c.x * 255.0f), chunk, color);
     CB_VSTORE(CB_CONVERT_UCHAR(s.c.y * 255.0f), chunk, color + stride);
     CB_VSTORE(CB_CONVERT_UCHAR(s.c.z * 255.0f), chunk, color + 2 * stride);

@@ -22,91 +22,58 @@ namespace cambium {
 
 namespace {
 
-/// The inverse of the Wyvill falloff w on [0, 1] (kernels/cb_primitives.h):
-/// a table of cb_wyvill_inverse at F = i / N, then a Newton step.
-class FalloffInverse {
-public:
-    static const FalloffInverse& get()
-    {
-        static const FalloffInverse inverse;
-        return inverse;
-    }
-    FalloffInverse()
-    {
-        for (int i = 0; i <= kN; ++i)
-            table_[i] = float(cb_wyvill_inverse(double(i) / kN));
-    }
-    /// u with w(u) = F and w'(u), for F in (0, 1).
-    float operator()(float F, float& slope) const
-    {
-        const float x = F * float(kN);
-        const int i = std::min(int(x), kN - 1);
-        float u = table_[i] + (x - float(i)) * (table_[i + 1] - table_[i]);
-        double dw;
-        const double w = cb_wyvill(double(u), &dw);
-        if (dw < 0.0)
-            u -= float((w - double(F)) / dw);
-        cb_wyvill(double(u), &dw);
-        slope = float(-dw);
-        return u;
-    }
-
-private:
-    static constexpr int kN = 1024;
-    float table_[kN + 1];
-};
-
-/// A surface voxel's point from its edge and the sampler's answer there.
-SurfacePoint surfacePoint(const SurfaceEdge& ed, const SurfaceSample& sample, float invH, float T,
-                          float xT, const FalloffInverse& falloff)
+/// A surface voxel's point from its edge and the sampler's answer: the
+/// sampler's Newton step (cb_surface_step) and a second from where it landed,
+/// with the gradient there for the normal.  Where F is far from linear
+/// across a voxel (a twig a voxel or two thick, whose falloff spans two to
+/// four voxels; the fillets of blends) the first step alone is off by up to
+/// a fifth of a voxel, the second by a fiftieth; and the gradient at the
+/// landing point is the surface's normal, where the voxel's may lean (in a
+/// blend the gradient turns along its way to the surface).
+/// |grad F| near a skeletal primitive's surface also tells its radius (the
+/// falloff's argument grows by xT over it: radius = xT |w'(xT)| / |grad F|,
+/// sigma 1): the surface's radius of curvature across it, which decides how
+/// far its tangent plane holds (leafDistances: within 0.1 voxel up to a
+/// lateral offset of sqrt(0.2 rho); never beyond 1.5 voxels, as for flat
+/// surfaces).  On a convolution segment it comes out about half the radius:
+/// its planes give way a little early.
+SurfacePoint surfacePoint(const SurfaceEdge& ed, const SurfaceSample& sample, float invH,
+                          float radiusScale)
 {
-    const float fv = ed.f;
-    const bool inside = fv > 0.0f;
+    const bool inside = ed.f > 0.0f;
     const glm::vec3 g(halfToFloat(sample.gradient[0]), halfToFloat(sample.gradient[1]),
                       halfToFloat(sample.gradient[2]));
     const float g2 = glm::dot(g, g);
     // Outward normal: against the gradient (F grows inwards).
     const float inv = g2 > 0.0f ? 1.0f / std::sqrt(g2) : 0.0f;
     glm::vec3 nrm = -inv * g;
-    // The distance to F = T along the gradient.  Near a skeletal
-    // primitive's surface (cb_skeletal_field, weight 1) F is the falloff
-    // w(u) of an argument u that grows linearly with the distance: linear
-    // in u, the estimate is exact for one such primitive however thin,
-    // where linear in F it overestimates outside (w flattens) by up to a
-    // fifth of a voxel on twigs a voxel or two thick.  Elsewhere (blends,
-    // convolution segments, whose field near the surface is the kernel's
-    // integral, weights other than 1) it is a first-order estimate like
-    // the linear one, bounded the same way by the edge crossing.  Away
-    // from F in (0, 1), linear in F.
-    // |grad u| also tells a skeletal primitive's radius, xT / |grad u|
-    // (sigma 1): the surface's radius of curvature across it, which
-    // decides how far its tangent plane holds (leafDistances: within 0.1
-    // voxel up to a lateral offset of sqrt(0.2 rho); never beyond 1.5
-    // voxels, as for flat surfaces).  On a convolution segment it comes
-    // out about half the radius: its planes give way a little early.
-    float dist = g2 > 0.0f ? std::abs(fv) * inv * invH : INFINITY;
-    float bend = 1.5f;
-    const float F = fv + T;
-    if (g2 > 0.0f && F > 0.02f && F < 0.98f && xT > 0.0f) {
-        float slope;
-        const float u = falloff(F, slope);
-        dist = std::abs(u - xT) * slope * inv * invH;
-        bend = std::min(1.5f, std::sqrt(0.2f * xT * slope * inv * invH));
-    }
-    if (!(dist <= ed.t)) {  // the crossing along an edge bounds the distance
-        dist = ed.t;
+    // The second step, bounded like the first (voxels).
+    const glm::vec3 landed(halfToFloat(sample.step[0]), halfToFloat(sample.step[1]),
+                           halfToFloat(sample.step[2]));
+    const float r = halfToFloat(sample.value);
+    const float second = std::min(std::abs(r) * inv * invH, float(kSurfaceReach));
+    glm::vec3 at = landed + (r > 0.0f ? second : -second) * nrm;
+    // The crossing along an edge bounds the voxel's distance: a point whose
+    // tangent plane lies further (a step gone astray), or one without a
+    // gradient (outside every primitive's support, next to a surface made by
+    // a neighbour's), gives way to one at that distance along the normal.
+    if (!(g2 > 0.0f && std::abs(glm::dot(at, nrm)) <= ed.t)) {
         if (!(g2 > 0.0f)) {
             const int* dir = kFaceDirections[ed.dir];
             nrm = (inside ? 1.0f : -1.0f) * glm::vec3(float(dir[0]), float(dir[1]), float(dir[2]));
         }
+        // From outside the point lies inwards, along -n; from inside, outwards.
+        at = (inside ? ed.t : -ed.t) * nrm;
     }
+    const float bend = radiusScale > 0.0f && g2 > 0.0f
+                           ? std::min(1.5f, std::sqrt(0.2f * radiusScale * inv))
+                           : 1.5f;
     SurfacePoint sp;
     for (int c = 0; c < 3; ++c) {
-        sp.n[c] = nrm[c];
+        sp.n[c] = floatToHalf(nrm[c]);
+        sp.at[c] = floatToHalf(at[c]);
         sp.rgb[c] = sample.color[c];
     }
-    // From outside the point lies inwards, along -n; from inside, outwards.
-    sp.offset = inside ? dist : -dist;
     sp.voxel = ed.voxel;
     sp.bend = floatToHalf(bend);
     return sp;
@@ -357,8 +324,8 @@ private:
                 const float v[3] = {float(o[0] + (i & 7)), float(o[1] + ((i >> 3) & 7)),
                                     float(o[2] + (i >> 6))};
                 for (int c = 0; c < 3; ++c) {
-                    S.nrm[c][size_t(next)] = sp.n[c];
-                    S.pos[c][at] = v[c] + sp.offset * sp.n[c];
+                    S.nrm[c][size_t(next)] = halfToFloat(sp.n[c]);
+                    S.pos[c][at] = v[c] + halfToFloat(sp.at[c]);
                 }
             }
         }
@@ -500,12 +467,17 @@ void makeSurfacePoints(const PropagationInput& in, LeafList list, SurfaceVoxels&
                        LeafState& state)
 {
     sv.points = parallelArray<SurfacePoint>(sv.count);
-    const float invH = float(1.0 / in.voxelSize), T = float(in.threshold),
-                xT = in.threshold > 0.0 && in.threshold < 1.0 ? float(in.xT) : 0.0f;
-    const FalloffInverse& falloff = FalloffInverse::get();
+    const float invH = float(1.0 / in.voxelSize);
+    // A skeletal primitive's radius (voxels) is this over |grad F| (see surfacePoint).
+    float radiusScale = 0.0f;
+    if (in.threshold > 0.0 && in.threshold < 1.0) {
+        double dw;
+        cb_wyvill(in.xT, &dw);
+        radiusScale = float(in.xT * std::abs(dw)) * invH;
+    }
     tbb::parallel_for(size_t(0), list.size, [&](size_t k) {
         for (size_t j = sv.first[k]; j < sv.first[k + 1]; ++j)
-            sv.points[j] = surfacePoint(sv.edges[j], sv.samples[j], invH, T, xT, falloff);
+            sv.points[j] = surfacePoint(sv.edges[j], sv.samples[j], invH, radiusScale);
         state.point[list.index[k]] = sv.points.get() + sv.first[k];
     });
     sv.edges.reset();

@@ -56,8 +56,12 @@ public:
         tbb::parallel_for(size_t(0), count, [&](size_t q) {
             const LeafJob& job = (*leaves_)[size_t(queries[q].leaf)];
             const Code code(pool_->data() + job.codeOffset, size_t(job.codeLength));
-            const FieldSample s = program_->evaluate(code, voxelPosition(job, queries[q].voxel, h));
+            glm::dvec3 step;
+            const FieldSample s = program_->surfaceStep(
+                code, voxelPosition(job, queries[q].voxel, h), kSurfaceReach * h, step);
+            out[q].value = floatToHalf(float(s.value - program_->threshold()));
             for (int k = 0; k < 3; ++k) {
+                out[q].step[k] = floatToHalf(float(step[k] / h));
                 out[q].gradient[k] = floatToHalf(float(s.gradient[k]));
                 out[q].color[k] = uint8_t(std::lround(255.0 * std::clamp(s.color[k], 0.0, 1.0)));
             }
@@ -223,22 +227,25 @@ public:
         cl_mem code = pool_.get(), params = params_.get();
         cl_mem table = leaves_.get();
         cl_mem cl = chunkLeaf_.get(), cv = chunkVoxels_.get();
-        cl_mem grad = out_.reserve(ctx_, 3 * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
+        constexpr size_t kPlanes = 7;  // step (3), F - T, gradient (3)
+        cl_mem planes = out_.reserve(ctx_, kPlanes * stride * sizeof(uint16_t), CL_MEM_WRITE_ONLY);
         cl_mem col = out2_.reserve(ctx_, 3 * stride, CL_MEM_WRITE_ONLY);
         const float hf = float(h);
         const int st = int(stride);
-        setArgs(surfaceKernel_, code, params, table, hf, cl, cv, st, grad, col);
+        setArgs(surfaceKernel_, code, params, table, hf, cl, cv, st, planes, col);
         checkCL(clEnqueueNDRangeKernel(ctx_.queue(), surfaceKernel_, 1, nullptr, &chunks, &local, 0,
                                        nullptr, nullptr),
                 "clEnqueueNDRangeKernel(sample_surface)");
         const auto* g = static_cast<const uint16_t*>(
-            out_.map(ctx_, CL_MAP_READ, 3 * stride * sizeof(uint16_t)));
+            out_.map(ctx_, CL_MAP_READ, kPlanes * stride * sizeof(uint16_t)));
         const auto* c = static_cast<const uint8_t*>(out2_.map(ctx_, CL_MAP_READ, 3 * stride));
         tbb::parallel_for(size_t(0), runs, [&](size_t r) {
             for (size_t q = runStart[r]; q < runStart[r + 1]; ++q) {
                 const size_t at = kChunk * firstChunk[r] + (q - runStart[r]);
+                out[q].value = g[3 * stride + at];
                 for (int k = 0; k < 3; ++k) {
-                    out[q].gradient[k] = g[size_t(k) * stride + at];
+                    out[q].step[k] = g[size_t(k) * stride + at];
+                    out[q].gradient[k] = g[size_t(4 + k) * stride + at];
                     out[q].color[k] = c[size_t(k) * stride + at];
                 }
             }

@@ -23,9 +23,19 @@ struct SurfaceQuery {
     uint16_t voxel;  ///< x + 8 y + 64 z
 };
 
-/// Gradient (IEEE half precision: enough for distances within a voxel and for
-/// normals) and colour (8 bits) at a queried voxel.
+/// How far (voxels) a surface sample's Newton step may go from its voxel:
+/// a leaf's program must compute the field over its voxels' box padded by
+/// this much (findBandLeaves specialises them so).
+constexpr double kSurfaceReach = 1.0;
+
+/// What the sampler answers for a surface voxel (kernels/cb_program.h,
+/// cb_surface_step): the Newton step from the voxel toward the surface
+/// (voxels, at most kSurfaceReach long) and where it lands F - T, the
+/// gradient and the colour.  IEEE halves (enough for distances within a
+/// voxel and for normals) and 8-bit colour.
 struct SurfaceSample {
+    uint16_t step[3];
+    uint16_t value;
     uint16_t gradient[3];
     uint8_t color[3];
 };
@@ -82,7 +92,7 @@ public:
     /// surface; the sign bit tells the side (inside: positive, not zero).
     virtual void sampleValues(const std::vector<LeafJob>& leaves, size_t begin, size_t end,
                               double voxelSize, uint16_t* out) = 0;
-    /// Gradient and colour at the queried voxels (of setLeaves's leaves),
+    /// The surface samples of the queried voxels (of setLeaves's leaves),
     /// `count` queries grouped by leaf, into out[0, count).
     virtual void sampleSurface(const SurfaceQuery* queries, size_t count, double voxelSize,
                                SurfaceSample* out) = 0;

@@ -146,14 +146,14 @@ struct SurfaceEdge {
     float f;  ///< F - T at the voxel, kept so that making the point reads no values
 };
 
-/// A surface voxel's nearest point on the surface, made once from its edge
-/// and the sampler's answer (makeSurfacePoints): at voxel + offset n, in
-/// index space.
+/// A surface voxel's point on the surface, made once from its edge and the
+/// sampler's answer (makeSurfacePoints), with the surface's normal there.
+/// IEEE halves: within 2^-10 voxel of where it was computed.
 struct SurfacePoint {
-    float n[3];      ///< outward unit normal
-    float offset;    ///< voxels along n from the voxel to the point
+    uint16_t n[3];   ///< outward unit normal
+    uint16_t at[3];  ///< the point, voxels from the voxel
     uint16_t voxel;  ///< x + 8 y + 64 z
-    uint16_t bend;   ///< (half) the lateral offset, voxels, from which its plane gives way
+    uint16_t bend;   ///< the lateral offset, voxels, from which its plane gives way
     uint8_t rgb[3];  ///< colour
 };
 

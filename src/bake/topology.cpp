@@ -45,7 +45,8 @@ struct Search {
             return;  // no surface within the band of this cube
         if (size == 8) {
             LeafJob job{{o[0], o[1], o[2]}, int32_t(pool.size()), 0};
-            prog.specialize(spec, centres(o, 8), &pool);
+            // The voxels' box and a surface sample's reach beyond it.
+            prog.specialize(spec, centres(o, 8).padded(kSurfaceReach * h), &pool);
             job.codeLength = int32_t(pool.size()) - job.codeOffset;
             leaves.push_back(job);
             return;

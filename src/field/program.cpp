@@ -664,6 +664,16 @@ FieldSample FieldProgram::evaluate(Code code, const glm::dvec3& p) const
     return {s.v, {s.g.x, s.g.y, s.g.z}, {s.c.x, s.c.y, s.c.z}};
 }
 
+FieldSample FieldProgram::surfaceStep(Code code, const glm::dvec3& p, double reach,
+                                      glm::dvec3& step) const
+{
+    cb_vec3 d;
+    const cb_sample s = cb_surface_step(reinterpret_cast<const int*>(code.data), int(code.size),
+                                        params_.data(), cb_v3(p.x, p.y, p.z), reach, &d);
+    step = {d.x, d.y, d.z};
+    return {s.v, {s.g.x, s.g.y, s.g.z}, {s.c.x, s.c.y, s.c.z}};
+}
+
 Interval FieldProgram::specialize(Code code, const Box& box, std::vector<Instr>* out) const
 {
     size_t pos = 0;

@@ -88,6 +88,10 @@ public:
     /// Evaluates `code` at p on the host with the same interpreter as the
     /// kernels (kernels/cb_program.h, in double precision).
     FieldSample evaluate(Code code, const glm::dvec3& p) const;
+    /// A surface voxel's Newton step from p toward F = T, at most `reach`
+    /// long, into `step`, and the sample where it lands
+    /// (kernels/cb_program.h, cb_surface_step, in double precision).
+    FieldSample surfaceStep(Code code, const glm::dvec3& p, double reach, glm::dvec3& step) const;
 
     /// Stack depths a program needs: values and warp frames.
     static void depths(Code code, int& stack, int& warps);
