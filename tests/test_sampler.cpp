@@ -14,6 +14,10 @@
 #include <gtest/gtest.h>
 #include <openvdb/math/Half.h>
 
+#include <cmath>
+#include <cstring>
+#include <random>
+
 namespace {
 
 using namespace cambium;
@@ -292,6 +296,40 @@ TEST(HalfFloat, EveryHalfConvertsExactlyAndBack)
         ASSERT_EQ(wb, gb) << "half bits " << b;
         EXPECT_EQ(cambium::floatToHalf(got), uint16_t(b));
     }
+}
+
+TEST(HalfFloat, FloatsRoundToTheNearestEvenHalfAsOpenVDBs)
+{
+    // Every float halfway between two halves and a float either side of it
+    // (where rounding decides), and a million random floats of every
+    // magnitude, against OpenVDB's (Imath's) conversion.
+    auto expectSame = [](float f) {
+        const uint16_t want = openvdb::math::internal::half(f).bits();
+        const uint16_t got = cambium::floatToHalf(f);
+        if (std::isnan(f))
+            EXPECT_TRUE(std::isnan(cambium::halfToFloat(got))) << f;
+        else
+            ASSERT_EQ(got, want) << std::hexfloat << f;
+    };
+    for (uint32_t b = 0; b < 0x7C00u; ++b) {
+        const float lo = cambium::halfToFloat(uint16_t(b)),
+                    hi = cambium::halfToFloat(uint16_t(b + 1));
+        const float mid = lo + 0.5f * (hi - lo);  // exact: halves have 11 bits
+        for (const float f : {mid, std::nextafter(mid, 0.0f), std::nextafter(mid, INFINITY)}) {
+            expectSame(f);
+            expectSame(-f);
+        }
+    }
+    std::mt19937 rng(5);
+    for (int i = 0; i < 1000000; ++i) {
+        const uint32_t bits = uint32_t(rng());
+        float f;
+        std::memcpy(&f, &bits, 4);
+        expectSame(f);
+    }
+    for (const float f : {0.0f, -0.0f, 65504.0f, 65519.99f, 65520.0f, 1e10f, INFINITY, -INFINITY,
+                          NAN, 0x1p-25f, 0x1.000002p-25f, 0x1p-24f, 0x1.8p-24f})
+        expectSame(f);
 }
 
 }  // namespace

@@ -6,17 +6,11 @@
 #include "cl/kernel_sources.h"
 
 #include <fmt/format.h>
-#include <openvdb/math/Half.h>
 #include <tbb/parallel_for.h>
 
 #include <mutex>
 
 namespace cambium {
-
-uint16_t floatToHalf(float f)
-{
-    return openvdb::math::internal::half(f).bits();
-}
 
 namespace {
 

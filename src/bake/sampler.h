@@ -60,8 +60,35 @@ inline float halfToFloat(uint16_t h)
     std::memcpy(&f, &bits, 4);
     return f;
 }
-/// float -> IEEE half, rounded to nearest even.
-uint16_t floatToHalf(float f);
+/// float -> IEEE half, rounded to nearest even (NaN -> a quiet NaN): inline,
+/// since a bake converts tens of millions of step, gradient and normal
+/// components.
+inline uint16_t floatToHalf(float f)
+{
+    uint32_t x;
+    std::memcpy(&x, &f, 4);
+    const uint32_t sign = (x >> 16) & 0x8000u;
+    x &= 0x7FFFFFFFu;
+    uint32_t h;
+    if (x >= 0x47800000u) {  // |f| >= 2^16 (past the largest half), infinities, NaNs
+        h = x > 0x7F800000u ? 0x7E00u : 0x7C00u;
+    } else if (x < 0x38800000u) {
+        // |f| < 2^-14: a subnormal half, whose unit is 2^-24, the spacing of
+        // floats in [0.5, 1): the addition rounds |f| to it, to nearest even,
+        // and leaves the count in the mantissa.
+        float a;
+        std::memcpy(&a, &x, 4);
+        a += 0.5f;
+        std::memcpy(&h, &a, 4);
+        h -= 0x3F000000u;
+    } else {
+        // The exponent rebiased (127 -> 15), the 13 bits below the half's
+        // mantissa rounded to nearest even (a carry into the exponent is right,
+        // up to infinity).
+        h = (x - 0x38000000u + 0xFFFu + ((x >> 13) & 1u)) >> 13;
+    }
+    return uint16_t(h | sign);
+}
 /// Whether a half is positive and not zero (F - T > 0: inside).
 inline bool halfPositive(uint16_t h)
 {
