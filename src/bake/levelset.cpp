@@ -77,6 +77,10 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     // output and the state of about a slab and a quarter, not of the band.
     sampler.setProgram(program);
     sampler.setLeaves(topo.leaves, topo.pool);
+    // The device holds the programs now; a cache of leaf values still needs
+    // them for its keys.  (On the 20k benchmark tree 23 MB.)
+    if (sampler.copiesLeaves() && !opt.reuse)
+        std::vector<Instr>().swap(topo.pool);
     t = Clock::now();
     const std::vector<LeafNeighbours> nb = findNeighbours(topo.leaves);
     tm.neighbours = secondsSince(t);

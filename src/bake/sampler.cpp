@@ -278,6 +278,7 @@ public:
     }
 
     const char* name() const override { return "opencl"; }
+    bool copiesLeaves() const override { return true; }
 
 private:
     OpenCLContext ctx_;

@@ -127,6 +127,9 @@ public:
     /// out = 7 planes of points.size() floats.
     virtual std::vector<float> samplePoints(Code code, const std::vector<glm::dvec3>& points) = 0;
     virtual const char* name() const = 0;
+    /// Whether setLeaves copies the leaves and their programs (to a device),
+    /// so that the caller's may go once it returns.
+    virtual bool copiesLeaves() const { return false; }
 };
 
 /// The OpenCL path.  Throws OpenCLError (no platform, build failure) from the
