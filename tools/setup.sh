@@ -24,16 +24,27 @@ packages=(
 read -r -a extra <<<"${CAMBIUM_EXTRA_PACKAGES:-}"
 packages+=("${extra[@]}")
 
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
+# install_missing [--no-install-recommends] PACKAGE...: those not installed.
+install_missing() {
+  local opts=() missing=() p sudo=""
+  if [ "${1:-}" = --no-install-recommends ]; then
+    opts+=("$1")
+    shift
+  fi
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  ((${#missing[@]})) || return 0
   echo "cambium setup: installing ${missing[*]}"
-  sudo=""
   [ "$(id -u)" -eq 0 ] || sudo=sudo
   $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}"
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${opts[@]}" "${missing[@]}"
+}
+install_missing "${packages[@]}"
+# The tests' own: a private Slurm cluster (tools/slurm_cluster.sh), without
+# the recommended extras (slurm-wlm would pull 35 packages).
+if [ "$mode" = test ]; then
+  install_missing --no-install-recommends slurmctld slurmd slurm-client munge
 fi
 
 [ "$mode" = packages ] && exit 0
