@@ -1,0 +1,89 @@
+// Farm plans: a sequence cut into chunks of whole reuse groups, and what one
+// task asks of a node.
+#include "farm/chunks.h"
+
+#include "core/frames.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace {
+
+using namespace cambium;
+
+const std::string kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+
+SequencePlan plan(const std::string& frames, double fps)
+{
+    SequenceRequest r;
+    r.bake.input = kPopulus;
+    r.bake.output = (std::filesystem::temp_directory_path() / "cambium_farm_test.####.vdb").string();
+    r.bake.voxelSize = 0.05;
+    r.frames = frames;
+    r.fpsPerYear = fps;
+    return planSequence(r);
+}
+
+TEST(FarmChunks, AreWholeReuseGroupsCoveringEveryFrameOnce)
+{
+    for (const auto& [frames, fps] : {std::pair<std::string, double>{"1-54", 2.0},
+                                      {"3-270", 10.0},
+                                      {"2-50:4", 3.0},
+                                      {"5-5", 1.0}}) {
+        const SequencePlan p = plan(frames, fps);
+        // Where the plan's reuse groups begin: a chunk may begin only there.
+        std::vector<bool> groupStart(p.frames.size() + 1, false);
+        for (const auto& g : p.groups)
+            groupStart[g.front()] = true;
+        groupStart[p.frames.size()] = true;
+        for (const size_t n : {size_t(1), size_t(3), size_t(10), size_t(100000)}) {
+            const std::vector<FarmChunk> chunks = chunkPlan(p, n);
+            ASSERT_FALSE(chunks.empty());
+            size_t next = 0;
+            for (size_t k = 0; k < chunks.size(); ++k) {
+                const FarmChunk& c = chunks[k];
+                EXPECT_EQ(c.first, next) << frames << " chunk " << k;
+                EXPECT_TRUE(groupStart[c.first] && groupStart[c.last])
+                    << frames << ": chunk " << k << " splits a reuse group";
+                if (k + 1 < chunks.size()) {
+                    EXPECT_GE(c.last - c.first, n) << frames << " chunk " << k;
+                }
+                // Its --frames are exactly its frames of the plan.
+                const std::vector<long long> got = parseFrames(c.frames);
+                const std::vector<long long> want(p.frames.begin() + long(c.first),
+                                                  p.frames.begin() + long(c.last));
+                EXPECT_EQ(got, want) << frames << " chunk " << k << ": " << c.frames;
+                next = c.last;
+            }
+            EXPECT_EQ(next, p.frames.size()) << frames;
+            // One group per chunk at n = 1; one chunk for all at n = 100000.
+            if (n == 1) {
+                EXPECT_EQ(chunks.size(), p.groups.size()) << frames;
+            }
+            if (n == 100000) {
+                EXPECT_EQ(chunks.size(), 1u) << frames;
+            }
+        }
+    }
+}
+
+TEST(FarmChunks, ATaskAsksForItsFramesMemoryAndTheCoresOfItsShareOfANode)
+{
+    const SequencePlan p = plan("1-27", 1.0);
+    ASSERT_GT(p.bytesPerFrame, 0.0);
+    const TaskResources alone = taskResources(p, 16, 0.0);
+    EXPECT_GE(double(alone.memoryMB) * (1 << 20), p.bytesPerFrame);
+    EXPECT_LE(double(alone.memoryMB) * (1 << 20), p.bytesPerFrame + 300e6);
+    const double task = double(alone.memoryMB) * (1 << 20);
+    // A node whose memory holds eight tasks: two of its sixteen cores each.
+    EXPECT_EQ(taskResources(p, 16, 8.0 * task).cpus, 2);
+    // One that holds one and a half: the whole node's cores for one.
+    EXPECT_EQ(taskResources(p, 2, 1.5 * task).cpus, 2);
+    // Plenty of memory: one core a task.
+    EXPECT_EQ(taskResources(p, 2, 100.0 * task).cpus, 1);
+    // Less memory than a task: all the cores (Slurm refuses the memory).
+    EXPECT_EQ(taskResources(p, 4, 0.5 * task).cpus, 4);
+}
+
+}  // namespace
