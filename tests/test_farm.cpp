@@ -1,12 +1,18 @@
 // Farm plans: a sequence cut into chunks of whole reuse groups, and what one
 // task asks of a node.
 #include "farm/chunks.h"
+#include "farm/slurm.h"
 
 #include "core/frames.h"
 
 #include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
 
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <unistd.h>
 
 namespace {
 
@@ -18,7 +24,8 @@ SequencePlan plan(const std::string& frames, double fps)
 {
     SequenceRequest r;
     r.bake.input = kPopulus;
-    r.bake.output = (std::filesystem::temp_directory_path() / "cambium_farm_test.####.vdb").string();
+    r.bake.output =
+        (std::filesystem::temp_directory_path() / "cambium_farm_test.####.vdb").string();
     r.bake.voxelSize = 0.05;
     r.frames = frames;
     r.fpsPerYear = fps;
@@ -84,6 +91,67 @@ TEST(FarmChunks, ATaskAsksForItsFramesMemoryAndTheCoresOfItsShareOfANode)
     EXPECT_EQ(taskResources(p, 2, 100.0 * task).cpus, 1);
     // Less memory than a task: all the cores (Slurm refuses the memory).
     EXPECT_EQ(taskResources(p, 4, 0.5 * task).cpus, 4);
+}
+
+std::string fileBytes(const std::filesystem::path& p)
+{
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
+{
+    // The array's batch script run by hand, task by task as Slurm would
+    // (SLURM_ARRAY_TASK_ID), writes the files one local bake of the whole
+    // plan writes, byte for byte past the header's random UUID, and leaves
+    // each task's exit status beside its logs.
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / ("cambium_farm_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    struct Cleanup {
+        fs::path dir;
+        ~Cleanup() { fs::remove_all(dir); }
+    } cleanup{dir};
+    fs::create_directories(dir / "local");
+    fs::create_directories(dir / "farm");
+    openvdb::initialize();
+    SequenceRequest r;
+    r.bake.input = kPopulus;
+    r.bake.voxelSize = 0.05;
+    r.bake.device = Device::Cpu;
+    r.frames = "3-8";
+    r.fpsPerYear = 2.0;
+    r.bake.output = (dir / "local" / "p.####.vdb").string();
+    bakeSequence(r);
+    r.bake.output = (dir / "farm" / "p.####.vdb").string();
+    const SequencePlan plan = planSequence(r);
+    SlurmOptions o;
+    o.framesPerChunk = 2;
+    o.exe = CAMBIUM_EXE;
+    const SlurmArray array = planSlurmArray(plan, o);
+    ASSERT_EQ(array.chunks.size(), 3u);  // years 1, 2, 3 and 4: groups of 1, 2, 2, 1 frames
+    fs::create_directories(array.farmDir);
+    std::ofstream(array.scriptPath) << array.script;
+    for (size_t k = 0; k < array.chunks.size(); ++k) {
+        const std::string command = "cd " + shellQuote(array.farmDir) +
+                                    " && SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
+                                    " bash array.sh > task-" + std::to_string(k) + ".log 2>&1";
+        EXPECT_EQ(std::system(command.c_str()), 0)
+            << fileBytes(array.farmDir + "/task-" + std::to_string(k) + ".log");
+        EXPECT_EQ(fileBytes(array.farmDir + "/task-" + std::to_string(k) + ".status"), "0\n");
+    }
+    for (int f = 3; f <= 8; ++f) {
+        const std::string name = "p.000" + std::to_string(f) + ".vdb";
+        const std::string a = fileBytes(dir / "local" / name), b = fileBytes(dir / "farm" / name);
+        constexpr size_t kUuidEnd = 57;
+        ASSERT_GT(a.size(), kUuidEnd) << name;
+        EXPECT_EQ(a.size(), b.size()) << name;
+        EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << name << " differs";
+    }
+    // A task index past the plan's chunks is refused as bad input.
+    const std::string past = "cd " + shellQuote(array.farmDir) +
+                             " && SLURM_ARRAY_TASK_ID=3 bash array.sh > /dev/null 2>&1";
+    EXPECT_EQ(WEXITSTATUS(std::system(past.c_str())), 2);
 }
 
 }  // namespace
