@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <climits>
+
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -183,6 +185,45 @@ TEST(Files, TheOutputLockKeepsASecondWriterOutAndNamesTheHolder)
     }
     EXPECT_TRUE(listing(dir).empty());  // the lock file goes with the lock
     const OutputLock again(pattern);    // and can be taken again
+}
+
+TEST(Files, RangeLocksLetDisjointRunsWriteSideBySideAndKeepOverlapsOut)
+{
+    // The tasks of a farm write disjoint frame ranges of one pattern at once;
+    // a run whose frames overlap a live run's, or one of every frame, is
+    // refused, naming the holder's frames; a lock a killed run left is taken
+    // over.
+    const fs::path dir = freshDir("cambium_files_range_lock");
+    const std::string pattern = (dir / "tree.####.vdb").string();
+    auto refused = [&](long long a, long long b, const std::string& frames) {
+        try {
+            const OutputLock l = a == LLONG_MIN ? OutputLock(pattern) : OutputLock(pattern, a, b);
+            ADD_FAILURE() << "frames " << a << "-" << b << " locked beside " << frames;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(frames), std::string::npos) << e.what();
+        }
+    };
+    {
+        const OutputLock first(pattern, 1, 4), second(pattern, 5, 8);
+        EXPECT_TRUE(fs::exists(first.path()));
+        EXPECT_TRUE(fs::exists(second.path()));
+        refused(4, 5, "frames 1 to 4");
+        refused(8, 20, "frames 5 to 8");
+        refused(LLONG_MIN, LLONG_MAX, "frames 1 to 4");
+        const OutputLock third(pattern, 9, 12);
+    }
+    EXPECT_TRUE(listing(dir).empty());  // every lock file went with its lock
+    {
+        const OutputLock all(pattern);
+        refused(3, 3, "every frame");
+    }
+    // A killed run's lock: its file is there, nobody holds it.
+    std::ofstream(pattern + ".frames-2-6.lock") << "999999999\n";
+    {
+        const OutputLock over(pattern, 1, 3);
+        EXPECT_FALSE(fs::exists(pattern + ".frames-2-6.lock"));
+    }
+    EXPECT_TRUE(listing(dir).empty());
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -45,6 +46,17 @@ struct ModelFlags {
 };
 /// Adds --junctions, --bend, --primitives, --regrowth, --no-leaves and --time.
 void addModelFlags(CLI::App* command, ModelFlags& flags);
+
+/// `cambium bake … --frames A-B --slurm`'s options.
+struct SlurmFlags {
+    bool slurm = false, wait = false, dryRun = false;
+    size_t chunk = 1;  ///< at least this many frames a task, whole reuse groups
+    int throttle = 0;  ///< tasks at once; 0: as many as Slurm runs
+    std::vector<std::string> sbatchArgs;
+};
+/// The sequence as a Slurm job array (src/farm): printed (dryRun), or
+/// submitted, and followed to its end with `wait`.
+int runSlurmCommand(const struct SequenceRequest& request, const SlurmFlags& flags);
 
 /// The sequence's report of each frame and its summary (with `timings`, each
 /// baked frame's stage timings on stderr).

@@ -58,6 +58,7 @@ void addBakeCommand(CLI::App& app, Action& action)
         std::string device = "opencl";
         bool timings = false;
         std::string colouring;
+        SlurmFlags slurm;
     };
     auto o = std::make_shared<Options>();
     BakeRequest& bake = o->sequence.bake;
@@ -103,6 +104,28 @@ void addBakeCommand(CLI::App& app, Action& action)
     cmd->add_option("--jobs", seq.jobs,
                     "Frames baked at once (default: as many as cores and memory allow)")
         ->check(CLI::Range(1, 4096));
+    auto* slurmOpt = cmd->add_flag(
+        "--slurm", o->slurm.slurm,
+        "With --frames: bake the sequence as a Slurm job array (docs/farm.md), one task per "
+        "chunk of frames");
+    cmd->add_option("--chunk", o->slurm.chunk,
+                    "With --slurm: at least this many frames a task (whole years of growth)")
+        ->check(CLI::Range(1, 1000000))
+        ->needs(slurmOpt);
+    cmd->add_option("--throttle", o->slurm.throttle,
+                    "With --slurm: at most this many tasks at once")
+        ->check(CLI::Range(1, 100000))
+        ->needs(slurmOpt);
+    cmd->add_option("--slurm-arg", o->slurm.sbatchArgs,
+                    "With --slurm: one more sbatch option for the array, e.g. "
+                    "--slurm-arg=--partition=render (repeatable)")
+        ->needs(slurmOpt);
+    cmd->add_flag("--wait", o->slurm.wait,
+                  "With --slurm: follow the array to its end, a line per chunk")
+        ->needs(slurmOpt);
+    cmd->add_flag("--dry-run", o->slurm.dryRun,
+                  "With --slurm: print the plan and the batch script, submit nothing")
+        ->needs(slurmOpt);
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
             SequenceRequest& request = o->sequence;
@@ -114,6 +137,8 @@ void addBakeCommand(CLI::App& app, Action& action)
             const bool sequence = !request.frames.empty();
             if (sequence)
                 parseFrames(request.frames);
+            if (o->slurm.slurm && !sequence)
+                throw InputError("--slurm bakes a sequence: it needs --frames");
             checkBakeOptions(req);
             if (!o->colouring.empty()) {
                 const auto& names = kBarkColourings;
@@ -129,6 +154,8 @@ void addBakeCommand(CLI::App& app, Action& action)
                 checkOutputPath(req.output);
             req.model = o->model.options();
             const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
+            if (o->slurm.slurm)
+                return runSlurmCommand(request, o->slurm);
             return sequence ? runSequenceCommand(request, timings) : runBakeCommand(req, timings);
         };
     });

@@ -132,23 +132,11 @@ SequencePlan planSequence(const SequenceRequest& request)
     return plan;
 }
 
-namespace {
-
-std::string rangeLockName(const std::string& pattern, const std::vector<long long>& frames,
-                          size_t first, size_t last)
-{
-    return first == 0 && last == frames.size()
-               ? pattern
-               : fmt::format("{}.frames-{}-{}", pattern, frames[first], frames[last - 1]);
-}
-
-}  // namespace
-
 SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<long long>& frames,
                                const std::vector<std::string>& paths, size_t first, size_t last,
                                const std::string& key, bool resume,
                                const std::function<void(const std::string&)>& notice)
-    : lock_(rangeLockName(pattern, frames, first, last)),
+    : lock_(pattern, frames[first], frames[last - 1]),
       finished_(paths.size(), false),
       first_(first),
       last_(last)

@@ -86,8 +86,8 @@ struct SequenceCallbacks {
 
 /// The outputs of frames [first, last) of a sequence (`paths`, matching the
 /// output `pattern`), made ready for writing: one run at a time writes a
-/// range (a lock file: PATTERN.lock for the whole sequence,
-/// PATTERN.frames-A-B.lock for frames A to B), temporaries that killed runs
+/// range (a lock file: PATTERN.frames-A-B.lock for frames A to B; a run
+/// whose frames overlap is refused), temporaries that killed runs
 /// left for the range's frames are removed (`notice`d), and with `resume`
 /// the frames already finished with this sequence's `key` are found (a
 /// damaged one is baked again; one from another bake is refused:
@@ -114,9 +114,8 @@ private:
 /// baked frame also reuses the sampled values of the 8^3 leaves whose
 /// specialised program is unchanged since the frame it baked before
 /// (LeafValueCache): identical to a full bake of the frame.  One run at a
-/// time writes a range (a lock file: PATTERN.lock for the whole plan,
-/// PATTERN.frames-A-B.lock for frames A to B; runs of ranges that overlap
-/// are the caller's to avoid); temporaries that killed runs left for the
+/// time writes a range (a lock file: PATTERN.frames-A-B.lock for frames A
+/// to B; runs of ranges that overlap are refused); temporaries that killed runs left for the
 /// range's frames are removed; with --resume, finished frames of this plan
 /// are kept, damaged ones baked again, and another bake's refused
 /// (InputError).

@@ -434,39 +434,124 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
     return found;
 }
 
-OutputLock::OutputLock(const std::string& pattern) : path_(pattern + ".lock")
+namespace {
+
+/// A flock on `path` (created if missing), re-taken when the holder before
+/// removed the file between our open and our lock (then the lock would be on
+/// a file nobody else sees).  Blocks when `wait`; otherwise returns -1 with
+/// what the file holds (its holder's pid) in *holder when another has it.
+int lockFile(const std::string& path, bool wait, std::string* holder)
 {
     for (;;) {
-        fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-        if (fd_ < 0)
+        const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd < 0)
             throw InputError(
-                fmt::format("{}: cannot create the lock file: {}", path_, std::strerror(errno)));
-        if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+                fmt::format("{}: cannot create the lock file: {}", path, std::strerror(errno)));
+        if (::flock(fd, wait ? LOCK_EX : LOCK_EX | LOCK_NB) != 0) {
             const int e = errno;
             char text[32] = {};
-            const ssize_t n = ::pread(fd_, text, sizeof text - 1, 0);
-            ::close(fd_);
-            fd_ = -1;
+            const ssize_t n = ::pread(fd, text, sizeof text - 1, 0);
+            ::close(fd);
             if (e != EWOULDBLOCK)
-                throw InputError(fmt::format("{}: cannot lock: {}", path_, std::strerror(e)));
-            const std::string holder = n > 0 ? std::string(text, size_t(n)) : "";
-            throw InputError(fmt::format(
-                "{}: another cambium{} is writing this sequence (lock {}): wait for it "
-                "to end, or stop it",
-                pattern,
-                holder.find_first_not_of("0123456789\n") == std::string::npos && !holder.empty()
-                    ? fmt::format(" (pid {})", holder.substr(0, holder.find('\n')))
-                    : "",
-                path_));
+                throw InputError(fmt::format("{}: cannot lock: {}", path, std::strerror(e)));
+            if (holder)
+                *holder = n > 0 ? std::string(text, size_t(n)) : "";
+            return -1;
         }
-        // The holder before us may have removed the file after we opened it:
-        // then our lock is on a file nobody else sees.  Try again.
         struct stat mine, named;
-        if (::fstat(fd_, &mine) == 0 && ::stat(path_.c_str(), &named) == 0 &&
+        if (::fstat(fd, &mine) == 0 && ::stat(path.c_str(), &named) == 0 &&
             mine.st_ino == named.st_ino && mine.st_dev == named.st_dev)
-            break;
-        ::close(fd_);
+            return fd;
+        ::close(fd);
     }
+}
+
+/// The frames [first, last] a lock file of `name` (a pattern's file name)
+/// covers: "NAME.lock" all of them, "NAME.frames-A-B.lock" A to B; false for
+/// any other file.
+bool lockedFrames(const std::string& file, const std::string& name, long long& first,
+                  long long& last)
+{
+    if (file == name + ".lock") {
+        first = LLONG_MIN;
+        last = LLONG_MAX;
+        return true;
+    }
+    const std::string head = name + ".frames-", tail = ".lock";
+    if (file.size() <= head.size() + tail.size() || file.compare(0, head.size(), head) != 0 ||
+        file.compare(file.size() - tail.size(), tail.size(), tail) != 0)
+        return false;
+    const std::string range = file.substr(head.size(), file.size() - head.size() - tail.size());
+    const size_t dash = range.find('-');
+    auto number = [](const std::string& t) {
+        return !t.empty() && t.size() < 19 &&
+               std::all_of(t.begin(), t.end(), [](unsigned char c) { return std::isdigit(c); });
+    };
+    if (dash == std::string::npos || !number(range.substr(0, dash)) ||
+        !number(range.substr(dash + 1)))
+        return false;
+    first = std::stoll(range.substr(0, dash));
+    last = std::stoll(range.substr(dash + 1));
+    return true;
+}
+
+}  // namespace
+
+OutputLock::OutputLock(const std::string& pattern) : OutputLock(pattern, LLONG_MIN, LLONG_MAX) {}
+
+OutputLock::OutputLock(const std::string& pattern, long long first, long long last)
+    : path_(first == LLONG_MIN && last == LLONG_MAX
+                ? pattern + ".lock"
+                : fmt::format("{}.frames-{}-{}.lock", pattern, first, last))
+{
+    // Looking for the runs that hold frames of ours and taking our lock are
+    // one step, under a brief lock of the whole pattern: two runs starting
+    // at once cannot both miss each other.
+    const std::string scan = pattern + ".locking";
+    const int scanFd = lockFile(scan, true, nullptr);
+    struct ScanLock {
+        const std::string& path;
+        int fd;
+        ~ScanLock()
+        {
+            ::unlink(path.c_str());  // while still holding it
+            ::close(fd);
+        }
+    } scanLock{scan, scanFd};
+    const size_t slash = pattern.rfind('/');
+    const std::string dir = slash == std::string::npos ? "." : pattern.substr(0, slash + 1),
+                      name = slash == std::string::npos ? pattern : pattern.substr(slash + 1);
+    std::vector<std::string> files;
+    if (DIR* d = ::opendir(dir.c_str())) {
+        while (const dirent* e = ::readdir(d))
+            files.emplace_back(e->d_name);
+        ::closedir(d);
+    }
+    std::sort(files.begin(), files.end());
+    for (const std::string& f : files) {
+        long long a, b;
+        if (!lockedFrames(f, name, a, b) || b < first || a > last)
+            continue;
+        const std::string other = slash == std::string::npos ? f : dir + f;
+        std::string holder;
+        const int fd = lockFile(other, false, &holder);
+        if (fd >= 0) {  // a killed run's: nobody holds it
+            ::unlink(other.c_str());
+            ::close(fd);
+            continue;
+        }
+        const bool pid =
+            !holder.empty() && holder.find_first_not_of("0123456789\n") == std::string::npos;
+        throw InputError(fmt::format(
+            "{}: another cambium{} is writing {} of this sequence (lock {}): wait for it to "
+            "end, or stop it",
+            pattern, pid ? fmt::format(" (pid {})", holder.substr(0, holder.find('\n'))) : "",
+            a == LLONG_MIN ? std::string("every frame") : fmt::format("frames {} to {}", a, b),
+            other));
+    }
+    fd_ = lockFile(path_, false, nullptr);
+    if (fd_ < 0)  // (we hold the pattern's scan lock: nobody else can)
+        throw InputError(fmt::format("{}: cannot lock", path_));
     const std::string pid = fmt::format("{}\n", ::getpid());
     if (::ftruncate(fd_, 0) != 0 ||
         ::pwrite(fd_, pid.data(), pid.size(), 0) != ssize_t(pid.size())) {

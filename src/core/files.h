@@ -88,13 +88,17 @@ private:
     int slot_ = -1;
 };
 
-/// An exclusive lock on the outputs of `pattern` (flock on "PATTERN.lock"
-/// beside it, holding the pid): held while it lives, released and the lock
-/// file removed at its end.  InputError naming the holder's pid when another
-/// process holds it.
+/// An exclusive lock on the outputs of `pattern`, every frame of it
+/// ("PATTERN.lock" beside them) or frames [first, last] ("PATTERN.frames-
+/// FIRST-LAST.lock"; flock, holding the pid): held while it lives, released
+/// and the lock file removed at its end.  InputError naming the holder's pid
+/// and frames while another process holds frames of ours; runs of disjoint
+/// ranges (the tasks of a farm) write side by side.  A lock file a killed
+/// run left is removed.
 class OutputLock {
 public:
     explicit OutputLock(const std::string& pattern);
+    OutputLock(const std::string& pattern, long long first, long long last);
     ~OutputLock();
     OutputLock(const OutputLock&) = delete;
     OutputLock& operator=(const OutputLock&) = delete;

@@ -32,11 +32,11 @@ std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std:
                                   "--frames",
                                   frames,
                                   "--fps-per-year",
-                                  fmt::format("{:.17g}", r.fpsPerYear),
+                                  fmt::format("{}", r.fpsPerYear),
                                   "--voxel-size",
-                                  fmt::format("{:.17g}", plan.voxelSize),
+                                  fmt::format("{}", plan.voxelSize),
                                   "--half-width",
-                                  fmt::format("{:.17g}", b.halfWidth),
+                                  fmt::format("{}", b.halfWidth),
                                   "--device",
                                   b.device == Device::Cpu ? "cpu" : "opencl",
                                   "-o",
@@ -109,9 +109,8 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     sc += fmt::format("#SBATCH --chdir={}\n", farm.string());
     for (const std::string& arg : o.sbatchArgs)
         sc += "#SBATCH " + arg + "\n";
-    sc += fmt::format(
-        "# cambium: {} frames of {} in {} chunks ({}); the plan is {}\n",
-        plan.frames.size(), input, s.chunks.size(), plan.request.frames, s.planPath);
+    sc += fmt::format("# cambium: {} frames of {} in {} chunks ({}); the plan is {}\n",
+                      plan.frames.size(), input, s.chunks.size(), plan.request.frames, s.planPath);
     sc += "set -u\n";
     // Caches in the farm's directory, never in $HOME (the submission copies
     // the user's compiled kernels there).

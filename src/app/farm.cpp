@@ -1,0 +1,202 @@
+// cambium bake … --frames A-B --slurm: a sequence as a Slurm job array (the
+// plan and script from src/farm), submitted with sbatch, followed with
+// squeue when --wait.
+#include "app/app.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/system.h"
+#include "farm/slurm.h"
+#include "io/vdb.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace cambium {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A shell command's standard output and exit status.
+struct Output {
+    std::string text;
+    int status = -1;
+};
+Output capture(const std::string& command)
+{
+    Output out;
+    FILE* p = ::popen((command + " 2>&1").c_str(), "r");
+    if (!p)
+        return out;
+    char buf[4096];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
+        out.text.append(buf, n);
+    const int s = ::pclose(p);
+    out.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+    return out;
+}
+
+std::string fileText(const fs::path& p)
+{
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+/// The job ids a live submission of this farm directory left, still queued
+/// or running.
+std::string liveJobs(const fs::path& farm)
+{
+    const std::string ids = fileText(farm / "jobs");
+    if (ids.empty())
+        return {};
+    std::string list;
+    for (char c : ids)
+        list += c == '\n' ? ',' : c;
+    const Output q = capture("squeue -h -o %i -j " + shellQuote(list));
+    return q.status == 0 ? q.text : std::string();
+}
+
+}  // namespace
+
+int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
+{
+    const SequencePlan plan = planSequence(request);
+    SlurmOptions o;
+    o.framesPerChunk = flags.chunk;
+    o.throttle = flags.throttle;
+    o.sbatchArgs = flags.sbatchArgs;
+    o.exe = (fs::path(executableDirectory()) / "cambium").string();
+    // A node's cores and memory: Slurm's largest node, else this machine's.
+    const Output nodes = capture("sinfo -h -o '%c %m'");
+    int cpus = 0;
+    double mb = 0.0;
+    if (nodes.status == 0) {
+        std::istringstream in(nodes.text);
+        int c;
+        double m;
+        while (in >> c >> m) {
+            cpus = std::max(cpus, c);
+            mb = std::max(mb, m);
+        }
+    }
+    if (cpus == 0) {
+        if (!flags.dryRun)
+            throw std::runtime_error("Slurm does not answer (sinfo: " + nodes.text +
+                                     "): no job submitted");
+        cpus = int(std::thread::hardware_concurrency());
+        mb = availableMemoryBytes() / (1 << 20);
+    }
+    o.nodeCpus = cpus;
+    o.nodeMemoryBytes = mb * (1 << 20);
+    const SlurmArray array = planSlurmArray(plan, o);
+    if (flags.dryRun) {
+        fmt::print("# {}\n{}\n# {}\n{}", array.planPath, array.planJson, array.scriptPath,
+                   array.script);
+        return 0;
+    }
+    const fs::path farm = array.farmDir;
+    if (std::string live = liveJobs(farm); !live.empty()) {
+        while (!live.empty() && live.back() == '\n')
+            live.pop_back();
+        for (char& c : live)
+            c = c == '\n' ? ' ' : c;
+        throw InputError(fmt::format(
+            "{}: Slurm jobs of an earlier submission of this sequence are still queued or "
+            "running ({}): wait for them or scancel them",
+            request.bake.output, live));
+    }
+    fs::create_directories(farm);
+    writeFile(array.planPath, array.planJson.data(), array.planJson.size());
+    writeFile(array.scriptPath, array.script.data(), array.script.size());
+    // Compiled kernels for the tasks, copied from the user's caches (they
+    // write only under the farm's directory).
+    const char* home = std::getenv("HOME");
+    const fs::path cambiumCache = std::getenv("CAMBIUM_CACHE_DIR")
+                                      ? fs::path(std::getenv("CAMBIUM_CACHE_DIR"))
+                                      : fs::path(home ? home : "") / ".cache/cambium/opencl";
+    const fs::path poclCache = std::getenv("POCL_CACHE_DIR")
+                                   ? fs::path(std::getenv("POCL_CACHE_DIR"))
+                                   : fs::path(home ? home : "") / ".cache/pocl";
+    std::error_code ec;
+    for (const auto& [from, to] : {std::pair{cambiumCache, farm / "cache" / "cambium"},
+                                   std::pair{poclCache, farm / "cache" / "pocl"}})
+        if (fs::is_directory(from, ec)) {
+            fs::create_directories(to, ec);
+            fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing,
+                     ec);
+        }
+    for (size_t k = 0; k < array.chunks.size(); ++k)
+        fs::remove(farm / fmt::format("task-{}.status", k), ec);
+    const Output sub = capture("sbatch --parsable " + shellQuote(array.scriptPath));
+    std::string id = sub.text;
+    while (!id.empty() && (id.back() == '\n' || id.back() == '\r'))
+        id.pop_back();
+    if (sub.status != 0 || id.empty() ||
+        id.find_first_not_of("0123456789;abcdefghijklmnopqrstuvwxyz-_") != std::string::npos)
+        throw std::runtime_error("sbatch refused the job array: " + sub.text);
+    id = id.substr(0, id.find(';'));  // "ID;CLUSTER"
+    const std::string jobs = id + "\n";
+    writeFile((farm / "jobs").string(), jobs.data(), jobs.size());
+    fmt::print("submitted job array {}: {} frames in {} chunks, {} MB and {} cores a task; "
+               "plan {}\n",
+               id, plan.frames.size(), array.chunks.size(), array.resources.memoryMB,
+               array.resources.cpus, array.planPath);
+    std::fflush(stdout);
+    if (!flags.wait) {
+        fmt::print("follow it with: squeue -j {}; the tasks' logs are {}/task-*.log\n", id,
+                   farm.string());
+        return 0;
+    }
+    // --wait: a line per chunk as it ends, then the frames checked.
+    std::set<size_t> reported;
+    int badInput = 0, failed = 0;
+    for (;;) {
+        const bool queued = !capture("squeue -h -o %i -j " + id).text.empty();
+        for (size_t k = 0; k < array.chunks.size(); ++k) {
+            if (reported.count(k))
+                continue;
+            const std::string s = fileText(farm / fmt::format("task-{}.status", k));
+            if (s.empty() && queued)
+                continue;
+            const int status = s.empty() ? -1 : std::atoi(s.c_str());
+            reported.insert(k);
+            badInput += status == 2;
+            failed += status != 0 && status != 2;
+            fmt::print("chunk {}/{} frames {} {}\n", k + 1, array.chunks.size(),
+                       array.chunks[k].frames,
+                       status == 0   ? "done"
+                       : status == 2 ? "failed: bad input (exit 2; see its log)"
+                       : status < 0  ? "ended without a status (cancelled or killed)"
+                                     : fmt::format("failed (exit {})", status));
+            std::fflush(stdout);
+        }
+        if (!queued)
+            break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+    size_t good = 0;
+    for (const std::string& path : plan.paths) {
+        std::string key;
+        try {
+            key = readSequenceKey(path);
+        } catch (const std::exception&) {
+        }
+        good += key == plan.key;
+    }
+    fmt::print("{} of {} frames written and of this plan; {} chunks failed, {} for bad input\n",
+               good, plan.paths.size(), failed, badInput);
+    return good == plan.paths.size() ? 0 : badInput ? 2 : 1;
+}
+
+}  // namespace cambium
