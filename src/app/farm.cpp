@@ -53,6 +53,24 @@ std::string fileText(const fs::path& p)
     return s.str();
 }
 
+/// Which of the jobs `ids` (comma-separated) are still queued or running:
+/// squeue's list, empty when none is.  Slurm forgets a job some minutes after
+/// its end ("Invalid job id"): gone too.  std::runtime_error when Slurm does
+/// not answer for ten seconds.
+std::string queuedJobs(const std::string& ids)
+{
+    for (int attempt = 0;; ++attempt) {  // a busy slurmctld may not answer at once
+        const Output q = capture("squeue -h -o %i -j " + shellQuote(ids));
+        if (q.status == 0)
+            return q.text;
+        if (q.text.find("Invalid job id") != std::string::npos)
+            return {};
+        if (attempt == 5)
+            throw std::runtime_error("squeue does not answer: " + q.text);
+        std::this_thread::sleep_for(std::chrono::seconds(2));
+    }
+}
+
 /// The job ids a live submission of this farm directory left, still queued
 /// or running.
 std::string liveJobs(const fs::path& farm)
@@ -63,8 +81,9 @@ std::string liveJobs(const fs::path& farm)
     std::string list;
     for (char c : ids)
         list += c == '\n' ? ',' : c;
-    const Output q = capture("squeue -h -o %i -j " + shellQuote(list));
-    return q.status == 0 ? q.text : std::string();
+    while (!list.empty() && list.back() == ',')
+        list.pop_back();
+    return queuedJobs(list);
 }
 
 }  // namespace
@@ -133,8 +152,7 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
                                    std::pair{poclCache, farm / "cache" / "pocl"}})
         if (fs::is_directory(from, ec)) {
             fs::create_directories(to, ec);
-            fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing,
-                     ec);
+            fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
         }
     for (size_t k = 0; k < array.chunks.size(); ++k)
         fs::remove(farm / fmt::format("task-{}.status", k), ec);
@@ -148,10 +166,11 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
     id = id.substr(0, id.find(';'));  // "ID;CLUSTER"
     const std::string jobs = id + "\n";
     writeFile((farm / "jobs").string(), jobs.data(), jobs.size());
-    fmt::print("submitted job array {}: {} frames in {} chunks, {} MB and {} cores a task; "
-               "plan {}\n",
-               id, plan.frames.size(), array.chunks.size(), array.resources.memoryMB,
-               array.resources.cpus, array.planPath);
+    fmt::print(
+        "submitted job array {}: {} frames in {} chunks, {} MB and {} cores a task; "
+        "plan {}\n",
+        id, plan.frames.size(), array.chunks.size(), array.resources.memoryMB, array.resources.cpus,
+        array.planPath);
     std::fflush(stdout);
     if (!flags.wait) {
         fmt::print("follow it with: squeue -j {}; the tasks' logs are {}/task-*.log\n", id,
@@ -162,7 +181,7 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
     std::set<size_t> reported;
     int badInput = 0, failed = 0;
     for (;;) {
-        const bool queued = !capture("squeue -h -o %i -j " + id).text.empty();
+        const bool queued = !queuedJobs(id).empty();
         for (size_t k = 0; k < array.chunks.size(); ++k) {
             if (reported.count(k))
                 continue;
