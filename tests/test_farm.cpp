@@ -3,6 +3,7 @@
 #include "farm/chunks.h"
 #include "farm/slurm.h"
 
+#include "core/error.h"
 #include "core/frames.h"
 
 #include <gtest/gtest.h>
@@ -147,6 +148,18 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
         ASSERT_GT(a.size(), kUuidEnd) << name;
         EXPECT_EQ(a.size(), b.size()) << name;
         EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << name << " differs";
+    }
+    // An output path that #SBATCH lines cannot name is refused, by name.
+    for (const std::string bad : {"with space", "per%cent"}) {
+        fs::create_directories(dir / bad);
+        SequenceRequest q = r;
+        q.bake.output = (dir / bad / "p.####.vdb").string();
+        try {
+            planSlurmArray(planSequence(q), o);
+            ADD_FAILURE() << "accepted " << q.bake.output;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+        }
     }
     // A task index past the plan's chunks is refused as bad input.
     const std::string past = "cd " + shellQuote(array.farmDir) +

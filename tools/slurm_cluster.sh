@@ -119,6 +119,18 @@ EOF
 stop() {
     local dir=$1 pid
     [ -d "$dir" ] || return 0
+    # The jobs first (their slurmstepd and tasks outlive slurmd), while
+    # slurmctld can still cancel them.
+    if [ -f "$dir/slurmctld.pid" ] && kill -0 "$(cat "$dir/slurmctld.pid")" 2>/dev/null; then
+        in_ns "$dir" env SLURM_CONF="$dir/slurm.conf" timeout 5 scancel --user="$(id -un)" \
+            2>/dev/null || true
+        local deadline=$((SECONDS + 15))
+        while ((SECONDS < deadline)) &&
+            [ -n "$(in_ns "$dir" env SLURM_CONF="$dir/slurm.conf" timeout 3 squeue -h -o %i \
+                2>/dev/null)" ]; do
+            sleep 0.2
+        done
+    fi
     for name in slurmd slurmctld munged netns; do
         [ -f "$dir/$name.pid" ] || continue
         pid=$(cat "$dir/$name.pid")

@@ -6,18 +6,22 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/system.h"
+#include "cl/runtime.h"
 #include "farm/slurm.h"
 #include "io/vdb.h"
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <sstream>
 #include <thread>
+#include <unistd.h>
 
 namespace cambium {
 
@@ -25,23 +29,33 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// A shell command's standard output and exit status.
+/// A shell command's standard output, standard error and exit status, kept
+/// apart: what is parsed is the output alone (a site's submit plugin or a
+/// warning writes to standard error).
 struct Output {
-    std::string text;
+    std::string text, err;
     int status = -1;
 };
 Output capture(const std::string& command)
 {
     Output out;
-    FILE* p = ::popen((command + " 2>&1").c_str(), "r");
-    if (!p)
-        return out;
-    char buf[4096];
-    size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
-        out.text.append(buf, n);
-    const int s = ::pclose(p);
-    out.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+    std::string errPath = (fs::temp_directory_path() / "cambium-farm-XXXXXX").string();
+    const int fd = ::mkstemp(errPath.data());
+    if (fd < 0)
+        throw std::runtime_error("cannot make a temporary file for " + command);
+    ::close(fd);
+    FILE* p = ::popen((command + " 2>" + shellQuote(errPath)).c_str(), "r");
+    if (p) {
+        char buf[4096];
+        size_t n;
+        while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
+            out.text.append(buf, n);
+        const int s = ::pclose(p);
+        out.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+    }
+    std::ifstream in(errPath);
+    out.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    ::unlink(errPath.c_str());
     return out;
 }
 
@@ -63,10 +77,10 @@ std::string queuedJobs(const std::string& ids)
         const Output q = capture("squeue -h -o %i -j " + shellQuote(ids));
         if (q.status == 0)
             return q.text;
-        if (q.text.find("Invalid job id") != std::string::npos)
+        if (q.err.find("Invalid job id") != std::string::npos)
             return {};
         if (attempt == 5)
-            throw std::runtime_error("squeue does not answer: " + q.text);
+            throw std::runtime_error("squeue does not answer: " + q.err);
         std::this_thread::sleep_for(std::chrono::seconds(2));
     }
 }
@@ -88,8 +102,14 @@ std::string liveJobs(const fs::path& farm)
 
 }  // namespace
 
-int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
+int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
 {
+    // Absolute paths: the tasks run elsewhere, and the sequence key hashes
+    // the photo's path as given.
+    SequenceRequest request = asked;
+    for (std::string* path : {&request.bake.input, &request.bake.output, &request.bake.barkPhoto})
+        if (!path->empty())
+            *path = fs::absolute(*path).string();
     const SequencePlan plan = planSequence(request);
     SlurmOptions o;
     o.framesPerChunk = flags.chunk;
@@ -101,17 +121,20 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
     int cpus = 0;
     double mb = 0.0;
     if (nodes.status == 0) {
-        std::istringstream in(nodes.text);
-        int c;
-        double m;
-        while (in >> c >> m) {
-            cpus = std::max(cpus, c);
-            mb = std::max(mb, m);
+        std::istringstream lines(nodes.text);
+        for (std::string line; std::getline(lines, line);) {
+            std::istringstream in(line);
+            int c;
+            double m;
+            if (in >> c >> m) {  // (a line that is not "CPUS MEMORY" is skipped)
+                cpus = std::max(cpus, c);
+                mb = std::max(mb, m);
+            }
         }
     }
     if (cpus == 0) {
         if (!flags.dryRun)
-            throw std::runtime_error("Slurm does not answer (sinfo: " + nodes.text +
+            throw std::runtime_error("Slurm does not answer (sinfo: " + nodes.err +
                                      "): no job submitted");
         cpus = int(std::thread::hardware_concurrency());
         mb = availableMemoryBytes() / (1 << 20);
@@ -125,6 +148,9 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
         return 0;
     }
     const fs::path farm = array.farmDir;
+    fs::create_directories(farm);
+    // One submission at a time: the check, sbatch and the job id written.
+    const OutputLock submitting((farm / "submission").string());
     if (std::string live = liveJobs(farm); !live.empty()) {
         while (!live.empty() && live.back() == '\n')
             live.pop_back();
@@ -135,34 +161,44 @@ int runSlurmCommand(const SequenceRequest& request, const SlurmFlags& flags)
             "running ({}): wait for them or scancel them",
             request.bake.output, live));
     }
-    fs::create_directories(farm);
     writeFile(array.planPath, array.planJson.data(), array.planJson.size());
     writeFile(array.scriptPath, array.script.data(), array.script.size());
     // Compiled kernels for the tasks, copied from the user's caches (they
-    // write only under the farm's directory).
-    const char* home = std::getenv("HOME");
-    const fs::path cambiumCache = std::getenv("CAMBIUM_CACHE_DIR")
-                                      ? fs::path(std::getenv("CAMBIUM_CACHE_DIR"))
-                                      : fs::path(home ? home : "") / ".cache/cambium/opencl";
-    const fs::path poclCache = std::getenv("POCL_CACHE_DIR")
-                                   ? fs::path(std::getenv("POCL_CACHE_DIR"))
-                                   : fs::path(home ? home : "") / ".cache/pocl";
+    // write only under the farm's directory: CAMBIUM_CACHE_DIR and
+    // POCL_CACHE_DIR in the script).
+    auto envPath = [](const char* name) {
+        const char* v = std::getenv(name);
+        return v && *v ? fs::path(v) : fs::path();
+    };
+    const fs::path xdg = !envPath("XDG_CACHE_HOME").empty() ? envPath("XDG_CACHE_HOME")
+                         : !envPath("HOME").empty()         ? envPath("HOME") / ".cache"
+                                                            : fs::path();
+    const fs::path poclCache = !envPath("POCL_CACHE_DIR").empty() ? envPath("POCL_CACHE_DIR")
+                               : xdg.empty()                      ? fs::path()
+                                                                  : xdg / "pocl";
     std::error_code ec;
-    for (const auto& [from, to] : {std::pair{cambiumCache, farm / "cache" / "cambium"},
-                                   std::pair{poclCache, farm / "cache" / "pocl"}})
-        if (fs::is_directory(from, ec)) {
+    for (const auto& [from, to] :
+         {std::pair{fs::path(programCacheDirectory()), farm / "cache" / "cambium" / "opencl"},
+          std::pair{poclCache, farm / "cache" / "pocl"}})
+        if (!from.empty() && fs::is_directory(from, ec)) {
             fs::create_directories(to, ec);
             fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
         }
     for (size_t k = 0; k < array.chunks.size(); ++k)
         fs::remove(farm / fmt::format("task-{}.status", k), ec);
     const Output sub = capture("sbatch --parsable " + shellQuote(array.scriptPath));
-    std::string id = sub.text;
-    while (!id.empty() && (id.back() == '\n' || id.back() == '\r'))
+    // "ID" or "ID;CLUSTER" on the last line of the output.
+    std::string id;
+    {
+        std::istringstream lines(sub.text);
+        for (std::string line; std::getline(lines, line);)
+            if (!line.empty())
+                id = line;
+    }
+    while (!id.empty() && id.back() == '\r')
         id.pop_back();
-    if (sub.status != 0 || id.empty() ||
-        id.find_first_not_of("0123456789;abcdefghijklmnopqrstuvwxyz-_") != std::string::npos)
-        throw std::runtime_error("sbatch refused the job array: " + sub.text);
+    if (sub.status != 0 || id.empty() || !std::isdigit((unsigned char)id.front()))
+        throw std::runtime_error("sbatch refused the job array: " + sub.err + sub.text);
     id = id.substr(0, id.find(';'));  // "ID;CLUSTER"
     const std::string jobs = id + "\n";
     writeFile((farm / "jobs").string(), jobs.data(), jobs.size());

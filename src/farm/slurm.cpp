@@ -69,6 +69,13 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     const auto [hashFirst, hashLast] = frameRun(name);
     name.replace(hashFirst, hashLast - hashFirst, "frames");
     const fs::path farm = output.parent_path() / (name + ".farm");
+    // #SBATCH lines take their values unquoted: a space ends one, and '%'
+    // starts one of Slurm's file name patterns.
+    if (farm.string().find_first_of(" \t\n%'\"\\$") != std::string::npos)
+        throw InputError(fmt::format(
+            "-o {}: --slurm needs an output path without spaces, '%', quotes, '\\' or '$' (the "
+            "batch script's #SBATCH lines name its directory)",
+            output.string()));
     s.farmDir = farm.string();
     s.planPath = (farm / "plan.json").string();
     s.scriptPath = (farm / "array.sh").string();

@@ -38,6 +38,7 @@ args=("$root/examples/populus/populus.json" --frames 1-12 --fps-per-year 2 --vox
         [ -z "$(squeue -h -j "$job" -o %i)" ] && break
         sleep 0.5
     done
+    [ -z "$(squeue -h -j "$job" -o %i)" ] || { echo "the first array did not end in 300 s"; exit 1; }
     # Then once more, followed with --wait: every frame is kept (--resume).
     "$cambium" bake "$@" -o "$out/farm/p.####.vdb" --slurm --chunk 3 --wait | tee "$out/wait.txt"
     grep -q "^12 of 12 frames written and of this plan; 0 chunks failed" "$out/wait.txt"
