@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/frames.h"
+#include "cli_util.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
@@ -12,12 +13,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <unistd.h>
 
 namespace {
 
 using namespace cambium;
+using cambium::test::fileContents;
 
 const std::string kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
 
@@ -94,12 +95,6 @@ TEST(FarmChunks, ATaskAsksForItsFramesMemoryAndTheCoresOfItsShareOfANode)
     EXPECT_EQ(taskResources(p, 4, 0.5 * task).cpus, 4);
 }
 
-std::string fileBytes(const std::filesystem::path& p)
-{
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
 {
     // The array's batch script run by hand, task by task as Slurm would
@@ -138,12 +133,13 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
                                     " && SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
                                     " bash array.sh > task-" + std::to_string(k) + ".log 2>&1";
         EXPECT_EQ(std::system(command.c_str()), 0)
-            << fileBytes(array.farmDir + "/task-" + std::to_string(k) + ".log");
-        EXPECT_EQ(fileBytes(array.farmDir + "/task-" + std::to_string(k) + ".status"), "0\n");
+            << fileContents(array.farmDir + "/task-" + std::to_string(k) + ".log");
+        EXPECT_EQ(fileContents(array.farmDir + "/task-" + std::to_string(k) + ".status"), "0\n");
     }
     for (int f = 3; f <= 8; ++f) {
         const std::string name = "p.000" + std::to_string(f) + ".vdb";
-        const std::string a = fileBytes(dir / "local" / name), b = fileBytes(dir / "farm" / name);
+        const std::string a = fileContents(dir / "local" / name),
+                          b = fileContents(dir / "farm" / name);
         constexpr size_t kUuidEnd = 57;
         ASSERT_GT(a.size(), kUuidEnd) << name;
         EXPECT_EQ(a.size(), b.size()) << name;
