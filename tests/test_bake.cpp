@@ -684,6 +684,19 @@ TEST(BakeRoundTrip, GridsNamesClassesAndMetadataSurviveTheFile)
             EXPECT_THROW(readLevelSet(flipped), InputError);
             std::filesystem::remove(flipped);
         }
+        {
+            // The digest is 16 hex digits; any other text in its place
+            // verifies nothing.
+            const std::string bad = path + ".digest.vdb";
+            std::filesystem::copy_file(path, bad,
+                                       std::filesystem::copy_options::overwrite_existing);
+            std::fstream f(bad, std::ios::in | std::ios::out | std::ios::binary);
+            f.seekp(std::streamoff(summary.checksumEnd - 16));
+            f.write("-000000000000001", 16);
+            f.close();
+            EXPECT_THROW(verifyVdbChecksum(bad, inspectVdb(bad)), InputError);
+            std::filesystem::remove(bad);
+        }
         openvdb::io::File file(path);
         file.open();
         auto names = file.getGrids();
