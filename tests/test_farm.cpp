@@ -1,12 +1,16 @@
-// Farm plans: a sequence cut into chunks of whole reuse groups, and what one
-// task asks of a node.
+// Farm plans: a sequence cut into chunks of whole reuse groups, what one task
+// asks of a node, and what the final job finds and submits again; one frame
+// baked as spatial tiles.
+#include "bake/bake.h"
 #include "farm/chunks.h"
 #include "farm/slurm.h"
+#include "field/program.h"
 
 #include "core/error.h"
 #include "core/frames.h"
 #include "cli_util.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
@@ -128,13 +132,15 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     ASSERT_EQ(array.chunks.size(), 3u);  // years 1, 2, 3 and 4: groups of 1, 2, 2, 1 frames
     fs::create_directories(array.farmDir);
     std::ofstream(array.scriptPath) << array.script;
+    std::ofstream(array.planPath) << array.planJson;
     for (size_t k = 0; k < array.chunks.size(); ++k) {
-        const std::string command = "cd " + shellQuote(array.farmDir) +
-                                    " && SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
-                                    " bash array.sh > task-" + std::to_string(k) + ".log 2>&1";
+        const std::string command =
+            "cd " + shellQuote(array.farmDir) +
+            " && SLURM_ARRAY_JOB_ID=77 SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
+            " bash array.sh > task-" + std::to_string(k) + ".log 2>&1";
         EXPECT_EQ(std::system(command.c_str()), 0)
             << fileContents(array.farmDir + "/task-" + std::to_string(k) + ".log");
-        EXPECT_EQ(fileContents(array.farmDir + "/task-" + std::to_string(k) + ".status"), "0\n");
+        EXPECT_EQ(fileContents(array.farmDir + "/task-" + std::to_string(k) + ".status"), "0 77\n");
     }
     for (int f = 3; f <= 8; ++f) {
         const std::string name = "p.000" + std::to_string(f) + ".vdb";
@@ -145,6 +151,52 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
         EXPECT_EQ(a.size(), b.size()) << name;
         EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << name << " differs";
     }
+    // What the final job finds: every frame there; then a chunk killed
+    // (exit 137) without frame 5 is submitted again while attempts are left,
+    // and a chunk that failed for bad input (exit 2) without frame 8 never.
+    const FarmPlan farm = readFarmPlan(array.farmDir);
+    EXPECT_EQ(farm.retries, 2);
+    FarmState state = assessFarm(farm);
+    EXPECT_EQ(state.good, 6u);
+    EXPECT_EQ(state.frames, 6u);
+    EXPECT_TRUE(chunksToRetry(farm, state).empty());
+    fs::remove(dir / "farm" / "p.0005.vdb");
+    std::ofstream(array.farmDir + "/task-1.status") << "137 78\n";
+    fs::remove(dir / "farm" / "p.0008.vdb");
+    std::ofstream(array.farmDir + "/task-2.status") << "2 78\n";
+    state = assessFarm(farm);
+    EXPECT_EQ(state.good, 4u);
+    EXPECT_EQ(state.chunks[1].missing, std::vector<long long>{5});
+    EXPECT_EQ(describeChunk(state.chunks[1]), "failed (exit 137), frame 5 missing");
+    EXPECT_TRUE(state.chunks[2].badInput());
+    EXPECT_EQ(state.failed(), 2u);
+    EXPECT_EQ(state.badInput(), 1u);
+    ASSERT_EQ(chunksToRetry(farm, state), std::vector<size_t>{1});
+    // The manifest counts the attempts: after two resubmissions, none more.
+    for (int attempt = 2; attempt <= 3; ++attempt) {
+        std::ofstream(array.farmDir + "/manifest.json") << farmManifest(farm, state, {1});
+        state = assessFarm(farm);
+        EXPECT_EQ(state.chunks[1].attempts, attempt);
+        EXPECT_EQ(state.chunks[0].attempts, 1);
+    }
+    EXPECT_TRUE(chunksToRetry(farm, state).empty());
+    // `cambium farm DIR` says so: exit 2, bad input.
+    const std::string check = std::string(CAMBIUM_EXE) + " farm " + shellQuote(array.farmDir) +
+                              " > " + shellQuote((dir / "check.txt").string());
+    EXPECT_EQ(WEXITSTATUS(std::system(check.c_str())), 2);
+    EXPECT_NE(fileContents(dir / "check.txt")
+                  .find("4 of 6 frames written and of this plan; 2 chunks failed, 1 for bad input"),
+              std::string::npos)
+        << fileContents(dir / "check.txt");
+    // A plan file that is not one is named.
+    std::ofstream(array.planPath) << "{\"cambium_farm_plan\": 1, \"output\": 3}";
+    try {
+        readFarmPlan(array.farmDir);
+        ADD_FAILURE() << "a damaged plan was read";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("plan.json: output"), std::string::npos) << e.what();
+    }
+
     // An output path that #SBATCH lines cannot name is refused, by name.
     for (const std::string bad : {"with space", "per%cent"}) {
         fs::create_directories(dir / bad);
@@ -161,6 +213,60 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     const std::string past = "cd " + shellQuote(array.farmDir) +
                              " && SLURM_ARRAY_TASK_ID=3 bash array.sh > /dev/null 2>&1";
     EXPECT_EQ(WEXITSTATUS(std::system(past.c_str())), 2);
+}
+
+TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
+{
+    // Tiles baked by processes of their own and merged write the file the
+    // single bake writes, byte for byte past the header's UUID; a frame whose
+    // estimate is twice --max-memory is split into the 3 tiles whose shares
+    // (1.5 / tiles of the estimate) fit; bad --tile values are refused.
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / ("cambium_tiles_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    struct Cleanup {
+        fs::path dir;
+        ~Cleanup() { fs::remove_all(dir); }
+    } cleanup{dir};
+    const std::string exe = CAMBIUM_EXE;
+    const std::string bake = exe + " bake " + kPopulus + " --time 8 --voxel-size 0.02 --device cpu";
+    auto run = [&](const std::string& args, const std::string& out) {
+        const std::string command = bake + " " + args + " -o " + shellQuote((dir / out).string()) +
+                                    " > " + shellQuote((dir / (out + ".txt")).string()) + " 2>&1";
+        return WEXITSTATUS(std::system(command.c_str()));
+    };
+    ASSERT_EQ(run("", "single.vdb"), 0) << fileContents(dir / "single.vdb.txt");
+    ASSERT_EQ(run("--tiles 3", "tiled.vdb"), 0) << fileContents(dir / "tiled.vdb.txt");
+    const std::string a = fileContents(dir / "single.vdb"), b = fileContents(dir / "tiled.vdb");
+    constexpr size_t kUuidEnd = 57;
+    ASSERT_GT(a.size(), kUuidEnd);
+    EXPECT_EQ(a.size(), b.size());
+    EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << "the merged tiles differ";
+    EXPECT_NE(fileContents(dir / "tiled.vdb.txt").find("tile 3/3: peak memory"), std::string::npos);
+    // The estimate, as the bake makes it.
+    BakeRequest r;
+    r.input = kPopulus;
+    r.model.time = 8.0;
+    r.voxelSize = 0.02;
+    const double estimate =
+        planVoxelSize(FieldProgram::compile(loadModel(r.input, r.model)), r).bytes;
+    ASSERT_EQ(run(fmt::format("--max-memory {}", (long long)(estimate / 2) + 1), "auto.vdb"), 0)
+        << fileContents(dir / "auto.vdb.txt");
+    EXPECT_NE(fileContents(dir / "auto.vdb.txt").find("3 tiles merged"), std::string::npos)
+        << fileContents(dir / "auto.vdb.txt");
+    EXPECT_TRUE(fileContents(dir / "auto.vdb").substr(kUuidEnd) == a.substr(kUuidEnd));
+    ASSERT_EQ(run(fmt::format("--max-memory {}", (long long)(estimate * 2)), "fits.vdb"), 0);
+    EXPECT_NE(fileContents(dir / "fits.vdb.txt").find("one bake"), std::string::npos);
+    // More tiles than 128-voxel layers: empty tiles, the same file.
+    ASSERT_EQ(run("--tiles 40", "many.vdb"), 0) << fileContents(dir / "many.vdb.txt");
+    EXPECT_TRUE(fileContents(dir / "many.vdb").substr(kUuidEnd) == a.substr(kUuidEnd));
+    for (const char* bad : {"--tile 0/3", "--tile 4/3", "--tile 1/0", "--tile 2", "--tiles 2 --fog",
+                            "--max-memory 12X", "--tiles 2 --max-memory 1K"}) {
+        EXPECT_EQ(run(bad, "bad.vdb"), 2) << bad << ": " << fileContents(dir / "bad.vdb.txt");
+        EXPECT_FALSE(fs::exists(dir / "bad.vdb")) << bad;
+    }
 }
 
 }  // namespace

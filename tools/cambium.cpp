@@ -16,10 +16,10 @@ namespace {
 
 /// The commands, in the order `cambium --help` lists them.
 const cambium::AddCommand kCommands[] = {
-    cambium::addInfoCommand,    cambium::addEvalCommand,    cambium::addBakeCommand,
-    cambium::addMeshCommand,    cambium::addRenderCommand,  cambium::addBenchCommand,
-    cambium::addLSystemCommand, cambium::addGrowthCommand,  cambium::addShapeCommand,
-    cambium::addPrepareCommand, cambium::addVersionCommand,
+    cambium::addInfoCommand,    cambium::addEvalCommand,   cambium::addBakeCommand,
+    cambium::addMeshCommand,    cambium::addRenderCommand, cambium::addBenchCommand,
+    cambium::addLSystemCommand, cambium::addGrowthCommand, cambium::addShapeCommand,
+    cambium::addPrepareCommand, cambium::addFarmCommand,   cambium::addVersionCommand,
 };
 
 }  // namespace

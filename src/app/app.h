@@ -34,6 +34,7 @@ void addGrowthCommand(CLI::App& app, Action& action);
 void addShapeCommand(CLI::App& app, Action& action);
 void addVersionCommand(CLI::App& app, Action& action);
 void addPrepareCommand(CLI::App& app, Action& action);
+void addFarmCommand(CLI::App& app, Action& action);
 
 /// The model options of info and bake as the command line gives them.
 struct ModelFlags {
@@ -52,11 +53,25 @@ struct SlurmFlags {
     bool slurm = false, wait = false, dryRun = false;
     size_t chunk = 1;  ///< at least this many frames a task, whole reuse groups
     int throttle = 0;  ///< tasks at once; 0: as many as Slurm runs
+    int retries = 2;   ///< times the final job submits a failed chunk again
     std::vector<std::string> sbatchArgs;
 };
 /// The sequence as a Slurm job array (src/farm): printed (dryRun), or
 /// submitted, and followed to its end with `wait`.
 int runSlurmCommand(const struct SequenceRequest& request, const SlurmFlags& flags);
+
+/// One bake and its report line (with `timings`, its stage timings).
+int runBakeCommand(const struct BakeRequest& request, bool timings);
+
+/// One frame baked as `tiles` spatial tiles, each by a process of its own,
+/// then merged (app/tiles.cpp); tiles 0: as many as keep a tile's share of
+/// the frame's estimated memory within `maxMemory`.
+int runTiledBakeCommand(const struct BakeRequest& request, int tiles, double maxMemory,
+                        bool timings);
+
+/// A size in bytes as options take it: 2000000000, 512M, 8G, 1.5T (powers of
+/// 1024).  InputError naming `option` otherwise.
+double parseByteSize(const std::string& text, const char* option);
 
 /// The sequence's report of each frame and its summary (with `timings`, each
 /// baked frame's stage timings on stderr).

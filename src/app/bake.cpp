@@ -13,11 +13,10 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 
 namespace cambium {
-
-namespace {
 
 int runBakeCommand(const BakeRequest& req, bool timings)
 {
@@ -47,8 +46,6 @@ int runBakeCommand(const BakeRequest& req, bool timings)
     return 0;
 }
 
-}  // namespace
-
 void addBakeCommand(CLI::App& app, Action& action)
 {
     struct Options {
@@ -59,6 +56,8 @@ void addBakeCommand(CLI::App& app, Action& action)
         bool timings = false;
         std::string colouring;
         SlurmFlags slurm;
+        int tiles = 0;
+        std::string tile, maxMemory;
     };
     auto o = std::make_shared<Options>();
     BakeRequest& bake = o->sequence.bake;
@@ -116,8 +115,14 @@ void addBakeCommand(CLI::App& app, Action& action)
                     "With --slurm: at most this many tasks at once")
         ->check(CLI::Range(1, 100000))
         ->needs(slurmOpt);
+    cmd->add_option("--retries", o->slurm.retries,
+                    "With --slurm: times the final job submits a failed chunk again (not one "
+                    "that failed for bad input)")
+        ->check(CLI::Range(0, 100))
+        ->capture_default_str()
+        ->needs(slurmOpt);
     cmd->add_option("--slurm-arg", o->slurm.sbatchArgs,
-                    "With --slurm: one more sbatch option for the array, e.g. "
+                    "With --slurm: one more sbatch option for the array and its final job, e.g. "
                     "--slurm-arg=--partition=render (repeatable)")
         ->needs(slurmOpt);
     cmd->add_flag("--wait", o->slurm.wait,
@@ -126,6 +131,19 @@ void addBakeCommand(CLI::App& app, Action& action)
     cmd->add_flag("--dry-run", o->slurm.dryRun,
                   "With --slurm: print the plan and the batch script, submit nothing")
         ->needs(slurmOpt);
+    auto* tilesOpt =
+        cmd->add_option("--tiles", o->tiles,
+                        "Bake the frame as this many spatial tiles, each by a process of its own "
+                        "(its memory its tile's), then merge them into -o: the same grids")
+            ->check(CLI::Range(1, 4096));
+    auto* memoryOpt = cmd->add_option(
+        "--max-memory", o->maxMemory,
+        "With --tiles, a tile's memory at most this (8G, 512M); alone, as many tiles as that "
+        "takes (one bake when the frame fits)");
+    cmd->add_option("--tile", o->tile,
+                    "K/N: bake tile K of N only (what --tiles runs; docs/farm.md)")
+        ->excludes(tilesOpt)
+        ->excludes(memoryOpt);
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
             SequenceRequest& request = o->sequence;
@@ -139,6 +157,21 @@ void addBakeCommand(CLI::App& app, Action& action)
                 parseFrames(request.frames);
             if (o->slurm.slurm && !sequence)
                 throw InputError("--slurm bakes a sequence: it needs --frames");
+            const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
+            if (sequence && (tiled || !o->tile.empty()))
+                throw InputError(
+                    "--tiles, --tile and --max-memory bake one frame: not with --frames");
+            const double maxMemory =
+                o->maxMemory.empty() ? 0.0 : parseByteSize(o->maxMemory, "--max-memory");
+            if (!o->tile.empty()) {
+                int k = 0, count = 0;
+                char tail = 0;
+                if (std::sscanf(o->tile.c_str(), "%d/%d%c", &k, &count, &tail) != 2 || count < 1 ||
+                    count > 4096 || k < 1 || k > count)
+                    throw InputError(fmt::format(
+                        "--tile must be K/N with 1 <= K <= N <= 4096 (got '{}')", o->tile));
+                req.tile = {k - 1, count};
+            }
             checkBakeOptions(req);
             if (!o->colouring.empty()) {
                 const auto& names = kBarkColourings;
@@ -156,6 +189,8 @@ void addBakeCommand(CLI::App& app, Action& action)
             const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
             if (o->slurm.slurm)
                 return runSlurmCommand(request, o->slurm);
+            if (tiled)
+                return runTiledBakeCommand(req, o->tiles, maxMemory, timings);
             return sequence ? runSequenceCommand(request, timings) : runBakeCommand(req, timings);
         };
     });

@@ -1,6 +1,8 @@
 // cambium bake … --frames A-B --slurm: a sequence as a Slurm job array (the
-// plan and script from src/farm), submitted with sbatch, followed with
-// squeue when --wait.
+// plan and scripts from src/farm) and its final job, submitted with sbatch,
+// followed with squeue when --wait; and `cambium farm DIR [--finish]`, what
+// the final job runs: every frame checked, the manifest, failed chunks
+// submitted again.
 #include "app/app.h"
 
 #include "core/error.h"
@@ -8,7 +10,6 @@
 #include "core/system.h"
 #include "cl/runtime.h"
 #include "farm/slurm.h"
-#include "io/vdb.h"
 
 #include <fmt/format.h>
 
@@ -18,7 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <set>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <unistd.h>
@@ -85,19 +86,77 @@ std::string queuedJobs(const std::string& ids)
     }
 }
 
-/// The job ids a live submission of this farm directory left, still queued
-/// or running.
-std::string liveJobs(const fs::path& farm)
+/// The job ids of a farm directory's submissions (its `jobs` file: the
+/// arrays and final jobs, one a line), comma-separated.
+std::string farmJobs(const fs::path& farm)
 {
-    const std::string ids = fileText(farm / "jobs");
-    if (ids.empty())
-        return {};
     std::string list;
-    for (char c : ids)
+    for (char c : fileText(farm / "jobs"))
         list += c == '\n' ? ',' : c;
     while (!list.empty() && list.back() == ',')
         list.pop_back();
-    return queuedJobs(list);
+    return list;
+}
+
+/// Those of a farm directory's jobs still queued or running.
+std::string liveJobs(const fs::path& farm)
+{
+    const std::string ids = farmJobs(farm);
+    return ids.empty() ? std::string() : queuedJobs(ids);
+}
+
+/// Submits `script` with sbatch and `args`: the job id.  std::runtime_error
+/// with sbatch's words when it refuses.
+std::string sbatch(const std::string& script, const std::vector<std::string>& args)
+{
+    std::string command = "sbatch --parsable";
+    for (const std::string& a : args)
+        command += " " + shellQuote(a);
+    const Output sub = capture(command + " " + shellQuote(script));
+    // "ID" or "ID;CLUSTER" on the last line of the output.
+    std::string id;
+    {
+        std::istringstream lines(sub.text);
+        for (std::string line; std::getline(lines, line);)
+            if (!line.empty())
+                id = line;
+    }
+    while (!id.empty() && id.back() == '\r')
+        id.pop_back();
+    if (sub.status != 0 || id.empty() || !std::isdigit((unsigned char)id.front()))
+        throw std::runtime_error("sbatch refused " + script + ": " + sub.err + sub.text);
+    return id.substr(0, id.find(';'));
+}
+
+/// Submits chunks `chunks` of the farm (all when empty) and the final job
+/// after them, and adds both to its `jobs` file: the two job ids.
+std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
+                                               const std::vector<size_t>& chunks)
+{
+    std::vector<std::string> args;
+    if (!chunks.empty()) {
+        std::string list;
+        for (size_t k : chunks)
+            list += (list.empty() ? "" : ",") + std::to_string(k);
+        if (plan.throttle > 0)
+            list += fmt::format("%{}", plan.throttle);
+        args.push_back("--array=" + list);  // (the command line's wins over the script's)
+    }
+    const std::string array = sbatch(plan.scriptPath, args);
+    const std::string final = sbatch(plan.finalScriptPath, {"--dependency=afterany:" + array});
+    const std::string jobs = fileText(fs::path(plan.dir) / "jobs") + array + "\n" + final + "\n";
+    writeFile((fs::path(plan.dir) / "jobs").string(), jobs.data(), jobs.size());
+    return {array, final};
+}
+
+/// The summary line of a farm's state, and its exit status: 0 when every
+/// frame is there, 2 when a chunk failed for bad input, 1 otherwise.
+int summarize(const FarmState& state)
+{
+    fmt::print("{} of {} frames written and of this plan; {} chunks failed, {} for bad input\n",
+               state.good, state.frames, state.failed(), state.badInput());
+    std::fflush(stdout);
+    return state.good == state.frames ? 0 : state.badInput() ? 2 : 1;
 }
 
 }  // namespace
@@ -114,6 +173,7 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
     SlurmOptions o;
     o.framesPerChunk = flags.chunk;
     o.throttle = flags.throttle;
+    o.retries = flags.retries;
     o.sbatchArgs = flags.sbatchArgs;
     o.exe = (fs::path(executableDirectory()) / "cambium").string();
     // A node's cores and memory: Slurm's largest node, else this machine's.
@@ -150,7 +210,10 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
     const fs::path farm = array.farmDir;
     fs::create_directories(farm);
     // One submission at a time: the check, sbatch and the job id written.
-    const OutputLock submitting((farm / "submission").string());
+    // (Released once the jobs are written: the final job takes it to submit
+    // failed chunks again while --wait follows.)
+    std::optional<OutputLock> submitting;
+    submitting.emplace((farm / "submission").string());
     if (std::string live = liveJobs(farm); !live.empty()) {
         while (!live.empty() && live.back() == '\n')
             live.pop_back();
@@ -163,6 +226,7 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
     }
     writeFile(array.planPath, array.planJson.data(), array.planJson.size());
     writeFile(array.scriptPath, array.script.data(), array.script.size());
+    writeFile(array.finalScriptPath, array.finalScript.data(), array.finalScript.size());
     // Compiled kernels for the tasks, copied from the user's caches (they
     // write only under the farm's directory: CAMBIUM_CACHE_DIR and
     // POCL_CACHE_DIR in the script).
@@ -184,74 +248,118 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
             fs::create_directories(to, ec);
             fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
         }
+    // A new submission: statuses and attempts from nothing.
     for (size_t k = 0; k < array.chunks.size(); ++k)
         fs::remove(farm / fmt::format("task-{}.status", k), ec);
-    const Output sub = capture("sbatch --parsable " + shellQuote(array.scriptPath));
-    // "ID" or "ID;CLUSTER" on the last line of the output.
-    std::string id;
-    {
-        std::istringstream lines(sub.text);
-        for (std::string line; std::getline(lines, line);)
-            if (!line.empty())
-                id = line;
-    }
-    while (!id.empty() && id.back() == '\r')
-        id.pop_back();
-    if (sub.status != 0 || id.empty() || !std::isdigit((unsigned char)id.front()))
-        throw std::runtime_error("sbatch refused the job array: " + sub.err + sub.text);
-    id = id.substr(0, id.find(';'));  // "ID;CLUSTER"
-    const std::string jobs = id + "\n";
-    writeFile((farm / "jobs").string(), jobs.data(), jobs.size());
+    fs::remove(farm / "manifest.json", ec);
+    fs::remove(farm / "jobs", ec);
+    const FarmPlan farmPlan = readFarmPlan(farm.string());
+    const auto [id, finalId] = submitFarm(farmPlan, {});
+    submitting.reset();
     fmt::print(
         "submitted job array {}: {} frames in {} chunks, {} MB and {} cores a task; "
         "plan {}\n",
         id, plan.frames.size(), array.chunks.size(), array.resources.memoryMB, array.resources.cpus,
         array.planPath);
+    fmt::print(
+        "final job {}: after the array, checks every frame, writes {}/manifest.json and submits "
+        "a failed chunk again (at most {} times)\n",
+        finalId, farm.string(), farmPlan.retries);
     std::fflush(stdout);
     if (!flags.wait) {
-        fmt::print("follow it with: squeue -j {}; the tasks' logs are {}/task-*.log\n", id,
-                   farm.string());
+        fmt::print(
+            "follow it with: squeue -n {}; the logs are {}/task-*.log and final-*.log; "
+            "scancel -n {} stops it\n",
+            array.jobName, farm.string(), array.jobName);
         return 0;
     }
-    // --wait: a line per chunk as it ends, then the frames checked.
-    std::set<size_t> reported;
-    int badInput = 0, failed = 0;
+    // --wait: a line per chunk as its task ends (again when submitted again),
+    // until no job of the farm is queued (the final job adds its own before
+    // it ends: the list is read again after squeue finds none).
+    std::vector<std::string> shown(array.chunks.size());
     for (;;) {
-        const bool queued = !queuedJobs(id).empty();
+        const std::string ids = farmJobs(farm);
+        const bool queued = !queuedJobs(ids).empty();
         for (size_t k = 0; k < array.chunks.size(); ++k) {
-            if (reported.count(k))
-                continue;
             const std::string s = fileText(farm / fmt::format("task-{}.status", k));
-            if (s.empty() && queued)
+            if (s.empty() || s == shown[k])
                 continue;
-            const int status = s.empty() ? -1 : std::atoi(s.c_str());
-            reported.insert(k);
-            badInput += status == 2;
-            failed += status != 0 && status != 2;
+            shown[k] = s;
             fmt::print("chunk {}/{} frames {} {}\n", k + 1, array.chunks.size(),
-                       array.chunks[k].frames,
-                       status == 0   ? "done"
-                       : status == 2 ? "failed: bad input (exit 2; see its log)"
-                       : status < 0  ? "ended without a status (cancelled or killed)"
-                                     : fmt::format("failed (exit {})", status));
+                       array.chunks[k].frames, describeStatus(std::atoi(s.c_str())));
             std::fflush(stdout);
         }
-        if (!queued)
+        if (!queued && farmJobs(farm) == ids)
             break;
         std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
-    size_t good = 0;
-    for (const std::string& path : plan.paths) {
-        std::string key;
-        try {
-            key = readSequenceKey(path);
-        } catch (const std::exception&) {
-        }
-        good += key == plan.key;
-    }
-    fmt::print("{} of {} frames written and of this plan; {} chunks failed, {} for bad input\n",
-               good, plan.paths.size(), failed, badInput);
-    return good == plan.paths.size() ? 0 : badInput ? 2 : 1;
+    const FarmState state = assessFarm(farmPlan);
+    for (size_t k = 0; k < state.chunks.size(); ++k)
+        if (!state.chunks[k].done())
+            fmt::print("chunk {}/{} frames {} {} after {} attempts\n", k + 1, state.chunks.size(),
+                       state.chunks[k].frames, describeChunk(state.chunks[k]),
+                       state.chunks[k].attempts);
+    return summarize(state);
+}
+
+void addFarmCommand(CLI::App& app, Action& action)
+{
+    struct Options {
+        std::string dir;
+        bool finish = false;
+    };
+    auto o = std::make_shared<Options>();
+    auto* cmd = app.add_subcommand(
+        "farm",
+        "Check a farm's frames (the directory cambium bake --slurm made: every frame written, "
+        "readable and of its plan), a line per chunk; --finish (the final job) also writes "
+        "manifest.json and submits the failed chunks again");
+    cmd->add_option("farm_dir", o->dir, "The farm's directory, OUTDIR/NAME.frames.vdb.farm")
+        ->required();
+    cmd->add_flag("--finish", o->finish,
+                  "Write manifest.json and submit the chunks that failed (not for bad input) "
+                  "again, with a final job after them");
+    cmd->callback([o, &action] {
+        action = [o] {
+            const FarmPlan plan = readFarmPlan(o->dir);
+            const FarmState state = assessFarm(plan);
+            for (size_t k = 0; k < state.chunks.size(); ++k)
+                fmt::print("chunk {}/{} frames {} {} (attempt {})\n", k + 1, state.chunks.size(),
+                           state.chunks[k].frames, describeChunk(state.chunks[k]),
+                           state.chunks[k].attempts);
+            if (!o->finish)
+                return summarize(state);
+            // One submission at a time (a user's, or this): the statuses of
+            // the chunks to run again removed, the manifest saying so, then
+            // sbatch (a failed sbatch leaves a manifest without them).
+            const fs::path farm = plan.dir;
+            const OutputLock submitting((farm / "submission").string());
+            const std::vector<size_t> again = chunksToRetry(plan, state);
+            std::error_code ec;
+            for (size_t k : again)
+                fs::remove(farm / fmt::format("task-{}.status", k), ec);
+            const std::string manifest = farmManifest(plan, state, again);
+            writeFile((farm / "manifest.json").string(), manifest.data(), manifest.size());
+            if (!again.empty()) {
+                std::pair<std::string, std::string> ids;
+                try {
+                    ids = submitFarm(plan, again);
+                } catch (const std::exception&) {
+                    const std::string none = farmManifest(plan, state, {});
+                    writeFile((farm / "manifest.json").string(), none.data(), none.size());
+                    throw;
+                }
+                std::string list;
+                for (size_t k : again)
+                    list += (list.empty() ? "" : ", ") + std::to_string(k + 1);
+                fmt::print("submitted chunks {} again as job array {}; final job {}\n", list,
+                           ids.first, ids.second);
+                std::fflush(stdout);
+                return 0;
+            }
+            return summarize(state);
+        };
+    });
 }
 
 }  // namespace cambium

@@ -79,12 +79,14 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     // the packing too: its frames need about 8 bytes a band voxel more.)
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));
     const double have = availableMemoryBytes();
-    if (!(plan.bytes <= have))
+    if (!(plan.bytes * tileMemoryShare(req.tile.count) <= have))
         throw InputError(fmt::format(
             "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across "
             "({:.3g} "
-            "voxels), and this machine has {} available: use a larger --voxel-size",
-            h, formatBytes(plan.bytes), plan.extent, plan.extent / h, formatBytes(have)));
+            "voxels), and this machine has {} available: use a larger --voxel-size{}",
+            h, formatBytes(plan.bytes), plan.extent, plan.extent / h, formatBytes(have),
+            req.tile.count > 0 ? fmt::format(" or more than {} --tiles", req.tile.count)
+                               : std::string(" or --tiles")));
     return plan;
 }
 
@@ -112,6 +114,16 @@ std::unique_ptr<FieldSampler> makeSampler(Device device)
 {
     return device == Device::Cpu ? makeCpuSampler()
                                  : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
+}
+
+VdbFileInfo bakeFileInfo(const BakeRequest& req, const BlobTree& tree)
+{
+    VdbFileInfo info;
+    info.scene = req.input;
+    info.threshold = tree.threshold();
+    info.halfWidth = req.halfWidth;
+    info.half = req.half;
+    return info;
 }
 
 BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
@@ -171,19 +183,15 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.pack = packs(req) && !paint.histogram;
     opt.half = req.half;
     opt.progress = callbacks.progress;
+    opt.tile = req.tile;
     BakedGrids grids = bakeLevelSet(program, *sampler, opt);
     paintBark(grids, tree, paint);
-    if (grids.stats.activeVoxels == 0)
+    if (grids.stats.activeVoxels == 0 && req.tile.count == 0)  // (a tile may hold none)
         throw InputError(
             fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
                         "nothing to bake (use a smaller --voxel-size)",
                         req.input, plan.voxelSize));
-    VdbFileInfo info;
-    info.scene = req.input;
-    info.threshold = tree.threshold();
-    info.halfWidth = req.halfWidth;
-    info.half = req.half;
-    writeVdb(grids, req.output, info);
+    writeVdb(grids, req.output, bakeFileInfo(req, tree));
     report.stats = grids.stats;
     report.peakMemoryBytes = peakMemoryBytes();
     return report;

@@ -5,6 +5,7 @@
 #include "bake/levelset.h"
 #include "blobtree/blobtree.h"
 #include "core/system.h"
+#include "io/vdb.h"
 #include "model/load_model.h"
 
 #include <functional>
@@ -30,7 +31,19 @@ struct BakeRequest {
     /// (the model's choice when unset).
     std::string barkPhoto;
     std::optional<bool> barkCoherent;
+    /// One tile of the band (--tile K/N, what --tiles runs): its leaves only,
+    /// each exactly the whole bake's (BakeOptions::tile); the memory check
+    /// takes the tile's share of the frame's estimate.
+    BandTile tile;
 };
+
+/// The share of a frame's estimated memory one of `tiles` tiles needs: its
+/// part of the leaves (balanced to a 128-voxel layer), its halo and the
+/// frame's topology search, taken as 1.5 / tiles.
+inline double tileMemoryShare(int tiles)
+{
+    return tiles > 1 ? 1.5 / tiles : 1.0;
+}
 
 /// Whether a bake of `req` serialises its leaves as it makes them
 /// (BakeOptions::pack): unless a fog volume or a photo's colours need the
@@ -92,6 +105,9 @@ struct BakeReport {
     double peakMemoryBytes = 0.0;
     std::string device;
 };
+
+/// What a bake of `request` writes into its file's metadata.
+VdbFileInfo bakeFileInfo(const BakeRequest& request, const BlobTree& tree);
 
 /// Validates everything first (model, voxel size, memory, output path) and
 /// throws InputError naming the problem before any work or output; then

@@ -59,7 +59,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
 
     // 1. Topology.
     auto t = Clock::now();
-    BandTopology topo = findBandLeaves(program, h, W, [&](double f) { progress("topology", f); });
+    BandTopology topo = findBandLeaves(
+        program, h, W, [&](double f) { progress("topology", f); }, opt.tile);
     st.topologySeconds = secondsSince(t);
     st.boxesTested = topo.boxesTested;
     const size_t n = topo.leaves.size();
@@ -226,7 +227,10 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
                 sampleLayer(sampledLayers++);
             surfaceLayer(surfaced++);
         }
-        propagate(propagation, slab[p], slab[p + 1], leaves, tm);
+        // (A tile's bake: its halo's slabs only serve its own; slabs are 64
+        // voxels thick, its run a multiple of 128.)
+        if (topo.owns(topo.leaves[slab[p]]))
+            propagate(propagation, slab[p], slab[p + 1], leaves, tm);
         propagated += slab[p + 1] - slab[p];
         progress("baking", 0.5 * double(sampled + propagated) / double(n));
         // Values serve the surface voxels of their own and the neighbouring

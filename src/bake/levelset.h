@@ -2,6 +2,7 @@
 #pragma once
 
 #include "bake/sampler.h"
+#include "bake/topology.h"
 #include "field/program.h"
 #include "io/grids.h"
 
@@ -45,6 +46,9 @@ struct BakeOptions {
     /// compressed bytes: LevelSetGrids::surfacePacked).  Not with `fog`.
     bool pack = false;
     bool half = false;
+    /// One spatial tile of the band (bake --tiles, BandTile): only its
+    /// leaves become grid leaves, each exactly the whole bake's.
+    BandTile tile;
     /// Called with a stage name and the fraction done; may be called from
     /// several threads at once.
     std::function<void(const char* stage, double fraction)> progress;

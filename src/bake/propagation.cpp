@@ -444,17 +444,6 @@ private:
             S.colorBlock->keep();
     }
 
-    /// A leaf with `from`'s value mask and no buffer, its transient data `slot`.
-    template <class LeafT>
-    static LeafT* maskLeaf(const LeafT& from, const openvdb::Coord& origin,
-                           const typename LeafT::ValueType& background, uint32_t slot)
-    {
-        auto* leaf = new LeafT(openvdb::PartialCreate(), origin, background, false);
-        leaf->getValueMask() = from.getValueMask();
-        leaf->setTransientData(slot);
-        return leaf;
-    }
-
     const PropagationInput& in_;
     BandLeaves& out_;
     const LeafState& state_;

@@ -220,6 +220,18 @@ void makeSurfacePoints(const PropagationInput& in, LeafList list, SurfaceVoxels&
 void propagate(const PropagationInput& in, size_t begin, size_t end, BandLeaves& out,
                BakeTimings& timings);
 
+/// A packed leaf (BandLeaves): one with `from`'s value mask and no buffer,
+/// its transient data `slot`.
+template <class LeafT>
+LeafT* maskLeaf(const LeafT& from, const openvdb::Coord& origin,
+                const typename LeafT::ValueType& background, uint32_t slot)
+{
+    auto* leaf = new LeafT(openvdb::PartialCreate(), origin, background, false);
+    leaf->getValueMask() = from.getValueMask();
+    leaf->setTransientData(slot);
+    return leaf;
+}
+
 // --- 5. assembly ----------------------------------------------------------------
 
 /// The band's half-width in world units, rounded up so that OpenVDB's checks

@@ -84,7 +84,7 @@ void bandIndexBounds(const FieldProgram& program, double h, double halfWidth, lo
 }
 
 BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWidth,
-                            const std::function<void(double)>& progress)
+                            const std::function<void(double)>& progress, BandTile tile)
 {
     BandTopology out;
     if (program.positiveBounds().empty())
@@ -133,10 +133,58 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
             if (!c.code.empty())
                 level.push_back(std::move(c));
     }
+    // The slab axis: the box's longest, in tiles.
+    const int axis = int(std::max_element(nt, nt + 3) - nt), a = (axis + 1) % 3, b = (axis + 2) % 3;
+    out.slabAxis = axis;
+    tbb::enumerable_thread_specific<Search::Scratch> scratch;
+    if (tile.count > 0) {
+        // The tile's run of layers, balanced by the leaves the search finds
+        // in each (counted in a first descent that keeps nothing: about the
+        // topology's time again); then only the nodes that reach into the
+        // run or its halo are searched for their leaves.
+        std::vector<size_t> leavesOf(level.size());
+        tbb::enumerable_thread_specific<std::pair<std::vector<LeafJob>, std::vector<Instr>>> count;
+        tbb::parallel_for(size_t(0), level.size(), [&](size_t t) {
+            auto& [jobs, code] = count.local();
+            jobs.clear();
+            code.clear();
+            search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), jobs, code);
+            leavesOf[t] = jobs.size();
+        });
+        std::vector<size_t> perLayer(static_cast<size_t>(nt[axis]), 0);
+        double total = 0.0;
+        for (size_t t = 0; t < level.size(); ++t) {
+            perLayer[size_t(level[t].o[axis] / kTile - t0[axis])] += leavesOf[t];
+            total += double(leavesOf[t]);
+        }
+        double before = 0.0;
+        long long first = -1, last = -1;  // the tile's layers [first, last)
+        for (size_t L = 0; L < perLayer.size(); ++L) {
+            const int owner = std::min(
+                tile.count - 1, int(double(tile.count) * (before + 0.5 * double(perLayer[L])) /
+                                    std::max(total, 1.0)));
+            before += double(perLayer[L]);
+            if (owner == tile.index) {
+                if (first < 0)
+                    first = (long long)L;
+                last = (long long)L + 1;
+            }
+        }
+        if (first < 0)
+            first = last = 0;  // an empty tile (more tiles than layers)
+        out.ownedLo = (t0[axis] + first) * kTile;
+        out.ownedHi = (t0[axis] + last) * kTile;
+        const long long keepLo = out.ownedLo - kTileHalo, keepHi = out.ownedHi + kTileHalo;
+        level.erase(std::remove_if(level.begin(), level.end(),
+                                   [&](const Coarse& c) {
+                                       return first == last || c.o[axis] + kTile <= keepLo ||
+                                              c.o[axis] >= keepHi;
+                                   }),
+                    level.end());
+    }
     const size_t tiles = level.size();
     std::vector<std::vector<LeafJob>> tileLeaves(tiles);
     std::vector<std::vector<Instr>> tilePools(tiles);
-    tbb::enumerable_thread_specific<Search::Scratch> scratch;
     std::atomic<size_t> done{0};
     tbb::parallel_for(size_t(0), tiles, [&](size_t t) {
         search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), tileLeaves[t],
@@ -149,18 +197,28 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
     for (size_t t = 0; t < tiles; ++t) {
         const int32_t base = int32_t(out.pool.size());
         for (LeafJob job : tileLeaves[t]) {
-            job.codeOffset += base;
+            // A tile's bake keeps the leaves of its run and halo only (the
+            // programs of the others are dropped below).
+            if (tile.count > 0 && (job.origin[axis] + 8 <= out.ownedLo - kTileHalo ||
+                                   job.origin[axis] >= out.ownedHi + kTileHalo))
+                continue;
+            if (tile.count > 0) {
+                const auto from = tilePools[t].begin() + job.codeOffset;
+                job.codeOffset = int32_t(out.pool.size());
+                out.pool.insert(out.pool.end(), from, from + job.codeLength);
+            } else {
+                job.codeOffset += base;
+            }
             found.push_back(job);
         }
-        out.pool.insert(out.pool.end(), tilePools[t].begin(), tilePools[t].end());
+        if (tile.count == 0)
+            out.pool.insert(out.pool.end(), tilePools[t].begin(), tilePools[t].end());
         tileLeaves[t] = {};
         tilePools[t] = {};
     }
     // Slab order: the 64^3 cubes (each one run of the depth-first descent)
     // sorted by their coordinate across the longest axis first, so that a
     // bake can finish slab after slab and free what it no longer needs.
-    const int axis = int(std::max_element(nt, nt + 3) - nt), a = (axis + 1) % 3, b = (axis + 2) % 3;
-    out.slabAxis = axis;
     const std::vector<size_t> cube = cubeRuns(found, 6);
     std::vector<size_t> order(cube.size() - 1);
     for (size_t i = 0; i < order.size(); ++i)

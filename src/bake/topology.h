@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <vector>
 
 namespace cambium {
@@ -18,9 +19,32 @@ struct BandTopology {
     /// bake streams its stages through the slabs in this order.
     std::vector<LeafJob> leaves;
     int slabAxis = 0;
+    /// A tile's bake (BandTile): the leaves it owns lie in [ownedLo, ownedHi)
+    /// across slabAxis (index space, multiples of 128); the other leaves are
+    /// its halo.  The whole band owns everything.
+    long long ownedLo = std::numeric_limits<long long>::min();
+    long long ownedHi = std::numeric_limits<long long>::max();
+    bool owns(const LeafJob& leaf) const
+    {
+        return leaf.origin[slabAxis] >= ownedLo && leaf.origin[slabAxis] < ownedHi;
+    }
     std::vector<Instr> pool;  ///< the leaves' programs
     size_t boxesTested = 0;   ///< interval evaluations over boxes
 };
+
+/// One of `count` tiles of a band (bake --tiles): the leaves the search
+/// finds (those a bake samples) are counted per 128-voxel layer across the
+/// slab axis (a layer of OpenVDB's internal nodes), and the layers cut into
+/// `count` runs of about equal leaves; tile `index` owns its run's leaves
+/// and samples a halo of kTileHalo voxels either side, so that its band
+/// voxels are exactly those of the whole band's bake.  count 0: the whole
+/// band.
+struct BandTile {
+    int index = 0, count = 0;
+};
+/// The halo: a tile's surface voxels need their neighbour leaves' values,
+/// and its propagation the surface voxels of a leaf beyond its own.
+constexpr int kTileHalo = 16;
 
 /// Finds every leaf (origin a multiple of 8, voxel (i, j, k) at (i, j, k) * h)
 /// that can contain a voxel within halfWidth voxels of the surface F = T: a
@@ -29,7 +53,7 @@ struct BandTopology {
 /// so the work follows the surface, not the volume.  Each leaf's program is
 /// specialised to its voxel-centre box.
 BandTopology findBandLeaves(const FieldProgram& program, double voxelSize, double halfWidth,
-                            const std::function<void(double)>& progress = {});
+                            const std::function<void(double)>& progress = {}, BandTile tile = {});
 
 /// Index-space box (inclusive, leaf-aligned) that the search covers: the
 /// field's positive support grown by the band.

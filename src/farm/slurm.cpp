@@ -4,11 +4,15 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "core/hash.h"
+#include "core/json.h"
+#include "io/vdb.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 
 namespace cambium {
 
@@ -22,31 +26,30 @@ std::string shellQuote(const std::string& s)
     return out + "'";
 }
 
-std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std::string& frames,
-                                            const std::string& threads)
+std::vector<std::string> bakeArguments(const BakeRequest& b, double voxelSize)
 {
-    const SequenceRequest& r = plan.request;
-    const BakeRequest& b = r.bake;
-    std::vector<std::string> a = {"bake",
-                                  fs::absolute(b.input).string(),
-                                  "--frames",
-                                  frames,
-                                  "--fps-per-year",
-                                  fmt::format("{}", r.fpsPerYear),
-                                  "--voxel-size",
-                                  fmt::format("{}", plan.voxelSize),
-                                  "--half-width",
-                                  fmt::format("{}", b.halfWidth),
-                                  "--device",
-                                  b.device == Device::Cpu ? "cpu" : "opencl",
-                                  "-o",
-                                  fs::absolute(b.output).string(),
-                                  "--resume",
-                                  "--jobs",
-                                  "1",
-                                  "--threads",
-                                  threads};
-    if (!b.model.leaves)
+    std::vector<std::string> a = {"bake",         fs::absolute(b.input).string(),
+                                  "--voxel-size", fmt::format("{}", voxelSize),
+                                  "--half-width", fmt::format("{}", b.halfWidth),
+                                  "--device",     b.device == Device::Cpu ? "cpu" : "opencl",
+                                  "-o",           fs::absolute(b.output).string()};
+    const ModelOptions& m = b.model;
+    using J = ModelOptions::Junctions;
+    using P = ModelOptions::Primitives;
+    if (m.junctions)
+        a.insert(a.end(), {"--junctions", *m.junctions == J::Pcm      ? "pcm"
+                                          : *m.junctions == J::Smooth ? "smooth"
+                                                                      : "blend"});
+    if (m.bendDegrees != 0.0)
+        a.insert(a.end(), {"--bend", fmt::format("{}", m.bendDegrees)});
+    if (m.primitives != P::Cone)
+        a.insert(a.end(),
+                 {"--primitives", m.primitives == P::Convolution ? "convolution" : "mixed"});
+    if (m.regrowth != 0.0)
+        a.insert(a.end(), {"--regrowth", fmt::format("{}", m.regrowth)});
+    if (m.time)
+        a.insert(a.end(), {"--time", fmt::format("{}", *m.time)});
+    if (!m.leaves)
         a.push_back("--no-leaves");
     if (b.fog)
         a.push_back("--fog");
@@ -56,6 +59,20 @@ std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std:
         a.insert(a.end(), {"--bark-photo", fs::absolute(b.barkPhoto).string()});
     if (b.barkCoherent)
         a.insert(a.end(), {"--bark-colouring", *b.barkCoherent ? "coherent" : "random"});
+    if (b.threads > 0)
+        a.insert(a.end(), {"--threads", std::to_string(b.threads)});
+    return a;
+}
+
+std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std::string& frames,
+                                            const std::string& threads)
+{
+    const SequenceRequest& r = plan.request;
+    BakeRequest b = r.bake;
+    b.threads = 0;
+    std::vector<std::string> a = bakeArguments(b, plan.voxelSize);
+    a.insert(a.end(), {"--frames", frames, "--fps-per-year", fmt::format("{}", r.fpsPerYear),
+                       "--resume", "--jobs", "1", "--threads", threads});
     return a;
 }
 
@@ -79,6 +96,8 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     s.farmDir = farm.string();
     s.planPath = (farm / "plan.json").string();
     s.scriptPath = (farm / "array.sh").string();
+    s.finalScriptPath = (farm / "final.sh").string();
+    s.jobName = "cambium-" + name;
     s.chunks = chunkPlan(plan, o.framesPerChunk);
     s.resources = taskResources(plan, o.nodeCpus, o.nodeMemoryBytes);
 
@@ -92,6 +111,10 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     j["voxel_size"] = plan.voxelSize;
     j["fps_per_year"] = plan.request.fpsPerYear;
     j["frames"] = plan.request.frames;
+    j["script"] = s.scriptPath;
+    j["final_script"] = s.finalScriptPath;
+    j["retries"] = o.retries;
+    j["throttle"] = o.throttle;
     j["memory_per_task_mb"] = s.resources.memoryMB;
     j["cpus_per_task"] = s.resources.cpus;
     nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
@@ -107,12 +130,13 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     // leaves its exit status beside the logs for the final job, which tells
     // a frame's bad input (2: never retried) from a failure (retried).
     std::string sc = "#!/bin/bash\n";
-    sc += fmt::format("#SBATCH --job-name=cambium-{}\n", name);
+    sc += fmt::format("#SBATCH --job-name={}\n", s.jobName);
     sc += fmt::format("#SBATCH --array=0-{}{}\n", s.chunks.size() - 1,
                       o.throttle > 0 ? fmt::format("%{}", o.throttle) : "");
     sc += fmt::format("#SBATCH --cpus-per-task={}\n", s.resources.cpus);
     sc += fmt::format("#SBATCH --mem={}M\n", s.resources.memoryMB);
     sc += fmt::format("#SBATCH --output={}\n", (farm / "task-%a.log").string());
+    sc += "#SBATCH --open-mode=append\n";  // (a chunk submitted again adds to its log)
     sc += fmt::format("#SBATCH --chdir={}\n", farm.string());
     for (const std::string& arg : o.sbatchArgs)
         sc += "#SBATCH " + arg + "\n";
@@ -121,8 +145,10 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     sc += "set -u\n";
     // Caches in the farm's directory, never in $HOME (the submission copies
     // the user's compiled kernels there).
-    sc += "export CAMBIUM_CACHE_DIR=" + shellQuote((farm / "cache" / "cambium").string()) + "\n";
-    sc += "export POCL_CACHE_DIR=" + shellQuote((farm / "cache" / "pocl").string()) + "\n";
+    const std::string caches =
+        "export CAMBIUM_CACHE_DIR=" + shellQuote((farm / "cache" / "cambium").string()) + "\n" +
+        "export POCL_CACHE_DIR=" + shellQuote((farm / "cache" / "pocl").string()) + "\n";
+    sc += caches;
     sc += "case \"$SLURM_ARRAY_TASK_ID\" in\n";
     for (size_t k = 0; k < s.chunks.size(); ++k)
         sc += fmt::format("{}) frames={} ;;\n", k, s.chunks[k].frames);
@@ -134,11 +160,183 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
                                              : shellQuote(a));
     sc += command + "\n";
     sc += "status=$?\n";
-    sc += "echo \"$status\" >" + shellQuote((farm / "task-").string()) +
+    // The status with the array's job id, so that a chunk submitted again
+    // reads as a new status.
+    sc += "echo \"$status ${SLURM_ARRAY_JOB_ID:-}\" >" + shellQuote((farm / "task-").string()) +
           "\"$SLURM_ARRAY_TASK_ID\".status\n";
     sc += "exit \"$status\"\n";
     s.script = sc;
+
+    // The final job: after the array, whatever its tasks did (afterany, given
+    // by the submission), one core and little memory (it reads headers).
+    std::string fin = "#!/bin/bash\n";
+    fin += fmt::format("#SBATCH --job-name={}\n", s.jobName);
+    fin += "#SBATCH --cpus-per-task=1\n#SBATCH --mem=512M\n";
+    fin += fmt::format("#SBATCH --output={}\n", (farm / "final-%j.log").string());
+    fin += fmt::format("#SBATCH --chdir={}\n", farm.string());
+    for (const std::string& arg : o.sbatchArgs)
+        fin += "#SBATCH " + arg + "\n";
+    fin += "# cambium: checks every frame of " + s.planPath +
+           ", writes manifest.json and submits the failed chunks again\n";
+    fin += caches;
+    fin += "exec " + shellQuote(o.exe) + " farm --finish " + shellQuote(farm.string()) + "\n";
+    s.finalScript = fin;
     return s;
+}
+
+FarmPlan readFarmPlan(const std::string& farmDir)
+{
+    const std::string path = (fs::path(farmDir) / "plan.json").string();
+    const nlohmann::json j = parseJson(readTextFile(path, "farm plan"), path);
+    const JsonValidator v(path);
+    v.object(j, "", "a farm plan (an object)");
+    if (!j.contains("cambium_farm_plan"))
+        v.fail("cambium_farm_plan", "missing: not a plan cambium bake --slurm wrote");
+    FarmPlan p;
+    p.dir = fs::absolute(farmDir).string();
+    p.output = v.string(v.required(j, "output", ""), "output");
+    frameRun(p.output);  // (a pattern with one run of '#')
+    p.key = v.string(v.required(j, "key", ""), "key");
+    p.scriptPath = v.string(v.required(j, "script", ""), "script");
+    p.finalScriptPath = v.string(v.required(j, "final_script", ""), "final_script");
+    p.retries = int(v.number(v.required(j, "retries", ""), "retries", 0, 100));
+    p.throttle = int(v.number(v.required(j, "throttle", ""), "throttle", 0, 1e9));
+    const nlohmann::json& chunks = v.required(j, "chunks", "");
+    if (!chunks.is_array() || chunks.empty())
+        v.fail("chunks", "must be an array of chunks");
+    for (size_t k = 0; k < chunks.size(); ++k) {
+        const std::string at = fmt::format("chunks[{}]", k);
+        const std::string frames =
+            v.string(v.required(v.object(chunks[k], at, "a chunk"), "frames", at), at + ".frames");
+        parseFrames(frames, path + ": " + at + ".frames");
+        p.chunks.push_back(frames);
+    }
+    return p;
+}
+
+size_t FarmState::badInput() const
+{
+    return size_t(std::count_if(chunks.begin(), chunks.end(),
+                                [](const FarmChunkState& c) { return c.badInput(); }));
+}
+
+size_t FarmState::failed() const
+{
+    return size_t(std::count_if(chunks.begin(), chunks.end(),
+                                [](const FarmChunkState& c) { return !c.done(); }));
+}
+
+FarmState assessFarm(const FarmPlan& plan)
+{
+    // Attempts so far: an earlier final job's count, one more where it
+    // submitted the chunk again.
+    std::vector<int> attempts(plan.chunks.size(), 1);
+    const fs::path manifest = fs::path(plan.dir) / "manifest.json";
+    if (fs::exists(manifest)) {
+        try {
+            const nlohmann::json m =
+                parseJson(readTextFile(manifest.string(), "farm manifest"), manifest.string());
+            const nlohmann::json& chunks = m.at("chunks");
+            for (size_t k = 0; k < plan.chunks.size() && k < chunks.size(); ++k)
+                attempts[k] = chunks[k].at("attempts").get<int>() +
+                              (chunks[k].at("resubmitted").get<bool>() ? 1 : 0);
+        } catch (const std::exception& e) {
+            throw InputError(
+                fmt::format("{}: not a manifest cambium wrote ({}): remove it to count the "
+                            "attempts from one",
+                            manifest.string(), e.what()));
+        }
+    }
+    FarmState s;
+    for (size_t k = 0; k < plan.chunks.size(); ++k) {
+        FarmChunkState c;
+        c.frames = plan.chunks[k];
+        c.attempts = attempts[k];
+        std::ifstream status(fs::path(plan.dir) / fmt::format("task-{}.status", k));
+        if (!(status >> c.status))
+            c.status = -1;
+        for (long long f : parseFrames(c.frames)) {
+            std::string key;
+            try {
+                key = readSequenceKey(framePath(plan.output, f));
+            } catch (const InputError&) {
+            }
+            ++s.frames;
+            if (key == plan.key)
+                ++s.good;
+            else
+                c.missing.push_back(f);
+        }
+        s.chunks.push_back(std::move(c));
+    }
+    return s;
+}
+
+std::vector<size_t> chunksToRetry(const FarmPlan& plan, const FarmState& state)
+{
+    std::vector<size_t> out;
+    for (size_t k = 0; k < state.chunks.size(); ++k) {
+        const FarmChunkState& c = state.chunks[k];
+        if (!c.done() && !c.badInput() && c.attempts <= plan.retries)
+            out.push_back(k);
+    }
+    return out;
+}
+
+std::string describeStatus(int status)
+{
+    return status == 0   ? "done"
+           : status == 2 ? "failed: bad input (exit 2; see its log)"
+           : status < 0  ? "ended without a status (cancelled or killed)"
+                         : fmt::format("failed (exit {})", status);
+}
+
+std::string describeChunk(const FarmChunkState& c)
+{
+    if (c.done())
+        return "done";
+    const std::string frames = c.missing.size() == 1
+                                   ? fmt::format("frame {} missing", c.missing.front())
+                                   : fmt::format("{} frames missing", c.missing.size());
+    return (c.status == 0 ? std::string("ended (exit 0)") : describeStatus(c.status)) + ", " +
+           frames;
+}
+
+std::string farmManifest(const FarmPlan& plan, const FarmState& state,
+                         const std::vector<size_t>& resubmitted)
+{
+    nlohmann::ordered_json j;
+    j["cambium_farm_manifest"] = 1;
+    j["output"] = plan.output;
+    j["key"] = plan.key;
+    j["complete"] = state.good == state.frames;
+    j["frames"] = state.frames;
+    j["frames_written"] = state.good;
+    nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
+    nlohmann::ordered_json files = nlohmann::ordered_json::array();
+    for (size_t k = 0; k < state.chunks.size(); ++k) {
+        const FarmChunkState& c = state.chunks[k];
+        const bool again =
+            std::find(resubmitted.begin(), resubmitted.end(), k) != resubmitted.end();
+        chunks.push_back({{"frames", c.frames},
+                          {"status", c.status},
+                          {"attempts", c.attempts},
+                          {"state", describeChunk(c)},
+                          {"resubmitted", again}});
+        for (long long f : parseFrames(c.frames)) {
+            const std::string path = framePath(plan.output, f);
+            const bool ok = std::find(c.missing.begin(), c.missing.end(), f) == c.missing.end();
+            std::error_code ec;
+            const auto bytes = fs::file_size(path, ec);
+            files.push_back({{"frame", f},
+                             {"path", path},
+                             {"ok", ok},
+                             {"bytes", ec ? 0 : (unsigned long long)bytes}});
+        }
+    }
+    j["chunks"] = chunks;
+    j["files"] = files;
+    return j.dump(2) + "\n";
 }
 
 }  // namespace cambium

@@ -1,7 +1,9 @@
 // cambium — a sequence plan as a Slurm job array: the plan file written next
 // to the output, and the batch script whose task i bakes chunk i of the plan
-// (`cambium bake … --frames` of the chunk, --resume, the plan's voxel size).
-// What runs the scripts (sbatch, the final verification job) is the app's.
+// (`cambium bake … --frames` of the chunk, --resume, the plan's voxel size),
+// and the final job's script (`cambium farm --finish DIR` once the array has
+// ended: every frame checked, a manifest, failed chunks submitted again).
+// What runs the scripts (sbatch) is the app's.
 #pragma once
 
 #include "farm/chunks.h"
@@ -14,6 +16,7 @@ namespace cambium {
 struct SlurmOptions {
     size_t framesPerChunk = 1;            ///< --chunk: at least this many frames a task
     int throttle = 0;                     ///< tasks running at once (the array's %K); 0: any
+    int retries = 2;                      ///< times the final job submits a failed chunk again
     std::vector<std::string> sbatchArgs;  ///< --slurm-arg: more sbatch options, one each
     std::string exe;                      ///< the cambium binary the tasks run (absolute)
     int nodeCpus = 1;                     ///< a node's cores and memory, for the task's share
@@ -25,14 +28,21 @@ struct SlurmArray {
     /// OUTDIR/NAME.frames.vdb.farm for -o OUTDIR/NAME.####.vdb: the plan,
     /// scripts, logs, statuses and caches
     std::string farmDir;
-    std::string planPath, scriptPath;
+    std::string planPath, scriptPath, finalScriptPath;
+    std::string jobName;  ///< the array's and the final job's: `scancel -n` stops both
     std::vector<FarmChunk> chunks;
     TaskResources resources;
-    std::string planJson;  ///< the plan file: inputs and their hash, key, voxel size, chunks
-    std::string script;    ///< the array's batch script
+    std::string planJson;     ///< the plan file: inputs and their hash, key, voxel size, chunks
+    std::string script;       ///< the array's batch script
+    std::string finalScript;  ///< the final job's: `cambium farm --finish FARMDIR`
 };
 
 SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& options);
+
+/// The arguments of `cambium bake` that bake `request` at `voxelSize` (every
+/// option that changes the result, paths made absolute): what a farm's or a
+/// tiled bake's processes run, given more options.
+std::vector<std::string> bakeArguments(const BakeRequest& request, double voxelSize);
 
 /// The arguments of `cambium bake` that bake chunk `frames` of the plan as
 /// one local run of the whole plan would (the plan's voxel size, every
@@ -40,6 +50,56 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& options)
 /// threads): what each task runs.
 std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std::string& frames,
                                             const std::string& threads);
+
+/// A farm directory's plan.json, as the final job and `cambium farm` read
+/// it.  InputError naming the file and what is wrong with it.
+struct FarmPlan {
+    std::string dir, output, key, scriptPath, finalScriptPath;
+    int retries = 0, throttle = 0;
+    std::vector<std::string> chunks;  ///< each chunk's --frames
+};
+FarmPlan readFarmPlan(const std::string& farmDir);
+
+/// Where one chunk of a farm stands.
+struct FarmChunkState {
+    std::string frames;
+    /// The last task's exit status (its task-I.status); -1: none (cancelled,
+    /// killed with its script, or not run yet).
+    int status = -1;
+    int attempts = 1;  ///< times the chunk was submitted
+    /// The chunk's frames not written, not readable or not of this plan.
+    std::vector<long long> missing;
+    bool done() const { return missing.empty(); }
+    bool badInput() const { return !done() && status == 2; }
+};
+struct FarmState {
+    std::vector<FarmChunkState> chunks;
+    size_t frames = 0, good = 0;
+    /// Chunks not done: for bad input (never submitted again), and the rest.
+    size_t badInput() const;
+    size_t failed() const;
+};
+
+/// Every frame of the plan checked (the file exists, its header reads, it
+/// carries the plan's key) with each chunk's task status; attempts counted
+/// from the manifest an earlier final job wrote.
+FarmState assessFarm(const FarmPlan& plan);
+
+/// The chunks to submit again: not done, not failed for bad input, and
+/// submitted at most `plan.retries` times so far.
+std::vector<size_t> chunksToRetry(const FarmPlan& plan, const FarmState& state);
+
+/// The manifest (manifest.json) of a farm: every frame's file and state,
+/// every chunk's status and attempts, and which were submitted again.
+std::string farmManifest(const FarmPlan& plan, const FarmState& state,
+                         const std::vector<size_t>& resubmitted);
+
+/// A task's exit status in words: "done", "failed (exit 1)", "failed: bad
+/// input (exit 2; see its log)", or (-1) "ended without a status …".
+std::string describeStatus(int status);
+
+/// Where a chunk stands in words: "done", or its status and missing frames.
+std::string describeChunk(const FarmChunkState& chunk);
 
 /// `s` quoted for a POSIX shell.
 std::string shellQuote(const std::string& s);

@@ -447,6 +447,14 @@ PackedLeaves::PackedLeaves(const openvdb::GridBase& grid, bool half, size_t slot
 
 PackedLeaves::~PackedLeaves() = default;
 
+size_t PackedLeaves::addSlots(size_t n)
+{
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const size_t first = slots_.size();
+    slots_.resize(first + n);
+    return first;
+}
+
 std::string_view PackedLeaves::bytes(uint32_t slot) const
 {
     return {slots_[slot].data, slots_[slot].size};
@@ -726,7 +734,9 @@ std::string readSequenceKey(const std::string& path)
     return key == s.strings.end() ? std::string() : key->second;
 }
 
-LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
+namespace {
+
+LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool delayed)
 {
     // A damaged file is named here, before OpenVDB decodes it: its structure,
     // and for cambium's own files the checksum of every byte.
@@ -734,7 +744,8 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
     openvdb::GridPtrVecPtr grids;
     try {
         openvdb::io::File file(path);
-        file.open(false);  // read whole now: no private copy of the file for delayed loading
+        file.setCopyMaxBytes(0);  // no private copy of the file for delayed loading
+        file.open(delayed);       // (not delayed: read whole now)
         grids = file.getGrids();
         file.close();
     } catch (const std::exception& e) {
@@ -758,6 +769,18 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
         throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
                                      names.empty() ? "no grids" : names));
     return out;
+}
+
+}  // namespace
+
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
+{
+    return readGrids(path, grid, false);
+}
+
+LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)
+{
+    return readGrids(path, grid, true);
 }
 
 }  // namespace cambium

@@ -75,6 +75,8 @@ public:
     };
 
     bool half() const { return half_; }
+    /// `n` more slots: the first's index (thread-safe).
+    size_t addSlots(size_t n);
     /// A slot's bytes (empty where nothing was packed).
     std::string_view bytes(uint32_t slot) const;
     /// Every slot's, in all.
@@ -124,6 +126,13 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
 /// or damaged file, a missing grid (the message lists the file's grids) or
 /// one that is not a float level set.  `density` is not read.
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid);
+
+/// readLevelSet with OpenVDB's delayed loading (and no private copy of the
+/// file): the grids' topology now, each leaf's values from the file when it
+/// is first touched, so that a reader going a leaf at a time and dropping
+/// each leaf's values after holds about one leaf's values (the file must
+/// stay as it is while the grids live).
+LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid = kSurfaceGrid);
 
 /// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
 /// when the file is damaged.

@@ -1,0 +1,187 @@
+// cambium bake MODEL -o OUT.vdb --tiles N | --max-memory SIZE: one frame
+// baked as N spatial tiles (bake/tiles.h), each by a cambium process of its
+// own (`--tile K/N`, so that its memory is its tile's), one after another,
+// then merged into OUT.vdb: the grids the whole bake makes.
+#include "app/app.h"
+
+#include "bake/bake.h"
+#include "bake/tiles.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/clock.h"
+#include "farm/slurm.h"
+#include "field/program.h"
+#include "io/vdb.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstring>
+#include <cstdio>
+#include <filesystem>
+#include <regex>
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace cambium {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Runs `argv` with its standard output discarded; its exit status and peak
+/// resident memory (bytes).
+std::pair<int, double> runChild(const std::vector<std::string>& argv)
+{
+    std::vector<char*> args;
+    for (const std::string& a : argv)
+        args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    std::fflush(stdout);
+    const pid_t pid = ::fork();
+    if (pid < 0)
+        throw std::runtime_error(
+            fmt::format("cannot start a tile's bake: {}", std::strerror(errno)));
+    if (pid == 0) {
+        const int devnull = ::open("/dev/null", O_WRONLY);
+        if (devnull >= 0)
+            ::dup2(devnull, STDOUT_FILENO);
+        ::execv(args[0], args.data());
+        ::_exit(127);
+    }
+    int status = 0;
+    struct rusage usage {};
+    while (::wait4(pid, &status, 0, &usage) < 0)
+        if (errno != EINTR)
+            throw std::runtime_error("waiting for a tile's bake failed");
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return {code, double(usage.ru_maxrss) * 1024.0};
+}
+
+}  // namespace
+
+double parseByteSize(const std::string& text, const char* option)
+{
+    static const std::regex form(R"(\s*([0-9]+(?:\.[0-9]*)?)\s*([kKmMgGtT]?)[bB]?\s*)");
+    std::smatch m;
+    if (!std::regex_match(text, m, form))
+        throw InputError(fmt::format("{} must be a size such as 8G, 512M or 2000000000 (got '{}')",
+                                     option, text));
+    const std::string unit = m[2].str();
+    const double scale = unit.empty()                   ? 1.0
+                         : (unit == "k" || unit == "K") ? 1024.0
+                         : (unit == "m" || unit == "M") ? 1024.0 * 1024.0
+                         : (unit == "g" || unit == "G") ? 1024.0 * 1024.0 * 1024.0
+                                                        : 1024.0 * 1024.0 * 1024.0 * 1024.0;
+    const double bytes = std::stod(m[1].str()) * scale;
+    if (!(bytes >= 1.0))
+        throw InputError(fmt::format("{} must be more than nothing (got '{}')", option, text));
+    return bytes;
+}
+
+int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, bool timings)
+{
+    const auto start = Clock::now();
+    checkBakeOptions(req);
+    checkOutputPath(req.output);
+    if (req.fog)
+        throw InputError(
+            "--tiles: a fog volume (--fog) is made from the whole grid's values; "
+            "bake it without --tiles or --max-memory");
+    const BlobTree tree = loadModel(req.input, req.model);
+    const BarkPaint paint = barkPaint(req, tree);
+    if (paint.histogram)
+        throw InputError(fmt::format(
+            "--tiles: bark coloured from a photo ({}) is drawn over the whole grid's values; bake "
+            "it without --tiles or --max-memory",
+            paint.photo));
+    const FieldProgram program = FieldProgram::compile(tree);
+    // The frame's voxel size and estimate (the machine's memory checked for
+    // a tile's share below, once the tiles are known).
+    BakeRequest probe = req;
+    probe.tile.count = 1 << 20;
+    const VoxelPlan whole = planVoxelSize(program, probe);
+    const double perTileLimit = maxMemory > 0.0 ? maxMemory : 0.0;
+    if (tiles == 0) {
+        // --max-memory alone: enough tiles for a tile's share to fit.
+        tiles = whole.bytes <= perTileLimit
+                    ? 1
+                    : std::max(2, int(std::ceil(1.5 * whole.bytes / perTileLimit - 1e-9)));
+        if (tiles > 4096)
+            throw InputError(fmt::format(
+                "--max-memory {}: the frame's estimate is {}: it would take {} tiles; use a larger "
+                "--voxel-size or --max-memory",
+                formatBytes(maxMemory), formatBytes(whole.bytes), tiles));
+    } else if (perTileLimit > 0.0 && whole.bytes * tileMemoryShare(tiles) > perTileLimit) {
+        throw InputError(
+            fmt::format("--tiles {}: a tile's share of the frame's estimate ({}) is about {}, over "
+                        "--max-memory {}: use more tiles",
+                        tiles, formatBytes(whole.bytes),
+                        formatBytes(whole.bytes * tileMemoryShare(tiles)), formatBytes(maxMemory)));
+    }
+    BakeRequest tiled = req;
+    tiled.voxelSize = whole.voxelSize;
+    tiled.tile.count = tiles;
+    planVoxelSize(program, tiled);  // (a tile's share must fit this machine)
+    if (tiles == 1) {
+        printNotice(fmt::format("the frame's estimate ({}) is within --max-memory {}: one bake",
+                                formatBytes(whole.bytes), formatBytes(maxMemory)));
+        BakeRequest one = req;
+        one.voxelSize = whole.voxelSize;
+        return runBakeCommand(one, timings);
+    }
+    // The tiles' files in a directory beside the output, removed whatever
+    // happens.
+    const fs::path output = fs::absolute(req.output);
+    const fs::path dir =
+        output.parent_path() / fmt::format(".{}.tiles-{}", output.filename().string(), ::getpid());
+    fs::create_directories(dir);
+    struct Cleanup {
+        fs::path dir;
+        ~Cleanup()
+        {
+            std::error_code ec;
+            fs::remove_all(dir, ec);
+        }
+    } cleanup{dir};
+    const std::string exe = (fs::path(executableDirectory()) / "cambium").string();
+    std::vector<std::string> files;
+    double largest = 0.0;
+    for (int k = 0; k < tiles; ++k) {
+        BakeRequest one = req;
+        one.output = (dir / fmt::format("tile-{}.vdb", k + 1)).string();
+        std::vector<std::string> argv = {exe};
+        for (const std::string& a : bakeArguments(one, whole.voxelSize))
+            argv.push_back(a);
+        argv.insert(argv.end(), {"--tile", fmt::format("{}/{}", k + 1, tiles)});
+        const auto t = Clock::now();
+        const auto [status, peak] = runChild(argv);
+        if (status == 2)
+            throw InputError(
+                fmt::format("tile {}/{}: its bake refused its input (above)", k + 1, tiles));
+        if (status != 0)
+            throw std::runtime_error(
+                fmt::format("tile {}/{}: its bake failed (exit {})", k + 1, tiles, status));
+        largest = std::max(largest, peak);
+        fmt::print("tile {}/{}: peak memory {:.0f} MB, {:.2f} s\n", k + 1, tiles, peak / 1e6,
+                   secondsSince(t));
+        std::fflush(stdout);
+        files.push_back(one.output);
+    }
+    const auto t = Clock::now();
+    BakedGrids grids = mergeTiles(files, req.half);
+    writeVdb(grids, req.output, bakeFileInfo(req, tree));
+    const BakeStats& s = grids.stats;
+    fmt::print(
+        "baked {}: {} tiles merged, {} leaves, {} active voxels, voxel size {:g}, {:.2f} s (merge "
+        "{:.2f} s); peak memory a tile {:.0f} MB at most (the frame's estimate: {}), the merge "
+        "{:.0f} MB\n",
+        req.output, tiles, formatCount(double(s.activeLeaves)), formatCount(double(s.activeVoxels)),
+        whole.voxelSize, secondsSince(start), secondsSince(t), largest / 1e6,
+        formatBytes(whole.bytes), peakMemoryBytes() / 1e6);
+    return 0;
+}
+
+}  // namespace cambium
