@@ -245,6 +245,13 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     EXPECT_EQ(a.size(), b.size());
     EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << "the merged tiles differ";
     EXPECT_NE(fileContents(dir / "tiled.vdb.txt").find("tile 3/3: peak memory"), std::string::npos);
+    // With --half too (the tiles' files hold floats; the merge packs halves).
+    ASSERT_EQ(run("--half", "single_half.vdb"), 0);
+    ASSERT_EQ(run("--half --tiles 2", "tiled_half.vdb"), 0)
+        << fileContents(dir / "tiled_half.vdb.txt");
+    EXPECT_TRUE(fileContents(dir / "single_half.vdb").substr(kUuidEnd) ==
+                fileContents(dir / "tiled_half.vdb").substr(kUuidEnd))
+        << "the merged tiles differ with --half";
     // The estimate, as the bake makes it.
     BakeRequest r;
     r.input = kPopulus;
@@ -263,7 +270,8 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     ASSERT_EQ(run("--tiles 40", "many.vdb"), 0) << fileContents(dir / "many.vdb.txt");
     EXPECT_TRUE(fileContents(dir / "many.vdb").substr(kUuidEnd) == a.substr(kUuidEnd));
     for (const char* bad : {"--tile 0/3", "--tile 4/3", "--tile 1/0", "--tile 2", "--tiles 2 --fog",
-                            "--max-memory 12X", "--tiles 2 --max-memory 1K"}) {
+                            "--tile +1/3", "--tile 1/99999999999", "--max-memory 12X",
+                            "--tiles 2 --max-memory 1K", "--max-memory 1"}) {
         EXPECT_EQ(run(bad, "bad.vdb"), 2) << bad << ": " << fileContents(dir / "bad.vdb.txt");
         EXPECT_FALSE(fs::exists(dir / "bad.vdb")) << bad;
     }

@@ -13,6 +13,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
 
@@ -138,8 +139,8 @@ void addBakeCommand(CLI::App& app, Action& action)
             ->check(CLI::Range(1, 4096));
     auto* memoryOpt = cmd->add_option(
         "--max-memory", o->maxMemory,
-        "With --tiles, a tile's memory at most this (8G, 512M); alone, as many tiles as that "
-        "takes (one bake when the frame fits)");
+        "A tile's share of the frame's estimated memory at most this (8G, 512M): with --tiles "
+        "a check, alone as many tiles as that takes (one bake when the frame fits)");
     cmd->add_option("--tile", o->tile,
                     "K/N: bake tile K of N only (what --tiles runs; docs/farm.md)")
         ->excludes(tilesOpt)
@@ -164,10 +165,16 @@ void addBakeCommand(CLI::App& app, Action& action)
             const double maxMemory =
                 o->maxMemory.empty() ? 0.0 : parseByteSize(o->maxMemory, "--max-memory");
             if (!o->tile.empty()) {
+                const std::string& t = o->tile;
+                const size_t slash = t.find('/');
                 int k = 0, count = 0;
-                char tail = 0;
-                if (std::sscanf(o->tile.c_str(), "%d/%d%c", &k, &count, &tail) != 2 || count < 1 ||
-                    count > 4096 || k < 1 || k > count)
+                auto whole = [&](size_t from, size_t to, int& v) {
+                    const auto r = std::from_chars(t.data() + from, t.data() + to, v);
+                    return from < to && r.ec == std::errc() && r.ptr == t.data() + to;
+                };
+                if (slash == std::string::npos || !whole(0, slash, k) ||
+                    !whole(slash + 1, t.size(), count) || count < 1 || count > 4096 || k < 1 ||
+                    k > count)
                     throw InputError(fmt::format(
                         "--tile must be K/N with 1 <= K <= N <= 4096 (got '{}')", o->tile));
                 req.tile = {k - 1, count};

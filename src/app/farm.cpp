@@ -142,10 +142,21 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
             list += fmt::format("%{}", plan.throttle);
         args.push_back("--array=" + list);  // (the command line's wins over the script's)
     }
+    // Each id into `jobs` as soon as it is known; an array whose final job
+    // cannot be submitted is cancelled rather than left running untracked.
+    const std::string jobsPath = (fs::path(plan.dir) / "jobs").string();
     const std::string array = sbatch(plan.scriptPath, args);
-    const std::string final = sbatch(plan.finalScriptPath, {"--dependency=afterany:" + array});
-    const std::string jobs = fileText(fs::path(plan.dir) / "jobs") + array + "\n" + final + "\n";
-    writeFile((fs::path(plan.dir) / "jobs").string(), jobs.data(), jobs.size());
+    std::string jobs = fileText(jobsPath) + array + "\n";
+    writeFile(jobsPath, jobs.data(), jobs.size());
+    std::string final;
+    try {
+        final = sbatch(plan.finalScriptPath, {"--dependency=afterany:" + array});
+    } catch (const std::exception&) {
+        capture("scancel " + shellQuote(array));
+        throw;
+    }
+    jobs += final + "\n";
+    writeFile(jobsPath, jobs.data(), jobs.size());
     return {array, final};
 }
 
@@ -333,7 +344,30 @@ void addFarmCommand(CLI::App& app, Action& action)
             // the chunks to run again removed, the manifest saying so, then
             // sbatch (a failed sbatch leaves a manifest without them).
             const fs::path farm = plan.dir;
-            const OutputLock submitting((farm / "submission").string());
+            // (A user's submission holds the lock for seconds: waited for.)
+            std::optional<OutputLock> submitting;
+            for (int attempt = 0; !submitting; ++attempt) {
+                try {
+                    submitting.emplace((farm / "submission").string());
+                } catch (const InputError&) {
+                    if (attempt == 60)
+                        throw;
+                    std::this_thread::sleep_for(std::chrono::seconds(1));
+                }
+            }
+            // Run by hand while the farm's tasks run, it would submit them
+            // again: refused.  (The final job itself is one of the farm's.)
+            std::string live = liveJobs(farm), others;
+            const char* self = std::getenv("SLURM_JOB_ID");
+            std::istringstream ids(live);
+            for (std::string id; std::getline(ids, id);)
+                if (!id.empty() && (!self || id != self))
+                    others += (others.empty() ? "" : " ") + id;
+            if (!others.empty())
+                throw InputError(fmt::format(
+                    "{}: jobs of this farm are still queued or running ({}): --finish runs once "
+                    "they have ended (the final job does)",
+                    plan.dir, others));
             const std::vector<size_t> again = chunksToRetry(plan, state);
             std::error_code ec;
             for (size_t k : again)

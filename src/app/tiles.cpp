@@ -46,8 +46,10 @@ std::pair<int, double> runChild(const std::vector<std::string>& argv)
             fmt::format("cannot start a tile's bake: {}", std::strerror(errno)));
     if (pid == 0) {
         const int devnull = ::open("/dev/null", O_WRONLY);
-        if (devnull >= 0)
+        if (devnull >= 0) {
             ::dup2(devnull, STDOUT_FILENO);
+            ::close(devnull);
+        }
         ::execv(args[0], args.data());
         ::_exit(127);
     }
@@ -55,7 +57,8 @@ std::pair<int, double> runChild(const std::vector<std::string>& argv)
     struct rusage usage {};
     while (::wait4(pid, &status, 0, &usage) < 0)
         if (errno != EINTR)
-            throw std::runtime_error("waiting for a tile's bake failed");
+            throw std::runtime_error(
+                fmt::format("waiting for a tile's bake failed: {}", std::strerror(errno)));
     const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     return {code, double(usage.ru_maxrss) * 1024.0};
 }
@@ -106,14 +109,14 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     const double perTileLimit = maxMemory > 0.0 ? maxMemory : 0.0;
     if (tiles == 0) {
         // --max-memory alone: enough tiles for a tile's share to fit.
-        tiles = whole.bytes <= perTileLimit
-                    ? 1
-                    : std::max(2, int(std::ceil(1.5 * whole.bytes / perTileLimit - 1e-9)));
-        if (tiles > 4096)
+        // (Counted as a double: a tiny limit must not overflow an int.)
+        const double need = std::ceil(1.5 * whole.bytes / perTileLimit - 1e-9);
+        if (need > 4096.0)
             throw InputError(fmt::format(
-                "--max-memory {}: the frame's estimate is {}: it would take {} tiles; use a larger "
-                "--voxel-size or --max-memory",
-                formatBytes(maxMemory), formatBytes(whole.bytes), tiles));
+                "--max-memory {}: the frame's estimate is {}: it would take {:.0f} tiles (4096 at "
+                "most); use a larger --voxel-size or --max-memory",
+                formatBytes(maxMemory), formatBytes(whole.bytes), need));
+        tiles = whole.bytes <= perTileLimit ? 1 : std::max(2, int(need));
     } else if (perTileLimit > 0.0 && whole.bytes * tileMemoryShare(tiles) > perTileLimit) {
         throw InputError(
             fmt::format("--tiles {}: a tile's share of the frame's estimate ({}) is about {}, over "
@@ -126,8 +129,9 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     tiled.tile.count = tiles;
     planVoxelSize(program, tiled);  // (a tile's share must fit this machine)
     if (tiles == 1) {
-        printNotice(fmt::format("the frame's estimate ({}) is within --max-memory {}: one bake",
-                                formatBytes(whole.bytes), formatBytes(maxMemory)));
+        if (maxMemory > 0.0)
+            printNotice(fmt::format("the frame's estimate ({}) is within --max-memory {}: one bake",
+                                    formatBytes(whole.bytes), formatBytes(maxMemory)));
         BakeRequest one = req;
         one.voxelSize = whole.voxelSize;
         return runBakeCommand(one, timings);
@@ -152,6 +156,10 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     for (int k = 0; k < tiles; ++k) {
         BakeRequest one = req;
         one.output = (dir / fmt::format("tile-{}.vdb", k + 1)).string();
+        // Floats in the tiles' files, whatever --half: the merge takes each
+        // leaf's end signs from its values (a float just below zero is half
+        // -0.0, not negative) and packs halves itself.
+        one.half = false;
         std::vector<std::string> argv = {exe};
         for (const std::string& a : bakeArguments(one, whole.voxelSize))
             argv.push_back(a);
@@ -172,6 +180,7 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     }
     const auto t = Clock::now();
     BakedGrids grids = mergeTiles(files, req.half);
+    checkSomethingBaked(grids.stats, req);
     writeVdb(grids, req.output, bakeFileInfo(req, tree));
     const BakeStats& s = grids.stats;
     fmt::print(

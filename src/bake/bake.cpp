@@ -116,6 +116,15 @@ std::unique_ptr<FieldSampler> makeSampler(Device device)
                                  : withOpenCLHint("bake", [] { return makeOpenCLSampler(); });
 }
 
+void checkSomethingBaked(const BakeStats& stats, const BakeRequest& req)
+{
+    if (stats.activeVoxels == 0)
+        throw InputError(
+            fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
+                        "nothing to bake (use a smaller --voxel-size)",
+                        req.input, stats.voxelSize));
+}
+
 VdbFileInfo bakeFileInfo(const BakeRequest& req, const BlobTree& tree)
 {
     VdbFileInfo info;
@@ -186,11 +195,8 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.tile = req.tile;
     BakedGrids grids = bakeLevelSet(program, *sampler, opt);
     paintBark(grids, tree, paint);
-    if (grids.stats.activeVoxels == 0 && req.tile.count == 0)  // (a tile may hold none)
-        throw InputError(
-            fmt::format("{}: the surface is thinner than a voxel of {:g} everywhere: "
-                        "nothing to bake (use a smaller --voxel-size)",
-                        req.input, plan.voxelSize));
+    if (req.tile.count == 0)  // (a tile may hold none)
+        checkSomethingBaked(grids.stats, req);
     writeVdb(grids, req.output, bakeFileInfo(req, tree));
     report.stats = grids.stats;
     report.peakMemoryBytes = peakMemoryBytes();

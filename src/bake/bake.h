@@ -106,6 +106,10 @@ struct BakeReport {
     std::string device;
 };
 
+/// InputError when a bake of `request` found no band voxel (the surface
+/// thinner than a voxel everywhere): nothing is written.
+void checkSomethingBaked(const BakeStats& stats, const BakeRequest& request);
+
 /// What a bake of `request` writes into its file's metadata.
 VdbFileInfo bakeFileInfo(const BakeRequest& request, const BlobTree& tree);
 
