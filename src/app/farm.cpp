@@ -359,8 +359,8 @@ void addFarmCommand(CLI::App& app, Action& action)
             // again: refused.  (The final job itself is one of the farm's.)
             std::string live = liveJobs(farm), others;
             const char* self = std::getenv("SLURM_JOB_ID");
-            std::istringstream ids(live);
-            for (std::string id; std::getline(ids, id);)
+            std::istringstream liveIds(live);
+            for (std::string id; std::getline(liveIds, id);)
                 if (!id.empty() && (!self || id != self))
                     others += (others.empty() ? "" : " ") + id;
             if (!others.empty())
