@@ -264,11 +264,14 @@ TEST(BakeAccuracy, BlendedJunctionsMatchTheirExactDistance)
                         fork) < 8.0 * h)
             near.push_back(it.getCoord());
     ASSERT_GT(near.size(), 400u);
+    // (The grid's values read here, on one thread: an accessor caches nodes
+    // and must not be shared by the threads below.)
     std::vector<double> err(near.size());
+    for (size_t i = 0; i < near.size(); ++i)
+        err[i] = std::abs(acc.getValue(near[i])) / h;
     tbb::parallel_for(size_t(0), near.size(), [&](size_t i) {
         const glm::dvec3 p = glm::dvec3(near[i].x(), near[i].y(), near[i].z()) * h;
-        const double d = rayDistance(ref, t.threshold(), p, h, 1.8);
-        err[i] = std::abs(std::abs(acc.getValue(near[i])) / h - d);
+        err[i] = std::abs(err[i] - rayDistance(ref, t.threshold(), p, h, 1.8));
     });
     const double worst = *std::max_element(err.begin(), err.end());
     const double mean = std::accumulate(err.begin(), err.end(), 0.0) / double(err.size());
