@@ -106,18 +106,17 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     BakeRequest probe = req;
     probe.tile.count = 1 << 20;
     const VoxelPlan whole = planVoxelSize(program, probe);
-    const double perTileLimit = maxMemory > 0.0 ? maxMemory : 0.0;
     if (tiles == 0) {
         // --max-memory alone: enough tiles for a tile's share to fit.
         // (Counted as a double: a tiny limit must not overflow an int.)
-        const double need = std::ceil(1.5 * whole.bytes / perTileLimit - 1e-9);
+        const double need = std::ceil(1.5 * whole.bytes / maxMemory - 1e-9);
         if (need > 4096.0)
             throw InputError(fmt::format(
                 "--max-memory {}: the frame's estimate is {}: it would take {:.0f} tiles (4096 at "
                 "most); use a larger --voxel-size or --max-memory",
                 formatBytes(maxMemory), formatBytes(whole.bytes), need));
-        tiles = whole.bytes <= perTileLimit ? 1 : std::max(2, int(need));
-    } else if (perTileLimit > 0.0 && whole.bytes * tileMemoryShare(tiles) > perTileLimit) {
+        tiles = whole.bytes <= maxMemory ? 1 : std::max(2, int(need));
+    } else if (maxMemory > 0.0 && whole.bytes * tileMemoryShare(tiles) > maxMemory) {
         throw InputError(
             fmt::format("--tiles {}: a tile's share of the frame's estimate ({}) is about {}, over "
                         "--max-memory {}: use more tiles",

@@ -436,7 +436,7 @@ private:
                 S.colorBlock->add(slot, *cl);
                 out_.color[l] = maskLeaf(*cl, origin, openvdb::Vec3f(0.0f), slot);
             }
-            out_.ends[l] = uint8_t((sv[0] < 0.0f ? 1 : 0) | (sv[kLeafVoxels - 1] < 0.0f ? 2 : 0));
+            out_.ends[l] = leafEnds(sv[0], sv[kLeafVoxels - 1]);
         }
         if (pack)
             S.surfaceBlock->keep();

@@ -220,6 +220,13 @@ void makeSurfacePoints(const PropagationInput& in, LeafList list, SurfaceVoxels&
 void propagate(const PropagationInput& in, size_t begin, size_t end, BandLeaves& out,
                BakeTimings& timings);
 
+/// A packed leaf's BandLeaves::ends: whether its first (bit 0) and last
+/// (bit 1) values, in VDB order, are negative.
+inline uint8_t leafEnds(float first, float last)
+{
+    return uint8_t((first < 0.0f ? 1 : 0) | (last < 0.0f ? 2 : 0));
+}
+
 /// A packed leaf (BandLeaves): one with `from`'s value mask and no buffer,
 /// its transient data `slot`.
 template <class LeafT>

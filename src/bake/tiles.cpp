@@ -73,9 +73,9 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
                     surfaceBlock.add(slot, leaf);
                     leaves.surface[slot] = maskLeaf(leaf, leaf.origin(), background, slot);
                     leaves.active[slot] = leaf.onVoxelCount();
-                    leaves.ends[slot] = uint8_t(
-                        (leaf.getValue(0) < 0.0f ? 1 : 0) |
-                        (leaf.getValue(openvdb::FloatTree::LeafNodeType::SIZE - 1) < 0.0f ? 2 : 0));
+                    leaves.ends[slot] =
+                        leafEnds(leaf.getValue(0),
+                                 leaf.getValue(openvdb::FloatTree::LeafNodeType::SIZE - 1));
                     dropValues(leaf);
                     if (auto* c = colors ? colors->probeLeaf(leaf.origin()) : nullptr) {
                         colorBlock.add(slot, *c);
