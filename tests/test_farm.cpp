@@ -172,6 +172,16 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     EXPECT_EQ(state.failed(), 2u);
     EXPECT_EQ(state.badInput(), 1u);
     ASSERT_EQ(chunksToRetry(farm, state), std::vector<size_t>{1});
+    // A chunk's history keeps every attempt: submitted again, it has no
+    // status until its new task ends, whose line is added after the others.
+    markSubmittedAgain(array.farmDir, 1);
+    EXPECT_EQ(assessFarm(farm).chunks[1].status, -1);
+    std::ofstream(array.farmDir + "/task-1.status", std::ios::app) << "1 79\n";
+    const std::vector<ChunkEvent> events = readChunkEvents(array.farmDir, 1);
+    ASSERT_EQ(events.size(), 3u);
+    EXPECT_TRUE(!events[0].again && events[0].status == 137 && events[1].again &&
+                !events[2].again && events[2].status == 1);
+    EXPECT_EQ(assessFarm(farm).chunks[1].status, 1);
     // The manifest counts the attempts: after two resubmissions, none more.
     for (int attempt = 2; attempt <= 3; ++attempt) {
         std::ofstream(array.farmDir + "/manifest.json") << farmManifest(farm, state, {1});

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/frames.h"
 #include "core/system.h"
 #include "cl/runtime.h"
 #include "farm/slurm.h"
@@ -20,6 +21,7 @@
 #include <fstream>
 #include <iterator>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <thread>
 #include <unistd.h>
@@ -69,13 +71,15 @@ std::string fileText(const fs::path& p)
 }
 
 /// Which of the jobs `ids` (comma-separated) are still queued or running:
-/// squeue's list, empty when none is.  Slurm forgets a job some minutes after
+/// squeue's list (a line each, an array's tasks each on its own, in
+/// `format`: the job id by default), empty when none is.  Slurm forgets a job some minutes after
 /// its end ("Invalid job id"): gone too.  std::runtime_error when Slurm does
 /// not answer for ten seconds.
-std::string queuedJobs(const std::string& ids)
+std::string queuedJobs(const std::string& ids, const char* format = "%i")
 {
     for (int attempt = 0;; ++attempt) {  // a busy slurmctld may not answer at once
-        const Output q = capture("squeue -h -o %i -j " + shellQuote(ids));
+        const Output q =
+            capture(std::string("squeue -h -r -o ") + format + " -j " + shellQuote(ids));
         if (q.status == 0)
             return q.text;
         if (q.err.find("Invalid job id") != std::string::npos)
@@ -162,10 +166,12 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
 
 /// The summary line of a farm's state, and its exit status: 0 when every
 /// frame is there, 2 when a chunk failed for bad input, 1 otherwise.
-int summarize(const FarmState& state)
+int summarize(const FarmState& state, size_t running = 0)
 {
-    fmt::print("{} of {} frames written and of this plan; {} chunks failed, {} for bad input\n",
-               state.good, state.frames, state.failed(), state.badInput());
+    fmt::print("{} of {} frames written and of this plan; {}{} chunks failed, {} for bad input\n",
+               state.good, state.frames,
+               running ? fmt::format("{} chunks queued or running, ", running) : std::string(),
+               state.failed() - running, state.badInput());
     std::fflush(stdout);
     return state.good == state.frames ? 0 : state.badInput() ? 2 : 1;
 }
@@ -284,20 +290,31 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
             array.jobName, farm.string(), array.jobName);
         return 0;
     }
-    // --wait: a line per chunk as its task ends (again when submitted again),
-    // until no job of the farm is queued (the final job adds its own before
-    // it ends: the list is read again after squeue finds none).
-    std::vector<std::string> shown(array.chunks.size());
+    // --wait: a line per chunk as each attempt ends and as it is submitted
+    // again (its history, readChunkEvents: none is missed however fast the
+    // final job acts), until no job of the farm is queued (the final job adds
+    // its own before it ends: the list is read again after squeue finds none).
+    std::vector<size_t> shown(array.chunks.size(), 0);
     for (;;) {
         const std::string ids = farmJobs(farm);
         const bool queued = !queuedJobs(ids).empty();
         for (size_t k = 0; k < array.chunks.size(); ++k) {
-            const std::string s = fileText(farm / fmt::format("task-{}.status", k));
-            if (s.empty() || s == shown[k])
-                continue;
-            shown[k] = s;
-            fmt::print("chunk {}/{} frames {} {}\n", k + 1, array.chunks.size(),
-                       array.chunks[k].frames, describeStatus(std::atoi(s.c_str())));
+            const std::vector<ChunkEvent> events = readChunkEvents(farm.string(), k);
+            for (; shown[k] < events.size(); ++shown[k]) {
+                auto say = [&](const std::string& what) {
+                    fmt::print("chunk {}/{} frames {} {}\n", k + 1, array.chunks.size(),
+                               array.chunks[k].frames, what);
+                };
+                const ChunkEvent& e = events[shown[k]];
+                if (!e.again) {
+                    say(describeStatus(e.status));
+                    continue;
+                }
+                // (An attempt whose script was cancelled or killed left no line.)
+                if (shown[k] == 0 || events[shown[k] - 1].again)
+                    say(describeStatus(-1));
+                say("submitted again");
+            }
             std::fflush(stdout);
         }
         if (!queued && farmJobs(farm) == ids)
@@ -334,14 +351,31 @@ void addFarmCommand(CLI::App& app, Action& action)
         action = [o] {
             const FarmPlan plan = readFarmPlan(o->dir);
             const FarmState state = assessFarm(plan);
-            for (size_t k = 0; k < state.chunks.size(); ++k)
+            // The chunks whose task is queued or running (squeue's array
+            // task ids; "N/A" for the final job).
+            std::set<size_t> running;
+            if (const std::string ids = farmJobs(plan.dir); !o->finish && !ids.empty()) {
+                std::istringstream tasks(queuedJobs(ids, "%K"));
+                for (std::string t; std::getline(tasks, t);)
+                    if (!t.empty() && std::isdigit((unsigned char)t.front()))
+                        running.insert(size_t(std::stoul(t)));
+            }
+            size_t runningUndone = 0;
+            for (size_t k = 0; k < state.chunks.size(); ++k) {
+                const FarmChunkState& c = state.chunks[k];
+                runningUndone += running.count(k) && !c.done();
                 fmt::print("chunk {}/{} frames {} {} (attempt {})\n", k + 1, state.chunks.size(),
-                           state.chunks[k].frames, describeChunk(state.chunks[k]),
-                           state.chunks[k].attempts);
+                           c.frames,
+                           running.count(k) && !c.done()
+                               ? fmt::format("queued or running, {} of {} frames to write",
+                                             c.missing.size(), parseFrames(c.frames).size())
+                               : describeChunk(c),
+                           c.attempts);
+            }
             if (!o->finish)
-                return summarize(state);
-            // One submission at a time (a user's, or this): the statuses of
-            // the chunks to run again removed, the manifest saying so, then
+                return summarize(state, runningUndone);
+            // One submission at a time (a user's, or this): the chunks to run
+            // again marked so in their histories, the manifest saying so, then
             // sbatch (a failed sbatch leaves a manifest without them).
             const fs::path farm = plan.dir;
             // (A user's submission holds the lock for seconds: waited for.)
@@ -369,9 +403,8 @@ void addFarmCommand(CLI::App& app, Action& action)
                     "they have ended (the final job does)",
                     plan.dir, others));
             const std::vector<size_t> again = chunksToRetry(plan, state);
-            std::error_code ec;
             for (size_t k : again)
-                fs::remove(farm / fmt::format("task-{}.status", k), ec);
+                markSubmittedAgain(plan.dir, k);
             const std::string manifest = farmManifest(plan, state, again);
             writeFile((farm / "manifest.json").string(), manifest.data(), manifest.size());
             if (!again.empty()) {

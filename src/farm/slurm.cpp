@@ -2,6 +2,7 @@
 #include "farm/slurm.h"
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/frames.h"
 #include "core/hash.h"
 #include "core/json.h"
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 namespace cambium {
 
@@ -160,9 +162,9 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
                                              : shellQuote(a));
     sc += command + "\n";
     sc += "status=$?\n";
-    // The status with the array's job id, so that a chunk submitted again
-    // reads as a new status.
-    sc += "echo \"$status ${SLURM_ARRAY_JOB_ID:-}\" >" + shellQuote((farm / "task-").string()) +
+    // The status with the array's job id, added to the chunk's history
+    // (readChunkEvents).
+    sc += "echo \"$status ${SLURM_ARRAY_JOB_ID:-}\" >>" + shellQuote((farm / "task-").string()) +
           "\"$SLURM_ARRAY_TASK_ID\".status\n";
     sc += "exit \"$status\"\n";
     s.script = sc;
@@ -226,6 +228,41 @@ size_t FarmState::failed() const
                                 [](const FarmChunkState& c) { return !c.done(); }));
 }
 
+namespace {
+fs::path chunkEventsPath(const std::string& farmDir, size_t chunk)
+{
+    return fs::path(farmDir) / fmt::format("task-{}.status", chunk);
+}
+constexpr const char* kSubmittedAgain = "submitted again";
+}  // namespace
+
+std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk)
+{
+    std::vector<ChunkEvent> events;
+    std::ifstream in(chunkEventsPath(farmDir, chunk));
+    for (std::string line; std::getline(in, line);) {
+        ChunkEvent e;
+        if (line == kSubmittedAgain)
+            e.again = true;
+        else if (std::istringstream words(line); !(words >> e.status))
+            continue;  // (a line cut short by a node's crash)
+        events.push_back(e);
+    }
+    return events;
+}
+
+void markSubmittedAgain(const std::string& farmDir, size_t chunk)
+{
+    const fs::path path = chunkEventsPath(farmDir, chunk);
+    std::string text;
+    if (fs::exists(path))
+        text = readTextFile(path.string(), "chunk status");
+    if (!text.empty() && text.back() != '\n')
+        text += '\n';
+    text += std::string(kSubmittedAgain) + "\n";
+    writeFile(path.string(), text.data(), text.size());
+}
+
 FarmState assessFarm(const FarmPlan& plan)
 {
     // Attempts so far: an earlier final job's count, one more where it
@@ -252,9 +289,8 @@ FarmState assessFarm(const FarmPlan& plan)
         FarmChunkState c;
         c.frames = plan.chunks[k];
         c.attempts = attempts[k];
-        std::ifstream status(fs::path(plan.dir) / fmt::format("task-{}.status", k));
-        if (!(status >> c.status))
-            c.status = -1;
+        const std::vector<ChunkEvent> events = readChunkEvents(plan.dir, k);
+        c.status = events.empty() || events.back().again ? -1 : events.back().status;
         for (long long f : parseFrames(c.frames)) {
             std::string key;
             try {

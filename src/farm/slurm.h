@@ -60,11 +60,23 @@ struct FarmPlan {
 };
 FarmPlan readFarmPlan(const std::string& farmDir);
 
+/// A chunk's history, its task-I.status file: a line a task's end ("STATUS
+/// ARRAYJOBID", appended by the task's script) or a submission again
+/// ("submitted again", by the final job), oldest first; every attempt's end
+/// is kept, so that one who follows the farm misses none.
+struct ChunkEvent {
+    bool again = false;  ///< submitted again (else a task ended)
+    int status = 0;      ///< the ended task's exit status
+};
+std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk);
+/// Adds "submitted again" to chunk `chunk`'s history (before its sbatch).
+void markSubmittedAgain(const std::string& farmDir, size_t chunk);
+
 /// Where one chunk of a farm stands.
 struct FarmChunkState {
     std::string frames;
-    /// The last task's exit status (its task-I.status); -1: none (cancelled,
-    /// killed with its script, or not run yet).
+    /// The last attempt's exit status (its task-I.status); -1: none
+    /// (cancelled, killed with its script, or not ended yet).
     int status = -1;
     int attempts = 1;  ///< times the chunk was submitted
     /// The chunk's frames not written, not readable or not of this plan.

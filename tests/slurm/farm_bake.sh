@@ -3,7 +3,8 @@
 # (tools/slurm_cluster.sh): the Populus sequence as a job array of several
 # chunks followed with --wait writes the frames a local bake writes, byte for
 # byte past the header's UUID; a second submission while the first's jobs
-# are queued or running is refused with exit 2.  Exit 77 (skipped) where
+# are queued or running is refused with exit 2, and `cambium farm` says its
+# chunks are queued.  Exit 77 (skipped) where
 # Slurm is not installed.
 set -euo pipefail
 source "$(dirname "$0")/common.sh"
@@ -21,6 +22,12 @@ farm_test '
         [ $status -eq 2 ] || { echo "the second submission exited $status, not 2"; cat "$out/second.txt"; exit 1; }
         grep -q "still queued or running" "$out/second.txt" || { cat "$out/second.txt"; exit 1; }
     fi
+    # While it is held, `cambium farm DIR` says so of every chunk, exit 1.
+    status=0
+    "$cambium" farm "$out/farm/p.frames.vdb.farm" >"$out/held.txt" || status=$?
+    [ $status -eq 1 ] && [ "$(grep -c "queued or running, 4 of 4 frames to write (attempt 1)$" "$out/held.txt")" -eq 3 ] &&
+        grep -q "^0 of 12 frames written and of this plan; 3 chunks queued or running, 0 chunks failed" "$out/held.txt" || {
+        echo "cambium farm on a held farm exited $status:"; cat "$out/held.txt"; exit 1; }
     job=$(sed -n "s/^submitted job array \([0-9]*\):.*/\1/p" "$out/first.txt")
     final=$(sed -n "s/^final job \([0-9]*\):.*/\1/p" "$out/first.txt")
     scontrol release "$job"
