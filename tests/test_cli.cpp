@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <vector>
 #include <sys/wait.h>
@@ -427,6 +429,23 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
         EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
     EXPECT_NE(b.out.find("3 frames (3 baked, 0 reused, 0 kept, 0 empty)"), std::string::npos)
         << b.out;
+    // A line a farm manager parses for each frame, in the order they end.
+    {
+        std::istringstream lines(b.out);
+        std::vector<std::string> frames;
+        for (std::string line; std::getline(lines, line);)
+            if (line.rfind("frame ", 0) == 0)
+                frames.push_back(line);
+        ASSERT_EQ(frames.size(), 3u) << b.out;
+        const std::regex done(
+            R"(frame ([123])/3 done [0-9]+\.[0-9]{2} s -> (.*/p\.00[345]\.vdb) \(baked, frame [345], year .*\))");
+        for (size_t i = 0; i < frames.size(); ++i) {
+            std::smatch m;
+            ASSERT_TRUE(std::regex_match(frames[i], m, done)) << frames[i];
+            EXPECT_EQ(m[1].str(), std::to_string(i + 1));
+            EXPECT_TRUE(std::filesystem::exists(m[2].str())) << frames[i];
+        }
+    }
     const Result again = run("bake " + populus +
                              " --frames 3-5 --voxel-size 0.04 --device cpu --resume -o " + pattern);
     ASSERT_EQ(again.status, 0) << again.err;

@@ -12,16 +12,18 @@ namespace cambium {
 
 int runSequenceCommand(const SequenceRequest& request, bool timings)
 {
-    const char* outcome[] = {"baked", "reused (its BlobTree is the previous frame's)",
-                             "kept (--resume)", "empty (nothing a voxel thick yet)"};
+    const char* outcome[] = {"baked", "reused: its BlobTree is the previous frame's",
+                             "kept: --resume", "empty: nothing a voxel thick yet"};
     SequenceCallbacks callbacks;
     callbacks.notice = printNotice;
     size_t doneFrames = 0;
     const size_t total = parseFrames(request.frames).size();
     callbacks.done = [&](const FrameReport& f) {
         ++doneFrames;
-        fmt::print("[{}/{}] frame {} (year {:.3g}) {}: {}", doneFrames, total, f.frame, f.time,
-                   f.path, outcome[int(f.outcome)]);
+        // A line a farm manager parses: "frame I/N done S s -> PATH", then
+        // in parentheses what was done.
+        fmt::print("frame {}/{} done {:.2f} s -> {} ({}, frame {}, year {:.3g}", doneFrames, total,
+                   f.seconds, f.path, outcome[int(f.outcome)], f.frame, f.time);
         if (f.outcome == FrameReport::Outcome::Baked) {
             fmt::print(", {} active voxels", formatCount(double(f.stats.activeVoxels)));
             if (f.stats.reusedLeaves)
@@ -29,7 +31,7 @@ int runSequenceCommand(const SequenceRequest& request, bool timings)
                            formatCount(double(f.stats.reusedLeaves)),
                            formatCount(double(f.stats.candidateLeaves)));
         }
-        fmt::print(", {:.2f} s\n", f.seconds);
+        fmt::print(")\n");
         std::fflush(stdout);
         if (timings && f.outcome == FrameReport::Outcome::Baked)
             printTimings(f.stats);
