@@ -3,6 +3,7 @@
 // outputs that are not regular files are refused before any work; a signal
 // removes the temporary; one run at a time writes a sequence; --resume
 // cleans stale temporaries and bakes damaged frames again.
+#include "temp_dir.h"
 #include "io/vdb.h"
 #include "cli_util.h"
 #include "core/files.h"
@@ -29,13 +30,7 @@ const std::string kExamples = CAMBIUM_SOURCE_DIR "/examples/";
 const std::string kScene = kExamples + "sphere_and_cone.json";
 const std::string kPopulus = kExamples + "populus/populus.json";
 
-fs::path freshDir(const std::string& name)
-{
-    const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using cambium::test::freshDir;
 
 /// Every file of a directory with its contents: what "nothing changed" compares.
 std::map<std::string, std::string> snapshot(const fs::path& dir)

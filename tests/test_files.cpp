@@ -2,6 +2,7 @@
 // fails and keeps the old file, non-regular outputs are refused, symlinks are
 // written through, stale temporaries are found by their pattern only, and the
 // output lock keeps a second writer out.
+#include "temp_dir.h"
 #include "core/error.h"
 #include "core/files.h"
 
@@ -23,13 +24,7 @@ namespace {
 using namespace cambium;
 namespace fs = std::filesystem;
 
-fs::path freshDir(const std::string& name)
-{
-    const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using cambium::test::freshDir;
 
 std::string contents(const fs::path& p)
 {
