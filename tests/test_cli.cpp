@@ -481,6 +481,8 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
             {populus + " --junctions blend -o " + one, "a growth parameter file sets its own"},
             {kExamples + "sphere_and_cone.json --frames 1-3 -o " + pattern,
              "--frames needs a growth parameter file"},
+            {populus + " --slurm -o " + one, "it needs one of them"},
+            {populus + " --tiles 2 --slurm --chunk 3 -o " + one, "--chunk counts frames"},
         });
     expectRefused("growth", {
                                 {populus + " --year 28", "--year/--time must be between 0 and 27"},

@@ -5,6 +5,7 @@
 #include "farm/chunks.h"
 #include "farm/slurm.h"
 #include "field/program.h"
+#include "model/load_model.h"
 
 #include "core/error.h"
 #include "core/frames.h"
@@ -85,18 +86,18 @@ TEST(FarmChunks, ATaskAsksForItsFramesMemoryAndTheCoresOfItsShareOfANode)
 {
     const SequencePlan p = plan("1-27", 1.0);
     ASSERT_GT(p.bytesPerFrame, 0.0);
-    const TaskResources alone = taskResources(p, 16, 0.0);
+    const TaskResources alone = taskResources(p.bytesPerFrame, 16, 0.0);
     EXPECT_GE(double(alone.memoryMB) * (1 << 20), p.bytesPerFrame);
     EXPECT_LE(double(alone.memoryMB) * (1 << 20), p.bytesPerFrame + 300e6);
     const double task = double(alone.memoryMB) * (1 << 20);
     // A node whose memory holds eight tasks: two of its sixteen cores each.
-    EXPECT_EQ(taskResources(p, 16, 8.0 * task).cpus, 2);
+    EXPECT_EQ(taskResources(p.bytesPerFrame, 16, 8.0 * task).cpus, 2);
     // One that holds one and a half: the whole node's cores for one.
-    EXPECT_EQ(taskResources(p, 2, 1.5 * task).cpus, 2);
+    EXPECT_EQ(taskResources(p.bytesPerFrame, 2, 1.5 * task).cpus, 2);
     // Plenty of memory: one core a task.
-    EXPECT_EQ(taskResources(p, 2, 100.0 * task).cpus, 1);
+    EXPECT_EQ(taskResources(p.bytesPerFrame, 2, 100.0 * task).cpus, 1);
     // Less memory than a task: all the cores (Slurm refuses the memory).
-    EXPECT_EQ(taskResources(p, 4, 0.5 * task).cpus, 4);
+    EXPECT_EQ(taskResources(p.bytesPerFrame, 4, 0.5 * task).cpus, 4);
 }
 
 TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
@@ -285,6 +286,94 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
         EXPECT_EQ(run(bad, "bad.vdb"), 2) << bad << ": " << fileContents(dir / "bad.vdb.txt");
         EXPECT_FALSE(fs::exists(dir / "bad.vdb")) << bad;
     }
+}
+
+TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
+{
+    // A frame's tiles as a job array: its batch script run by hand task by
+    // task as Slurm would writes tiles the final job recognises (the plan's
+    // key); a tile missing is submitted again; `cambium farm --finish` merges
+    // them into the file the single bake writes (--half: the merge packs
+    // halves), byte for byte past the UUID, records it and removes the tiles.
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / ("cambium_tile_farm_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    struct Cleanup {
+        fs::path dir;
+        ~Cleanup() { fs::remove_all(dir); }
+    } cleanup{dir};
+    openvdb::initialize();
+    const std::string exe = CAMBIUM_EXE;
+    const std::string single = (dir / "single.vdb").string();
+    ASSERT_EQ(std::system((exe + " bake " + kPopulus +
+                           " --time 8 --voxel-size 0.02 --device cpu --half -o " + single +
+                           " > /dev/null")
+                              .c_str()),
+              0);
+    TileFarmRequest t;
+    t.request.input = kPopulus;
+    t.request.model.time = 8.0;
+    t.request.voxelSize = 0.02;
+    t.request.device = Device::Cpu;
+    t.request.half = true;
+    t.request.output = (dir / "hero.vdb").string();
+    t.tiles = 3;
+    t.tileBytes = 100e6;
+    t.threshold = loadModel(kPopulus, t.request.model).threshold();
+    SlurmOptions o;
+    o.exe = exe;
+    const SlurmArray array = planTileArray(t, o);
+    EXPECT_EQ(array.farmDir, (dir / "hero.vdb.tiles.farm").string());
+    fs::create_directories(array.farmDir);
+    std::ofstream(array.scriptPath) << array.script;
+    std::ofstream(array.planPath) << array.planJson;
+    for (int k = 0; k < 3; ++k) {
+        const std::string command =
+            "cd " + shellQuote(array.farmDir) +
+            " && SLURM_ARRAY_JOB_ID=77 SLURM_ARRAY_TASK_ID=" + std::to_string(k) +
+            " bash array.sh > /dev/null 2>&1";
+        EXPECT_EQ(std::system(command.c_str()), 0) << "tile " << k + 1;
+    }
+    const FarmPlan farm = readFarmPlan(array.farmDir);
+    EXPECT_EQ(farm.tiles, 3);
+    FarmState state = assessFarm(farm);
+    EXPECT_EQ(state.good, 3u) << describeChunk(state.chunks[0]);
+    // A tile lost: that one submitted again.
+    fs::rename(tilePath(farm.dir, 1), dir / "kept.vdb");
+    state = assessFarm(farm);
+    EXPECT_EQ(describeChunk(state.chunks[1]), "ended (exit 0), tile 2 missing");
+    EXPECT_EQ(chunksToRetry(farm, state), std::vector<size_t>{1});
+    // A tile of another plan (another voxel size) is not this plan's.
+    BakeRequest other = t.request;
+    other.voxelSize = 0.03;
+    EXPECT_NE(tileFarmKey(other, 3), farm.key);
+    EXPECT_EQ(tileFarmKey(t.request, 3), farm.key);
+    EXPECT_NE(tileFarmKey(t.request, 4), farm.key);
+    fs::rename(dir / "kept.vdb", tilePath(farm.dir, 1));
+    const std::string finish = exe + " farm --finish " + shellQuote(farm.dir) + " > " +
+                               shellQuote((dir / "finish.txt").string()) + " 2>&1";
+    ASSERT_EQ(WEXITSTATUS(std::system(finish.c_str())), 0) << fileContents(dir / "finish.txt");
+    EXPECT_NE(fileContents(dir / "finish.txt").find("merged 3 tiles into"), std::string::npos)
+        << fileContents(dir / "finish.txt");
+    const std::string a = fileContents(single), b = fileContents(dir / "hero.vdb");
+    constexpr size_t kUuidEnd = 57;
+    ASSERT_GT(a.size(), kUuidEnd);
+    EXPECT_EQ(a.size(), b.size());
+    EXPECT_TRUE(a.substr(kUuidEnd) == b.substr(kUuidEnd)) << "the merged tiles differ";
+    for (int k = 0; k < 3; ++k)
+        EXPECT_FALSE(fs::exists(tilePath(farm.dir, size_t(k))));
+    // Merged, the farm is complete; the output removed, it is not.
+    state = assessFarm(farm);
+    EXPECT_TRUE(state.merged);
+    EXPECT_EQ(state.good, 3u);
+    EXPECT_NE(fileContents(fs::path(farm.dir) / "manifest.json").find("\"complete\": true"),
+              std::string::npos);
+    fs::remove(dir / "hero.vdb");
+    state = assessFarm(farm);
+    EXPECT_FALSE(state.merged);
+    EXPECT_EQ(state.good, 0u);
 }
 
 }  // namespace

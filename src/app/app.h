@@ -48,7 +48,7 @@ struct ModelFlags {
 /// Adds --junctions, --bend, --primitives, --regrowth, --no-leaves and --time.
 void addModelFlags(CLI::App* command, ModelFlags& flags);
 
-/// `cambium bake … --frames A-B --slurm`'s options.
+/// `cambium bake … --slurm`'s options (a sequence's, or a frame's tiles).
 struct SlurmFlags {
     bool slurm = false, wait = false, dryRun = false;
     size_t chunk = 1;  ///< at least this many frames a task, whole reuse groups
@@ -68,6 +68,25 @@ int runBakeCommand(const struct BakeRequest& request, bool timings);
 /// the frame's estimated memory within `maxMemory`.
 int runTiledBakeCommand(const struct BakeRequest& request, int tiles, double maxMemory,
                         bool timings);
+
+/// A frame's tiles decided (app/tiles.cpp): the voxel size, the tile count
+/// (from --tiles, or from --max-memory: as many as keep a tile's share of the
+/// frame's estimate within it; 1 when the frame fits) and the estimates;
+/// InputError for a frame tiles cannot bake (--fog, a bark photo) or a share
+/// over --max-memory.  `here`: a tile's share must fit this machine.
+struct TilePlan {
+    double voxelSize = 0.0;
+    int tiles = 1;
+    double frameBytes = 0.0;  ///< the whole frame's estimate
+    double tileBytes = 0.0;   ///< a tile's share of it
+    double threshold = 0.5;   ///< the model's iso-value
+};
+TilePlan planTiles(const struct BakeRequest& request, int tiles, double maxMemory, bool here);
+
+/// One frame's tiles as a Slurm job array merged by its final job
+/// (src/farm): printed (dryRun), or submitted, and followed with `wait`.
+int runTileFarmCommand(const struct BakeRequest& request, const TilePlan& tiles,
+                       const SlurmFlags& flags);
 
 /// A size in bytes as options take it: 2000000000, 512M, 8G, 1.5T (powers of
 /// 1024).  InputError naming `option` otherwise.

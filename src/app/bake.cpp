@@ -6,6 +6,7 @@
 
 #include "bake/bake.h"
 #include "bake/sequence.h"
+#include "farm/slurm.h"
 #include "core/files.h"
 #include "core/frames.h"
 
@@ -107,9 +108,11 @@ void addBakeCommand(CLI::App& app, Action& action)
     auto* slurmOpt = cmd->add_flag(
         "--slurm", o->slurm.slurm,
         "With --frames: bake the sequence as a Slurm job array (docs/farm.md), one task per "
-        "chunk of frames");
+        "chunk of frames; with --tiles or --max-memory: the frame's tiles as one, merged by its "
+        "final job");
     cmd->add_option("--chunk", o->slurm.chunk,
-                    "With --slurm: at least this many frames a task (whole years of growth)")
+                    "With --slurm and --frames: at least this many frames a task (whole years "
+                    "of growth)")
         ->check(CLI::Range(1, 1000000))
         ->needs(slurmOpt);
     cmd->add_option("--throttle", o->slurm.throttle,
@@ -156,9 +159,11 @@ void addBakeCommand(CLI::App& app, Action& action)
             const bool sequence = !request.frames.empty();
             if (sequence)
                 parseFrames(request.frames);
-            if (o->slurm.slurm && !sequence)
-                throw InputError("--slurm bakes a sequence: it needs --frames");
             const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
+            if (o->slurm.slurm && !sequence && !tiled)
+                throw InputError(
+                    "--slurm bakes a sequence (--frames) or one frame's tiles (--tiles or "
+                    "--max-memory): it needs one of them");
             if (sequence && (tiled || !o->tile.empty()))
                 throw InputError(
                     "--tiles, --tile and --max-memory bake one frame: not with --frames");
@@ -194,6 +199,13 @@ void addBakeCommand(CLI::App& app, Action& action)
                 checkOutputPath(req.output);
             req.model = o->model.options();
             const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
+            if (req.tile.count > 0)  // (what a farm's final job checks the tile by)
+                req.key = tileFarmKey(req, req.tile.count);
+            if (o->slurm.slurm && tiled && o->slurm.chunk != 1)
+                throw InputError("--chunk counts frames: a frame's tiles are a task each");
+            if (o->slurm.slurm && tiled)
+                return runTileFarmCommand(req, planTiles(req, o->tiles, maxMemory, false),
+                                          o->slurm);
             if (o->slurm.slurm)
                 return runSlurmCommand(request, o->slurm);
             if (tiled)

@@ -9,7 +9,11 @@
 #include "core/files.h"
 #include "core/frames.h"
 #include "core/system.h"
+#include "bake/bake.h"
+#include "bake/tiles.h"
 #include "cl/runtime.h"
+#include "core/clock.h"
+#include "io/vdb.h"
 #include "farm/slurm.h"
 
 #include <fmt/format.h>
@@ -166,34 +170,32 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
 
 /// The summary line of a farm's state, and its exit status: 0 when every
 /// frame is there, 2 when a chunk failed for bad input, 1 otherwise.
-int summarize(const FarmState& state, size_t running = 0)
+int summarize(const FarmPlan& plan, const FarmState& state, size_t running = 0)
 {
-    fmt::print("{} of {} frames written and of this plan; {}{} chunks failed, {} for bad input\n",
-               state.good, state.frames,
-               running ? fmt::format("{} chunks queued or running, ", running) : std::string(),
-               state.failed() - running, state.badInput());
+    const char* chunks = plan.tiles ? "tiles" : "chunks";
+    fmt::print("{} of {} {}s written and of this plan{}; {}{} {} failed, {} for bad input\n",
+               state.good, state.frames, plan.unit(),
+               state.merged ? fmt::format(", merged into {}", plan.output) : std::string(),
+               running ? fmt::format("{} {} queued or running, ", running, chunks) : std::string(),
+               state.failed() - running, chunks, state.badInput());
     std::fflush(stdout);
     return state.good == state.frames ? 0 : state.badInput() ? 2 : 1;
 }
 
 }  // namespace
 
-int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
+namespace {
+
+/// The options every farm's plan takes, with a node's cores and memory:
+/// Slurm's largest node, else (--dry-run without Slurm) this machine's.
+SlurmOptions slurmOptions(const SlurmFlags& flags)
 {
-    // Absolute paths: the tasks run elsewhere, and the sequence key hashes
-    // the photo's path as given.
-    SequenceRequest request = asked;
-    for (std::string* path : {&request.bake.input, &request.bake.output, &request.bake.barkPhoto})
-        if (!path->empty())
-            *path = fs::absolute(*path).string();
-    const SequencePlan plan = planSequence(request);
     SlurmOptions o;
     o.framesPerChunk = flags.chunk;
     o.throttle = flags.throttle;
     o.retries = flags.retries;
     o.sbatchArgs = flags.sbatchArgs;
     o.exe = (fs::path(executableDirectory()) / "cambium").string();
-    // A node's cores and memory: Slurm's largest node, else this machine's.
     const Output nodes = capture("sinfo -h -o '%c %m'");
     int cpus = 0;
     double mb = 0.0;
@@ -218,10 +220,18 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
     }
     o.nodeCpus = cpus;
     o.nodeMemoryBytes = mb * (1 << 20);
-    const SlurmArray array = planSlurmArray(plan, o);
+    return o;
+}
+
+/// Submits a planned array (or prints it: --dry-run) and its final job, and
+/// with --wait follows it to its end.  `output`: what it makes, for messages;
+/// `what`: "27 frames in 3 chunks" or the like.
+int submitArray(const SlurmArray& array, const SlurmFlags& flags, const std::string& output,
+                const std::string& what)
+{
     if (flags.dryRun) {
-        fmt::print("# {}\n{}\n# {}\n{}", array.planPath, array.planJson, array.scriptPath,
-                   array.script);
+        fmt::print("# {}\n{}\n# {}\n{}# {}\n{}", array.planPath, array.planJson, array.scriptPath,
+                   array.script, array.finalScriptPath, array.finalScript);
         return 0;
     }
     const fs::path farm = array.farmDir;
@@ -237,9 +247,9 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
         for (char& c : live)
             c = c == '\n' ? ' ' : c;
         throw InputError(fmt::format(
-            "{}: Slurm jobs of an earlier submission of this sequence are still queued or "
-            "running ({}): wait for them or scancel them",
-            request.bake.output, live));
+            "{}: Slurm jobs of an earlier submission of it are still queued or running ({}): "
+            "wait for them or scancel them",
+            output, live));
     }
     writeFile(array.planPath, array.planJson.data(), array.planJson.size());
     writeFile(array.scriptPath, array.script.data(), array.script.size());
@@ -266,22 +276,21 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
             fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
         }
     // A new submission: statuses and attempts from nothing.
-    for (size_t k = 0; k < array.chunks.size(); ++k)
+    const FarmPlan farmPlan = readFarmPlan(farm.string());
+    for (size_t k = 0; k < farmPlan.chunks.size(); ++k)
         fs::remove(farm / fmt::format("task-{}.status", k), ec);
     fs::remove(farm / "manifest.json", ec);
     fs::remove(farm / "jobs", ec);
-    const FarmPlan farmPlan = readFarmPlan(farm.string());
     const auto [id, finalId] = submitFarm(farmPlan, {});
     submitting.reset();
+    fmt::print("submitted job array {}: {}, {} MB and {} cores a task; plan {}\n", id, what,
+               array.resources.memoryMB, array.resources.cpus, array.planPath);
     fmt::print(
-        "submitted job array {}: {} frames in {} chunks, {} MB and {} cores a task; "
-        "plan {}\n",
-        id, plan.frames.size(), array.chunks.size(), array.resources.memoryMB, array.resources.cpus,
-        array.planPath);
-    fmt::print(
-        "final job {}: after the array, checks every frame, writes {}/manifest.json and submits "
-        "a failed chunk again (at most {} times)\n",
-        finalId, farm.string(), farmPlan.retries);
+        "final job {}: after the array, checks every {}{}, writes {}/manifest.json and submits "
+        "a failed {} again (at most {} times)\n",
+        finalId, farmPlan.unit(),
+        farmPlan.tiles ? fmt::format(", merges the tiles into {}", output) : std::string(),
+        farm.string(), farmPlan.tiles ? "tile" : "chunk", farmPlan.retries);
     std::fflush(stdout);
     if (!flags.wait) {
         fmt::print(
@@ -294,16 +303,15 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
     // again (its history, readChunkEvents: none is missed however fast the
     // final job acts), until no job of the farm is queued (the final job adds
     // its own before it ends: the list is read again after squeue finds none).
-    std::vector<size_t> shown(array.chunks.size(), 0);
+    std::vector<size_t> shown(farmPlan.chunks.size(), 0);
     for (;;) {
         const std::string ids = farmJobs(farm);
         const bool queued = !queuedJobs(ids).empty();
-        for (size_t k = 0; k < array.chunks.size(); ++k) {
+        for (size_t k = 0; k < farmPlan.chunks.size(); ++k) {
             const std::vector<ChunkEvent> events = readChunkEvents(farm.string(), k);
             for (; shown[k] < events.size(); ++shown[k]) {
-                auto say = [&](const std::string& what) {
-                    fmt::print("chunk {}/{} frames {} {}\n", k + 1, array.chunks.size(),
-                               array.chunks[k].frames, what);
+                auto say = [&](const std::string& happened) {
+                    fmt::print("{} {}\n", farmPlan.chunkName(k), happened);
                 };
                 const ChunkEvent& e = events[shown[k]];
                 if (!e.again) {
@@ -322,12 +330,43 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
         std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
     const FarmState state = assessFarm(farmPlan);
-    for (size_t k = 0; k < state.chunks.size(); ++k)
-        if (!state.chunks[k].done())
-            fmt::print("chunk {}/{} frames {} {} after {} attempts\n", k + 1, state.chunks.size(),
-                       state.chunks[k].frames, describeChunk(state.chunks[k]),
-                       state.chunks[k].attempts);
-    return summarize(state);
+    for (const FarmChunkState& c : state.chunks)
+        if (!c.done())
+            fmt::print("{} {} after {} attempts\n", c.name, describeChunk(c), c.attempts);
+    return summarize(farmPlan, state);
+}
+
+}  // namespace
+
+int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
+{
+    // Absolute paths: the tasks run elsewhere, and the sequence key hashes
+    // the photo's path as given.
+    SequenceRequest request = asked;
+    for (std::string* path : {&request.bake.input, &request.bake.output, &request.bake.barkPhoto})
+        if (!path->empty())
+            *path = fs::absolute(*path).string();
+    const SequencePlan plan = planSequence(request);
+    const SlurmArray array = planSlurmArray(plan, slurmOptions(flags));
+    return submitArray(
+        array, flags, request.bake.output,
+        fmt::format("{} frames in {} chunks", plan.frames.size(), array.chunks.size()));
+}
+
+int runTileFarmCommand(const BakeRequest& asked, const TilePlan& tiles, const SlurmFlags& flags)
+{
+    TileFarmRequest t;
+    t.request = asked;
+    t.request.input = fs::absolute(asked.input).string();
+    t.request.output = fs::absolute(asked.output).string();
+    t.request.voxelSize = tiles.voxelSize;
+    t.tiles = tiles.tiles;
+    t.tileBytes = tiles.tileBytes;
+    t.frameBytes = tiles.frameBytes;
+    t.threshold = tiles.threshold;
+    return submitArray(planTileArray(t, slurmOptions(flags)), flags, t.request.output,
+                       fmt::format("1 frame in {} tiles (voxel size {:g}, the frame's estimate {})",
+                                   tiles.tiles, tiles.voxelSize, formatBytes(tiles.frameBytes)));
 }
 
 void addFarmCommand(CLI::App& app, Action& action)
@@ -339,18 +378,20 @@ void addFarmCommand(CLI::App& app, Action& action)
     auto o = std::make_shared<Options>();
     auto* cmd = app.add_subcommand(
         "farm",
-        "Check a farm's frames (the directory cambium bake --slurm made: every frame written, "
-        "readable and of its plan), a line per chunk; --finish (the final job) also writes "
-        "manifest.json and submits the failed chunks again");
-    cmd->add_option("farm_dir", o->dir, "The farm's directory, OUTDIR/NAME.frames.vdb.farm")
+        "Check a farm's files (the directory cambium bake --slurm made: every frame or tile "
+        "written, readable and of its plan), a line per chunk; --finish (the final job) also "
+        "merges a frame's tiles, writes manifest.json and submits the failed chunks again");
+    cmd->add_option(
+           "farm_dir", o->dir,
+           "The farm's directory, OUTDIR/NAME.frames.vdb.farm or OUTDIR/NAME.vdb.tiles.farm")
         ->required();
     cmd->add_flag("--finish", o->finish,
-                  "Write manifest.json and submit the chunks that failed (not for bad input) "
-                  "again, with a final job after them");
+                  "Merge a frame's tiles once all are written, write manifest.json and submit "
+                  "the chunks that failed (not for bad input) again, with a final job after them");
     cmd->callback([o, &action] {
         action = [o] {
             const FarmPlan plan = readFarmPlan(o->dir);
-            const FarmState state = assessFarm(plan);
+            FarmState state = assessFarm(plan);
             // The chunks whose task is queued or running (squeue's array
             // task ids; "N/A" for the final job).
             std::set<size_t> running;
@@ -364,16 +405,16 @@ void addFarmCommand(CLI::App& app, Action& action)
             for (size_t k = 0; k < state.chunks.size(); ++k) {
                 const FarmChunkState& c = state.chunks[k];
                 runningUndone += running.count(k) && !c.done();
-                fmt::print("chunk {}/{} frames {} {} (attempt {})\n", k + 1, state.chunks.size(),
-                           c.frames,
-                           running.count(k) && !c.done()
-                               ? fmt::format("queued or running, {} of {} frames to write",
-                                             c.missing.size(), parseFrames(c.frames).size())
-                               : describeChunk(c),
-                           c.attempts);
+                fmt::print(
+                    "{} {} (attempt {})\n", c.name,
+                    running.count(k) && !c.done()
+                        ? fmt::format("queued or running, {} of {} {}s to write", c.missing.size(),
+                                      plan.chunkFiles(k).size(), plan.unit())
+                        : describeChunk(c),
+                    c.attempts);
             }
             if (!o->finish)
-                return summarize(state, runningUndone);
+                return summarize(plan, state, runningUndone);
             // One submission at a time (a user's, or this): the chunks to run
             // again marked so in their histories, the manifest saying so, then
             // sbatch (a failed sbatch leaves a manifest without them).
@@ -402,6 +443,32 @@ void addFarmCommand(CLI::App& app, Action& action)
                     "{}: jobs of this farm are still queued or running ({}): --finish runs once "
                     "they have ended (the final job does)",
                     plan.dir, others));
+            // A tile farm with every tile written: the tiles merged into its
+            // output, the manifest recording the merged file, the tiles
+            // removed.
+            if (plan.tiles && state.good == state.frames && !state.merged) {
+                const auto start = Clock::now();
+                std::vector<std::string> files;
+                for (size_t k = 0; k < plan.chunks.size(); ++k)
+                    files.push_back(tilePath(plan.dir, k));
+                const BakedGrids grids = mergeTiles(files, plan.merged.half);
+                BakeRequest described;
+                described.input = plan.merged.scene;
+                checkSomethingBaked(grids.stats, described);
+                writeVdb(grids, plan.output, plan.merged);
+                const std::string sum = inspectVdb(plan.output).strings.at("cambium_checksum");
+                const std::string manifest = farmManifest(plan, state, {}, sum);
+                writeFile((farm / "manifest.json").string(), manifest.data(), manifest.size());
+                std::error_code ec;
+                for (const std::string& f : files)
+                    fs::remove(f, ec);
+                fmt::print(
+                    "merged {} tiles into {}: {} active voxels, {:.2f} s, peak memory {:.0f} "
+                    "MB\n",
+                    files.size(), plan.output, formatCount(double(grids.stats.activeVoxels)),
+                    secondsSince(start), peakMemoryBytes() / 1e6);
+                return summarize(plan, assessFarm(plan));
+            }
             const std::vector<size_t> again = chunksToRetry(plan, state);
             for (size_t k : again)
                 markSubmittedAgain(plan.dir, k);
@@ -419,12 +486,12 @@ void addFarmCommand(CLI::App& app, Action& action)
                 std::string list;
                 for (size_t k : again)
                     list += (list.empty() ? "" : ", ") + std::to_string(k + 1);
-                fmt::print("submitted chunks {} again as job array {}; final job {}\n", list,
-                           ids.first, ids.second);
+                fmt::print("submitted {} {} again as job array {}; final job {}\n",
+                           plan.tiles ? "tiles" : "chunks", list, ids.first, ids.second);
                 std::fflush(stdout);
                 return 0;
             }
-            return summarize(state);
+            return summarize(plan, state);
         };
     });
 }

@@ -84,9 +84,8 @@ double parseByteSize(const std::string& text, const char* option)
     return bytes;
 }
 
-int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, bool timings)
+TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool here)
 {
-    const auto start = Clock::now();
     checkBakeOptions(req);
     checkOutputPath(req.output);
     if (req.fog)
@@ -123,16 +122,32 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
                         tiles, formatBytes(whole.bytes),
                         formatBytes(whole.bytes * tileMemoryShare(tiles)), formatBytes(maxMemory)));
     }
-    BakeRequest tiled = req;
-    tiled.voxelSize = whole.voxelSize;
-    tiled.tile.count = tiles;
-    planVoxelSize(program, tiled);  // (a tile's share must fit this machine)
+    if (here) {
+        BakeRequest tiled = req;
+        tiled.voxelSize = whole.voxelSize;
+        tiled.tile.count = tiles;
+        planVoxelSize(program, tiled);  // (a tile's share must fit this machine)
+    }
+    TilePlan plan;
+    plan.voxelSize = whole.voxelSize;
+    plan.tiles = tiles;
+    plan.frameBytes = whole.bytes;
+    plan.tileBytes = whole.bytes * tileMemoryShare(tiles);
+    plan.threshold = tree.threshold();
+    return plan;
+}
+
+int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, bool timings)
+{
+    const auto start = Clock::now();
+    const TilePlan plan = planTiles(req, tiles, maxMemory, true);
+    tiles = plan.tiles;
     if (tiles == 1) {
         if (maxMemory > 0.0)
             printNotice(fmt::format("the frame's estimate ({}) is within --max-memory {}: one bake",
-                                    formatBytes(whole.bytes), formatBytes(maxMemory)));
+                                    formatBytes(plan.frameBytes), formatBytes(maxMemory)));
         BakeRequest one = req;
-        one.voxelSize = whole.voxelSize;
+        one.voxelSize = plan.voxelSize;
         return runBakeCommand(one, timings);
     }
     // The tiles' files in a directory beside the output, removed whatever
@@ -160,7 +175,7 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
         // -0.0, not negative) and packs halves itself.
         one.half = false;
         std::vector<std::string> argv = {exe};
-        for (const std::string& a : bakeArguments(one, whole.voxelSize))
+        for (const std::string& a : bakeArguments(one, plan.voxelSize))
             argv.push_back(a);
         argv.insert(argv.end(), {"--tile", fmt::format("{}/{}", k + 1, tiles)});
         const auto t = Clock::now();
@@ -180,15 +195,15 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     const auto t = Clock::now();
     BakedGrids grids = mergeTiles(files, req.half);
     checkSomethingBaked(grids.stats, req);
-    writeVdb(grids, req.output, bakeFileInfo(req, tree));
+    writeVdb(grids, req.output, bakeFileInfo(req, plan.threshold));
     const BakeStats& s = grids.stats;
     fmt::print(
         "baked {}: {} tiles merged, {} leaves, {} active voxels, voxel size {:g}, {:.2f} s (merge "
         "{:.2f} s); peak memory a tile {:.0f} MB at most (the frame's estimate: {}), the merge "
         "{:.0f} MB\n",
         req.output, tiles, formatCount(double(s.activeLeaves)), formatCount(double(s.activeVoxels)),
-        whole.voxelSize, secondsSince(start), secondsSince(t), largest / 1e6,
-        formatBytes(whole.bytes), peakMemoryBytes() / 1e6);
+        plan.voxelSize, secondsSince(start), secondsSince(t), largest / 1e6,
+        formatBytes(plan.frameBytes), peakMemoryBytes() / 1e6);
     return 0;
 }
 

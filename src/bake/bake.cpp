@@ -125,11 +125,12 @@ void checkSomethingBaked(const BakeStats& stats, const BakeRequest& req)
                         req.input, stats.voxelSize));
 }
 
-VdbFileInfo bakeFileInfo(const BakeRequest& req, const BlobTree& tree)
+VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold)
 {
     VdbFileInfo info;
     info.scene = req.input;
-    info.threshold = tree.threshold();
+    info.threshold = threshold;
+    info.sequence = req.key;
     info.halfWidth = req.halfWidth;
     info.half = req.half;
     return info;
@@ -197,7 +198,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     paintBark(grids, tree, paint);
     if (req.tile.count == 0)  // (a tile may hold none)
         checkSomethingBaked(grids.stats, req);
-    writeVdb(grids, req.output, bakeFileInfo(req, tree));
+    writeVdb(grids, req.output, bakeFileInfo(req, tree.threshold()));
     report.stats = grids.stats;
     report.peakMemoryBytes = peakMemoryBytes();
     return report;

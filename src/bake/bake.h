@@ -35,6 +35,9 @@ struct BakeRequest {
     /// each exactly the whole bake's (BakeOptions::tile); the memory check
     /// takes the tile's share of the frame's estimate.
     BandTile tile;
+    /// A farm's key for the file's metadata (`cambium_sequence`): what its
+    /// final job checks a tile's file against (farm/slurm.h tileFarmKey).
+    std::string key;
 };
 
 /// The share of a frame's estimated memory one of `tiles` tiles needs: its
@@ -110,8 +113,9 @@ struct BakeReport {
 /// thinner than a voxel everywhere): nothing is written.
 void checkSomethingBaked(const BakeStats& stats, const BakeRequest& request);
 
-/// What a bake of `request` writes into its file's metadata.
-VdbFileInfo bakeFileInfo(const BakeRequest& request, const BlobTree& tree);
+/// What a bake of `request` writes into its file's metadata, for a model
+/// whose iso-value is `threshold`.
+VdbFileInfo bakeFileInfo(const BakeRequest& request, double threshold);
 
 /// Validates everything first (model, voxel size, memory, output path) and
 /// throws InputError naming the problem before any work or output; then

@@ -34,12 +34,12 @@ std::vector<FarmChunk> chunkPlan(const SequencePlan& plan, size_t framesPerChunk
     return chunks;
 }
 
-TaskResources taskResources(const SequencePlan& plan, int nodeCpus, double nodeMemoryBytes)
+TaskResources taskResources(double bakeBytes, int nodeCpus, double nodeMemoryBytes)
 {
     // The process beside the bake: libraries (OpenVDB, PoCL and its LLVM:
     // about 120 MB, docs/benchmarks.md) and the sequence's own state.
     constexpr double kProcessBytes = 256e6;
-    const double bytes = plan.bytesPerFrame + kProcessBytes;
+    const double bytes = bakeBytes + kProcessBytes;
     TaskResources r;
     r.memoryMB = (long long)std::ceil(bytes / (1 << 20));
     nodeCpus = std::max(nodeCpus, 1);

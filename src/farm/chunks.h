@@ -21,14 +21,15 @@ struct FarmChunk {
 /// frame once.
 std::vector<FarmChunk> chunkPlan(const SequencePlan& plan, size_t framesPerChunk);
 
-/// What one task asks of a node: its memory (the plan's estimate of the
-/// largest frame's bake, with a margin for the process itself) and cores,
+/// What one task asks of a node: its memory (`bakeBytes`, the estimate of
+/// its largest bake: a frame's, a tile's; with a margin for the process
+/// itself) and cores,
 /// as many as the node has in proportion to the share of its memory a task
 /// takes, so that the tasks a node's memory allows keep its cores busy.
 struct TaskResources {
     long long memoryMB = 0;
     int cpus = 1;
 };
-TaskResources taskResources(const SequencePlan& plan, int nodeCpus, double nodeMemoryBytes);
+TaskResources taskResources(double bakeBytes, int nodeCpus, double nodeMemoryBytes);
 
 }  // namespace cambium

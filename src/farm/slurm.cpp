@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -78,62 +79,38 @@ std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std:
     return a;
 }
 
-SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
+namespace {
+
+/// A farm's directory beside `output`, OUTDIR/NAME.farm: refused where
+/// #SBATCH lines could not name it (they take their values unquoted: a
+/// space ends one, and '%' starts one of Slurm's file name patterns).
+fs::path farmDirectory(const fs::path& output, const std::string& name)
 {
-    SlurmArray s;
-    const fs::path output = fs::absolute(plan.request.bake.output);
-    // OUTDIR/NAME.frames.vdb.farm for OUTDIR/NAME.####.vdb: no '#' in the
-    // paths of #SBATCH lines.
-    std::string name = output.filename().string();
-    const auto [hashFirst, hashLast] = frameRun(name);
-    name.replace(hashFirst, hashLast - hashFirst, "frames");
     const fs::path farm = output.parent_path() / (name + ".farm");
-    // #SBATCH lines take their values unquoted: a space ends one, and '%'
-    // starts one of Slurm's file name patterns.
     if (farm.string().find_first_of(" \t\n%'\"\\$") != std::string::npos)
         throw InputError(fmt::format(
             "-o {}: --slurm needs an output path without spaces, '%', quotes, '\\' or '$' (the "
             "batch script's #SBATCH lines name its directory)",
             output.string()));
-    s.farmDir = farm.string();
-    s.planPath = (farm / "plan.json").string();
-    s.scriptPath = (farm / "array.sh").string();
-    s.finalScriptPath = (farm / "final.sh").string();
-    s.jobName = "cambium-" + name;
-    s.chunks = chunkPlan(plan, o.framesPerChunk);
-    s.resources = taskResources(plan, o.nodeCpus, o.nodeMemoryBytes);
+    return farm;
+}
 
-    const std::string input = fs::absolute(plan.request.bake.input).string();
-    nlohmann::ordered_json j;
-    j["cambium_farm_plan"] = 1;
-    j["input"] = input;
-    j["input_hash"] = fmt::format("{:016x}", fnv1a64(readTextFile(input, "growth parameter file")));
-    j["output"] = output.string();
-    j["key"] = plan.key;
-    j["voxel_size"] = plan.voxelSize;
-    j["fps_per_year"] = plan.request.fpsPerYear;
-    j["frames"] = plan.request.frames;
-    j["script"] = s.scriptPath;
-    j["final_script"] = s.finalScriptPath;
-    j["retries"] = o.retries;
-    j["throttle"] = o.throttle;
-    j["memory_per_task_mb"] = s.resources.memoryMB;
-    j["cpus_per_task"] = s.resources.cpus;
-    nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
-    for (const FarmChunk& c : s.chunks)
-        chunks.push_back({{"frames", c.frames},
-                          {"first", plan.frames[c.first]},
-                          {"last", plan.frames[c.last - 1]},
-                          {"count", c.last - c.first}});
-    j["chunks"] = chunks;
-    s.planJson = j.dump(2) + "\n";
-
+/// The array's and the final job's scripts of `s` (its farmDir, jobName,
+/// resources and chunks' parts set): task i sets $part to part i and runs
+/// `command`, in whose arguments "@PART@", "@NUMBER@" and "@THREADS@" stand
+/// for $part, its number before a '/' and the task's cores, and adds its
+/// exit status to the chunk's history.
+void writeScripts(SlurmArray& s, const std::vector<std::string>& parts,
+                  const std::vector<std::string>& command, const std::string& what,
+                  const SlurmOptions& o)
+{
+    const fs::path farm = s.farmDir;
     // The script: Slurm reads its #SBATCH lines; task i runs chunk i and
     // leaves its exit status beside the logs for the final job, which tells
-    // a frame's bad input (2: never retried) from a failure (retried).
+    // bad input (2: never retried) from a failure (retried).
     std::string sc = "#!/bin/bash\n";
     sc += fmt::format("#SBATCH --job-name={}\n", s.jobName);
-    sc += fmt::format("#SBATCH --array=0-{}{}\n", s.chunks.size() - 1,
+    sc += fmt::format("#SBATCH --array=0-{}{}\n", parts.size() - 1,
                       o.throttle > 0 ? fmt::format("%{}", o.throttle) : "");
     sc += fmt::format("#SBATCH --cpus-per-task={}\n", s.resources.cpus);
     sc += fmt::format("#SBATCH --mem={}M\n", s.resources.memoryMB);
@@ -142,8 +119,7 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     sc += fmt::format("#SBATCH --chdir={}\n", farm.string());
     for (const std::string& arg : o.sbatchArgs)
         sc += "#SBATCH " + arg + "\n";
-    sc += fmt::format("# cambium: {} frames of {} in {} chunks ({}); the plan is {}\n",
-                      plan.frames.size(), input, s.chunks.size(), plan.request.frames, s.planPath);
+    sc += fmt::format("# cambium: {}; the plan is {}\n", what, s.planPath);
     sc += "set -u\n";
     // Caches in the farm's directory, never in $HOME (the submission copies
     // the user's compiled kernels there).
@@ -152,15 +128,34 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
         "export POCL_CACHE_DIR=" + shellQuote((farm / "cache" / "pocl").string()) + "\n";
     sc += caches;
     sc += "case \"$SLURM_ARRAY_TASK_ID\" in\n";
-    for (size_t k = 0; k < s.chunks.size(); ++k)
-        sc += fmt::format("{}) frames={} ;;\n", k, s.chunks[k].frames);
+    for (size_t k = 0; k < parts.size(); ++k)
+        sc += fmt::format("{}) part={} ;;\n", k, parts[k]);
     sc += "*) echo \"cambium: no chunk $SLURM_ARRAY_TASK_ID in this plan\" >&2; exit 2 ;;\nesac\n";
-    std::string command = shellQuote(o.exe);
-    for (const std::string& a : chunkBakeArguments(plan, "@FRAMES@", "@THREADS@"))
-        command += " " + (a == "@FRAMES@"    ? std::string("\"$frames\"")
-                          : a == "@THREADS@" ? std::string("\"${SLURM_CPUS_PER_TASK:-1}\"")
-                                             : shellQuote(a));
-    sc += command + "\n";
+    // Each argument a shell word: its text quoted, the placeholders in it
+    // expanded.
+    const std::pair<const char*, const char*> expansions[] = {
+        {"@PART@", "\"$part\""},
+        {"@THREADS@", "\"${SLURM_CPUS_PER_TASK:-1}\""},
+        {"@NUMBER@", "\"${part%%/*}\""}};
+    std::string line = shellQuote(o.exe);
+    for (const std::string& a : command) {
+        std::string word, literal;
+        for (size_t i = 0; i < a.size();) {
+            bool expanded = false;
+            for (const auto& [name, shell] : expansions)
+                if (a.compare(i, std::strlen(name), name) == 0) {
+                    word += (literal.empty() ? "" : shellQuote(literal)) + shell;
+                    literal.clear();
+                    i += std::strlen(name);
+                    expanded = true;
+                    break;
+                }
+            if (!expanded)
+                literal += a[i++];
+        }
+        line += " " + word + (literal.empty() && !word.empty() ? "" : shellQuote(literal));
+    }
+    sc += line + "\n";
     sc += "status=$?\n";
     // The status with the array's job id, added to the chunk's history
     // (readChunkEvents).
@@ -170,19 +165,157 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     s.script = sc;
 
     // The final job: after the array, whatever its tasks did (afterany, given
-    // by the submission), one core and little memory (it reads headers).
+    // by the submission), one core; the memory of a task where it merges
+    // tiles, else little (it reads headers).
     std::string fin = "#!/bin/bash\n";
     fin += fmt::format("#SBATCH --job-name={}\n", s.jobName);
-    fin += "#SBATCH --cpus-per-task=1\n#SBATCH --mem=512M\n";
+    fin += fmt::format("#SBATCH --cpus-per-task=1\n#SBATCH --mem={}M\n", s.finalMemoryMB);
     fin += fmt::format("#SBATCH --output={}\n", (farm / "final-%j.log").string());
     fin += fmt::format("#SBATCH --chdir={}\n", farm.string());
     for (const std::string& arg : o.sbatchArgs)
         fin += "#SBATCH " + arg + "\n";
-    fin += "# cambium: checks every frame of " + s.planPath +
+    fin += "# cambium: checks every file of " + s.planPath +
            ", writes manifest.json and submits the failed chunks again\n";
     fin += caches;
     fin += "exec " + shellQuote(o.exe) + " farm --finish " + shellQuote(farm.string()) + "\n";
     s.finalScript = fin;
+}
+
+/// The plan file's fields every farm has.
+nlohmann::ordered_json planHeader(const SlurmArray& s, const std::string& kind,
+                                  const std::string& input, const std::string& output,
+                                  const std::string& key, double voxelSize, const SlurmOptions& o)
+{
+    nlohmann::ordered_json j;
+    j["cambium_farm_plan"] = 1;
+    j["kind"] = kind;
+    j["input"] = input;
+    j["input_hash"] = fmt::format("{:016x}", fnv1a64(readTextFile(input, "input file")));
+    j["output"] = output;
+    j["key"] = key;
+    j["voxel_size"] = voxelSize;
+    j["script"] = s.scriptPath;
+    j["final_script"] = s.finalScriptPath;
+    j["retries"] = o.retries;
+    j["throttle"] = o.throttle;
+    j["memory_per_task_mb"] = s.resources.memoryMB;
+    j["cpus_per_task"] = s.resources.cpus;
+    return j;
+}
+
+void nameFiles(SlurmArray& s, const fs::path& farm, const std::string& name)
+{
+    s.farmDir = farm.string();
+    s.planPath = (farm / "plan.json").string();
+    s.scriptPath = (farm / "array.sh").string();
+    s.finalScriptPath = (farm / "final.sh").string();
+    s.jobName = "cambium-" + name;
+}
+
+}  // namespace
+
+SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
+{
+    SlurmArray s;
+    const fs::path output = fs::absolute(plan.request.bake.output);
+    // OUTDIR/NAME.frames.vdb.farm for OUTDIR/NAME.####.vdb: no '#' in the
+    // paths of #SBATCH lines.
+    std::string name = output.filename().string();
+    const auto [hashFirst, hashLast] = frameRun(name);
+    name.replace(hashFirst, hashLast - hashFirst, "frames");
+    nameFiles(s, farmDirectory(output, name), name);
+    s.chunks = chunkPlan(plan, o.framesPerChunk);
+    s.resources = taskResources(plan.bytesPerFrame, o.nodeCpus, o.nodeMemoryBytes);
+
+    const std::string input = fs::absolute(plan.request.bake.input).string();
+    nlohmann::ordered_json j =
+        planHeader(s, "frames", input, output.string(), plan.key, plan.voxelSize, o);
+    j["fps_per_year"] = plan.request.fpsPerYear;
+    j["frames"] = plan.request.frames;
+    nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
+    std::vector<std::string> parts;
+    for (const FarmChunk& c : s.chunks) {
+        chunks.push_back({{"frames", c.frames},
+                          {"first", plan.frames[c.first]},
+                          {"last", plan.frames[c.last - 1]},
+                          {"count", c.last - c.first}});
+        parts.push_back(c.frames);
+    }
+    j["chunks"] = chunks;
+    s.planJson = j.dump(2) + "\n";
+    writeScripts(s, parts, chunkBakeArguments(plan, "@PART@", "@THREADS@"),
+                 fmt::format("{} frames of {} in {} chunks ({})", plan.frames.size(), input,
+                             s.chunks.size(), plan.request.frames),
+                 o);
+    return s;
+}
+
+std::string tileFarmKey(const BakeRequest& request, int tiles)
+{
+    // What a tile's bake is given, whatever file it writes, its cores and
+    // --half (a tile's file holds floats), and the input's text.
+    BakeRequest r = request;
+    r.output = "/";  // (dropped below)
+    r.threads = 0;
+    r.half = false;
+    std::string text = fmt::format("tiles={}", tiles);
+    const std::vector<std::string> args = bakeArguments(r, r.voxelSize.value_or(0.0));
+    for (size_t i = 0; i < args.size(); ++i)
+        if (args[i] == "-o")
+            ++i;  // (its value too)
+        else
+            text += " " + args[i];
+    return fmt::format("{:016x}", fnv1a64(text, fnv1a64(readTextFile(r.input, "input file"))));
+}
+
+std::string tilePath(const std::string& farmDir, size_t tile)
+{
+    return (fs::path(farmDir) / fmt::format("tile-{}.vdb", tile + 1)).string();
+}
+
+SlurmArray planTileArray(const TileFarmRequest& t, const SlurmOptions& o)
+{
+    SlurmArray s;
+    const BakeRequest& r = t.request;
+    const fs::path output = fs::absolute(r.output);
+    // OUTDIR/NAME.vdb.tiles.farm for OUTDIR/NAME.vdb.
+    const std::string name = output.filename().string() + ".tiles";
+    nameFiles(s, farmDirectory(output, name), name);
+    s.resources = taskResources(t.tileBytes, o.nodeCpus, o.nodeMemoryBytes);
+    // The merge holds every tile's leaves packed: measured at 0.82 times the
+    // single bake's peak (docs/farm.md); the frame's estimate asked for.
+    s.finalMemoryMB = std::max(s.finalMemoryMB, taskResources(t.frameBytes, 1, 0.0).memoryMB);
+
+    const std::string input = fs::absolute(r.input).string();
+    nlohmann::ordered_json j =
+        planHeader(s, "tiles", input, output.string(), tileFarmKey(r, t.tiles), *r.voxelSize, o);
+    j["tiles"] = t.tiles;
+    j["half"] = r.half;
+    j["threshold"] = t.threshold;
+    j["half_width"] = r.halfWidth;
+    j["scene"] = r.input;
+    std::vector<std::string> parts;
+    nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
+    for (int k = 0; k < t.tiles; ++k) {
+        parts.push_back(fmt::format("{}/{}", k + 1, t.tiles));
+        chunks.push_back({{"tile", parts.back()}, {"file", tilePath(s.farmDir, size_t(k))}});
+    }
+    j["chunks"] = chunks;
+    s.planJson = j.dump(2) + "\n";
+    // Task k: tile k+1 into the farm's tile-K.vdb, as floats (the merge
+    // packs halves itself); "K/N" is the task's part.
+    BakeRequest one = r;
+    one.half = false;
+    one.threads = 0;
+    one.output = tilePath(s.farmDir, 0);
+    std::vector<std::string> command = bakeArguments(one, *r.voxelSize);
+    std::replace(command.begin(), command.end(), one.output,
+                 (fs::path(s.farmDir) / "tile-@NUMBER@.vdb").string());
+    command.insert(command.end(), {"--tile", "@PART@", "--threads", "@THREADS@"});
+    writeScripts(
+        s, parts, command,
+        fmt::format("one frame of {} in {} tiles, merged into {}", input, t.tiles, output.string()),
+        o);
     return s;
 }
 
@@ -197,23 +330,56 @@ FarmPlan readFarmPlan(const std::string& farmDir)
     FarmPlan p;
     p.dir = fs::absolute(farmDir).string();
     p.output = v.string(v.required(j, "output", ""), "output");
-    frameRun(p.output);  // (a pattern with one run of '#')
+    const std::string kind =
+        j.contains("kind") ? v.string(j.at("kind"), "kind") : std::string("frames");
+    if (kind != "frames" && kind != "tiles")
+        v.fail("kind", "must be \"frames\" or \"tiles\"");
+    if (kind == "frames")
+        frameRun(p.output);  // (a pattern with one run of '#')
     p.key = v.string(v.required(j, "key", ""), "key");
     p.scriptPath = v.string(v.required(j, "script", ""), "script");
     p.finalScriptPath = v.string(v.required(j, "final_script", ""), "final_script");
     p.retries = int(v.number(v.required(j, "retries", ""), "retries", 0, 100));
     p.throttle = int(v.number(v.required(j, "throttle", ""), "throttle", 0, 1e9));
+    if (kind == "tiles") {
+        p.tiles = int(v.number(v.required(j, "tiles", ""), "tiles", 1, 4096));
+        p.merged.scene = v.string(v.required(j, "scene", ""), "scene");
+        p.merged.threshold = v.number(v.required(j, "threshold", ""), "threshold", -1e30, 1e30);
+        p.merged.halfWidth = v.number(v.required(j, "half_width", ""), "half_width", 1.0, 1e6);
+        p.merged.half = v.boolean(v.required(j, "half", ""), "half");
+    }
     const nlohmann::json& chunks = v.required(j, "chunks", "");
-    if (!chunks.is_array() || chunks.empty())
-        v.fail("chunks", "must be an array of chunks");
+    if (!chunks.is_array() || chunks.empty() || (p.tiles && int(chunks.size()) != p.tiles))
+        v.fail("chunks",
+               p.tiles ? "must be an array of a chunk a tile" : "must be an array of chunks");
     for (size_t k = 0; k < chunks.size(); ++k) {
         const std::string at = fmt::format("chunks[{}]", k);
-        const std::string frames =
-            v.string(v.required(v.object(chunks[k], at, "a chunk"), "frames", at), at + ".frames");
-        parseFrames(frames, path + ": " + at + ".frames");
-        p.chunks.push_back(frames);
+        const char* field = p.tiles ? "tile" : "frames";
+        const std::string part =
+            v.string(v.required(v.object(chunks[k], at, "a chunk"), field, at), at + "." + field);
+        if (p.tiles && part != fmt::format("{}/{}", k + 1, p.tiles))
+            v.fail(at + ".tile", fmt::format("must be \"{}/{}\"", k + 1, p.tiles));
+        if (!p.tiles)
+            parseFrames(part, path + ": " + at + ".frames");
+        p.chunks.push_back(part);
     }
     return p;
+}
+
+std::vector<std::string> FarmPlan::chunkFiles(size_t k) const
+{
+    if (tiles)
+        return {tilePath(dir, k)};
+    std::vector<std::string> files;
+    for (long long f : parseFrames(chunks.at(k)))
+        files.push_back(framePath(output, f));
+    return files;
+}
+
+std::string FarmPlan::chunkName(size_t k) const
+{
+    return tiles ? "tile " + chunks.at(k)
+                 : fmt::format("chunk {}/{} frames {}", k + 1, chunks.size(), chunks.at(k));
 }
 
 size_t FarmState::badInput() const
@@ -268,11 +434,14 @@ FarmState assessFarm(const FarmPlan& plan)
     // Attempts so far: an earlier final job's count, one more where it
     // submitted the chunk again.
     std::vector<int> attempts(plan.chunks.size(), 1);
+    std::string mergedChecksum;
     const fs::path manifest = fs::path(plan.dir) / "manifest.json";
     if (fs::exists(manifest)) {
         try {
             const nlohmann::json m =
                 parseJson(readTextFile(manifest.string(), "farm manifest"), manifest.string());
+            if (m.contains("merged_checksum"))
+                mergedChecksum = m.at("merged_checksum").get<std::string>();
             const nlohmann::json& chunks = m.at("chunks");
             for (size_t k = 0; k < plan.chunks.size() && k < chunks.size(); ++k)
                 attempts[k] = chunks[k].at("attempts").get<int>() +
@@ -285,23 +454,36 @@ FarmState assessFarm(const FarmPlan& plan)
         }
     }
     FarmState s;
+    // A tile farm whose final job merged its tiles (and removed them): done
+    // while the output is the file it wrote (the checksum it recorded).
+    if (plan.tiles && !mergedChecksum.empty()) {
+        try {
+            const VdbSummary out = inspectVdb(plan.output);
+            const auto sum = out.strings.find("cambium_checksum");
+            s.merged = sum != out.strings.end() && sum->second == mergedChecksum;
+        } catch (const InputError&) {
+        }
+    }
     for (size_t k = 0; k < plan.chunks.size(); ++k) {
         FarmChunkState c;
-        c.frames = plan.chunks[k];
+        c.name = plan.chunkName(k);
+        c.unit = plan.unit();
         c.attempts = attempts[k];
         const std::vector<ChunkEvent> events = readChunkEvents(plan.dir, k);
         c.status = events.empty() || events.back().again ? -1 : events.back().status;
-        for (long long f : parseFrames(c.frames)) {
+        const std::vector<std::string> files = plan.chunkFiles(k);
+        for (size_t i = 0; i < files.size(); ++i) {
             std::string key;
             try {
-                key = readSequenceKey(framePath(plan.output, f));
+                if (!s.merged)
+                    key = readSequenceKey(files[i]);
             } catch (const InputError&) {
             }
             ++s.frames;
-            if (key == plan.key)
+            if (s.merged || key == plan.key)
                 ++s.good;
             else
-                c.missing.push_back(f);
+                c.missing.push_back(plan.tiles ? (long long)k + 1 : parseFrames(plan.chunks[k])[i]);
         }
         s.chunks.push_back(std::move(c));
     }
@@ -332,40 +514,49 @@ std::string describeChunk(const FarmChunkState& c)
     if (c.done())
         return "done";
     const std::string frames = c.missing.size() == 1
-                                   ? fmt::format("frame {} missing", c.missing.front())
-                                   : fmt::format("{} frames missing", c.missing.size());
+                                   ? fmt::format("{} {} missing", c.unit, c.missing.front())
+                                   : fmt::format("{} {}s missing", c.missing.size(), c.unit);
     return (c.status == 0 ? std::string("ended (exit 0)") : describeStatus(c.status)) + ", " +
            frames;
 }
 
 std::string farmManifest(const FarmPlan& plan, const FarmState& state,
-                         const std::vector<size_t>& resubmitted)
+                         const std::vector<size_t>& resubmitted, const std::string& mergedChecksum)
 {
     nlohmann::ordered_json j;
     j["cambium_farm_manifest"] = 1;
     j["output"] = plan.output;
     j["key"] = plan.key;
-    j["complete"] = state.good == state.frames;
-    j["frames"] = state.frames;
-    j["frames_written"] = state.good;
+    j["complete"] = state.good == state.frames && (!plan.tiles || !mergedChecksum.empty());
+    if (plan.tiles) {
+        j["tiles"] = state.frames;
+        j["tiles_written"] = state.good;
+        if (!mergedChecksum.empty())
+            j["merged_checksum"] = mergedChecksum;  // (the tiles, merged, are removed)
+    } else {
+        j["frames"] = state.frames;
+        j["frames_written"] = state.good;
+    }
     nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
     nlohmann::ordered_json files = nlohmann::ordered_json::array();
     for (size_t k = 0; k < state.chunks.size(); ++k) {
         const FarmChunkState& c = state.chunks[k];
         const bool again =
             std::find(resubmitted.begin(), resubmitted.end(), k) != resubmitted.end();
-        chunks.push_back({{"frames", c.frames},
+        chunks.push_back({{plan.tiles ? "tile" : "frames", plan.chunks[k]},
                           {"status", c.status},
                           {"attempts", c.attempts},
                           {"state", describeChunk(c)},
                           {"resubmitted", again}});
-        for (long long f : parseFrames(c.frames)) {
-            const std::string path = framePath(plan.output, f);
-            const bool ok = std::find(c.missing.begin(), c.missing.end(), f) == c.missing.end();
+        const std::vector<std::string> paths = plan.chunkFiles(k);
+        for (size_t i = 0; i < paths.size(); ++i) {
+            const long long number = plan.tiles ? (long long)k + 1 : parseFrames(plan.chunks[k])[i];
+            const bool ok =
+                std::find(c.missing.begin(), c.missing.end(), number) == c.missing.end();
             std::error_code ec;
-            const auto bytes = fs::file_size(path, ec);
-            files.push_back({{"frame", f},
-                             {"path", path},
+            const auto bytes = fs::file_size(paths[i], ec);
+            files.push_back({{plan.unit(), number},
+                             {"path", paths[i]},
                              {"ok", ok},
                              {"bytes", ec ? 0 : (unsigned long long)bytes}});
         }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "farm/chunks.h"
+#include "io/vdb.h"
 
 #include <string>
 #include <vector>
@@ -35,9 +36,31 @@ struct SlurmArray {
     std::string planJson;     ///< the plan file: inputs and their hash, key, voxel size, chunks
     std::string script;       ///< the array's batch script
     std::string finalScript;  ///< the final job's: `cambium farm --finish FARMDIR`
+    long long finalMemoryMB = 512;  ///< the final job's --mem
 };
 
 SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& options);
+
+/// One frame baked as tiles by a job array (bake --tiles --slurm): task k
+/// bakes tile k+1 of `tiles` (`--tile K/N`) into FARMDIR/tile-K.vdb, and the
+/// final job merges them into the request's output, OUTDIR/NAME.vdb, whose
+/// farm directory is OUTDIR/NAME.vdb.tiles.farm.
+struct TileFarmRequest {
+    BakeRequest request;  ///< its voxel size decided
+    int tiles = 2;
+    double tileBytes = 0.0;   ///< a tile's share of the frame's estimate
+    double frameBytes = 0.0;  ///< the frame's estimate (the merge holds less)
+    double threshold = 0.5;   ///< the model's, for the merged file's metadata
+};
+SlurmArray planTileArray(const TileFarmRequest& request, const SlurmOptions& options);
+
+/// The key a tile's file carries (`cambium_sequence`): a hash of the input's
+/// text and every option of the tile's bake but its output, cores and --half,
+/// with the tile count; the same for the plan and for each tile's bake.
+std::string tileFarmKey(const BakeRequest& request, int tiles);
+
+/// Tile `tile` (0-based) of a tile farm: FARMDIR/tile-K.vdb, K from 1.
+std::string tilePath(const std::string& farmDir, size_t tile);
 
 /// The arguments of `cambium bake` that bake `request` at `voxelSize` (every
 /// option that changes the result, paths made absolute): what a farm's or a
@@ -56,7 +79,16 @@ std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std:
 struct FarmPlan {
     std::string dir, output, key, scriptPath, finalScriptPath;
     int retries = 0, throttle = 0;
-    std::vector<std::string> chunks;  ///< each chunk's --frames
+    /// each chunk's --frames; a tile farm's: each tile's --tile, "K/N"
+    std::vector<std::string> chunks;
+    int tiles = 0;  ///< a tile farm's tile count (0: a sequence's farm)
+    /// A tile farm's merged file, as the tiles' bake would have written it.
+    VdbFileInfo merged;
+    /// A chunk's files: its frames, or its tile's file.
+    std::vector<std::string> chunkFiles(size_t chunk) const;
+    /// "chunk 1/3 frames 1-9" or "tile 2/4": a chunk in a line about it.
+    std::string chunkName(size_t chunk) const;
+    const char* unit() const { return tiles ? "tile" : "frame"; }
 };
 FarmPlan readFarmPlan(const std::string& farmDir);
 
@@ -74,7 +106,8 @@ void markSubmittedAgain(const std::string& farmDir, size_t chunk);
 
 /// Where one chunk of a farm stands.
 struct FarmChunkState {
-    std::string frames;
+    std::string name;            ///< the plan's chunkName
+    const char* unit = "frame";  ///< what it writes: "frame" or "tile"
     /// The last attempt's exit status (its task-I.status); -1: none
     /// (cancelled, killed with its script, or not ended yet).
     int status = -1;
@@ -86,7 +119,10 @@ struct FarmChunkState {
 };
 struct FarmState {
     std::vector<FarmChunkState> chunks;
-    size_t frames = 0, good = 0;
+    size_t frames = 0, good = 0;  ///< files (frames or tiles) of the plan, and those written
+    /// A tile farm's tiles merged into its output (then removed): every
+    /// chunk done.
+    bool merged = false;
     /// Chunks not done: for bad input (never submitted again), and the rest.
     size_t badInput() const;
     size_t failed() const;
@@ -101,10 +137,12 @@ FarmState assessFarm(const FarmPlan& plan);
 /// submitted at most `plan.retries` times so far.
 std::vector<size_t> chunksToRetry(const FarmPlan& plan, const FarmState& state);
 
-/// The manifest (manifest.json) of a farm: every frame's file and state,
-/// every chunk's status and attempts, and which were submitted again.
+/// The manifest (manifest.json) of a farm: every file's (frame's, tile's)
+/// state, every chunk's status and attempts, and which were submitted again;
+/// for a tile farm whose tiles were merged, the merged file's checksum.
 std::string farmManifest(const FarmPlan& plan, const FarmState& state,
-                         const std::vector<size_t>& resubmitted);
+                         const std::vector<size_t>& resubmitted,
+                         const std::string& mergedChecksum = {});
 
 /// A task's exit status in words: "done", "failed (exit 1)", "failed: bad
 /// input (exit 2; see its log)", or (-1) "ended without a status …".
