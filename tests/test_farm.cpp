@@ -322,6 +322,7 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     t.tiles = 3;
     t.tileBytes = 100e6;
     t.threshold = loadModel(kPopulus, t.request.model).threshold();
+    t.scene = kPopulus;
     SlurmOptions o;
     o.exe = exe;
     const SlurmArray array = planTileArray(t, o);
@@ -345,16 +346,31 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     state = assessFarm(farm);
     EXPECT_EQ(describeChunk(state.chunks[1]), "ended (exit 0), tile 2 missing");
     EXPECT_EQ(chunksToRetry(farm, state), std::vector<size_t>{1});
-    // A tile of another plan (another voxel size) is not this plan's.
-    BakeRequest other = t.request;
-    other.voxelSize = 0.03;
-    EXPECT_NE(tileFarmKey(other, 3), farm.key);
-    EXPECT_EQ(tileFarmKey(t.request, 3), farm.key);
-    EXPECT_NE(tileFarmKey(t.request, 4), farm.key);
+    // A tile of another plan (another voxel size) in its place is not this
+    // plan's.
+    const std::string stale = exe + " bake " + kPopulus +
+                              " --time 8 --voxel-size 0.03 --device cpu --tile 2/3 -o " +
+                              shellQuote(tilePath(farm.dir, 1)) + " > /dev/null";
+    ASSERT_EQ(std::system(stale.c_str()), 0);
+    EXPECT_EQ(assessFarm(farm).chunks[1].missing, std::vector<long long>{2});
     fs::rename(dir / "kept.vdb", tilePath(farm.dir, 1));
-    const std::string finish = exe + " farm --finish " + shellQuote(farm.dir) + " > " +
-                               shellQuote((dir / "finish.txt").string()) + " 2>&1";
-    ASSERT_EQ(WEXITSTATUS(std::system(finish.c_str())), 0) << fileContents(dir / "finish.txt");
+    auto farmCommand = [&](const std::string& args) {
+        const std::string command = exe + " farm " + args + " " + shellQuote(farm.dir) + " > " +
+                                    shellQuote((dir / "farm.txt").string()) + " 2>&1";
+        return WEXITSTATUS(std::system(command.c_str()));
+    };
+    // A merge that fails (its output cannot be written) leaves the farm not
+    // complete, the tiles kept: exit 1, and --finish merges them later.
+    fs::create_directories(dir / "hero.vdb");
+    EXPECT_NE(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
+    EXPECT_EQ(farmCommand(""), 1) << fileContents(dir / "farm.txt");
+    EXPECT_NE(
+        fileContents(dir / "farm.txt").find("3 of 3 tiles written and of this plan, not merged"),
+        std::string::npos)
+        << fileContents(dir / "farm.txt");
+    fs::remove(dir / "hero.vdb");
+    ASSERT_EQ(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
+    fs::copy_file(dir / "farm.txt", dir / "finish.txt");
     EXPECT_NE(fileContents(dir / "finish.txt").find("merged 3 tiles into"), std::string::npos)
         << fileContents(dir / "finish.txt");
     const std::string a = fileContents(single), b = fileContents(dir / "hero.vdb");
@@ -370,6 +386,14 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     EXPECT_EQ(state.good, 3u);
     EXPECT_NE(fileContents(fs::path(farm.dir) / "manifest.json").find("\"complete\": true"),
               std::string::npos);
+    // --finish again on the merged farm: still merged, nothing submitted.
+    EXPECT_EQ(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
+    EXPECT_TRUE(assessFarm(farm).merged);
+    EXPECT_EQ(farmCommand(""), 0) << fileContents(dir / "farm.txt");
+    EXPECT_NE(
+        fileContents(dir / "farm.txt").find("3 of 3 tiles written and of this plan, merged into"),
+        std::string::npos)
+        << fileContents(dir / "farm.txt");
     fs::remove(dir / "hero.vdb");
     state = assessFarm(farm);
     EXPECT_FALSE(state.merged);

@@ -169,17 +169,22 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
 }
 
 /// The summary line of a farm's state, and its exit status: 0 when every
-/// frame is there, 2 when a chunk failed for bad input, 1 otherwise.
+/// frame is there (a tile farm's tiles merged), 2 when a chunk failed for bad
+/// input, 1 otherwise.
 int summarize(const FarmPlan& plan, const FarmState& state, size_t running = 0)
 {
     const char* chunks = plan.tiles ? "tiles" : "chunks";
+    const std::string merged =
+        !plan.tiles || state.good != state.frames ? std::string()
+        : state.merged                            ? fmt::format(", merged into {}", plan.output)
+                       : fmt::format(", not merged into {} (cambium farm --finish {} merges them)",
+                                     plan.output, plan.dir);
     fmt::print("{} of {} {}s written and of this plan{}; {}{} {} failed, {} for bad input\n",
-               state.good, state.frames, plan.unit(),
-               state.merged ? fmt::format(", merged into {}", plan.output) : std::string(),
+               state.good, state.frames, plan.unit(), merged,
                running ? fmt::format("{} {} queued or running, ", running, chunks) : std::string(),
                state.failed() - running, chunks, state.badInput());
     std::fflush(stdout);
-    return state.good == state.frames ? 0 : state.badInput() ? 2 : 1;
+    return state.complete(plan) ? 0 : state.badInput() ? 2 : 1;
 }
 
 }  // namespace
@@ -278,7 +283,7 @@ int submitArray(const SlurmArray& array, const SlurmFlags& flags, const std::str
     // A new submission: statuses and attempts from nothing.
     const FarmPlan farmPlan = readFarmPlan(farm.string());
     for (size_t k = 0; k < farmPlan.chunks.size(); ++k)
-        fs::remove(farm / fmt::format("task-{}.status", k), ec);
+        fs::remove(chunkHistoryPath(farm.string(), k), ec);
     fs::remove(farm / "manifest.json", ec);
     fs::remove(farm / "jobs", ec);
     const auto [id, finalId] = submitFarm(farmPlan, {});
@@ -364,6 +369,10 @@ int runTileFarmCommand(const BakeRequest& asked, const TilePlan& tiles, const Sl
     t.tileBytes = tiles.tileBytes;
     t.frameBytes = tiles.frameBytes;
     t.threshold = tiles.threshold;
+    t.scene = asked.input;
+    if (tiles.tiles == 1)
+        printNotice(fmt::format("the frame's estimate ({}) is within --max-memory: one task",
+                                formatBytes(tiles.frameBytes)));
     return submitArray(planTileArray(t, slurmOptions(flags)), flags, t.request.output,
                        fmt::format("1 frame in {} tiles (voxel size {:g}, the frame's estimate {})",
                                    tiles.tiles, tiles.voxelSize, formatBytes(tiles.frameBytes)));
@@ -396,10 +405,15 @@ void addFarmCommand(CLI::App& app, Action& action)
             // task ids; "N/A" for the final job).
             std::set<size_t> running;
             if (const std::string ids = farmJobs(plan.dir); !o->finish && !ids.empty()) {
-                std::istringstream tasks(queuedJobs(ids, "%K"));
-                for (std::string t; std::getline(tasks, t);)
-                    if (!t.empty() && std::isdigit((unsigned char)t.front()))
-                        running.insert(size_t(std::stoul(t)));
+                try {
+                    std::istringstream tasks(queuedJobs(ids, "%K"));
+                    for (std::string t; std::getline(tasks, t);)
+                        if (!t.empty() && std::isdigit((unsigned char)t.front()))
+                            running.insert(size_t(std::stoul(t)));
+                } catch (const std::runtime_error& e) {  // (read where Slurm is not)
+                    printNotice(fmt::format("not knowing which chunks are queued or running: {}",
+                                            e.what()));
+                }
             }
             size_t runningUndone = 0;
             for (size_t k = 0; k < state.chunks.size(); ++k) {
@@ -456,8 +470,9 @@ void addFarmCommand(CLI::App& app, Action& action)
                 described.input = plan.merged.scene;
                 checkSomethingBaked(grids.stats, described);
                 writeVdb(grids, plan.output, plan.merged);
-                const std::string sum = inspectVdb(plan.output).strings.at("cambium_checksum");
-                const std::string manifest = farmManifest(plan, state, {}, sum);
+                state.merged = true;
+                state.mergedChecksum = inspectVdb(plan.output).strings.at("cambium_checksum");
+                const std::string manifest = farmManifest(plan, state, {});
                 writeFile((farm / "manifest.json").string(), manifest.data(), manifest.size());
                 std::error_code ec;
                 for (const std::string& f : files)
@@ -470,8 +485,11 @@ void addFarmCommand(CLI::App& app, Action& action)
                 return summarize(plan, assessFarm(plan));
             }
             const std::vector<size_t> again = chunksToRetry(plan, state);
-            for (size_t k : again)
+            std::vector<std::string> histories;  // (put back where sbatch refuses)
+            for (size_t k : again) {
+                histories.push_back(fileText(chunkHistoryPath(plan.dir, k)));
                 markSubmittedAgain(plan.dir, k);
+            }
             const std::string manifest = farmManifest(plan, state, again);
             writeFile((farm / "manifest.json").string(), manifest.data(), manifest.size());
             if (!again.empty()) {
@@ -481,6 +499,9 @@ void addFarmCommand(CLI::App& app, Action& action)
                 } catch (const std::exception&) {
                     const std::string none = farmManifest(plan, state, {});
                     writeFile((farm / "manifest.json").string(), none.data(), none.size());
+                    for (size_t i = 0; i < again.size(); ++i)
+                        writeFile(chunkHistoryPath(plan.dir, again[i]), histories[i].data(),
+                                  histories[i].size());
                     throw;
                 }
                 std::string list;

@@ -81,6 +81,22 @@ std::vector<std::string> chunkBakeArguments(const SequencePlan& plan, const std:
 
 namespace {
 
+constexpr const char* kPart = "\x01part\x01";
+constexpr const char* kNumber = "\x01number\x01";
+constexpr const char* kThreads = "\x01threads\x01";
+
+/// A path the batch script names: InputError where it holds a control
+/// character (a newline would end a line of the script).
+void checkScriptPath(const std::string& path, const char* what)
+{
+    for (char c : path)
+        if ((unsigned char)c < 0x20 || c == 0x7f)
+            throw InputError(fmt::format(
+                "{} {}: --slurm needs paths without control characters (the batch script names "
+                "them)",
+                what, path));
+}
+
 /// A farm's directory beside `output`, OUTDIR/NAME.farm: refused where
 /// #SBATCH lines could not name it (they take their values unquoted: a
 /// space ends one, and '%' starts one of Slurm's file name patterns).
@@ -92,14 +108,16 @@ fs::path farmDirectory(const fs::path& output, const std::string& name)
             "-o {}: --slurm needs an output path without spaces, '%', quotes, '\\' or '$' (the "
             "batch script's #SBATCH lines name its directory)",
             output.string()));
+    checkScriptPath(output.string(), "-o");
     return farm;
 }
 
 /// The array's and the final job's scripts of `s` (its farmDir, jobName,
 /// resources and chunks' parts set): task i sets $part to part i and runs
-/// `command`, in whose arguments "@PART@", "@NUMBER@" and "@THREADS@" stand
-/// for $part, its number before a '/' and the task's cores, and adds its
-/// exit status to the chunk's history.
+/// `command`, in whose arguments kPart, kNumber and kThreads stand for $part,
+/// its number before a '/' and the task's cores, and adds its exit status to
+/// the chunk's history.  (The placeholders hold a control character no path
+/// cambium takes holds: farmDirectory refuses them.)
 void writeScripts(SlurmArray& s, const std::vector<std::string>& parts,
                   const std::vector<std::string>& command, const std::string& what,
                   const SlurmOptions& o)
@@ -134,9 +152,9 @@ void writeScripts(SlurmArray& s, const std::vector<std::string>& parts,
     // Each argument a shell word: its text quoted, the placeholders in it
     // expanded.
     const std::pair<const char*, const char*> expansions[] = {
-        {"@PART@", "\"$part\""},
-        {"@THREADS@", "\"${SLURM_CPUS_PER_TASK:-1}\""},
-        {"@NUMBER@", "\"${part%%/*}\""}};
+        {kPart, "\"$part\""},
+        {kThreads, "\"${SLURM_CPUS_PER_TASK:-1}\""},
+        {kNumber, "\"${part%%/*}\""}};
     std::string line = shellQuote(o.exe);
     for (const std::string& a : command) {
         std::string word, literal;
@@ -175,7 +193,8 @@ void writeScripts(SlurmArray& s, const std::vector<std::string>& parts,
     for (const std::string& arg : o.sbatchArgs)
         fin += "#SBATCH " + arg + "\n";
     fin += "# cambium: checks every file of " + s.planPath +
-           ", writes manifest.json and submits the failed chunks again\n";
+           " (a tile farm's: merges the tiles once all are there), writes manifest.json and "
+           "submits the failed chunks again\n";
     fin += caches;
     fin += "exec " + shellQuote(o.exe) + " farm --finish " + shellQuote(farm.string()) + "\n";
     s.finalScript = fin;
@@ -228,6 +247,8 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     s.resources = taskResources(plan.bytesPerFrame, o.nodeCpus, o.nodeMemoryBytes);
 
     const std::string input = fs::absolute(plan.request.bake.input).string();
+    checkScriptPath(input, "input");
+    checkScriptPath(plan.request.bake.barkPhoto, "--bark-photo");
     nlohmann::ordered_json j =
         planHeader(s, "frames", input, output.string(), plan.key, plan.voxelSize, o);
     j["fps_per_year"] = plan.request.fpsPerYear;
@@ -243,7 +264,7 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
     }
     j["chunks"] = chunks;
     s.planJson = j.dump(2) + "\n";
-    writeScripts(s, parts, chunkBakeArguments(plan, "@PART@", "@THREADS@"),
+    writeScripts(s, parts, chunkBakeArguments(plan, kPart, kThreads),
                  fmt::format("{} frames of {} in {} chunks ({})", plan.frames.size(), input,
                              s.chunks.size(), plan.request.frames),
                  o);
@@ -287,13 +308,14 @@ SlurmArray planTileArray(const TileFarmRequest& t, const SlurmOptions& o)
     s.finalMemoryMB = std::max(s.finalMemoryMB, taskResources(t.frameBytes, 1, 0.0).memoryMB);
 
     const std::string input = fs::absolute(r.input).string();
+    checkScriptPath(input, "input");
     nlohmann::ordered_json j =
         planHeader(s, "tiles", input, output.string(), tileFarmKey(r, t.tiles), *r.voxelSize, o);
     j["tiles"] = t.tiles;
     j["half"] = r.half;
     j["threshold"] = t.threshold;
     j["half_width"] = r.halfWidth;
-    j["scene"] = r.input;
+    j["scene"] = t.scene;
     std::vector<std::string> parts;
     nlohmann::ordered_json chunks = nlohmann::ordered_json::array();
     for (int k = 0; k < t.tiles; ++k) {
@@ -310,8 +332,8 @@ SlurmArray planTileArray(const TileFarmRequest& t, const SlurmOptions& o)
     one.output = tilePath(s.farmDir, 0);
     std::vector<std::string> command = bakeArguments(one, *r.voxelSize);
     std::replace(command.begin(), command.end(), one.output,
-                 (fs::path(s.farmDir) / "tile-@NUMBER@.vdb").string());
-    command.insert(command.end(), {"--tile", "@PART@", "--threads", "@THREADS@"});
+                 (fs::path(s.farmDir) / (std::string("tile-") + kNumber + ".vdb")).string());
+    command.insert(command.end(), {"--tile", kPart, "--threads", kThreads});
     writeScripts(
         s, parts, command,
         fmt::format("one frame of {} in {} tiles, merged into {}", input, t.tiles, output.string()),
@@ -394,18 +416,19 @@ size_t FarmState::failed() const
                                 [](const FarmChunkState& c) { return !c.done(); }));
 }
 
-namespace {
-fs::path chunkEventsPath(const std::string& farmDir, size_t chunk)
+std::string chunkHistoryPath(const std::string& farmDir, size_t chunk)
 {
-    return fs::path(farmDir) / fmt::format("task-{}.status", chunk);
+    return (fs::path(farmDir) / fmt::format("task-{}.status", chunk)).string();
 }
+
+namespace {
 constexpr const char* kSubmittedAgain = "submitted again";
 }  // namespace
 
 std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk)
 {
     std::vector<ChunkEvent> events;
-    std::ifstream in(chunkEventsPath(farmDir, chunk));
+    std::ifstream in(chunkHistoryPath(farmDir, chunk));
     for (std::string line; std::getline(in, line);) {
         ChunkEvent e;
         if (line == kSubmittedAgain)
@@ -419,7 +442,7 @@ std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk
 
 void markSubmittedAgain(const std::string& farmDir, size_t chunk)
 {
-    const fs::path path = chunkEventsPath(farmDir, chunk);
+    const fs::path path = chunkHistoryPath(farmDir, chunk);
     std::string text;
     if (fs::exists(path))
         text = readTextFile(path.string(), "chunk status");
@@ -461,6 +484,8 @@ FarmState assessFarm(const FarmPlan& plan)
             const VdbSummary out = inspectVdb(plan.output);
             const auto sum = out.strings.find("cambium_checksum");
             s.merged = sum != out.strings.end() && sum->second == mergedChecksum;
+            if (s.merged)
+                s.mergedChecksum = mergedChecksum;
         } catch (const InputError&) {
         }
     }
@@ -520,19 +545,24 @@ std::string describeChunk(const FarmChunkState& c)
            frames;
 }
 
+bool FarmState::complete(const FarmPlan& plan) const
+{
+    return good == frames && (!plan.tiles || merged);
+}
+
 std::string farmManifest(const FarmPlan& plan, const FarmState& state,
-                         const std::vector<size_t>& resubmitted, const std::string& mergedChecksum)
+                         const std::vector<size_t>& resubmitted)
 {
     nlohmann::ordered_json j;
     j["cambium_farm_manifest"] = 1;
     j["output"] = plan.output;
     j["key"] = plan.key;
-    j["complete"] = state.good == state.frames && (!plan.tiles || !mergedChecksum.empty());
+    j["complete"] = state.complete(plan);
     if (plan.tiles) {
         j["tiles"] = state.frames;
         j["tiles_written"] = state.good;
-        if (!mergedChecksum.empty())
-            j["merged_checksum"] = mergedChecksum;  // (the tiles, merged, are removed)
+        if (state.merged)
+            j["merged_checksum"] = state.mergedChecksum;  // (the tiles, merged, are removed)
     } else {
         j["frames"] = state.frames;
         j["frames_written"] = state.good;
@@ -548,7 +578,8 @@ std::string farmManifest(const FarmPlan& plan, const FarmState& state,
                           {"attempts", c.attempts},
                           {"state", describeChunk(c)},
                           {"resubmitted", again}});
-        const std::vector<std::string> paths = plan.chunkFiles(k);
+        const std::vector<std::string> paths =
+            state.merged ? std::vector<std::string>() : plan.chunkFiles(k);
         for (size_t i = 0; i < paths.size(); ++i) {
             const long long number = plan.tiles ? (long long)k + 1 : parseFrames(plan.chunks[k])[i];
             const bool ok =
@@ -560,6 +591,12 @@ std::string farmManifest(const FarmPlan& plan, const FarmState& state,
                              {"ok", ok},
                              {"bytes", ec ? 0 : (unsigned long long)bytes}});
         }
+    }
+    if (state.merged) {  // (the tiles removed: the merged file)
+        std::error_code ec;
+        const auto bytes = fs::file_size(plan.output, ec);
+        files.push_back(
+            {{"path", plan.output}, {"ok", true}, {"bytes", ec ? 0 : (unsigned long long)bytes}});
     }
     j["chunks"] = chunks;
     j["files"] = files;

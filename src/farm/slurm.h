@@ -51,6 +51,7 @@ struct TileFarmRequest {
     double tileBytes = 0.0;   ///< a tile's share of the frame's estimate
     double frameBytes = 0.0;  ///< the frame's estimate (the merge holds less)
     double threshold = 0.5;   ///< the model's, for the merged file's metadata
+    std::string scene;        ///< the input as the user named it, for the same
 };
 SlurmArray planTileArray(const TileFarmRequest& request, const SlurmOptions& options);
 
@@ -101,6 +102,8 @@ struct ChunkEvent {
     int status = 0;      ///< the ended task's exit status
 };
 std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk);
+/// Chunk `chunk`'s history file, FARMDIR/task-I.status.
+std::string chunkHistoryPath(const std::string& farmDir, size_t chunk);
 /// Adds "submitted again" to chunk `chunk`'s history (before its sbatch).
 void markSubmittedAgain(const std::string& farmDir, size_t chunk);
 
@@ -123,6 +126,10 @@ struct FarmState {
     /// A tile farm's tiles merged into its output (then removed): every
     /// chunk done.
     bool merged = false;
+    /// The merged file's `cambium_checksum`, as the manifest records it.
+    std::string mergedChecksum;
+    /// Every file of the plan there (a tile farm's: merged too).
+    bool complete(const struct FarmPlan& plan) const;
     /// Chunks not done: for bad input (never submitted again), and the rest.
     size_t badInput() const;
     size_t failed() const;
@@ -139,10 +146,9 @@ std::vector<size_t> chunksToRetry(const FarmPlan& plan, const FarmState& state);
 
 /// The manifest (manifest.json) of a farm: every file's (frame's, tile's)
 /// state, every chunk's status and attempts, and which were submitted again;
-/// for a tile farm whose tiles were merged, the merged file's checksum.
+/// for a tile farm whose tiles were merged, the merged file and its checksum.
 std::string farmManifest(const FarmPlan& plan, const FarmState& state,
-                         const std::vector<size_t>& resubmitted,
-                         const std::string& mergedChecksum = {});
+                         const std::vector<size_t>& resubmitted);
 
 /// A task's exit status in words: "done", "failed (exit 1)", "failed: bad
 /// input (exit 2; see its log)", or (-1) "ended without a status …".
