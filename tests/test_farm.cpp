@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "cli_util.h"
+#include "temp_dir.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -107,12 +108,7 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     // plan writes, byte for byte past the header's random UUID, and leaves
     // each task's exit status beside its logs.
     namespace fs = std::filesystem;
-    const fs::path dir = fs::temp_directory_path() / ("cambium_farm_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup() { fs::remove_all(dir); }
-    } cleanup{dir};
+    const fs::path dir = cambium::test::freshDir("cambium_farm");
     fs::create_directories(dir / "local");
     fs::create_directories(dir / "farm");
     openvdb::initialize();
@@ -233,14 +229,7 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     // estimate is twice --max-memory is split into the 3 tiles whose shares
     // (1.5 / tiles of the estimate) fit; bad --tile values are refused.
     namespace fs = std::filesystem;
-    const fs::path dir =
-        fs::temp_directory_path() / ("cambium_tiles_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup() { fs::remove_all(dir); }
-    } cleanup{dir};
+    const fs::path dir = cambium::test::freshDir("cambium_tiles");
     const std::string exe = CAMBIUM_EXE;
     const std::string bake = exe + " bake " + kPopulus + " --time 8 --voxel-size 0.02 --device cpu";
     auto run = [&](const std::string& args, const std::string& out) {
@@ -296,14 +285,7 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     // them into the file the single bake writes (--half: the merge packs
     // halves), byte for byte past the UUID, records it and removes the tiles.
     namespace fs = std::filesystem;
-    const fs::path dir =
-        fs::temp_directory_path() / ("cambium_tile_farm_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup() { fs::remove_all(dir); }
-    } cleanup{dir};
+    const fs::path dir = cambium::test::freshDir("cambium_tile_farm");
     openvdb::initialize();
     const std::string exe = CAMBIUM_EXE;
     const std::string single = (dir / "single.vdb").string();
@@ -359,20 +341,18 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
                                     shellQuote((dir / "farm.txt").string()) + " 2>&1";
         return WEXITSTATUS(std::system(command.c_str()));
     };
+    // What the last command printed, and whether it holds `text`.
+    auto printed = [&] { return fileContents(dir / "farm.txt"); };
+    auto says = [&](const std::string& text) { return printed().find(text) != std::string::npos; };
     // A merge that fails (its output cannot be written) leaves the farm not
     // complete, the tiles kept: exit 1, and --finish merges them later.
     fs::create_directories(dir / "hero.vdb");
-    EXPECT_NE(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
-    EXPECT_EQ(farmCommand(""), 1) << fileContents(dir / "farm.txt");
-    EXPECT_NE(
-        fileContents(dir / "farm.txt").find("3 of 3 tiles written and of this plan, not merged"),
-        std::string::npos)
-        << fileContents(dir / "farm.txt");
+    EXPECT_NE(farmCommand("--finish"), 0) << printed();
+    EXPECT_EQ(farmCommand(""), 1) << printed();
+    EXPECT_TRUE(says("3 of 3 tiles written and of this plan, not merged")) << printed();
     fs::remove(dir / "hero.vdb");
-    ASSERT_EQ(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
-    fs::copy_file(dir / "farm.txt", dir / "finish.txt");
-    EXPECT_NE(fileContents(dir / "finish.txt").find("merged 3 tiles into"), std::string::npos)
-        << fileContents(dir / "finish.txt");
+    ASSERT_EQ(farmCommand("--finish"), 0) << printed();
+    EXPECT_TRUE(says("merged 3 tiles into")) << printed();
     const std::string a = fileContents(single), b = fileContents(dir / "hero.vdb");
     constexpr size_t kUuidEnd = 57;
     ASSERT_GT(a.size(), kUuidEnd);
@@ -387,13 +367,10 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     EXPECT_NE(fileContents(fs::path(farm.dir) / "manifest.json").find("\"complete\": true"),
               std::string::npos);
     // --finish again on the merged farm: still merged, nothing submitted.
-    EXPECT_EQ(farmCommand("--finish"), 0) << fileContents(dir / "farm.txt");
+    EXPECT_EQ(farmCommand("--finish"), 0) << printed();
     EXPECT_TRUE(assessFarm(farm).merged);
-    EXPECT_EQ(farmCommand(""), 0) << fileContents(dir / "farm.txt");
-    EXPECT_NE(
-        fileContents(dir / "farm.txt").find("3 of 3 tiles written and of this plan, merged into"),
-        std::string::npos)
-        << fileContents(dir / "farm.txt");
+    EXPECT_EQ(farmCommand(""), 0) << printed();
+    EXPECT_TRUE(says("3 of 3 tiles written and of this plan, merged into")) << printed();
     fs::remove(dir / "hero.vdb");
     state = assessFarm(farm);
     EXPECT_FALSE(state.merged);
