@@ -2,7 +2,7 @@
 #  - data flows one way: a module includes only modules above it in ORDER;
 #  - the library never prints: only src/app writes to stdout or stderr.
 # cmake -DSOURCE_DIR=... -P tests/check_layout.cmake
-set(ORDER core cl io blobtree model field bake farm use subdiv shape bench app)
+set(ORDER core cl io blobtree model field bake farm use subdiv shape bench preview app)
 file(GLOB_RECURSE files RELATIVE ${SOURCE_DIR}/src ${SOURCE_DIR}/src/*.h ${SOURCE_DIR}/src/*.cpp
      ${SOURCE_DIR}/src/*.inc)
 set(problems "")

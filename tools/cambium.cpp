@@ -19,7 +19,8 @@ const cambium::AddCommand kCommands[] = {
     cambium::addInfoCommand,    cambium::addEvalCommand,   cambium::addBakeCommand,
     cambium::addMeshCommand,    cambium::addRenderCommand, cambium::addBenchCommand,
     cambium::addLSystemCommand, cambium::addGrowthCommand, cambium::addShapeCommand,
-    cambium::addPrepareCommand, cambium::addFarmCommand,   cambium::addVersionCommand,
+    cambium::addPrepareCommand, cambium::addFarmCommand,   cambium::addPreviewCommand,
+    cambium::addVersionCommand,
 };
 
 }  // namespace

@@ -35,6 +35,7 @@ void addShapeCommand(CLI::App& app, Action& action);
 void addVersionCommand(CLI::App& app, Action& action);
 void addPrepareCommand(CLI::App& app, Action& action);
 void addFarmCommand(CLI::App& app, Action& action);
+void addPreviewCommand(CLI::App& app, Action& action);
 
 /// The model options of info and bake as the command line gives them.
 struct ModelFlags {

@@ -53,6 +53,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     BakeTimings& tm = st.timings;
     st.voxelSize = h;
     const Progress progress = [&](const char* stage, double f) {
+        if (opt.interrupt && opt.interrupt->load(std::memory_order_relaxed))
+            throw BakeInterrupted();
         if (opt.progress)
             opt.progress(stage, f);
     };

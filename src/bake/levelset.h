@@ -8,6 +8,8 @@
 
 #include <openvdb/openvdb.h>
 
+#include <atomic>
+#include <exception>
 #include <functional>
 #include <array>
 #include <string>
@@ -52,6 +54,15 @@ struct BakeOptions {
     /// Called with a stage name and the fraction done; may be called from
     /// several threads at once.
     std::function<void(const char* stage, double fraction)> progress;
+    /// When raised (by another thread), the bake stops where it reports its
+    /// progress (a tile of the topology search, a layer of leaves) and
+    /// throws BakeInterrupted: what a live preview does with a stale bake.
+    const std::atomic<bool>* interrupt = nullptr;
+};
+
+/// What a bake whose BakeOptions::interrupt was raised throws.
+struct BakeInterrupted : std::exception {
+    const char* what() const noexcept override { return "the bake was interrupted"; }
 };
 
 /// Where a bake's time went, stage by stage (seconds; thread time where

@@ -1,0 +1,116 @@
+// cambium preview FILE — the live preview: one process that keeps its
+// device, kernels and leaf values, watches the model file and writes a new
+// picture on every change (src/preview), a line per picture.
+#include "app/app.h"
+
+#include "core/error.h"
+#include "preview/loop.h"
+#include "preview/preview.h"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <cstdio>
+
+namespace cambium {
+
+namespace {
+
+/// An update in one line: its stages, or why there is no new picture.
+void report(const PreviewSettings& settings, const PreviewUpdate& u)
+{
+    using O = PreviewUpdate::Outcome;
+    switch (u.outcome) {
+        case O::Rendered:
+            fmt::print(
+                "picture {}: {:.2f} s -> {} (read and grow {:.2f} s, compile {:.2f} s, bake {:.2f} "
+                "s: "
+                "{} leaves, {} reused, voxel size {:g}; render {:.2f} s, write {:.2f} s)\n",
+                u.pictures, u.total, settings.output, u.model, u.compile, u.bake,
+                formatCount(double(u.leaves)), formatCount(double(u.reusedLeaves)), u.voxelSize,
+                u.render, u.write);
+            break;
+        case O::Failed:
+            fmt::print("error: {} (the last picture kept)\n", u.error);
+            break;
+        case O::Interrupted:
+            fmt::print("interrupted after {:.2f} s: the file changed again\n", u.total);
+            break;
+        case O::Unchanged:
+            break;
+    }
+    std::fflush(stdout);
+}
+
+}  // namespace
+
+void addPreviewCommand(CLI::App& app, Action& action)
+{
+    struct Options {
+        PreviewSettings settings;
+        ModelFlags model;
+        double voxelSize = 0.0;
+        std::string device = "opencl", renderDevice = "cpu";
+        bool once = false;
+    };
+    auto o = std::make_shared<Options>();
+    auto* cmd = app.add_subcommand(
+        "preview",
+        "Watch a model file and write a new picture on every change (docs/preview.md): one "
+        "process that keeps its device, kernels and unchanged leaves between pictures");
+    cmd->add_option("input", o->settings.input,
+                    "A growth parameter file, scene, L-system or skeleton file")
+        ->required();
+    addModelFlags(cmd, o->model);
+    auto* voxelOpt = cmd->add_option(
+        "--voxel-size", o->voxelSize,
+        fmt::format("The preview's voxel size (default: {:g} voxels across the first picture's "
+                    "model, kept)",
+                    kPreviewVoxelsAcross));
+    cmd->add_option("-o,--output", o->settings.output, "The picture (.png), written atomically")
+        ->capture_default_str();
+    cmd->add_option("--width", o->settings.width, "Picture width in pixels")->capture_default_str();
+    cmd->add_option("--height", o->settings.height, "Picture height in pixels")
+        ->capture_default_str();
+    cmd->add_option("--spp", o->settings.spp, "Samples per pixel")->capture_default_str();
+    cmd->add_option("--camera", o->settings.camera,
+                    "auto, turntable:ANGLE or look:EX,EY,EZ:TX,TY,TZ[:FOV], framed on the first "
+                    "picture's model and kept")
+        ->capture_default_str();
+    cmd->add_option("--device", o->device, "The bake's device: opencl or cpu")
+        ->capture_default_str();
+    cmd->add_option("--render-device", o->renderDevice, "The march's device: cpu or opencl")
+        ->capture_default_str();
+    cmd->add_flag("--once", o->once,
+                  "One picture, then exit (2: bad input, 1: a failure): what scripts and tests "
+                  "run");
+    cmd->callback([o, voxelOpt, &action] {
+        action = [o, voxelOpt] {
+            PreviewSettings& s = o->settings;
+            if (voxelOpt->count())
+                s.voxelSize = o->voxelSize;
+            s.model = o->model.options();
+            s.device = parseDevice(o->device);
+            s.renderDevice = parseDevice(o->renderDevice);
+            PreviewSession session(s);
+            if (o->once) {
+                const PreviewUpdate u = session.update();
+                report(s, u);
+                if (u.outcome == PreviewUpdate::Outcome::Failed)
+                    return u.inputError ? 2 : 1;
+                return 0;
+            }
+            InotifyChanges changes(s.input);
+            fmt::print("preview of {}: a new {} on every change of the file (Ctrl-C stops)\n",
+                       s.input, s.output);
+            std::fflush(stdout);
+            const std::atomic<bool> never{false};  // (a signal ends the process)
+            PreviewLoopOptions loop;
+            loop.updated = [&](const PreviewUpdate& u) { report(s, u); };
+            runPreviewLoop(session, changes, never, loop);
+            return 0;
+        };
+    });
+}
+
+}  // namespace cambium

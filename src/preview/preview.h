@@ -1,0 +1,83 @@
+// cambium — the live preview's session (cambium preview): one long-lived
+// state that keeps the sampling device, the compiled kernels, the ray
+// marcher and the last bake's leaf values, and turns the model file as it is
+// now into a picture: read (and grow), bake at the preview voxel size reusing
+// the leaves whose programs did not change, render with a fixed camera,
+// write the picture atomically.  A bad file leaves the last good picture.
+// What watches the file and drives the session is preview/loop.h.
+#pragma once
+
+#include "core/system.h"
+#include "model/load_model.h"
+#include "use/render.h"
+
+#include <atomic>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace cambium {
+
+struct PreviewSettings {
+    std::string input;   ///< a scene, L-system, skeleton or growth parameter file
+    ModelOptions model;  ///< --time / --year among them
+    /// The preview's voxel size; unset: kPreviewVoxelsAcross voxels across
+    /// the first good model's surface bounds, kept for every later picture
+    /// (so that unchanged leaves are reused and the tree does not change
+    /// resolution as it grows).
+    std::optional<double> voxelSize;
+    Device device = Device::OpenCL;  ///< the bake's sampler
+    Device renderDevice =
+        Device::Cpu;  ///< the march (the CPU's the faster here: docs/rendering.md)
+    int width = 640, height = 480, spp = 1;
+    std::string camera = "auto";  ///< parseCamera's spec, framed on the first good model
+    std::string output = "preview.png";
+};
+
+/// The default preview resolution: voxels across the first model's bounds.
+constexpr double kPreviewVoxelsAcross = 384.0;
+
+/// What one update did.
+struct PreviewUpdate {
+    enum class Outcome {
+        Rendered,     ///< a new picture was written
+        Unchanged,    ///< the file's text is the last good picture's: nothing done
+        Failed,       ///< the file (or the work) failed: `error`; the last picture kept
+        Interrupted,  ///< the interrupt was raised: nothing written
+    };
+    Outcome outcome = Outcome::Unchanged;
+    std::string error;        ///< Failed: the message, naming the file and the JSON path
+    bool inputError = false;  ///< Failed: bad input (else a failure of the work)
+    /// Seconds of each stage: the model read (and grown), compiled, baked,
+    /// rendered, the picture written; and all of it.
+    double model = 0.0, compile = 0.0, bake = 0.0, render = 0.0, write = 0.0, total = 0.0;
+    double voxelSize = 0.0;
+    size_t leaves = 0, reusedLeaves = 0, activeVoxels = 0;
+    size_t pictures = 0;  ///< pictures written by the session so far
+};
+
+class PreviewSession {
+public:
+    /// Checks the settings (InputError: before any work); the device is
+    /// started by the first update.
+    explicit PreviewSession(PreviewSettings settings);
+    ~PreviewSession();
+    PreviewSession(const PreviewSession&) = delete;
+    PreviewSession& operator=(const PreviewSession&) = delete;
+
+    /// Reads the file as it is now and, unless its text is the last good
+    /// picture's, makes and writes a new picture.  Never throws for a bad
+    /// file or a failed bake: the outcome says so and the last picture stays.
+    /// `interrupt`, when raised, stops the work at the next stage or layer
+    /// of leaves: nothing is written.
+    PreviewUpdate update(const std::atomic<bool>* interrupt = nullptr);
+
+    const PreviewSettings& settings() const { return settings_; }
+
+private:
+    struct State;
+    PreviewSettings settings_;
+    std::unique_ptr<State> state_;
+};
+
+}  // namespace cambium

@@ -1,0 +1,175 @@
+// The live preview's loop: an edit makes a new picture (unchanged leaves
+// reused); a bad edit keeps the last good picture and names the problem and
+// its place; a burst of edits is one update, for the last; an interrupted
+// bake writes nothing.
+#include "preview/loop.h"
+#include "preview/preview.h"
+
+#include "cli_util.h"
+#include "temp_dir.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using namespace cambium;
+using cambium::test::fileContents;
+namespace fs = std::filesystem;
+
+const std::string kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+
+/// A copy of the Populus in `dir` with "branching_angle" set to `angle`.
+void writeSpecies(const fs::path& path, const std::string& angle)
+{
+    std::string text = fileContents(kPopulus);
+    const std::string key = "\"branching_angle\": 55";
+    const size_t at = text.find(key);
+    EXPECT_NE(at, std::string::npos);
+    text.replace(at, key.size(), "\"branching_angle\": " + angle);
+    // (Written beside and renamed, as editors save.)
+    std::ofstream(path.string() + ".tmp") << text;
+    fs::rename(path.string() + ".tmp", path);
+}
+
+PreviewSettings settingsFor(const fs::path& dir)
+{
+    PreviewSettings s;
+    s.input = (dir / "tree.json").string();
+    s.model.time = 5.0;
+    s.voxelSize = 0.03;
+    s.device = Device::Cpu;
+    s.renderDevice = Device::Cpu;
+    s.width = 80;
+    s.height = 60;
+    // A fixed view: pictures of the same text compare byte for byte.
+    s.camera = "look:6,3,6:0,2,0";
+    s.output = (dir / "preview.png").string();
+    return s;
+}
+
+}  // namespace
+
+TEST(PreviewSession, AnEditMakesANewPictureAndABadOneKeepsTheLast)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_session");
+    writeSpecies(dir / "tree.json", "55");
+    PreviewSession session(settingsFor(dir));
+    using O = PreviewUpdate::Outcome;
+    PreviewUpdate u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_GT(u.activeVoxels, 0u);
+    EXPECT_EQ(u.reusedLeaves, 0u);
+    const std::string first = fileContents(dir / "preview.png");
+    ASSERT_FALSE(first.empty());
+    // The same text: nothing done.
+    EXPECT_EQ(session.update().outcome, O::Unchanged);
+    // Another branching angle: a new picture; the trunk's leaves reused.
+    writeSpecies(dir / "tree.json", "40");
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_GT(u.reusedLeaves, 0u);
+    EXPECT_LT(u.reusedLeaves, u.leaves);
+    const std::string second = fileContents(dir / "preview.png");
+    EXPECT_NE(second, first);
+    // Bad edits: named, with the place in the file; the picture kept.
+    std::ofstream(dir / "tree.json") << "{\"years\": 27, ";
+    u = session.update();
+    EXPECT_EQ(u.outcome, O::Failed);
+    EXPECT_TRUE(u.inputError);
+    EXPECT_NE(u.error.find("tree.json"), std::string::npos) << u.error;
+    EXPECT_EQ(fileContents(dir / "preview.png"), second);
+    writeSpecies(dir / "tree.json", "-400");
+    u = session.update();
+    EXPECT_EQ(u.outcome, O::Failed);
+    EXPECT_NE(u.error.find("branching_angle"), std::string::npos) << u.error;
+    EXPECT_EQ(fileContents(dir / "preview.png"), second);
+    // Back to the first text: its picture again, byte for byte.
+    writeSpecies(dir / "tree.json", "55");
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_EQ(fileContents(dir / "preview.png"), first);
+    EXPECT_EQ(u.pictures, 3u);
+}
+
+TEST(PreviewSession, AnInterruptedBakeWritesNothing)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_interrupt");
+    writeSpecies(dir / "tree.json", "55");
+    PreviewSettings s = settingsFor(dir);
+    s.model.time = 27.0;
+    s.voxelSize = 0.01;  // (seconds of work: interrupted well before its end)
+    PreviewSession session(s);
+    std::atomic<bool> interrupt{true};
+    EXPECT_EQ(session.update(&interrupt).outcome, PreviewUpdate::Outcome::Interrupted);
+    EXPECT_FALSE(fs::exists(dir / "preview.png"));
+    // Raised while the bake runs.
+    interrupt = false;
+    std::thread raise([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+        interrupt = true;
+    });
+    const PreviewUpdate u = session.update(&interrupt);
+    raise.join();
+    EXPECT_EQ(u.outcome, PreviewUpdate::Outcome::Interrupted) << u.total << " s";
+    EXPECT_FALSE(fs::exists(dir / "preview.png"));
+    // (No temporary left either.)
+    std::vector<std::string> files;
+    for (const auto& entry : fs::directory_iterator(dir))
+        files.push_back(entry.path().filename().string());
+    EXPECT_EQ(files, std::vector<std::string>{"tree.json"});
+}
+
+TEST(PreviewLoop, ABurstOfEditsIsOneUpdateForTheLast)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_loop");
+    writeSpecies(dir / "tree.json", "55");
+    PreviewSession session(settingsFor(dir));
+    ManualChanges changes;
+    std::atomic<bool> stop{false};
+    std::mutex mutex;
+    std::vector<PreviewUpdate> updates;
+    PreviewLoopOptions options;
+    options.quiet = std::chrono::milliseconds(100);
+    options.updated = [&](const PreviewUpdate& u) {
+        std::lock_guard<std::mutex> lock(mutex);
+        updates.push_back(u);
+    };
+    std::thread loop([&] { runPreviewLoop(session, changes, stop, options); });
+    auto count = [&] {
+        std::lock_guard<std::mutex> lock(mutex);
+        return updates.size();
+    };
+    auto waitFor = [&](size_t n) {
+        for (int i = 0; i < 600 && count() < n; ++i)
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        return count() >= n;
+    };
+    ASSERT_TRUE(waitFor(1));
+    // Five saves within the quiet time: one update, of the last.
+    for (const char* angle : {"50", "45", "40", "35", "30"}) {
+        writeSpecies(dir / "tree.json", angle);
+        changes.notify();
+    }
+    ASSERT_TRUE(waitFor(2));
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    stop = true;
+    loop.join();
+    ASSERT_EQ(updates.size(), 2u);
+    EXPECT_EQ(updates[0].outcome, PreviewUpdate::Outcome::Rendered) << updates[0].error;
+    EXPECT_EQ(updates[1].outcome, PreviewUpdate::Outcome::Rendered) << updates[1].error;
+    // The picture is the last text's, as a session of its own makes it.
+    const std::string burst = fileContents(dir / "preview.png");
+    PreviewSettings alone = settingsFor(dir);
+    alone.output = (dir / "alone.png").string();
+    PreviewSession fresh(alone);
+    ASSERT_EQ(fresh.update().outcome, PreviewUpdate::Outcome::Rendered);
+    EXPECT_TRUE(fileContents(dir / "alone.png") == burst);
+}
