@@ -4,6 +4,7 @@
 // bake writes nothing.
 #include "preview/loop.h"
 #include "preview/preview.h"
+#include "core/error.h"
 
 #include "cli_util.h"
 #include "temp_dir.h"
@@ -137,10 +138,12 @@ TEST(PreviewLoop, ABurstOfEditsIsOneUpdateForTheLast)
     std::mutex mutex;
     std::vector<PreviewUpdate> updates;
     PreviewLoopOptions options;
-    options.quiet = std::chrono::milliseconds(100);
+    options.quiet = std::chrono::milliseconds(300);
     options.updated = [&](const PreviewUpdate& u) {
         std::lock_guard<std::mutex> lock(mutex);
-        updates.push_back(u);
+        // (An update a late save interrupted is no picture: not counted.)
+        if (u.outcome != PreviewUpdate::Outcome::Interrupted)
+            updates.push_back(u);
     };
     std::thread loop([&] { runPreviewLoop(session, changes, stop, options); });
     auto count = [&] {
@@ -159,7 +162,7 @@ TEST(PreviewLoop, ABurstOfEditsIsOneUpdateForTheLast)
         changes.notify();
     }
     ASSERT_TRUE(waitFor(2));
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1000));
     stop = true;
     loop.join();
     ASSERT_EQ(updates.size(), 2u);
@@ -172,4 +175,64 @@ TEST(PreviewLoop, ABurstOfEditsIsOneUpdateForTheLast)
     PreviewSession fresh(alone);
     ASSERT_EQ(fresh.update().outcome, PreviewUpdate::Outcome::Rendered);
     EXPECT_TRUE(fileContents(dir / "alone.png") == burst);
+}
+
+TEST(PreviewLoop, InotifySeesTheFileWrittenOrRenamedOverAndNothingElse)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_inotify");
+    writeSpecies(dir / "tree.json", "55");
+    InotifyChanges changes((dir / "tree.json").string());
+    const auto none = std::chrono::milliseconds(0), some = std::chrono::milliseconds(2000);
+    EXPECT_FALSE(changes.wait(none));
+    // Another file of the directory: not a change.
+    std::ofstream(dir / "other.json") << "{}";
+    EXPECT_FALSE(changes.wait(std::chrono::milliseconds(200)));
+    // Written in place, and written beside and renamed over it.
+    std::ofstream(dir / "tree.json", std::ios::app) << " ";
+    EXPECT_TRUE(changes.wait(some));
+    writeSpecies(dir / "tree.json", "40");
+    EXPECT_TRUE(changes.wait(some));
+    EXPECT_FALSE(changes.wait(none));
+    // A directory that is not there: bad input, named.
+    try {
+        InotifyChanges missing((dir / "no" / "tree.json").string());
+        ADD_FAILURE() << "watched a missing directory";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot watch"), std::string::npos) << e.what();
+    }
+}
+
+TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_command");
+    writeSpecies(dir / "tree.json", "55");
+    const std::string png = (dir / "p.png").string();
+    const std::string common = " --time 3 --device cpu --height 48 --once -o " + png;
+    const cambium::test::Result r =
+        cambium::test::run("preview " + (dir / "tree.json").string() + common + " --width 64");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("picture 1: "), std::string::npos) << r.out;
+    EXPECT_TRUE(fs::exists(png));
+    const struct {
+        std::string args, expected;
+    } bad[] = {
+        {(dir / "missing.json").string() + common, "missing.json"},
+        {(dir / "tree.json").string() + common + " --voxel-size -1", "--voxel-size"},
+        {(dir / "tree.json").string() + common + " --width 0", "pixels a side"},
+        {(dir / "tree.json").string() + common + " --camera sideways", "sideways"},
+        {(dir / "tree.json").string() + " --once -o " + (dir / "p.txt").string(), "p.txt"},
+    };
+    for (const auto& b : bad) {
+        const cambium::test::Result e = cambium::test::run("preview " + b.args);
+        EXPECT_EQ(e.status, 2) << b.args << ": " << e.err;
+        EXPECT_NE(e.err.find(b.expected), std::string::npos) << b.args << ": " << e.err;
+    }
+    // A file that does not read: exit 2 with --once, the picture kept.
+    const std::string before = fileContents(png);
+    writeSpecies(dir / "tree.json", "-400");
+    const cambium::test::Result e =
+        cambium::test::run("preview " + (dir / "tree.json").string() + common);
+    EXPECT_EQ(e.status, 2);
+    EXPECT_NE(e.out.find("branching_angle"), std::string::npos) << e.out;
+    EXPECT_EQ(fileContents(png), before);
 }
