@@ -388,13 +388,13 @@ FarmPlan readFarmPlan(const std::string& farmDir)
     return p;
 }
 
-std::vector<std::string> FarmPlan::chunkFiles(size_t k) const
+std::vector<FarmPlan::File> FarmPlan::chunkFiles(size_t k) const
 {
     if (tiles)
-        return {tilePath(dir, k)};
-    std::vector<std::string> files;
+        return {{(long long)k + 1, tilePath(dir, k)}};
+    std::vector<File> files;
     for (long long f : parseFrames(chunks.at(k)))
-        files.push_back(framePath(output, f));
+        files.push_back({f, framePath(output, f)});
     return files;
 }
 
@@ -496,19 +496,18 @@ FarmState assessFarm(const FarmPlan& plan)
         c.attempts = attempts[k];
         const std::vector<ChunkEvent> events = readChunkEvents(plan.dir, k);
         c.status = events.empty() || events.back().again ? -1 : events.back().status;
-        const std::vector<std::string> files = plan.chunkFiles(k);
-        for (size_t i = 0; i < files.size(); ++i) {
+        for (const FarmPlan::File& file : plan.chunkFiles(k)) {
             std::string key;
             try {
                 if (!s.merged)
-                    key = readSequenceKey(files[i]);
+                    key = readSequenceKey(file.path);
             } catch (const InputError&) {
             }
             ++s.frames;
             if (s.merged || key == plan.key)
                 ++s.good;
             else
-                c.missing.push_back(plan.tiles ? (long long)k + 1 : parseFrames(plan.chunks[k])[i]);
+                c.missing.push_back(file.number);
         }
         s.chunks.push_back(std::move(c));
     }
@@ -578,16 +577,14 @@ std::string farmManifest(const FarmPlan& plan, const FarmState& state,
                           {"attempts", c.attempts},
                           {"state", describeChunk(c)},
                           {"resubmitted", again}});
-        const std::vector<std::string> paths =
-            state.merged ? std::vector<std::string>() : plan.chunkFiles(k);
-        for (size_t i = 0; i < paths.size(); ++i) {
-            const long long number = plan.tiles ? (long long)k + 1 : parseFrames(plan.chunks[k])[i];
+        for (const FarmPlan::File& file :
+             state.merged ? std::vector<FarmPlan::File>() : plan.chunkFiles(k)) {
             const bool ok =
-                std::find(c.missing.begin(), c.missing.end(), number) == c.missing.end();
+                std::find(c.missing.begin(), c.missing.end(), file.number) == c.missing.end();
             std::error_code ec;
-            const auto bytes = fs::file_size(paths[i], ec);
-            files.push_back({{plan.unit(), number},
-                             {"path", paths[i]},
+            const auto bytes = fs::file_size(file.path, ec);
+            files.push_back({{plan.unit(), file.number},
+                             {"path", file.path},
                              {"ok", ok},
                              {"bytes", ec ? 0 : (unsigned long long)bytes}});
         }

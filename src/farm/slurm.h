@@ -85,8 +85,13 @@ struct FarmPlan {
     int tiles = 0;  ///< a tile farm's tile count (0: a sequence's farm)
     /// A tile farm's merged file, as the tiles' bake would have written it.
     VdbFileInfo merged;
-    /// A chunk's files: its frames, or its tile's file.
-    std::vector<std::string> chunkFiles(size_t chunk) const;
+    /// A chunk's files, each with its number: its frames, or its tile's
+    /// file (the tile's number, from 1).
+    struct File {
+        long long number;
+        std::string path;
+    };
+    std::vector<File> chunkFiles(size_t chunk) const;
     /// "chunk 1/3 frames 1-9" or "tile 2/4": a chunk in a line about it.
     std::string chunkName(size_t chunk) const;
     const char* unit() const { return tiles ? "tile" : "frame"; }
