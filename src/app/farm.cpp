@@ -482,7 +482,7 @@ void addFarmCommand(CLI::App& app, Action& action)
                     "MB\n",
                     files.size(), plan.output, formatCount(double(grids.stats.activeVoxels)),
                     secondsSince(start), peakMemoryBytes() / 1e6);
-                return summarize(plan, assessFarm(plan));
+                return summarize(plan, state);  // (merged, as the manifest now says)
             }
             const std::vector<size_t> again = chunksToRetry(plan, state);
             std::vector<std::string> histories;  // (put back where sbatch refuses)

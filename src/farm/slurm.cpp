@@ -183,8 +183,8 @@ void writeScripts(SlurmArray& s, const std::vector<std::string>& parts,
     s.script = sc;
 
     // The final job: after the array, whatever its tasks did (afterany, given
-    // by the submission), one core; the memory of a task where it merges
-    // tiles, else little (it reads headers).
+    // by the submission), one core; the frame's estimate where it merges
+    // tiles (finalMemoryMB), else little (it reads headers).
     std::string fin = "#!/bin/bash\n";
     fin += fmt::format("#SBATCH --job-name={}\n", s.jobName);
     fin += fmt::format("#SBATCH --cpus-per-task=1\n#SBATCH --mem={}M\n", s.finalMemoryMB);
