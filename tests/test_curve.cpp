@@ -5,6 +5,7 @@
 #include "model/growth_params.h"
 
 #include "core/error.h"
+#include "core/json.h"
 #include "test_util.h"
 
 #include <gtest/gtest.h>
@@ -140,3 +141,71 @@ TEST(GrowthParameters, MalformedFilesAreNamedByFileAndPath)
 }
 
 }  // namespace
+
+TEST(GrowthParameters, ACurveEditChangesOnlyItsPointsAndIsCheckedByTheReader)
+{
+    std::ifstream in(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    // A comment, and a curve given as a plain array, that the edit keeps.
+    std::string text = buffer.str();
+    text.insert(text.find("\"curves\""), "// tuned by hand: \"Gh\": [[0, 1]]\n  ");
+    const std::string gm = "\"Gm\": {\"points\": [[0, 2], [1, 12]], \"interpolation\": \"linear\"}";
+    ASSERT_NE(text.find(gm), std::string::npos);
+    text.replace(text.find(gm), gm.size(), "\"Gm\": [[0, 2], /* few */ [1, 12]]");
+    const std::vector<std::pair<double, double>> points = {{0, 0.1}, {0.5, 0.55}, {1, 0.9}};
+    const std::string edited = withCurvePoints(text, "tree.json", "Gh", points);
+    // Only the points' text differs.
+    const std::string before = R"([[0, 0.04], [0.3, 0.45], [0.6, 0.8], [1, 1]])";
+    const std::string after = "[[0, 0.1], [0.5, 0.55], [1, 0.9]]";
+    std::string expected = text;
+    expected.replace(expected.find(before), before.size(), after);
+    EXPECT_EQ(edited, expected);
+    const GrowthParameters p = parseGrowthParameters(edited, "tree.json");
+    EXPECT_EQ(p.Gh.points(), points);
+    EXPECT_EQ(p.Gh.interpolation(), Curve::Interpolation::Smooth);
+    // A plain array stays one (linear), its comment replaced with it.
+    const std::string gmEdited = withCurvePoints(text, "tree.json", "Gm", {{0, 3}, {1, 9}});
+    EXPECT_NE(gmEdited.find("\"Gm\": [[0, 3], [1, 9]]"), std::string::npos);
+    EXPECT_DOUBLE_EQ(parseGrowthParameters(gmEdited, "tree.json").Gm(0.5), 6.0);
+    // Refused, naming the file and the path: out of range, x not increasing,
+    // not spanning [0, 1], no such curve, a file that does not read.
+    const struct {
+        std::string key;
+        std::vector<std::pair<double, double>> points;
+        std::string text, expected;
+    } bad[] = {
+        {"Gh", {{0, 0}, {1, 1.5}}, text, "curves.Gh: values must be between 0 and 1"},
+        {"Gh",
+         {{0, 0}, {0.6, 0.5}, {0.4, 0.6}, {1, 1}},
+         text,
+         "curves.Gh.points: the x of point 2"},
+        {"Gs1", {{0.1, 0}, {1, 1}}, text, "curves.Gs1.points: the points must span x from 0 to 1"},
+        {"Gx", {{0, 0}, {1, 1}}, text, "curves.Gx: no such curve (did you mean 'Gh'?)"},
+        {"Gh", {{0, 0}, {1, 1}}, text.substr(0, text.size() / 2), "tree.json: JSON syntax error"},
+    };
+    for (const auto& b : bad) {
+        try {
+            withCurvePoints(b.text, "tree.json", b.key, b.points);
+            ADD_FAILURE() << b.expected;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(b.expected), std::string::npos) << e.what();
+        }
+    }
+}
+
+TEST(Json, AValueSpanSkipsStringsAndCommentsThatLookLikeKeys)
+{
+    const std::string text = R"({"a": "{\"b\": 1}", /* "b": 2 */ // "b": 3
+  "c": {"d": [1, {"e": 2}], "b": {"x": -4.5e1 } }, "b": [ 5 ]})";
+    auto spanText = [&](const std::vector<std::string>& keys) {
+        const auto span = jsonValueSpan(text, keys);
+        return span ? text.substr(span->first, span->second - span->first) : "(none)";
+    };
+    EXPECT_EQ(spanText({"b"}), "[ 5 ]");
+    EXPECT_EQ(spanText({"c", "b"}), "{\"x\": -4.5e1 }");
+    EXPECT_EQ(spanText({"c", "b", "x"}), "-4.5e1");
+    EXPECT_EQ(spanText({"a"}), R"("{\"b\": 1}")");
+    EXPECT_EQ(spanText({"c", "e"}), "(none)");
+    EXPECT_EQ(spanText({"a", "b"}), "(none)");
+}

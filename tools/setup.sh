@@ -17,7 +17,7 @@ packages=(
   libopenvdb-dev libnanovdb-dev libopenvdb-tools libblosc-dev libboost-iostreams-dev
   libopenimageio-dev openimageio-tools libglm-dev libembree-dev libtbb-dev libosd-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
-  libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev
+  libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev libcpp-httplib-dev
   time
 )
 # More for a caller's own needs (tools/sanitize.sh: clang and its runtimes).
@@ -45,6 +45,11 @@ install_missing "${packages[@]}"
 # the recommended extras (slurm-wlm would pull 35 packages).
 if [ "$mode" = test ]; then
   install_missing --no-install-recommends slurmctld slurmd slurm-client munge
+  # The preview page's browser test (tests/browser): Debian's chromium, and
+  # Node.js with npm where the machine has none (Debian's 18 is enough for
+  # playwright-core 1.61).
+  install_missing chromium
+  command -v npm >/dev/null || install_missing nodejs npm
 fi
 
 [ "$mode" = packages ] && exit 0
@@ -55,6 +60,13 @@ fi
 cmake --build "$build" -j"$(nproc)"
 # The OpenCL kernels compiled once here, not on the first bake or render.
 case "$mode" in run | test | build) "$build/cambium" prepare ;; esac
+# playwright-core, as tests/browser/package-lock.json pins it, beside the build.
+if [ "$mode" = test ] && ! cmp -s "$root/tests/browser/package-lock.json" "$build/browser/installed.json"; then
+  mkdir -p "$build/browser"
+  cp "$root/tests/browser/package.json" "$root/tests/browser/package-lock.json" "$build/browser/"
+  (cd "$build/browser" && npm ci --no-audit --no-fund --loglevel=error)
+  cp "$root/tests/browser/package-lock.json" "$build/browser/installed.json"
+fi
 
 case "$mode" in
   run)

@@ -9,6 +9,7 @@
 #include "bench/use_bench.h"
 #include "core/error.h"
 #include "model/skeleton.h"
+#include "preview/preview_bench.h"
 
 #include <fmt/format.h>
 
@@ -201,6 +202,36 @@ void printShapeTable(const ShapeBenchResult& r)
         r.largestDifference, r.bruteChecked, r.bruteCambium, r.bruteOpenVdb);
 }
 
+int runPreviewBenchCommand(const PreviewBenchRequest& req)
+{
+    fmt::print(
+        "{}: the live preview, {} x {}, device {}; {} edits a year as the page makes them (a point "
+        "of Gs2 sent to the page server), medians [min-max] in seconds\n\n",
+        req.parameters, req.width, req.height, req.device == Device::OpenCL ? "opencl" : "cpu",
+        req.edits);
+    fmt::print(
+        "| year | voxel size | leaves (reused) | first picture: command (peak MB) | in process | "
+        "read and grow | compile | bake | render | write | push | edit to picture |\n"
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    std::fflush(stdout);
+    auto stage = [](const PreviewBenchStage& s) {
+        return fmt::format("{:.3f} [{:.3f}-{:.3f}]", s.median, s.min, s.max);
+    };
+    runPreviewBench(req, [&](const PreviewBenchYear& y) {
+        fmt::print(
+            "| {} | {:.4g} | {} ({}) | {:.2f} ({:.0f}) | {:.2f} | {} | {} | {} | {} | {} | {} | "
+            "{} |\n",
+            y.year, y.voxelSize, y.leaves, y.reusedLeaves, y.firstCommandSeconds,
+            y.firstCommandPeakBytes / 1e6, y.firstInProcessSeconds, stage(y.read), stage(y.compile),
+            stage(y.bake), stage(y.render), stage(y.write), stage(y.push), stage(y.editToPicture));
+        std::fflush(stdout);
+    });
+    fmt::print(
+        "\ngoals (issue 18): edit to picture <= 1 s at year 10 and <= 2 s at year 27; the first "
+        "picture <= 3 s with a warm kernel cache\n");
+    return 0;
+}
+
 int runGrowthBenchCommand(const GrowthBenchRequest& req)
 {
     if (req.years.empty())
@@ -266,6 +297,8 @@ void addBenchCommand(CLI::App& app, Action& action)
         double voxelSize = 0.01;
         GrowthBenchRequest growth;
         std::string growthDevice = "opencl";
+        PreviewBenchRequest preview;
+        std::string previewDevice = "opencl";
     };
     auto o = std::make_shared<Options>();
     auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
@@ -391,6 +424,29 @@ void addBenchCommand(CLI::App& app, Action& action)
         action = [o] {
             o->growth.device = parseDevice(o->growthDevice);
             return runGrowthBenchCommand(o->growth);
+        };
+    });
+
+    PreviewBenchRequest& pv = o->preview;
+    pv.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    auto* preview = bench->add_subcommand(
+        "preview",
+        "The live preview (docs/preview.md): the first picture of a whole command, then edits "
+        "made as its page makes them, stage by stage, against issue 18's goals");
+    preview->add_option("--parameters", pv.parameters, "Growth parameter file")
+        ->capture_default_str();
+    preview->add_option("--years", pv.years, "Years to measure")
+        ->capture_default_str()
+        ->delimiter(',');
+    preview->add_option("--edits", pv.edits, "Edits a year")->capture_default_str();
+    preview->add_option("--width", pv.width, "Picture width")->capture_default_str();
+    preview->add_option("--height", pv.height, "Picture height")->capture_default_str();
+    preview->add_option("--device", o->previewDevice, "The bake's device: opencl or cpu")
+        ->capture_default_str();
+    preview->callback([o, &action] {
+        action = [o] {
+            o->preview.device = parseDevice(o->previewDevice);
+            return runPreviewBenchCommand(o->preview);
         };
     });
 }

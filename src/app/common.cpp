@@ -43,7 +43,7 @@ void addModelFlags(CLI::App* cmd, ModelFlags& flags)
                     "Callus over saw cuts, from 0 (a bare cut) to 1 (paper 002's regrowth bulge)");
     cmd->add_flag("--no-leaves", flags.noLeaves, "Growth parameter files: leave the leaves out");
     flags.timeOption = cmd->add_option(
-        "--time", flags.time,
+        "--time,--year", flags.time,
         "Growth parameter files: the tree at this time in years (default: the last)");
 }
 

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "preview/loop.h"
 #include "preview/preview.h"
+#include "preview/server.h"
 
 #include <fmt/format.h>
 
@@ -52,6 +53,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
         double voxelSize = 0.0;
         std::string device = "opencl", renderDevice = "cpu";
         bool once = false;
+        int port = 0;
     };
     auto o = std::make_shared<Options>();
     auto* cmd = app.add_subcommand(
@@ -81,6 +83,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
         ->capture_default_str();
     cmd->add_option("--render-device", o->renderDevice, "The march's device: cpu or opencl")
         ->capture_default_str();
+    cmd->add_option("--port", o->port,
+                    "The page's port on 127.0.0.1 (default: a free one); its URL, with a "
+                    "random token, is the first line printed");
     cmd->add_flag("--once", o->once,
                   "One picture, then exit (2: bad input, 1: a failure): what scripts and tests "
                   "run");
@@ -101,12 +106,25 @@ void addPreviewCommand(CLI::App& app, Action& action)
                 return 0;
             }
             InotifyChanges changes(s.input);
-            fmt::print("preview of {}: a new {} on every change of the file (Ctrl-C stops)\n",
-                       s.input, s.output);
+            PreviewServer server(session, changes, o->port);
+            fmt::print("{}\n", server.url());
+            fmt::print(
+                "preview of {}: a new {} on every change of the file, shown on the page "
+                "above (Ctrl-C stops)\n",
+                s.input, s.output);
             std::fflush(stdout);
             const std::atomic<bool> never{false};  // (a signal ends the process)
             PreviewLoopOptions loop;
-            loop.updated = [&](const PreviewUpdate& u) { report(s, u); };
+            bool first = true;
+            loop.updated = [&](const PreviewUpdate& u) {
+                report(s, u);
+                server.publish(u);
+                // A first picture the work could not make (not the file's
+                // fault): the preview cannot start.
+                if (first && u.outcome == PreviewUpdate::Outcome::Failed && !u.inputError)
+                    throw std::runtime_error(u.error);
+                first = first && u.outcome != PreviewUpdate::Outcome::Rendered;
+            };
             runPreviewLoop(session, changes, never, loop);
             return 0;
         };

@@ -52,11 +52,16 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     BakeStats& st = out.stats;
     BakeTimings& tm = st.timings;
     st.voxelSize = h;
+    const Progress report = [&](const char* stage, double f) {
+        if (opt.progress)
+            opt.progress(stage, f);
+    };
+    // Until the leaves are sampled an interrupt stops the bake; after, the
+    // bake is as good as done (and its leaves are the reuse cache's).
     const Progress progress = [&](const char* stage, double f) {
         if (opt.interrupt && opt.interrupt->load(std::memory_order_relaxed))
             throw BakeInterrupted();
-        if (opt.progress)
-            opt.progress(stage, f);
+        report(stage, f);
     };
 
     // 1. Topology.
@@ -272,7 +277,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         addFog(out);
     st.seconds = secondsSince(start);
     st.assemblySeconds = st.seconds - st.topologySeconds - st.samplingSeconds;
-    progress("assembly", 1.0);
+    report("assembly", 1.0);
     return out;
 }
 

@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -121,6 +123,106 @@ json parseJson(const std::string& text, const std::string& source)
         }
         throw InputError(fmt::format("{}: JSON syntax error: {}", source, what));
     }
+}
+
+namespace {
+
+/// Steps over JSON text (known to parse) by position.
+struct JsonScanner {
+    const std::string& t;
+    size_t i = 0;
+
+    bool at(const char* s) const { return t.compare(i, std::strlen(s), s) == 0; }
+    void space()
+    {
+        for (;;) {
+            while (i < t.size() && std::isspace(static_cast<unsigned char>(t[i])))
+                ++i;
+            if (at("//")) {
+                i = t.find('\n', i);
+                i = i == std::string::npos ? t.size() : i;
+            } else if (at("/*")) {
+                i = t.find("*/", i + 2);
+                i = i == std::string::npos ? t.size() : i + 2;
+            } else {
+                return;
+            }
+        }
+    }
+    /// A string: its raw text between the quotes.
+    std::string string()
+    {
+        const size_t begin = ++i;
+        while (i < t.size() && t[i] != '"')
+            i += t[i] == '\\' ? 2 : 1;
+        return t.substr(begin, i++ - begin);
+    }
+    /// Steps over a value (after space()).
+    void value()
+    {
+        if (i >= t.size())
+            return;
+        const char c = t[i];
+        if (c == '"') {
+            string();
+        } else if (c == '{' || c == '[') {
+            const char close = c == '{' ? '}' : ']';
+            ++i;
+            for (space(); i < t.size() && t[i] != close; space()) {
+                if (t[i] == ',') {
+                    ++i;
+                    continue;
+                }
+                value();
+                space();
+                if (c == '{' && i < t.size() && t[i] == ':') {  // (a key, then its value)
+                    ++i;
+                    space();
+                    value();
+                }
+            }
+            ++i;
+        } else {
+            while (i < t.size() && !std::isspace(static_cast<unsigned char>(t[i])) &&
+                   !std::strchr(",]}", t[i]) && !at("//") && !at("/*"))
+                ++i;
+        }
+    }
+};
+
+}  // namespace
+
+std::optional<std::pair<size_t, size_t>> jsonValueSpan(const std::string& text,
+                                                       const std::vector<std::string>& keys)
+{
+    JsonScanner s{text};
+    s.space();
+    for (const std::string& key : keys) {
+        if (s.i >= text.size() || text[s.i] != '{')
+            return std::nullopt;
+        ++s.i;
+        bool found = false;
+        for (s.space(); s.i < text.size() && text[s.i] != '}'; s.space()) {
+            if (text[s.i] == ',') {
+                ++s.i;
+                continue;
+            }
+            const std::string name = s.string();
+            s.space();
+            ++s.i;  // ':'
+            s.space();
+            if (name == key) {
+                found = true;
+                break;
+            }
+            s.value();
+        }
+        if (!found)
+            return std::nullopt;
+    }
+    const size_t begin = s.i;
+    s.value();
+    return std::pair{begin, s.i};
 }
 
 const char* jsonKind(const json& j)

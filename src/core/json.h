@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cambium {
@@ -21,6 +22,13 @@ constexpr int kMaxJsonDepth = 512;
 /// key 'K' (JSON keeps one of them silently: remove the other)" or
 /// "SOURCE: PATH: nested more than N levels deep".
 nlohmann::json parseJson(const std::string& text, const std::string& source);
+
+/// Where in `text` (JSON that parseJson reads, comments allowed) the value
+/// at `keys` lies: the object member keys[0], in it keys[1], ...; [begin,
+/// end) of its text, or none when a key is not there.  For edits that keep
+/// the rest of a file as its author wrote it.
+std::optional<std::pair<size_t, size_t>> jsonValueSpan(const std::string& text,
+                                                       const std::vector<std::string>& keys);
 
 /// What a JSON value is, for messages: "null", "a boolean", "a string",
 /// "an array", "an object" or "a number".

@@ -5,8 +5,10 @@
 #include "core/json.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -180,27 +182,14 @@ private:
     /// The graphically defined functions: every one, and no other.
     void readCurves(const json& curves, GrowthParameters& p) const
     {
-        const std::map<std::string, Curve*> named = {{"Gh", &p.Gh},
-                                                     {"Gs1", &p.Gs1},
-                                                     {"Gs2", &p.Gs2},
-                                                     {"Go1", &p.Go1},
-                                                     {"Go2", &p.Go2},
-                                                     {"Gbs", &p.Gbs},
-                                                     {"Ga", &p.Ga},
-                                                     {"Gm", &p.Gm},
-                                                     {"Gl", &p.Gl},
-                                                     {"Gss", &p.Gss},
-                                                     {"internode_growth", &p.internodeGrowth},
-                                                     {"leaf_growth", &p.leafGrowth},
-                                                     {"bud_growth", &p.budGrowth}};
         std::vector<std::string> names;
-        for (const auto& [key, curve] : named)
-            names.push_back(key);
+        for (const GrowthCurve& c : growthCurves())
+            names.push_back(c.key);
         checkKeys(curves, "curves", names, "curve", "docs/growth-format.md");
-        for (const auto& [key, curve] : named) {
-            required(curves, key, "curves");
+        for (const GrowthCurve& c : growthCurves()) {
+            required(curves, c.key, "curves");
             try {
-                *curve = curveFromJson(curves.at(key), "curves." + key);
+                p.*c.member = curveFromJson(curves.at(c.key), std::string("curves.") + c.key);
             } catch (const InputError& e) {
                 throw InputError(fmt::format("{}: {}", source(), e.what()));
             }
@@ -210,26 +199,12 @@ private:
     /// The ranges of curve values the model relies on.
     void checkCurveRanges(const GrowthParameters& p) const
     {
-        auto within = [&](const Curve& c, const char* key, double lo, double hi) {
-            for (const auto& [x, y] : c.points())
-                if (!(y >= lo && y <= hi))
-                    fail(fmt::format("curves.{}", key),
-                         fmt::format("values must be between {} and {} (a point has {})", lo, hi,
-                                     y));
-        };
-        within(p.Gh, "Gh", 0, 1);
-        within(p.Gs1, "Gs1", 0, 10);
-        within(p.Gs2, "Gs2", 0, 10);
-        within(p.Go1, "Go1", -180, 180);
-        within(p.Go2, "Go2", -180, 180);
-        within(p.Gbs, "Gbs", 0, 10);
-        within(p.Ga, "Ga", 0, 1000);
-        within(p.Gm, "Gm", 1, 1000);
-        within(p.Gl, "Gl", 0, 1e3);
-        within(p.Gss, "Gss", 0, 10);
-        within(p.internodeGrowth, "internode_growth", 0, 1);
-        within(p.leafGrowth, "leaf_growth", 0, 1);
-        within(p.budGrowth, "bud_growth", 0, 1);
+        for (const GrowthCurve& c : growthCurves())
+            for (const auto& [x, y] : (p.*c.member).points())
+                if (!(y >= c.lo && y <= c.hi))
+                    fail(fmt::format("curves.{}", c.key),
+                         fmt::format("values must be between {} and {} (a point has {})", c.lo,
+                                     c.hi, y));
         // An organ starts from nothing and ends its year at its full size:
         // otherwise it would pop in, or the lengths at year ends would not be
         // eq. 7's.
@@ -266,6 +241,64 @@ double timeOfLife(const GrowthParameters& p, std::optional<double> t, const std:
             fmt::format("{}: {} must be between 0 and {} years, the tree's life (got {})", source,
                         option, p.years, *t));
     return *t;
+}
+
+const std::vector<GrowthCurve>& growthCurves()
+{
+    using P = GrowthParameters;
+    static const std::vector<GrowthCurve> curves = {
+        {"Gh", &P::Gh, 0, 1},
+        {"Gs1", &P::Gs1, 0, 10},
+        {"Gs2", &P::Gs2, 0, 10},
+        {"Go1", &P::Go1, -180, 180},
+        {"Go2", &P::Go2, -180, 180},
+        {"Gbs", &P::Gbs, 0, 10},
+        {"Ga", &P::Ga, 0, 1000},
+        {"Gm", &P::Gm, 1, 1000},
+        {"Gl", &P::Gl, 0, 1e3},
+        {"Gss", &P::Gss, 0, 10},
+        {"internode_growth", &P::internodeGrowth, 0, 1},
+        {"leaf_growth", &P::leafGrowth, 0, 1},
+        {"bud_growth", &P::budGrowth, 0, 1},
+    };
+    return curves;
+}
+
+std::string withCurvePoints(const std::string& text, const std::string& source,
+                            const std::string& key,
+                            const std::vector<std::pair<double, double>>& points)
+{
+    const auto known = std::find_if(growthCurves().begin(), growthCurves().end(),
+                                    [&](const GrowthCurve& c) { return key == c.key; });
+    if (known == growthCurves().end())
+        throw InputError(fmt::format("curves.{}: no such curve{}", key, [&] {
+            std::vector<std::string> names;
+            for (const GrowthCurve& c : growthCurves())
+                names.push_back(c.key);
+            return didYouMean(key, names);
+        }()));
+    // The file as it is must read: an edit of a broken file would hide its
+    // problem.
+    const json root = parseJson(text, source);
+    if (!root.is_object() || !root.contains("curves") || !root["curves"].is_object() ||
+        !root["curves"].contains(key))
+        throw InputError(fmt::format("{}: curves.{}: missing", source, key));
+    // Only the points' text changes: the rest of the file, its comments and
+    // layout stay as they were.  (A curve given as a number or an array of
+    // points becomes an array of points: linear, as it was.)
+    std::vector<std::string> path = {"curves", key};
+    if (root["curves"][key].is_object())
+        path.push_back("points");
+    const auto span = jsonValueSpan(text, path);
+    if (!span)
+        throw InputError(fmt::format("{}: {}: missing", source, fmt::join(path, ".")));
+    std::string array = "[";
+    for (size_t i = 0; i < points.size(); ++i)
+        array += fmt::format("{}[{}, {}]", i ? ", " : "", points[i].first, points[i].second);
+    array += "]";
+    std::string edited = text.substr(0, span->first) + array + text.substr(span->second);
+    parseGrowthParameters(edited, source);  // the reader's own checks, every one
+    return edited;
 }
 
 bool isGrowthParameterFile(const std::string& path)

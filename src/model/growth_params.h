@@ -78,6 +78,26 @@ GrowthParameters loadGrowthParameters(const std::string& path);
 double timeOfLife(const GrowthParameters& params, std::optional<double> t,
                   const std::string& source, const std::string& option);
 
+/// A graphically defined function of the file: its key under "curves", its
+/// member, and the range its values must lie in.
+struct GrowthCurve {
+    const char* key;
+    Curve GrowthParameters::*member;
+    double lo, hi;
+};
+/// Every curve of a parameter file, in the order docs/growth-format.md
+/// gives them.
+const std::vector<GrowthCurve>& growthCurves();
+
+/// `text` (a parameter file read from `source`) with the points of curve
+/// `key` replaced by `points`, the rest of the text (comments, layout) as it
+/// was.  InputError, naming `source` and the JSON path, when `text` does not
+/// read or the edited text would not (a point out of range, x not
+/// increasing): the edit is checked by the same reader as the file.
+std::string withCurvePoints(const std::string& text, const std::string& source,
+                            const std::string& key,
+                            const std::vector<std::pair<double, double>>& points);
+
 /// Whether `path` is a growth parameter file rather than a scene: a .json
 /// whose top-level object has "curves".  False for anything unreadable (the
 /// scene reader then names the problem).

@@ -16,18 +16,25 @@
 
 namespace cambium {
 
-/// Where the news that the watched file changed comes from.
+/// Where the news that the watched file changed (or that the session's view
+/// was changed: notify) comes from.
 class ChangeSource {
 public:
     virtual ~ChangeSource() = default;
-    /// Blocks until the file changed (true) or `timeout` passed (false).
+    /// Blocks until the file changed or notify was called (true), or
+    /// `timeout` passed (false).  Throws when the file can no longer be
+    /// watched.
     virtual bool wait(std::chrono::milliseconds timeout) = 0;
+    /// A change from elsewhere (the page moved the year or the camera): the
+    /// next wait returns true.  Any thread.
+    virtual void notify() = 0;
 };
 
 /// Changes of one file seen by inotify on its directory: a write closed, or
-/// a file moved or created under its name (editors save by writing a
-/// temporary and renaming it over the file).  InputError when the
-/// directory cannot be watched.
+/// a file moved under its name (editors save by writing a temporary and
+/// renaming it over the file); an overflowed event queue counts as a change.
+/// InputError when the directory cannot be watched; wait throws
+/// std::runtime_error once the directory is removed or moved away.
 class InotifyChanges : public ChangeSource {
 public:
     explicit InotifyChanges(const std::string& path);
@@ -35,16 +42,19 @@ public:
     InotifyChanges(const InotifyChanges&) = delete;
     InotifyChanges& operator=(const InotifyChanges&) = delete;
     bool wait(std::chrono::milliseconds timeout) override;
+    void notify() override;
 
 private:
     int fd_ = -1;
+    int wake_ = -1;     ///< an eventfd that notify writes
+    std::string path_;  ///< the file, as given
     std::string name_;  ///< the file's name in its directory
 };
 
 /// Changes a test hands over (notify), each seen once.
 class ManualChanges : public ChangeSource {
 public:
-    void notify();
+    void notify() override;
     bool wait(std::chrono::milliseconds timeout) override;
 
 private:
@@ -65,7 +75,8 @@ struct PreviewLoopOptions {
 /// Updates the session once, then again after every burst of changes, until
 /// `stop` is raised; a change during an update interrupts it (the update
 /// after the burst replaces it).  Returns once `stop` is raised and the
-/// update in flight, if any, has ended.
+/// update in flight, if any, has ended (which `stop` interrupts).  What the
+/// change source throws ends the loop and is thrown again here.
 void runPreviewLoop(PreviewSession& session, ChangeSource& changes, const std::atomic<bool>& stop,
                     const PreviewLoopOptions& options = {});
 

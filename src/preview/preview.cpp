@@ -12,6 +12,9 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+#include <mutex>
+
 namespace cambium {
 
 struct PreviewSession::State {
@@ -20,10 +23,24 @@ struct PreviewSession::State {
     LeafValueCache cache;                    // the last bake's leaves
     std::optional<double> voxelSize;         // decided by the first good model
     std::optional<Camera> camera;            // framed on the first good model
-    uint64_t lastText = 0;                   // the file's text of the last picture
-    bool pictured = false;
+    std::optional<BakedGrids> grids;         // the last bake
+    bool marcherStale = true;                // the marcher holds an older bake
+    std::optional<uint64_t> baked;           // its file text and time, when known
+    PreviewView pictured;                    // the last picture's view
     size_t pictures = 0;
+    mutable std::mutex viewMutex;
+    PreviewView view;  // the next update's
 };
+
+namespace {
+
+/// The key of a bake: the file's text and the time it was grown to.
+uint64_t bakeKey(const std::string& text, const std::optional<double>& time)
+{
+    return fnv1a64(fmt::format("{}\n{}", time ? fmt::format("{:.17g}", *time) : "last", text));
+}
+
+}  // namespace
 
 PreviewSession::PreviewSession(PreviewSettings settings)
     : settings_(std::move(settings)), state_(std::make_unique<State>())
@@ -42,6 +59,25 @@ PreviewSession::PreviewSession(PreviewSettings settings)
     checkImageOutput(settings_.output);
     // The camera's spec, before any work.
     parseCamera(settings_.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);
+    state_->view.time = settings_.model.time;
+}
+
+void PreviewSession::setView(const PreviewView& view)
+{
+    if (view.time && !(std::isfinite(*view.time) && *view.time >= 0.0))
+        throw InputError(
+            fmt::format("the time must be a number of years >= 0 (got {})", *view.time));
+    if (!std::isfinite(view.azimuth) || !std::isfinite(view.elevation))
+        throw InputError(fmt::format("the camera's angles must be finite (got {}, {})",
+                                     view.azimuth, view.elevation));
+    std::lock_guard<std::mutex> lock(state_->viewMutex);
+    state_->view = view;
+}
+
+PreviewView PreviewSession::view() const
+{
+    std::lock_guard<std::mutex> lock(state_->viewMutex);
+    return state_->view;
 }
 
 PreviewSession::~PreviewSession() = default;
@@ -55,78 +91,96 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         if (interrupt && interrupt->load(std::memory_order_relaxed))
             throw BakeInterrupted();
     };
+    u.view = view();
     try {
-        // The file as it is now: unchanged since the last picture, nothing
+        // The file as it is now: with the view, the last picture's, nothing
         // to do (an editor that saves twice, a touch).
         auto t = Clock::now();
-        const uint64_t text = fnv1a64(readTextFile(settings_.input, "model"));
-        if (s.pictured && text == s.lastText) {
+        const std::string text = readTextFile(settings_.input, "model");
+        const uint64_t key = bakeKey(text, u.view.time);
+        const bool moved =
+            u.view.azimuth != s.pictured.azimuth || u.view.elevation != s.pictured.elevation;
+        if (s.grids && s.baked == key && !moved) {
             u.outcome = PreviewUpdate::Outcome::Unchanged;
             u.pictures = s.pictures;
             return u;
         }
-        const BlobTree tree = loadModel(settings_.input, settings_.model);
-        u.model = secondsSince(t);
-        stop();
-        t = Clock::now();
-        const FieldProgram program = FieldProgram::compile(tree);
-        // The voxel size: the first good model's, kept (its memory checked
-        // for every model: a grown tree needs more).
-        BakeRequest planned;
-        planned.input = settings_.input;
-        planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
-        VoxelPlan plan = planVoxelSize(program, planned);
-        if (!planned.voxelSize) {
-            planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
-            plan = planVoxelSize(program, planned);
+        if (!s.grids || s.baked != key) {
+            ModelOptions options = settings_.model;
+            options.time = u.view.time;
+            const BlobTree tree = loadModel(settings_.input, options);
+            // (The model read the file again: a save in between makes the
+            // picture's text unknown, and the next update bakes again.)
+            const bool known = readTextFile(settings_.input, "model") == text;
+            u.model = secondsSince(t);
+            stop();
+            t = Clock::now();
+            const FieldProgram program = FieldProgram::compile(tree);
+            // The voxel size: the first good model's, kept (its memory
+            // checked for every model: a grown tree needs more).
+            BakeRequest planned;
+            planned.input = settings_.input;
+            planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
+            VoxelPlan plan = planVoxelSize(program, planned);
+            if (!planned.voxelSize) {
+                planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
+                plan = planVoxelSize(program, planned);
+            }
+            u.compile = secondsSince(t);
+            stop();
+            t = Clock::now();
+            if (!s.sampler)
+                s.sampler = makeSampler(settings_.device);
+            BakeOptions opt;
+            opt.voxelSize = plan.voxelSize;
+            opt.reuse = &s.cache;
+            opt.interrupt = interrupt;
+            BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
+            u.bake = secondsSince(t);
+            u.leaves = grids.stats.candidateLeaves;
+            u.reusedLeaves = grids.stats.reusedLeaves;
+            u.activeVoxels = grids.stats.activeVoxels;
+            const Box bounds = activeWorldBounds(*grids.surface);
+            if (!s.camera) {
+                if (bounds.empty())
+                    throw InputError(fmt::format(
+                        "{}: the surface is thinner than a voxel of {:g} everywhere: nothing to "
+                        "see (use a smaller --voxel-size)",
+                        settings_.input, plan.voxelSize));
+                const double aspect = double(settings_.width) / double(settings_.height);
+                s.camera = parseCamera(settings_.camera, bounds, aspect);
+            }
+            // Kept from here on: the bake is good whatever happens to its
+            // picture.
+            s.voxelSize = plan.voxelSize;
+            s.grids = std::move(grids);
+            s.marcherStale = true;
+            s.baked = known ? std::optional<uint64_t>(key) : std::nullopt;
+            u.rebaked = true;
+            stop();
         }
-        u.compile = secondsSince(t);
-        stop();
+        u.voxelSize = *s.voxelSize;
         t = Clock::now();
-        if (!s.sampler)
-            s.sampler = makeSampler(settings_.device);
-        BakeOptions opt;
-        opt.voxelSize = plan.voxelSize;
-        opt.reuse = &s.cache;
-        opt.interrupt = interrupt;
-        const BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
-        u.bake = secondsSince(t);
-        u.voxelSize = plan.voxelSize;
-        u.leaves = grids.stats.candidateLeaves;
-        u.reusedLeaves = grids.stats.reusedLeaves;
-        u.activeVoxels = grids.stats.activeVoxels;
-        stop();
-        t = Clock::now();
-        const double aspect = double(settings_.width) / double(settings_.height);
-        const Box bounds = activeWorldBounds(*grids.surface);
-        if (!s.camera) {
-            if (bounds.empty())
-                throw InputError(fmt::format(
-                    "{}: the surface is thinner than a voxel of {:g} everywhere: nothing to see "
-                    "(use a smaller --voxel-size)",
-                    settings_.input, plan.voxelSize));
-            s.camera = parseCamera(settings_.camera, bounds, aspect);
-        }
+        const Camera camera = orbitCamera(*s.camera, u.view.azimuth, u.view.elevation);
+        const BakedGrids& grids = *s.grids;
         RenderImage image;
         if (settings_.renderDevice == Device::Cpu) {
-            image = renderLevelSetCpu(*grids.surface, grids.color.get(), *s.camera, settings_.width,
+            image = renderLevelSetCpu(*grids.surface, grids.color.get(), camera, settings_.width,
                                       settings_.height, settings_.spp);
         } else {
-            if (s.marcher)
-                s.marcher->load(*grids.surface, grids.color.get());
-            else
+            if (!s.marcher)
                 s.marcher = std::make_unique<OpenCLMarcher>(*grids.surface, grids.color.get());
-            image = s.marcher->render(*s.camera, settings_.width, settings_.height, settings_.spp);
+            else if (s.marcherStale)
+                s.marcher->load(*grids.surface, grids.color.get());
+            s.marcherStale = false;
+            image = s.marcher->render(camera, settings_.width, settings_.height, settings_.spp);
         }
         u.render = secondsSince(t);
         stop();
         t = Clock::now();
         writeImage(image, settings_.output);
         u.write = secondsSince(t);
-        // Kept for the next pictures once one is written.
-        s.voxelSize = plan.voxelSize;
-        s.lastText = text;
-        s.pictured = true;
+        s.pictured = u.view;
         ++s.pictures;
         u.outcome = PreviewUpdate::Outcome::Rendered;
     } catch (const BakeInterrupted&) {

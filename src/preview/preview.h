@@ -37,23 +37,33 @@ struct PreviewSettings {
 /// The default preview resolution: voxels across the first model's bounds.
 constexpr double kPreviewVoxelsAcross = 384.0;
 
+/// What the page can change without touching the file: the time of a
+/// growth model, and the camera's orbit about its target (degrees, from the
+/// framed camera).
+struct PreviewView {
+    std::optional<double> time;  ///< years; none: the file's last year
+    double azimuth = 0.0, elevation = 0.0;
+};
+
 /// What one update did.
 struct PreviewUpdate {
     enum class Outcome {
         Rendered,     ///< a new picture was written
-        Unchanged,    ///< the file's text is the last good picture's: nothing done
+        Unchanged,    ///< the file's text and the view are the last picture's: nothing done
         Failed,       ///< the file (or the work) failed: `error`; the last picture kept
         Interrupted,  ///< the interrupt was raised: nothing written
     };
     Outcome outcome = Outcome::Unchanged;
     std::string error;        ///< Failed: the message, naming the file and the JSON path
     bool inputError = false;  ///< Failed: bad input (else a failure of the work)
+    bool rebaked = false;     ///< Rendered: the model was read and baked (else only the view moved)
     /// Seconds of each stage: the model read (and grown), compiled, baked,
     /// rendered, the picture written; and all of it.
     double model = 0.0, compile = 0.0, bake = 0.0, render = 0.0, write = 0.0, total = 0.0;
     double voxelSize = 0.0;
     size_t leaves = 0, reusedLeaves = 0, activeVoxels = 0;
     size_t pictures = 0;  ///< pictures written by the session so far
+    PreviewView view;     ///< the view the update worked from
 };
 
 class PreviewSession {
@@ -65,12 +75,19 @@ public:
     PreviewSession(const PreviewSession&) = delete;
     PreviewSession& operator=(const PreviewSession&) = delete;
 
-    /// Reads the file as it is now and, unless its text is the last good
-    /// picture's, makes and writes a new picture.  Never throws for a bad
-    /// file or a failed bake: the outcome says so and the last picture stays.
+    /// Reads the file as it is now and, unless its text and the view are the
+    /// last picture's, makes and writes a new picture (a moved camera alone
+    /// renders the last bake again).  Never throws for a bad file or a
+    /// failed bake: the outcome says so and the last picture stays.
     /// `interrupt`, when raised, stops the work at the next stage or layer
     /// of leaves: nothing is written.
     PreviewUpdate update(const std::atomic<bool>* interrupt = nullptr);
+
+    /// The view the next update works from; any thread (the change that
+    /// makes the loop update is the caller's to signal).  InputError for a
+    /// time that is not a finite number >= 0 or angles that are not finite.
+    void setView(const PreviewView& view);
+    PreviewView view() const;
 
     const PreviewSettings& settings() const { return settings_; }
 

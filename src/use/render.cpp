@@ -114,6 +114,21 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
                     spec));
 }
 
+Camera orbitCamera(const Camera& cam, double azimuthDeg, double elevationDeg)
+{
+    const glm::dvec3 d = cam.eye - cam.target;
+    const double r = glm::length(d);
+    const double azimuth = std::atan2(d.x, d.z) + glm::radians(azimuthDeg);
+    const double elevation =
+        std::clamp(std::asin(std::clamp(d.y / r, -1.0, 1.0)) + glm::radians(elevationDeg),
+                   glm::radians(-85.0), glm::radians(85.0));
+    Camera out = cam;
+    out.eye =
+        cam.target + r * glm::dvec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
+                                    std::cos(elevation) * std::cos(azimuth));
+    return out;
+}
+
 CameraFrame::CameraFrame(const Camera& cam, int w_, int h_)
     : eye(cam.eye),
       w(glm::normalize(cam.target - cam.eye)),

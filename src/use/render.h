@@ -34,6 +34,11 @@ Camera framingCamera(const Box& bounds, double aspect, double azimuthDeg = 35.0,
 /// ANGLE degrees about the vertical axis).  InputError otherwise.
 Camera parseCamera(const std::string& spec, const Box& bounds, double aspect);
 
+/// `cam` orbited about its target: turned `azimuthDeg` about the vertical
+/// axis, then raised `elevationDeg` (the result kept within 85 degrees of
+/// the horizon); the distance to the target and the field of view kept.
+Camera orbitCamera(const Camera& cam, double azimuthDeg, double elevationDeg);
+
 /// A camera's orthonormal frame for an image size: rays without recomputing it.
 struct CameraFrame {
     CameraFrame(const Camera& cam, int width, int height);

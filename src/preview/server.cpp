@@ -1,0 +1,370 @@
+// cambium — the live preview's web page, served with cpp-httplib (Debian's
+// libcpp-httplib-dev 0.11): a small, maintained server whose chunked
+// responses carry Server-Sent Events, which is all the page needs to be
+// pushed (docs/preview.md says why not a WebSocket library).
+#include "preview/server.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "model/growth_params.h"
+
+#include <fmt/format.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include <condition_variable>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <random>
+#include <sys/socket.h>
+#include <thread>
+
+namespace cambium {
+
+namespace {
+
+using json = nlohmann::json;
+
+/// 128 random bits from the system's source, as hex.
+std::string randomToken()
+{
+    std::random_device device;  // (getrandom on Linux)
+    std::string token;
+    for (int i = 0; i < 4; ++i)
+        token += fmt::format("{:08x}", uint32_t(device()));
+    return token;
+}
+
+/// Equal strings, in a time that does not depend on where they differ.
+bool sameSecret(const std::string& a, const std::string& b)
+{
+    if (a.size() != b.size())
+        return false;
+    unsigned char diff = 0;
+    for (size_t i = 0; i < a.size(); ++i)
+        diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+    return diff == 0;
+}
+
+const char* outcomeName(PreviewUpdate::Outcome o)
+{
+    switch (o) {
+        case PreviewUpdate::Outcome::Rendered:
+            return "rendered";
+        case PreviewUpdate::Outcome::Unchanged:
+            return "unchanged";
+        case PreviewUpdate::Outcome::Failed:
+            return "failed";
+        case PreviewUpdate::Outcome::Interrupted:
+            return "interrupted";
+    }
+    return "";
+}
+
+json viewJson(const PreviewView& v)
+{
+    return {{"time", v.time ? json(*v.time) : json(nullptr)},
+            {"azimuth", v.azimuth},
+            {"elevation", v.elevation}};
+}
+
+json updateJson(const PreviewUpdate& u)
+{
+    return {{"outcome", outcomeName(u.outcome)},
+            {"error", u.error},
+            {"picture", u.pictures},
+            {"rebaked", u.rebaked},
+            {"stages",
+             {{"read", u.model},
+              {"compile", u.compile},
+              {"bake", u.bake},
+              {"render", u.render},
+              {"write", u.write},
+              {"total", u.total}}},
+            {"voxel_size", u.voxelSize},
+            {"leaves", u.leaves},
+            {"reused", u.reusedLeaves},
+            {"view", viewJson(u.view)}};
+}
+
+void reply(httplib::Response& res, int status, const json& body)
+{
+    res.status = status;
+    res.set_content(body.dump(), "application/json");
+}
+
+void refuse(httplib::Response& res, int status, const std::string& why)
+{
+    reply(res, status, {{"error", why}});
+}
+
+/// The request's JSON body: an object, else 400.
+std::optional<json> jsonBody(const httplib::Request& req, httplib::Response& res)
+{
+    json body = json::parse(req.body, nullptr, /*allow_exceptions=*/false);
+    if (!body.is_object()) {
+        refuse(res, 400, "the request's body must be a JSON object");
+        return std::nullopt;
+    }
+    return body;
+}
+
+}  // namespace
+
+struct PreviewServer::Impl {
+    PreviewSession& session;
+    ChangeSource& changes;
+    httplib::Server server;
+    std::string token = randomToken();
+    int port = 0;
+    std::thread thread;
+
+    // The updates the pages are told of: the count and the latest.
+    std::mutex mutex;
+    std::condition_variable published;
+    size_t events = 0;
+    std::string latest;  // the latest update's JSON ("" before the first)
+    bool stopping = false;
+    std::mutex fileMutex;  // one page edit of the file at a time
+
+    Impl(PreviewSession& s, ChangeSource& c) : session(s), changes(c) {}
+
+    bool allowedHost(const std::string& host) const
+    {
+        return host == fmt::format("127.0.0.1:{}", port) ||
+               host == fmt::format("localhost:{}", port);
+    }
+
+    /// The model file as the page shows it: its curves with the values the
+    /// reader gives them (the page draws them the same way: the browser test
+    /// compares), the years, the view; or the error that stops it reading.
+    json model()
+    {
+        const std::string& input = session.settings().input;
+        json out = {{"file", input},
+                    {"view", viewJson(session.view())},
+                    {"curves", json::array()},
+                    {"years", nullptr},
+                    {"error", nullptr}};
+        if (!isGrowthParameterFile(input))
+            return out;
+        try {
+            const GrowthParameters p = loadGrowthParameters(input);
+            out["years"] = p.years;
+            for (const GrowthCurve& c : growthCurves()) {
+                const Curve& curve = p.*c.member;
+                json points = json::array(), samples = json::array();
+                for (const auto& [x, y] : curve.points())
+                    points.push_back({x, y});
+                constexpr int kSamples = 64;
+                for (int i = 0; i <= kSamples; ++i)
+                    samples.push_back(curve(double(i) / kSamples));
+                out["curves"].push_back(
+                    {{"key", c.key},
+                     {"points", points},
+                     {"interpolation",
+                      curve.interpolation() == Curve::Interpolation::Smooth ? "smooth" : "linear"},
+                     {"range", {c.lo, c.hi}},
+                     {"samples", samples}});
+            }
+        } catch (const std::exception& e) {
+            out["error"] = e.what();
+        }
+        return out;
+    }
+
+    /// A page's curve edit: checked by the file's reader, then written over
+    /// the file through the checked writer.  The watcher sees the write.
+    void editCurve(const json& body, httplib::Response& res)
+    {
+        if (!body.contains("key") || !body["key"].is_string() || !body.contains("points") ||
+            !body["points"].is_array())
+            return refuse(res, 400, "expected {\"key\": CURVE, \"points\": [[x, y], ...]}");
+        std::vector<std::pair<double, double>> points;
+        for (const json& p : body["points"]) {
+            if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+                return refuse(res, 400, "each point must be [x, y], two numbers");
+            points.emplace_back(p[0].get<double>(), p[1].get<double>());
+        }
+        const std::string& input = session.settings().input;
+        std::lock_guard<std::mutex> lock(fileMutex);
+        try {
+            const std::string edited = withCurvePoints(readTextFile(input, "model"), input,
+                                                       body["key"].get<std::string>(), points);
+            writeFile(input, edited.data(), edited.size());
+        } catch (const InputError& e) {
+            return refuse(res, 400, e.what());
+        } catch (const std::exception& e) {
+            return refuse(res, 500, e.what());
+        }
+        reply(res, 200, {{"written", input}});
+    }
+
+    /// A page's move of the year slider or the camera.
+    void editView(const json& body, httplib::Response& res)
+    {
+        PreviewView v = session.view();
+        try {
+            for (const auto& [key, value] : body.items()) {
+                if (key == "time" && value.is_null())
+                    v.time.reset();
+                else if (key == "time" && value.is_number())
+                    v.time = value.get<double>();
+                else if ((key == "azimuth" || key == "elevation") && value.is_number())
+                    (key == "azimuth" ? v.azimuth : v.elevation) = value.get<double>();
+                else
+                    throw InputError(fmt::format(
+                        "{}: expected time (years or null), azimuth or elevation (degrees)", key));
+            }
+            session.setView(v);
+        } catch (const InputError& e) {
+            return refuse(res, 400, e.what());
+        }
+        changes.notify();
+        reply(res, 200, {{"view", viewJson(v)}});
+    }
+
+    void routes()
+    {
+        // Every request: the loopback Host and the token, or nothing.
+        server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+            res.set_header("Cache-Control", "no-store");
+            res.set_header("Referrer-Policy", "no-referrer");
+            res.set_header("X-Content-Type-Options", "nosniff");
+            if (!allowedHost(req.get_header_value("Host"))) {
+                refuse(res, 403, "this server answers requests for 127.0.0.1 only");
+                return httplib::Server::HandlerResponse::Handled;
+            }
+            if (!sameSecret(req.get_param_value("token"), token)) {
+                refuse(res, 403, "missing or wrong token: open the URL cambium preview printed");
+                return httplib::Server::HandlerResponse::Handled;
+            }
+            return httplib::Server::HandlerResponse::Unhandled;
+        });
+        server.Get("/", [](const httplib::Request&, httplib::Response& res) {
+            res.set_header("Content-Security-Policy",
+                           "default-src 'none'; script-src 'unsafe-inline'; style-src "
+                           "'unsafe-inline'; img-src 'self'; connect-src 'self'");
+            res.set_content(kPreviewPage, "text/html; charset=utf-8");
+        });
+        server.Get("/picture.png", [this](const httplib::Request&, httplib::Response& res) {
+            // (Written by renaming: this reads one whole picture.)
+            std::ifstream in(session.settings().output, std::ios::binary);
+            if (!in)
+                return refuse(res, 404, "no picture yet");
+            std::string bytes((std::istreambuf_iterator<char>(in)),
+                              std::istreambuf_iterator<char>());
+            if (!in.good() && !in.eof())
+                return refuse(res, 500, "the picture cannot be read");
+            if (bytes.empty())
+                return refuse(res, 404, "no picture yet");
+            res.set_content(bytes, "image/png");
+        });
+        server.Get("/model", [this](const httplib::Request&, httplib::Response& res) {
+            reply(res, 200, model());
+        });
+        server.Post("/curve", [this](const httplib::Request& req, httplib::Response& res) {
+            if (auto body = jsonBody(req, res))
+                editCurve(*body, res);
+        });
+        server.Post("/view", [this](const httplib::Request& req, httplib::Response& res) {
+            if (auto body = jsonBody(req, res))
+                editView(*body, res);
+        });
+        server.Get("/events", [this](const httplib::Request&, httplib::Response& res) {
+            // Each page gets the latest update at once, then each new one;
+            // a comment every 15 s keeps the connection open.
+            auto seen = std::make_shared<size_t>(0);
+            res.set_chunked_content_provider(
+                "text/event-stream", [this, seen](size_t, httplib::DataSink& sink) {
+                    std::unique_lock<std::mutex> lock(mutex);
+                    published.wait_for(lock, std::chrono::seconds(15),
+                                       [&] { return stopping || events > *seen; });
+                    if (stopping)
+                        return false;
+                    std::string message = ": still here\n\n";
+                    if (events > *seen && !latest.empty())
+                        message = "event: update\ndata: " + latest + "\n\n";
+                    *seen = events;
+                    lock.unlock();
+                    return sink.write(message.data(), message.size());
+                });
+        });
+        server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+            if (res.body.empty())
+                refuse(res, res.status, "no such page");
+        });
+    }
+};
+
+PreviewServer::PreviewServer(PreviewSession& session, ChangeSource& changes, int port)
+    : impl_(std::make_unique<Impl>(session, changes))
+{
+    if (port < 0 || port > 65535)
+        throw InputError(fmt::format("--port must be 0 (any free port) to 65535 (got {})", port));
+    Impl& s = *impl_;
+    s.server.set_payload_max_length(1 << 20);
+    // SO_REUSEADDR (a restart finds the port free at once), and not
+    // httplib's SO_REUSEPORT, with which a second server on the port would
+    // share its connections instead of being refused.
+    s.server.set_socket_options([](socket_t sock) {
+        const int yes = 1;
+        ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
+    s.routes();
+    // Loopback only: no other address of the machine reaches it.
+    if (port == 0) {
+        s.port = s.server.bind_to_any_port("127.0.0.1");
+    } else {
+        s.port = s.server.bind_to_port("127.0.0.1", port) ? port : -1;
+    }
+    if (s.port <= 0)
+        throw InputError(
+            fmt::format("--port {}: cannot listen on 127.0.0.1:{} (in use?)", port, port));
+    s.thread = std::thread([&s] { s.server.listen_after_bind(); });
+    // Running before anything can stop it (httplib's stop does nothing to a
+    // server that has not started its loop yet).
+    for (int i = 0; i < 5000 && !s.server.is_running(); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+PreviewServer::~PreviewServer()
+{
+    {
+        std::lock_guard<std::mutex> lock(impl_->mutex);
+        impl_->stopping = true;
+    }
+    impl_->published.notify_all();
+    impl_->server.stop();
+    impl_->thread.join();
+}
+
+int PreviewServer::port() const
+{
+    return impl_->port;
+}
+
+const std::string& PreviewServer::token() const
+{
+    return impl_->token;
+}
+
+std::string PreviewServer::url() const
+{
+    return fmt::format("http://127.0.0.1:{}/?token={}", impl_->port, impl_->token);
+}
+
+void PreviewServer::publish(const PreviewUpdate& update)
+{
+    if (update.outcome == PreviewUpdate::Outcome::Unchanged)
+        return;
+    {
+        std::lock_guard<std::mutex> lock(impl_->mutex);
+        impl_->latest = updateJson(update).dump();
+        ++impl_->events;
+    }
+    impl_->published.notify_all();
+}
+
+}  // namespace cambium

@@ -1,0 +1,287 @@
+// The live preview's page server: reachable on 127.0.0.1 only, with its
+// token and a loopback Host only; fixed routes (no path reaches a file);
+// curve edits checked by the file's reader and written to the watched file
+// and nowhere else; the view moved and signalled; updates pushed as
+// Server-Sent Events; the model's curves as the reader evaluates them.
+#include "preview/server.h"
+
+#include "core/error.h"
+#include "model/growth_params.h"
+
+#include "cli_util.h"
+#include "temp_dir.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include <arpa/inet.h>
+#include <filesystem>
+#include <fstream>
+#include <netinet/in.h>
+#include <set>
+#include <sys/socket.h>
+#include <thread>
+#include <unistd.h>
+
+namespace {
+
+using namespace cambium;
+using cambium::test::fileContents;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+/// Whether a TCP connection to `address`:`port` (IPv4 or IPv6) is accepted.
+bool connects(const std::string& address, int port)
+{
+    sockaddr_storage storage{};
+    socklen_t size = 0;
+    int family = AF_INET;
+    if (address.find(':') != std::string::npos) {
+        family = AF_INET6;
+        auto* a = reinterpret_cast<sockaddr_in6*>(&storage);
+        a->sin6_family = AF_INET6;
+        a->sin6_port = htons(uint16_t(port));
+        ::inet_pton(AF_INET6, address.c_str(), &a->sin6_addr);
+        size = sizeof(sockaddr_in6);
+    } else {
+        auto* a = reinterpret_cast<sockaddr_in*>(&storage);
+        a->sin_family = AF_INET;
+        a->sin_port = htons(uint16_t(port));
+        ::inet_pton(AF_INET, address.c_str(), &a->sin_addr);
+        size = sizeof(sockaddr_in);
+    }
+    const int fd = ::socket(family, SOCK_STREAM, 0);
+    if (fd < 0)
+        return false;
+    const bool ok = ::connect(fd, reinterpret_cast<sockaddr*>(&storage), size) == 0;
+    ::close(fd);
+    return ok;
+}
+
+/// The local addresses (hex, as /proc/net/tcp{,6} writes them) of the
+/// sockets listening on `port`.
+std::set<std::string> listeningAddresses(int port)
+{
+    std::set<std::string> out;
+    for (const char* table : {"/proc/net/tcp", "/proc/net/tcp6"}) {
+        std::ifstream in(table);
+        std::string line;
+        std::getline(in, line);  // (the header)
+        while (std::getline(in, line)) {
+            std::istringstream fields(line);
+            std::string slot, local, remote, state;
+            fields >> slot >> local >> remote >> state;
+            const auto colon = local.rfind(':');
+            if (state == "0A" && colon != std::string::npos &&
+                std::stoi(local.substr(colon + 1), nullptr, 16) == port)
+                out.insert(local.substr(0, colon));
+        }
+    }
+    return out;
+}
+
+struct Fixture {
+    fs::path dir;
+    PreviewSession session;
+    ManualChanges changes;
+    PreviewServer server;
+    httplib::Client client;
+    std::string token;
+
+    static PreviewSettings settings(const fs::path& dir)
+    {
+        fs::copy_file(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json", dir / "tree.json");
+        PreviewSettings s;
+        s.input = (dir / "tree.json").string();
+        s.model.time = 3.0;
+        s.voxelSize = 0.05;
+        s.device = Device::Cpu;
+        s.width = 64;
+        s.height = 48;
+        s.output = (dir / "preview.png").string();
+        return s;
+    }
+
+    explicit Fixture(const std::string& name)
+        : dir(cambium::test::freshDir(name)),
+          session(settings(dir)),
+          server(session, changes),
+          client("127.0.0.1", server.port()),
+          token(server.token())
+    {
+    }
+    std::string withToken(const std::string& path) const
+    {
+        return path + (path.find('?') == std::string::npos ? "?" : "&") + "token=" + token;
+    }
+    httplib::Result post(const std::string& path, const json& body)
+    {
+        return client.Post(withToken(path).c_str(), body.dump(), "application/json");
+    }
+};
+
+}  // namespace
+
+TEST(PreviewServer, ListensOnLoopbackOnlyAndAnswersOnlyItsTokenAndHost)
+{
+    Fixture f("cambium_preview_server_access");
+    const int port = f.server.port();
+    ASSERT_GT(port, 0);
+    EXPECT_EQ(f.server.url(), fmt::format("http://127.0.0.1:{}/?token={}", port, f.token));
+    EXPECT_EQ(f.token.size(), 32u);
+    // Bound to 127.0.0.1 alone: not to every address, and no other address
+    // of the machine (another of the loopback range, IPv6's) reaches it.
+    EXPECT_EQ(listeningAddresses(port), std::set<std::string>{"0100007F"});
+    EXPECT_TRUE(connects("127.0.0.1", port));
+    EXPECT_FALSE(connects("127.0.0.2", port));
+    EXPECT_FALSE(connects("::1", port));
+    // The page, with the token.
+    auto r = f.client.Get(f.withToken("/").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_NE(r->body.find("cambium preview"), std::string::npos);
+    // Without it, with another, with a Host that is not the loopback's
+    // (a page of another site whose name resolves to 127.0.0.1): refused,
+    // on every route, for every method.
+    for (const char* path : {"/", "/model", "/picture.png", "/events"}) {
+        for (const std::string& query : {std::string(""), std::string("?token=0123"),
+                                         "?token=" + f.token.substr(0, 31) + "0"}) {
+            r = f.client.Get((path + query).c_str());
+            ASSERT_TRUE(r);
+            EXPECT_EQ(r->status, 403) << path << query;
+        }
+        r = f.client.Get(f.withToken(path).c_str(), httplib::Headers{{"Host", "attacker.example"}});
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 403) << path;
+    }
+    r = f.client.Post("/curve", R"({"key": "Gh", "points": [[0, 0], [1, 1]]})", "application/json");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 403);
+    r = f.client.Get(f.withToken("/").c_str(),
+                     httplib::Headers{{"Host", fmt::format("localhost:{}", port)}});
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+}
+
+TEST(PreviewServer, NoPathReachesAFileAndOnlyTheWatchedFileIsWritten)
+{
+    Fixture f("cambium_preview_server_files");
+    const std::string before = fileContents(f.dir / "tree.json");
+    std::ofstream(f.dir / "secret.txt") << "not for the page";
+    // (What the file system holds around the watched file.)
+    for (const char* path : {"/../secret.txt", "/..%2fsecret.txt", "/%2e%2e/%2e%2e/etc/passwd",
+                             "/picture.png/../secret.txt", "/secret.txt", "/tree.json",
+                             "//etc/passwd", "/events/../secret.txt"}) {
+        auto r = f.client.Get(f.withToken(path).c_str());
+        ASSERT_TRUE(r) << path;
+        EXPECT_NE(r->status, 200) << path;
+        EXPECT_EQ(r->body.find("not for the page"), std::string::npos) << path;
+        EXPECT_EQ(r->body.find("root:"), std::string::npos) << path;
+    }
+    // No picture yet: none served.
+    auto r = f.client.Get(f.withToken("/picture.png").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 404);
+    // Bad edits: refused with the reader's words; the file as it was.
+    const struct {
+        json body;
+        std::string expected;
+    } bad[] = {
+        {{{"key", "Gh"}, {"points", {{0, 0}, {1, 2}}}},
+         "curves.Gh: values must be between 0 and 1"},
+        {{{"key", "../../secret.txt"}, {"points", {{0, 0}, {1, 1}}}}, "no such curve"},
+        {{{"key", "Gh"}, {"points", {{0, 0}, {1, "x"}}}}, "two numbers"},
+        {{{"key", "Gh"}, {"file", "secret.txt"}}, "CURVE"},
+        {json::array(), "a JSON object"},
+    };
+    for (const auto& b : bad) {
+        r = f.post("/curve", b.body);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << b.body;
+        EXPECT_NE(r->body.find(b.expected), std::string::npos) << r->body;
+    }
+    EXPECT_EQ(fileContents(f.dir / "tree.json"), before);
+    // A good edit: the watched file, and only its curve's points, changed.
+    r = f.post("/curve", {{"key", "Gh"}, {"points", {{0, 0.1}, {0.5, 0.5}, {1, 1}}}});
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const std::string after = fileContents(f.dir / "tree.json");
+    EXPECT_EQ(after, withCurvePoints(before, "x", "Gh", {{0, 0.1}, {0.5, 0.5}, {1, 1}}));
+    EXPECT_DOUBLE_EQ(loadGrowthParameters((f.dir / "tree.json").string()).Gh(0.5), 0.5);
+    // Nothing else written: the directory holds what it held.
+    std::set<std::string> files;
+    for (const auto& entry : fs::directory_iterator(f.dir))
+        files.insert(entry.path().filename().string());
+    EXPECT_EQ(files, (std::set<std::string>{"secret.txt", "tree.json"}));
+    EXPECT_EQ(fileContents(f.dir / "secret.txt"), "not for the page");
+}
+
+TEST(PreviewServer, TheModelTheViewAndPushedUpdates)
+{
+    Fixture f("cambium_preview_server_model");
+    // The curves as the reader evaluates them.
+    auto r = f.client.Get(f.withToken("/model").c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200);
+    const json model = json::parse(r->body);
+    EXPECT_EQ(model["years"], 27);
+    EXPECT_EQ(model["view"]["time"], 3.0);
+    const GrowthParameters p = loadGrowthParameters(f.session.settings().input);
+    ASSERT_EQ(model["curves"].size(), growthCurves().size());
+    for (size_t i = 0; i < growthCurves().size(); ++i) {
+        const GrowthCurve& c = growthCurves()[i];
+        const json& curve = model["curves"][i];
+        EXPECT_EQ(curve["key"], c.key);
+        EXPECT_EQ(curve["range"], json({c.lo, c.hi}));
+        ASSERT_EQ(curve["samples"].size(), 65u);
+        for (size_t k = 0; k < 65; ++k)
+            EXPECT_EQ(curve["samples"][k].get<double>(), (p.*c.member)(double(k) / 64.0));
+    }
+    // The view: moved, and the loop told.
+    r = f.post("/view", {{"time", 5.5}, {"azimuth", 30}});
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200) << r->body;
+    EXPECT_EQ(f.session.view().time, 5.5);
+    EXPECT_EQ(f.session.view().azimuth, 30.0);
+    EXPECT_TRUE(f.changes.wait(std::chrono::milliseconds(0)));
+    for (const json& body : {json{{"time", -1}}, json{{"azimuth", "left"}}, json{{"zoom", 2}}}) {
+        r = f.post("/view", body);
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << body;
+    }
+    EXPECT_EQ(f.session.view().time, 5.5);
+    EXPECT_FALSE(f.changes.wait(std::chrono::milliseconds(0)));
+    // An update: the picture served, and the update pushed to a page that
+    // connects after it.
+    const PreviewUpdate u = f.session.update();
+    ASSERT_EQ(u.outcome, PreviewUpdate::Outcome::Rendered) << u.error;
+    f.server.publish(u);
+    r = f.client.Get(f.withToken("/picture.png").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_TRUE(r->body == fileContents(f.dir / "preview.png"));
+    std::string stream;
+    f.client.Get(f.withToken("/events").c_str(), [&](const char* data, size_t size) {
+        stream.append(data, size);
+        return stream.find("\n\n") == std::string::npos;
+    });
+    ASSERT_EQ(stream.rfind("event: update\ndata: ", 0), 0u) << stream;
+    const json pushed = json::parse(stream.substr(20, stream.find("\n\n") - 20));
+    EXPECT_EQ(pushed["outcome"], "rendered");
+    EXPECT_EQ(pushed["picture"], 1);
+    EXPECT_EQ(pushed["view"]["time"], 5.5);
+    EXPECT_EQ(pushed["stages"]["total"], u.total);
+}
+
+TEST(PreviewServer, ATakenPortIsBadInputNamed)
+{
+    Fixture f("cambium_preview_server_port");
+    try {
+        PreviewServer second(f.session, f.changes, f.server.port());
+        ADD_FAILURE() << "two servers on one port";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(std::to_string(f.server.port())), std::string::npos);
+    }
+}
