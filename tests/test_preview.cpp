@@ -68,14 +68,39 @@ TEST(PreviewSession, AnEditMakesANewPictureAndABadOneKeepsTheLast)
     ASSERT_EQ(u.outcome, O::Rendered) << u.error;
     EXPECT_GT(u.activeVoxels, 0u);
     EXPECT_EQ(u.reusedLeaves, 0u);
+    EXPECT_TRUE(u.rebaked && u.regrown);
     const std::string first = fileContents(dir / "preview.png");
     ASSERT_FALSE(first.empty());
     // The same text: nothing done.
     EXPECT_EQ(session.update().outcome, O::Unchanged);
+    // Another time (the year slider): baked again, not grown again; the
+    // camera orbited: rendered again, not baked.
+    PreviewView view = session.view();
+    view.time = 4.0;
+    session.setView(view);
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_TRUE(u.rebaked);
+    EXPECT_FALSE(u.regrown);
+    EXPECT_NE(fileContents(dir / "preview.png"), first);
+    view.azimuth = 90.0;
+    session.setView(view);
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_FALSE(u.rebaked);
+    const std::string turned = fileContents(dir / "preview.png");
+    // Back to the first view: the first picture again, byte for byte.
+    view.time = 5.0;
+    view.azimuth = 0.0;
+    session.setView(view);
+    ASSERT_EQ(session.update().outcome, O::Rendered);
+    EXPECT_EQ(fileContents(dir / "preview.png"), first);
+    EXPECT_NE(turned, first);
     // Another branching angle: a new picture; the trunk's leaves reused.
     writeSpecies(dir / "tree.json", "40");
     u = session.update();
     ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_TRUE(u.regrown);
     EXPECT_GT(u.reusedLeaves, 0u);
     EXPECT_LT(u.reusedLeaves, u.leaves);
     const std::string second = fileContents(dir / "preview.png");
@@ -97,7 +122,7 @@ TEST(PreviewSession, AnEditMakesANewPictureAndABadOneKeepsTheLast)
     u = session.update();
     ASSERT_EQ(u.outcome, O::Rendered) << u.error;
     EXPECT_EQ(fileContents(dir / "preview.png"), first);
-    EXPECT_EQ(u.pictures, 3u);
+    EXPECT_EQ(u.pictures, 6u);
 }
 
 TEST(PreviewSession, AnInterruptedBakeWritesNothing)

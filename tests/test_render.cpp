@@ -452,3 +452,25 @@ TEST(Render, ImagesReadBackWithTheirChannels)
 }
 
 }  // namespace
+
+TEST(Camera, AnOrbitKeepsTheTargetDistanceAndFieldOfViewAndStopsShortOfThePoles)
+{
+    Camera cam;
+    cam.eye = {3.0, 2.0, 4.0};
+    cam.target = {1.0, 1.0, 1.0};
+    cam.fovY = 40.0;
+    const double r = glm::length(cam.eye - cam.target);
+    auto near = [](const glm::dvec3& a, const glm::dvec3& b) { return glm::length(a - b) < 1e-9; };
+    EXPECT_TRUE(near(orbitCamera(cam, 0.0, 0.0).eye, cam.eye));
+    EXPECT_TRUE(near(orbitCamera(cam, 360.0, 0.0).eye, cam.eye));
+    // A quarter turn about the vertical through the target: x and z swap
+    // roles, the height kept.
+    const Camera q = orbitCamera(cam, 90.0, 0.0);
+    EXPECT_TRUE(near(q.eye - q.target, glm::dvec3(3.0, 1.0, -2.0)));
+    EXPECT_EQ(q.fovY, 40.0);
+    EXPECT_TRUE(near(q.target, cam.target));
+    // Raised past the pole: held at 85 degrees above the horizon.
+    const Camera top = orbitCamera(cam, 0.0, 170.0);
+    EXPECT_NEAR(glm::length(top.eye - top.target), r, 1e-9);
+    EXPECT_NEAR(std::asin((top.eye.y - top.target.y) / r), glm::radians(85.0), 1e-9);
+}

@@ -77,18 +77,24 @@ void checkGrowthOptions(const std::string& path, const ModelOptions& o)
             path));
 }
 
+BlobTree grownTree(const GrowthModel& model, const std::string& path, const ModelOptions& o)
+{
+    checkModelOptions(o);
+    checkGrowthOptions(path, o);
+    const double t = timeOfLife(model.params(), o.time, path, "--time");
+    const Skeleton sk = model.skeleton(t, o.leaves);
+    if (sk.internodes.empty())
+        throw InputError(
+            fmt::format("{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
+    return buildTree(sk, model.buildOptions());
+}
+
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
 {
     checkModelOptions(o);
     if (isGrowthParameterFile(path)) {
         checkGrowthOptions(path, o);
-        const GrowthModel model(loadGrowthParameters(path));
-        const double t = timeOfLife(model.params(), o.time, path, "--time");
-        const Skeleton sk = model.skeleton(t, o.leaves);
-        if (sk.internodes.empty())
-            throw InputError(fmt::format(
-                "{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
-        return buildTree(sk, model.buildOptions());
+        return grownTree(GrowthModel(loadGrowthParameters(path)), path, o);
     }
     if (endsWith(path, ".json"))
         return loadScene(path);

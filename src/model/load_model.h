@@ -41,6 +41,12 @@ void checkGrowthOptions(const std::string& path, const ModelOptions& options);
 /// back: InputError naming the option and the values it takes.
 ModelOptions::Junctions parseJunctions(const std::string& name);
 ModelOptions::Primitives parsePrimitives(const std::string& name);
+class GrowthModel;
+/// A grown model's tree at `options.time` (the file's last year when
+/// unset), as loadModel makes it from `path`: for a caller that keeps the
+/// growth model (its global phase) between trees of other times.
+BlobTree grownTree(const GrowthModel& model, const std::string& path, const ModelOptions& options);
+
 /// Also reads growth parameter files (a .json with "curves",
 /// docs/growth-format.md): the tree grown to `options.time`.
 BlobTree loadModel(const std::string& path, const ModelOptions& options = {});

@@ -9,6 +9,8 @@
 #include "core/hash.h"
 #include "field/program.h"
 #include "io/image_file.h"
+#include "model/growth.h"
+#include "model/growth_params.h"
 
 #include <fmt/format.h>
 
@@ -24,9 +26,14 @@ struct PreviewSession::State {
     std::optional<double> voxelSize;         // decided by the first good model
     std::optional<Camera> camera;            // framed on the first good model
     std::optional<BakedGrids> grids;         // the last bake
-    bool marcherStale = true;                // the marcher holds an older bake
-    std::optional<uint64_t> baked;           // its file text and time, when known
-    PreviewView pictured;                    // the last picture's view
+    // A growth parameter file's grown model (its global phase), kept while
+    // the file's text is the same: a new time (the year slider) draws the
+    // tree again without growing it again.
+    std::optional<GrowthModel> grown;
+    uint64_t grownText = 0;
+    bool marcherStale = true;       // the marcher holds an older bake
+    std::optional<uint64_t> baked;  // its file text and time, when known
+    PreviewView pictured;           // the last picture's view
     size_t pictures = 0;
     mutable std::mutex viewMutex;
     PreviewView view;  // the next update's
@@ -108,14 +115,29 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         if (!s.grids || s.baked != key) {
             ModelOptions options = settings_.model;
             options.time = u.view.time;
-            const BlobTree tree = loadModel(settings_.input, options);
-            // (The model read the file again: a save in between makes the
-            // picture's text unknown, and the next update bakes again.)
-            const bool known = readTextFile(settings_.input, "model") == text;
+            bool known = true;
+            std::optional<BlobTree> tree;
+            if (isGrowthParameterFile(settings_.input)) {
+                // (From the text read above: what the picture shows is known.)
+                const uint64_t textKey = fnv1a64(text);
+                if (!s.grown || s.grownText != textKey) {
+                    s.grown.reset();
+                    s.grown.emplace(parseGrowthParameters(text, settings_.input));
+                    s.grownText = textKey;
+                    u.regrown = true;
+                }
+                tree = grownTree(*s.grown, settings_.input, options);
+            } else {
+                tree = loadModel(settings_.input, options);
+                // (The model read the file again: a save in between makes
+                // the picture's text unknown, and the next update bakes
+                // again.)
+                known = readTextFile(settings_.input, "model") == text;
+            }
             u.model = secondsSince(t);
             stop();
             t = Clock::now();
-            const FieldProgram program = FieldProgram::compile(tree);
+            const FieldProgram program = FieldProgram::compile(*tree);
             // The voxel size: the first good model's, kept (its memory
             // checked for every model: a grown tree needs more).
             BakeRequest planned;

@@ -57,6 +57,7 @@ struct PreviewUpdate {
     std::string error;        ///< Failed: the message, naming the file and the JSON path
     bool inputError = false;  ///< Failed: bad input (else a failure of the work)
     bool rebaked = false;     ///< Rendered: the model was read and baked (else only the view moved)
+    bool regrown = false;     ///< rebaked: a growth parameter file's growth model run again
     /// Seconds of each stage: the model read (and grown), compiled, baked,
     /// rendered, the picture written; and all of it.
     double model = 0.0, compile = 0.0, bake = 0.0, render = 0.0, write = 0.0, total = 0.0;
