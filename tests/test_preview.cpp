@@ -261,3 +261,51 @@ TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
     EXPECT_NE(e.out.find("branching_angle"), std::string::npos) << e.out;
     EXPECT_EQ(fileContents(png), before);
 }
+
+TEST(PreviewSession, FramesBakedInTheBackgroundAreShownAtOnceAndFollowTheFile)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_frames");
+    writeSpecies(dir / "tree.json", "55");
+    PreviewSettings s = settingsFor(dir);
+    s.frames = {3.0, 4.0};
+    PreviewSession session(s);
+    using O = PreviewUpdate::Outcome;
+    EXPECT_FALSE(session.prebake());  // (not before the first picture)
+    ASSERT_EQ(session.update().outcome, O::Rendered);
+    // One frame a call, then none left; an interrupt stops one.
+    std::atomic<bool> interrupt{true};
+    EXPECT_FALSE(session.prebake(&interrupt));
+    EXPECT_EQ(session.prebakedFrames(), 0u);
+    EXPECT_TRUE(session.prebake());
+    EXPECT_TRUE(session.prebake());
+    EXPECT_FALSE(session.prebake());
+    EXPECT_EQ(session.prebakedFrames(), 2u);
+    // The slider on year 3: no bake, and the picture a session of its own
+    // makes of year 3.
+    PreviewView view = session.view();
+    view.time = 3.0;
+    session.setView(view);
+    PreviewUpdate u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_TRUE(u.prebaked);
+    EXPECT_EQ(u.bake, 0.0);
+    PreviewSettings alone = settingsFor(dir);
+    alone.model.time = 3.0;
+    alone.output = (dir / "alone.png").string();
+    PreviewSession fresh(alone);
+    ASSERT_EQ(fresh.update().outcome, O::Rendered);
+    EXPECT_TRUE(fileContents(dir / "alone.png") == fileContents(dir / "preview.png"));
+    // A new text: the frames are baked again for it.
+    writeSpecies(dir / "tree.json", "40");
+    EXPECT_TRUE(session.prebake());
+    EXPECT_EQ(session.prebakedFrames(), 1u);
+    view.time = 4.0;
+    session.setView(view);
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_FALSE(u.prebaked);  // (year 4 of the new text is not baked yet)
+    // Years outside the tree's, or a file of another kind: refused first.
+    PreviewSettings late = settingsFor(dir);
+    late.frames = {28.0};
+    EXPECT_THROW(PreviewSession{late}, InputError);
+}

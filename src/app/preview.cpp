@@ -4,6 +4,7 @@
 #include "app/app.h"
 
 #include "core/error.h"
+#include "core/frames.h"
 #include "preview/loop.h"
 #include "preview/preview.h"
 #include "preview/server.h"
@@ -22,15 +23,25 @@ void report(const PreviewSettings& settings, const PreviewUpdate& u)
 {
     using O = PreviewUpdate::Outcome;
     switch (u.outcome) {
-        case O::Rendered:
+        case O::Rendered: {
+            const std::string view =
+                u.view.time ? fmt::format("year {:g}, ", *u.view.time) : std::string();
+            std::string made;
+            if (!u.rebaked)
+                made = "the view moved: the last bake";
+            else if (u.prebaked)
+                made = "baked in the background";
+            else
+                made = fmt::format(
+                    "read {}{:.2f} s, compile {:.2f} s, bake {:.2f} s: {} leaves, {} reused",
+                    u.regrown ? "and grow " : "", u.model, u.compile, u.bake,
+                    formatCount(double(u.leaves)), formatCount(double(u.reusedLeaves)));
             fmt::print(
-                "picture {}: {:.2f} s -> {} (read and grow {:.2f} s, compile {:.2f} s, bake {:.2f} "
-                "s: "
-                "{} leaves, {} reused, voxel size {:g}; render {:.2f} s, write {:.2f} s)\n",
-                u.pictures, u.total, settings.output, u.model, u.compile, u.bake,
-                formatCount(double(u.leaves)), formatCount(double(u.reusedLeaves)), u.voxelSize,
-                u.render, u.write);
+                "picture {}: {:.2f} s -> {} ({}{}, voxel size {:g}; render {:.2f} s, write "
+                "{:.2f} s)\n",
+                u.pictures, u.total, settings.output, view, made, u.voxelSize, u.render, u.write);
             break;
+        }
         case O::Failed:
             fmt::print("error: {} (the last picture kept)\n", u.error);
             break;
@@ -54,6 +65,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
         std::string device = "opencl", renderDevice = "cpu";
         bool once = false;
         int port = 0;
+        std::string frames;
     };
     auto o = std::make_shared<Options>();
     auto* cmd = app.add_subcommand(
@@ -86,6 +98,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
     cmd->add_option("--port", o->port,
                     "The page's port on 127.0.0.1 (default: a free one); its URL, with a "
                     "random token, is the first line printed");
+    cmd->add_option("--frames", o->frames,
+                    "Years A-B[:STEP] of a growth parameter file to bake in the background "
+                    "after the first picture, so that the page's year slider shows them at once");
     cmd->add_flag("--once", o->once,
                   "One picture, then exit (2: bad input, 1: a failure): what scripts and tests "
                   "run");
@@ -97,6 +112,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
             s.model = o->model.options();
             s.device = parseDevice(o->device);
             s.renderDevice = parseDevice(o->renderDevice);
+            if (!o->frames.empty())
+                for (long long year : parseFrames(o->frames, "--frames"))
+                    s.frames.push_back(double(year));
             PreviewSession session(s);
             if (o->once) {
                 const PreviewUpdate u = session.update();
@@ -116,6 +134,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
             const std::atomic<bool> never{false};  // (a signal ends the process)
             PreviewLoopOptions loop;
             bool first = true;
+            loop.idle = [&](const std::atomic<bool>* interrupt) {
+                return session.prebake(interrupt);
+            };
             loop.updated = [&](const PreviewUpdate& u) {
                 report(s, u);
                 server.publish(u);

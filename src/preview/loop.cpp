@@ -152,19 +152,28 @@ void runPreviewLoop(PreviewSession& session, ChangeSource& changes, const std::a
             thread.join();
         }
     } join{watcher, done};
+    bool idleWork = bool(options.idle);
     for (;;) {
         {
             std::unique_lock<std::mutex> lock(mutex);
-            // A change, then quiet.
+            // A change, then quiet; background work while there is none.
             for (;;) {
                 if (stop.load() || failure)
                     break;
                 if (pending && Clock::now() - last >= options.quiet)
                     break;
-                if (pending)
+                if (pending) {
                     woken.wait_until(lock, last + options.quiet);
-                else
+                } else if (idleWork) {
+                    interrupt.store(false);
+                    lock.unlock();
+                    idleWork = options.idle(&interrupt);
+                    lock.lock();
+                    // (After a change there may be new work.)
+                    idleWork = idleWork || pending;
+                } else {
                     woken.wait_for(lock, std::chrono::milliseconds(50));
+                }
             }
             if (failure)
                 std::rethrow_exception(failure);

@@ -70,6 +70,9 @@ struct PreviewLoopOptions {
     /// Called with each update's outcome (also Unchanged and Interrupted),
     /// on the loop's thread.
     std::function<void(const PreviewUpdate&)> updated;
+    /// Background work while no change is pending (the session's prebake):
+    /// called again while it returns true; a change interrupts it.
+    std::function<bool(const std::atomic<bool>* interrupt)> idle;
 };
 
 /// Updates the session once, then again after every burst of changes, until

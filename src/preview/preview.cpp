@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <map>
 #include <mutex>
 
 namespace cambium {
@@ -31,6 +32,10 @@ struct PreviewSession::State {
     // tree again without growing it again.
     std::optional<GrowthModel> grown;
     uint64_t grownText = 0;
+    // --frames: the years baked in the background, for the text they were
+    // baked from.
+    std::map<uint64_t, BakedGrids> prebaked;
+    uint64_t prebakedText = 0;
     bool marcherStale = true;       // the marcher holds an older bake
     std::optional<uint64_t> baked;  // its file text and time, when known
     PreviewView pictured;           // the last picture's view
@@ -67,6 +72,22 @@ PreviewSession::PreviewSession(PreviewSettings settings)
     // The camera's spec, before any work.
     parseCamera(settings_.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);
     state_->view.time = settings_.model.time;
+    if (!settings_.frames.empty()) {
+        if (!isGrowthParameterFile(settings_.input))
+            throw InputError(fmt::format(
+                "--frames: {} is not a growth parameter file (frames are years of a grown tree)",
+                settings_.input));
+        // (A file that does not read now is reported by the first update.)
+        std::optional<GrowthParameters> p;
+        try {
+            p = loadGrowthParameters(settings_.input);
+        } catch (const InputError&) {
+        }
+        for (double year : settings_.frames)
+            if (!(year >= 0.0) || (p && year > p->years))
+                throw InputError(fmt::format("--frames: {} is not a year of {} (0 to {})", year,
+                                             settings_.input, p ? p->years : 0));
+    }
 }
 
 void PreviewSession::setView(const PreviewView& view)
@@ -88,6 +109,99 @@ PreviewView PreviewSession::view() const
 }
 
 PreviewSession::~PreviewSession() = default;
+
+BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<double> time,
+                                    const std::atomic<bool>* interrupt, PreviewUpdate& u,
+                                    bool& known)
+{
+    State& s = *state_;
+    auto stop = [&] {
+        if (interrupt && interrupt->load(std::memory_order_relaxed))
+            throw BakeInterrupted();
+    };
+    auto t = Clock::now();
+    ModelOptions options = settings_.model;
+    options.time = time;
+    known = true;
+    std::optional<BlobTree> tree;
+    if (isGrowthParameterFile(settings_.input)) {
+        // (From the text read above: what the picture shows is known.)
+        const uint64_t textKey = fnv1a64(text);
+        if (!s.grown || s.grownText != textKey) {
+            s.grown.reset();
+            s.grown.emplace(parseGrowthParameters(text, settings_.input));
+            s.grownText = textKey;
+            u.regrown = true;
+        }
+        tree = grownTree(*s.grown, settings_.input, options);
+    } else {
+        tree = loadModel(settings_.input, options);
+        // (The model read the file again: a save in between makes the
+        // picture's text unknown, and the next update bakes again.)
+        known = readTextFile(settings_.input, "model") == text;
+    }
+    u.model = secondsSince(t);
+    stop();
+    t = Clock::now();
+    const FieldProgram program = FieldProgram::compile(*tree);
+    // The voxel size: the first good model's, kept (its memory checked for
+    // every model: a grown tree needs more).
+    BakeRequest planned;
+    planned.input = settings_.input;
+    planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
+    VoxelPlan plan = planVoxelSize(program, planned);
+    if (!planned.voxelSize) {
+        planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
+        plan = planVoxelSize(program, planned);
+    }
+    u.compile = secondsSince(t);
+    stop();
+    t = Clock::now();
+    if (!s.sampler)
+        s.sampler = makeSampler(settings_.device);
+    BakeOptions opt;
+    opt.voxelSize = plan.voxelSize;
+    opt.reuse = &s.cache;
+    opt.interrupt = interrupt;
+    BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
+    u.bake = secondsSince(t);
+    return grids;
+}
+
+bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
+{
+    State& s = *state_;
+    // (After the first picture: it decides the voxel size and the camera.)
+    if (settings_.frames.empty() || !s.voxelSize || !s.camera)
+        return false;
+    try {
+        const std::string text = readTextFile(settings_.input, "model");
+        if (s.prebakedText != fnv1a64(text)) {
+            s.prebaked.clear();
+            s.prebakedText = fnv1a64(text);
+        }
+        for (double year : settings_.frames) {
+            const uint64_t key = bakeKey(text, year);
+            if (s.prebaked.count(key))
+                continue;
+            PreviewUpdate u;
+            bool known = true;
+            BakedGrids grids = bakeText(text, year, interrupt, u, known);
+            if (!known)
+                return true;  // (the file changed meanwhile: its update comes)
+            s.prebaked.emplace(key, std::move(grids));
+            return true;
+        }
+    } catch (const std::exception&) {
+        // An interrupt, or a text that does not read (its update says so).
+    }
+    return false;
+}
+
+size_t PreviewSession::prebakedFrames() const
+{
+    return state_->prebaked.size();
+}
 
 PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
 {
@@ -113,52 +227,16 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
             return u;
         }
         if (!s.grids || s.baked != key) {
-            ModelOptions options = settings_.model;
-            options.time = u.view.time;
             bool known = true;
-            std::optional<BlobTree> tree;
-            if (isGrowthParameterFile(settings_.input)) {
-                // (From the text read above: what the picture shows is known.)
-                const uint64_t textKey = fnv1a64(text);
-                if (!s.grown || s.grownText != textKey) {
-                    s.grown.reset();
-                    s.grown.emplace(parseGrowthParameters(text, settings_.input));
-                    s.grownText = textKey;
-                    u.regrown = true;
-                }
-                tree = grownTree(*s.grown, settings_.input, options);
+            BakedGrids grids;
+            const auto frame = s.prebaked.find(key);
+            if (frame != s.prebaked.end() && s.prebakedText == fnv1a64(text)) {
+                // Baked in the background (--frames): nothing to do.
+                grids = frame->second;
+                u.prebaked = true;
             } else {
-                tree = loadModel(settings_.input, options);
-                // (The model read the file again: a save in between makes
-                // the picture's text unknown, and the next update bakes
-                // again.)
-                known = readTextFile(settings_.input, "model") == text;
+                grids = bakeText(text, u.view.time, interrupt, u, known);
             }
-            u.model = secondsSince(t);
-            stop();
-            t = Clock::now();
-            const FieldProgram program = FieldProgram::compile(*tree);
-            // The voxel size: the first good model's, kept (its memory
-            // checked for every model: a grown tree needs more).
-            BakeRequest planned;
-            planned.input = settings_.input;
-            planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
-            VoxelPlan plan = planVoxelSize(program, planned);
-            if (!planned.voxelSize) {
-                planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
-                plan = planVoxelSize(program, planned);
-            }
-            u.compile = secondsSince(t);
-            stop();
-            t = Clock::now();
-            if (!s.sampler)
-                s.sampler = makeSampler(settings_.device);
-            BakeOptions opt;
-            opt.voxelSize = plan.voxelSize;
-            opt.reuse = &s.cache;
-            opt.interrupt = interrupt;
-            BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
-            u.bake = secondsSince(t);
             u.leaves = grids.stats.candidateLeaves;
             u.reusedLeaves = grids.stats.reusedLeaves;
             u.activeVoxels = grids.stats.activeVoxels;
@@ -168,13 +246,13 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
                     throw InputError(fmt::format(
                         "{}: the surface is thinner than a voxel of {:g} everywhere: nothing to "
                         "see (use a smaller --voxel-size)",
-                        settings_.input, plan.voxelSize));
+                        settings_.input, grids.stats.voxelSize));
                 const double aspect = double(settings_.width) / double(settings_.height);
                 s.camera = parseCamera(settings_.camera, bounds, aspect);
             }
             // Kept from here on: the bake is good whatever happens to its
             // picture.
-            s.voxelSize = plan.voxelSize;
+            s.voxelSize = grids.stats.voxelSize;
             s.grids = std::move(grids);
             s.marcherStale = true;
             s.baked = known ? std::optional<uint64_t>(key) : std::nullopt;

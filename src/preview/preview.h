@@ -7,6 +7,7 @@
 // What watches the file and drives the session is preview/loop.h.
 #pragma once
 
+#include "bake/levelset.h"
 #include "core/system.h"
 #include "model/load_model.h"
 #include "use/render.h"
@@ -15,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -32,6 +34,9 @@ struct PreviewSettings {
     int width = 640, height = 480, spp = 1;
     std::string camera = "auto";  ///< parseCamera's spec, framed on the first good model
     std::string output = "preview.png";
+    /// Times (years) to bake in the background once the first picture is
+    /// made (prebake): a year slider on one of them shows it at once.
+    std::vector<double> frames;
 };
 
 /// The default preview resolution: voxels across the first model's bounds.
@@ -58,6 +63,7 @@ struct PreviewUpdate {
     bool inputError = false;  ///< Failed: bad input (else a failure of the work)
     bool rebaked = false;     ///< Rendered: the model was read and baked (else only the view moved)
     bool regrown = false;     ///< rebaked: a growth parameter file's growth model run again
+    bool prebaked = false;    ///< rebaked: the grids were baked in the background (--frames)
     /// Seconds of each stage: the model read (and grown), compiled, baked,
     /// rendered, the picture written; and all of it.
     double model = 0.0, compile = 0.0, bake = 0.0, render = 0.0, write = 0.0, total = 0.0;
@@ -90,9 +96,24 @@ public:
     void setView(const PreviewView& view);
     PreviewView view() const;
 
+    /// Background work between updates: bakes the next of the settings'
+    /// frames not baked for the file's text as it is now.  True when one was
+    /// baked (more may remain); false when none is left, the first picture
+    /// is not made yet, the file does not read, or `interrupt` stopped it.
+    /// The loop's thread only, as update.
+    bool prebake(const std::atomic<bool>* interrupt = nullptr);
+    /// The frames baked in the background and kept.
+    size_t prebakedFrames() const;
+
     const PreviewSettings& settings() const { return settings_; }
 
 private:
+    /// The model at `time` from `text` (the file's), grown (a kept growth
+    /// model when the text is its) and baked; `known`: the model is the
+    /// text's (else the file changed while it was read).
+    BakedGrids bakeText(const std::string& text, std::optional<double> time,
+                        const std::atomic<bool>* interrupt, PreviewUpdate& u, bool& known);
+
     struct State;
     PreviewSettings settings_;
     std::unique_ptr<State> state_;
