@@ -18,11 +18,5 @@ ${body}};
 const size_t kEmbeddedKernelCount = ${count};
 }  // namespace cambium::detail
 ")
-# Only touch the file when it changes, so unrelated builds stay no-ops.
-if(EXISTS ${OUTPUT})
-  file(READ ${OUTPUT} old)
-  if(old STREQUAL content)
-    return()
-  endif()
-endif()
-file(WRITE ${OUTPUT} "${content}")
+include(${CMAKE_CURRENT_LIST_DIR}/WriteIfChanged.cmake)
+write_if_changed(${OUTPUT} "${content}")

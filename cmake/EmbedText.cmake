@@ -9,11 +9,5 @@ extern const char* const ${SYMBOL};
 const char* const ${SYMBOL} = R\"cambium_text(${text})cambium_text\";
 }  // namespace cambium
 ")
-# Only touch the file when it changes, so unrelated builds stay no-ops.
-if(EXISTS ${OUTPUT})
-  file(READ ${OUTPUT} old)
-  if(old STREQUAL content)
-    return()
-  endif()
-endif()
-file(WRITE ${OUTPUT} "${content}")
+include(${CMAKE_CURRENT_LIST_DIR}/WriteIfChanged.cmake)
+write_if_changed(${OUTPUT} "${content}")

@@ -153,17 +153,10 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     // The tiles' files in a directory beside the output, removed whatever
     // happens.
     const fs::path output = fs::absolute(req.output);
-    const fs::path dir =
-        output.parent_path() / fmt::format(".{}.tiles-{}", output.filename().string(), ::getpid());
-    fs::create_directories(dir);
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup()
-        {
-            std::error_code ec;
-            fs::remove_all(dir, ec);
-        }
-    } cleanup{dir};
+    const ScratchDirectory scratch(
+        (output.parent_path() / fmt::format(".{}.tiles-{}", output.filename().string(), ::getpid()))
+            .string());
+    const fs::path dir = scratch.path();
     const std::string exe = (fs::path(executableDirectory()) / "cambium").string();
     std::vector<std::string> files;
     double largest = 0.0;

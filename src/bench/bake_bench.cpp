@@ -1,6 +1,8 @@
 // cambium — bake benchmark.
 #include "bench/bake_bench.h"
 
+#include "core/files.h"
+
 #include "bake/levelset.h"
 #include "bake/topology.h"
 #include "bench/median.h"
@@ -166,17 +168,10 @@ EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid)
 /// cambium) on the same file, voxel size and band.
 void benchProcesses(const BakeBenchCase& c, int repeats, BakeBenchResult& result)
 {
-    const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}", ::getpid());
-    std::filesystem::create_directories(dir);
-    struct Cleanup {
-        std::filesystem::path dir;
-        ~Cleanup()
-        {
-            std::error_code ec;
-            std::filesystem::remove_all(dir, ec);
-        }
-    } cleanup{dir};
+    const ScratchDirectory scratch(
+        (std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}", ::getpid()))
+            .string());
+    const std::filesystem::path dir = scratch.path();
     const std::string tree = (dir / "tree.txt").string(), log = (dir / "log.txt").string();
     {
         std::ofstream out(tree);

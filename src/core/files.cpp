@@ -12,6 +12,7 @@
 #include <cctype>
 #include <cerrno>
 #include <climits>
+#include <filesystem>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -582,6 +583,17 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
     for (size_t i = 0; i < allowed.size(); ++i)
         list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
     throw InputError(fmt::format("{}: unknown {} format '.{}' (use {})", path, kind, ext, list));
+}
+
+ScratchDirectory::ScratchDirectory(std::string path) : path_(std::move(path))
+{
+    std::filesystem::create_directories(path_);
+}
+
+ScratchDirectory::~ScratchDirectory()
+{
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
 }
 
 }  // namespace cambium

@@ -115,4 +115,18 @@ private:
 std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,
                        const char* kind);
 
+/// A working directory, created (with its parents) now and removed with
+/// everything in it when this goes out of scope, however the scope ends.
+class ScratchDirectory {
+public:
+    explicit ScratchDirectory(std::string path);
+    ~ScratchDirectory();
+    ScratchDirectory(const ScratchDirectory&) = delete;
+    ScratchDirectory& operator=(const ScratchDirectory&) = delete;
+    const std::string& path() const { return path_; }
+
+private:
+    std::string path_;
+};
+
 }  // namespace cambium

@@ -5,6 +5,7 @@
 #include "bench/process_run.h"
 #include "core/clock.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "model/growth_params.h"
 #include "preview/loop.h"
 #include "preview/preview.h"
@@ -196,17 +197,9 @@ void runPreviewBench(const PreviewBenchRequest& req,
         if (y < 0 || y > p.years)
             throw InputError(fmt::format("--years: {} is not a year of {} (0 to {})", y,
                                          req.parameters, p.years));
-    const fs::path dir =
-        fs::temp_directory_path() / fmt::format("cambium_bench_preview_{}", ::getpid());
-    fs::create_directories(dir);
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup()
-        {
-            std::error_code ec;
-            fs::remove_all(dir, ec);
-        }
-    } cleanup{dir};
+    const ScratchDirectory scratch(
+        (fs::temp_directory_path() / fmt::format("cambium_bench_preview_{}", ::getpid())).string());
+    const fs::path dir = scratch.path();
     // The kernel cache warmed, as after `cambium prepare` or an earlier run.
     runProcess({executableDirectory() + "/cambium", "prepare"}, (dir / "log.txt").string());
     for (int y : req.years) {
