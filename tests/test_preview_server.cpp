@@ -285,3 +285,29 @@ TEST(PreviewServer, ATakenPortIsBadInputNamed)
         EXPECT_NE(std::string(e.what()).find(std::to_string(f.server.port())), std::string::npos);
     }
 }
+
+TEST(PreviewServer, AFileThatIsNotUtf8IsReportedNotFatal)
+{
+    Fixture f("cambium_preview_server_latin1");
+    // A Latin-1 name: the parser's message quotes the byte as it read it.
+    std::string text = fileContents(f.dir / "tree.json");
+    text.replace(text.find("\"name\": \""), 9, "\"name\": \"Peuplier \xe9 ");
+    std::ofstream(f.dir / "tree.json") << text;
+    const PreviewUpdate u = f.session.update();
+    ASSERT_EQ(u.outcome, PreviewUpdate::Outcome::Failed);
+    EXPECT_NO_THROW(f.server.publish(u));
+    const auto r = f.client.Get(f.withToken("/model").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_FALSE(json::parse(r->body, nullptr, false).is_discarded());
+    // The page is told, in valid JSON.
+    std::string stream;
+    f.client.Get(f.withToken("/events").c_str(), [&](const char* data, size_t size) {
+        stream.append(data, size);
+        return stream.find("\n\n") == std::string::npos;
+    });
+    ASSERT_EQ(stream.rfind("event: update\ndata: ", 0), 0u) << stream;
+    const json pushed = json::parse(stream.substr(20, stream.find("\n\n") - 20));
+    EXPECT_EQ(pushed["outcome"], "failed");
+    EXPECT_NE(pushed["error"].get<std::string>().find("tree.json"), std::string::npos);
+}

@@ -165,12 +165,10 @@ void runPreviewLoop(PreviewSession& session, ChangeSource& changes, const std::a
                 if (pending) {
                     woken.wait_until(lock, last + options.quiet);
                 } else if (idleWork) {
-                    interrupt.store(false);
+                    interrupt.store(stop.load());  // (a stop raised meanwhile kept)
                     lock.unlock();
                     idleWork = options.idle(&interrupt);
                     lock.lock();
-                    // (After a change there may be new work.)
-                    idleWork = idleWork || pending;
                 } else {
                     woken.wait_for(lock, std::chrono::milliseconds(50));
                 }
@@ -180,7 +178,9 @@ void runPreviewLoop(PreviewSession& session, ChangeSource& changes, const std::a
             if (stop.load())
                 break;
             pending = false;
-            interrupt.store(false);
+            interrupt.store(stop.load());
+            // (After a change there may be background work again.)
+            idleWork = bool(options.idle);
         }
         const PreviewUpdate u = session.update(&interrupt);
         if (options.updated)

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <set>
 
 namespace cambium {
 
@@ -35,6 +36,7 @@ struct PreviewSession::State {
     // --frames: the years baked in the background, for the text they were
     // baked from.
     std::map<uint64_t, BakedGrids> prebaked;
+    std::set<uint64_t> unbakeable;  // years of the text whose bake failed
     uint64_t prebakedText = 0;
     bool marcherStale = true;       // the marcher holds an older bake
     std::optional<uint64_t> baked;  // its file text and time, when known
@@ -178,22 +180,30 @@ bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
         const std::string text = readTextFile(settings_.input, "model");
         if (s.prebakedText != fnv1a64(text)) {
             s.prebaked.clear();
+            s.unbakeable.clear();
             s.prebakedText = fnv1a64(text);
         }
         for (double year : settings_.frames) {
             const uint64_t key = bakeKey(text, year);
-            if (s.prebaked.count(key))
+            if (s.prebaked.count(key) || s.unbakeable.count(key))
                 continue;
             PreviewUpdate u;
             bool known = true;
-            BakedGrids grids = bakeText(text, year, interrupt, u, known);
-            if (!known)
-                return true;  // (the file changed meanwhile: its update comes)
-            s.prebaked.emplace(key, std::move(grids));
+            try {
+                BakedGrids grids = bakeText(text, year, interrupt, u, known);
+                if (known)
+                    s.prebaked.emplace(key, std::move(grids));
+            } catch (const BakeInterrupted&) {
+                return false;
+            } catch (const std::exception&) {
+                // (A year this text cannot make, such as one before the tree
+                // begins: the slider's own update says why.  The others go on.)
+                s.unbakeable.insert(key);
+            }
             return true;
         }
     } catch (const std::exception&) {
-        // An interrupt, or a text that does not read (its update says so).
+        // A file that does not read now: its update says so.
     }
     return false;
 }

@@ -12,6 +12,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <condition_variable>
 #include <fstream>
 #include <iterator>
@@ -88,10 +89,17 @@ json updateJson(const PreviewUpdate& u)
             {"view", viewJson(u.view)}};
 }
 
+/// JSON text of `j`; bytes that are not UTF-8 (a file name, a parser's
+/// quote of a Latin-1 file) replaced rather than thrown on.
+std::string jsonText(const json& j)
+{
+    return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
 void reply(httplib::Response& res, int status, const json& body)
 {
     res.status = status;
-    res.set_content(body.dump(), "application/json");
+    res.set_content(jsonText(body), "application/json");
 }
 
 void refuse(httplib::Response& res, int status, const std::string& why)
@@ -119,6 +127,7 @@ struct PreviewServer::Impl {
     std::string token = randomToken();
     int port = 0;
     std::thread thread;
+    std::atomic<bool> listened{false};  // the listening loop has returned
 
     // The updates the pages are told of: the count and the latest.
     std::mutex mutex;
@@ -127,6 +136,7 @@ struct PreviewServer::Impl {
     std::string latest;  // the latest update's JSON ("" before the first)
     bool stopping = false;
     std::mutex fileMutex;  // one page edit of the file at a time
+    std::mutex viewMutex;  // one page edit of the view at a time (read, changed, set)
 
     Impl(PreviewSession& s, ChangeSource& c) : session(s), changes(c) {}
 
@@ -204,6 +214,7 @@ struct PreviewServer::Impl {
     /// A page's move of the year slider or the camera.
     void editView(const json& body, httplib::Response& res)
     {
+        std::lock_guard<std::mutex> lock(viewMutex);
         PreviewView v = session.view();
         try {
             for (const auto& [key, value] : body.items()) {
@@ -245,7 +256,8 @@ struct PreviewServer::Impl {
         server.Get("/", [](const httplib::Request&, httplib::Response& res) {
             res.set_header("Content-Security-Policy",
                            "default-src 'none'; script-src 'unsafe-inline'; style-src "
-                           "'unsafe-inline'; img-src 'self'; connect-src 'self'");
+                           "'unsafe-inline'; img-src 'self'; connect-src 'self'; "
+                           "frame-ancestors 'none'");
             res.set_content(kPreviewPage, "text/html; charset=utf-8");
         });
         server.Get("/picture.png", [this](const httplib::Request&, httplib::Response& res) {
@@ -274,14 +286,16 @@ struct PreviewServer::Impl {
         });
         server.Get("/events", [this](const httplib::Request&, httplib::Response& res) {
             // Each page gets the latest update at once, then each new one;
-            // a comment every 15 s keeps the connection open.
+            // a comment every 5 s keeps the connection open and finds a
+            // closed one (each open stream holds one of the server's
+            // threads).
             auto seen = std::make_shared<size_t>(0);
             res.set_chunked_content_provider(
                 "text/event-stream", [this, seen](size_t, httplib::DataSink& sink) {
                     std::unique_lock<std::mutex> lock(mutex);
-                    published.wait_for(lock, std::chrono::seconds(15),
+                    published.wait_for(lock, std::chrono::seconds(5),
                                        [&] { return stopping || events > *seen; });
-                    if (stopping)
+                    if (stopping || !sink.is_writable())
                         return false;
                     std::string message = ": still here\n\n";
                     if (events > *seen && !latest.empty())
@@ -305,6 +319,8 @@ PreviewServer::PreviewServer(PreviewSession& session, ChangeSource& changes, int
         throw InputError(fmt::format("--port must be 0 (any free port) to 65535 (got {})", port));
     Impl& s = *impl_;
     s.server.set_payload_max_length(1 << 20);
+    // Threads for a few pages' event streams and their requests besides.
+    s.server.new_task_queue = [] { return new httplib::ThreadPool(24); };
     // SO_REUSEADDR (a restart finds the port free at once), and not
     // httplib's SO_REUSEPORT, with which a second server on the port would
     // share its connections instead of being refused.
@@ -322,10 +338,13 @@ PreviewServer::PreviewServer(PreviewSession& session, ChangeSource& changes, int
     if (s.port <= 0)
         throw InputError(
             fmt::format("--port {}: cannot listen on 127.0.0.1:{} (in use?)", port, port));
-    s.thread = std::thread([&s] { s.server.listen_after_bind(); });
+    s.thread = std::thread([&s] {
+        s.server.listen_after_bind();
+        s.listened = true;
+    });
     // Running before anything can stop it (httplib's stop does nothing to a
     // server that has not started its loop yet).
-    for (int i = 0; i < 5000 && !s.server.is_running(); ++i)
+    while (!s.server.is_running() && !s.listened)
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
@@ -361,7 +380,7 @@ void PreviewServer::publish(const PreviewUpdate& update)
         return;
     {
         std::lock_guard<std::mutex> lock(impl_->mutex);
-        impl_->latest = updateJson(update).dump();
+        impl_->latest = jsonText(updateJson(update));
         ++impl_->events;
     }
     impl_->published.notify_all();
