@@ -309,3 +309,37 @@ TEST(PreviewSession, FramesBakedInTheBackgroundAreShownAtOnceAndFollowTheFile)
     late.frames = {28.0};
     EXPECT_THROW(PreviewSession{late}, InputError);
 }
+
+TEST(PreviewSession, AShapeFileIsSynthesisedBakedAndPictured)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_shape");
+    const std::string rock = fileContents(CAMBIUM_SOURCE_DIR "/examples/shapes/rock.json");
+    std::ofstream(dir / "rock.json") << rock;
+    PreviewSettings s;
+    s.input = (dir / "rock.json").string();
+    s.device = Device::Cpu;
+    s.width = 64;
+    s.height = 48;
+    s.output = (dir / "preview.png").string();
+    PreviewSession session(s);
+    using O = PreviewUpdate::Outcome;
+    PreviewUpdate u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_GT(u.activeVoxels, 0u);
+    const std::string first = fileContents(dir / "preview.png");
+    // A rougher rock: another picture.
+    std::string rougher = rock;
+    rougher.replace(rougher.find("0.08"), 4, "0.25");
+    std::ofstream(dir / "rock.json") << rougher;
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_NE(fileContents(dir / "preview.png"), first);
+    // A bad edit: named by the shape reader, the picture kept.
+    std::string bad = rock;
+    bad.replace(bad.find("\"levels\": 6"), 11, "\"levels\": 99");
+    std::ofstream(dir / "rock.json") << bad;
+    u = session.update();
+    EXPECT_EQ(u.outcome, O::Failed);
+    EXPECT_TRUE(u.inputError);
+    EXPECT_NE(u.error.find("levels"), std::string::npos) << u.error;
+}

@@ -9,12 +9,17 @@
 #include "core/hash.h"
 #include "field/program.h"
 #include "io/image_file.h"
+#include "shape/shape.h"
+#include "shape/synthesis.h"
+#include "bake/mesh_levelset.h"
 #include "model/growth.h"
 #include "model/growth_params.h"
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <set>
@@ -126,6 +131,28 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     options.time = time;
     known = true;
     std::optional<BlobTree> tree;
+    if (looksLikeShapeFile(settings_.input)) {
+        // A shape file (paper 004): synthesised from the text read above
+        // (at animation time `time`), its mesh baked.
+        const ShapeSpec spec = parseShape(
+            text, settings_.input, std::filesystem::path(settings_.input).parent_path().string(),
+            time.value_or(0.0));
+        checkShapeLevels(spec, spec.levels);
+        ShapeSurface shape(spec, spec.levels, settings_.device);
+        shape.synthesize();
+        const TriangleMesh mesh = shape.mesh();
+        u.model = secondsSince(t);
+        stop();
+        t = Clock::now();
+        MeshBakeOptions mo;
+        mo.voxelSize = settings_.voxelSize ? *settings_.voxelSize
+                       : s.voxelSize
+                           ? *s.voxelSize
+                           : std::max(meshExtent(mesh) / kPreviewVoxelsAcross, kMinVoxelSize);
+        BakedGrids grids = bakeMeshLevelSet(mesh, mo, settings_.input);
+        u.bake = secondsSince(t);
+        return grids;
+    }
     if (isGrowthParameterFile(settings_.input)) {
         // (From the text read above: what the picture shows is known.)
         const uint64_t textKey = fnv1a64(text);
