@@ -116,6 +116,20 @@ struct Fixture {
     {
         return path + (path.find('?') == std::string::npos ? "?" : "&") + "token=" + token;
     }
+    /// The first event a page that connects now is sent: its data, or
+    /// null when it is not an update.
+    json firstEvent()
+    {
+        std::string stream;
+        client.Get(withToken("/events").c_str(), [&](const char* data, size_t size) {
+            stream.append(data, size);
+            return stream.find("\n\n") == std::string::npos;
+        });
+        const std::string head = "event: update\ndata: ";
+        if (stream.rfind(head, 0) != 0)
+            return nullptr;
+        return json::parse(stream.substr(head.size(), stream.find("\n\n") - head.size()));
+    }
     httplib::Result post(const std::string& path, const json& body)
     {
         return client.Post(withToken(path).c_str(), body.dump(), "application/json");
@@ -262,13 +276,8 @@ TEST(PreviewServer, TheModelTheViewAndPushedUpdates)
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 200);
     EXPECT_TRUE(r->body == fileContents(f.dir / "preview.png"));
-    std::string stream;
-    f.client.Get(f.withToken("/events").c_str(), [&](const char* data, size_t size) {
-        stream.append(data, size);
-        return stream.find("\n\n") == std::string::npos;
-    });
-    ASSERT_EQ(stream.rfind("event: update\ndata: ", 0), 0u) << stream;
-    const json pushed = json::parse(stream.substr(20, stream.find("\n\n") - 20));
+    const json pushed = f.firstEvent();
+    ASSERT_TRUE(pushed.is_object());
     EXPECT_EQ(pushed["outcome"], "rendered");
     EXPECT_EQ(pushed["picture"], 1);
     EXPECT_EQ(pushed["view"]["time"], 5.5);
@@ -301,13 +310,8 @@ TEST(PreviewServer, AFileThatIsNotUtf8IsReportedNotFatal)
     EXPECT_EQ(r->status, 200);
     EXPECT_FALSE(json::parse(r->body, nullptr, false).is_discarded());
     // The page is told, in valid JSON.
-    std::string stream;
-    f.client.Get(f.withToken("/events").c_str(), [&](const char* data, size_t size) {
-        stream.append(data, size);
-        return stream.find("\n\n") == std::string::npos;
-    });
-    ASSERT_EQ(stream.rfind("event: update\ndata: ", 0), 0u) << stream;
-    const json pushed = json::parse(stream.substr(20, stream.find("\n\n") - 20));
+    const json pushed = f.firstEvent();
+    ASSERT_TRUE(pushed.is_object());
     EXPECT_EQ(pushed["outcome"], "failed");
     EXPECT_NE(pushed["error"].get<std::string>().find("tree.json"), std::string::npos);
 }
