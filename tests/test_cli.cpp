@@ -203,7 +203,7 @@ TEST(Cli, MeshWritesAMeshOfABakedGrid)
             {(dir / "missing.vdb").string() + " -o " + ply,
              "cannot read the .vdb file: No such file"},
             {vdb + " -o " + ply + " --grid density",
-             "no grid named 'density' (it holds: Cd, surface)"},
+             "no grid named 'density' (it holds: surface, Cd)"},
             {vdb + " -o " + ply + " --grid Cd", "grid 'Cd' is a vec3s"},
             {vdb + " -o " + (dir / "s.stl").string(), "unknown mesh format '.stl'"},
             {vdb + " -o /nonexistent/dir/s.obj", "/nonexistent/dir/s.obj: cannot write the output"},

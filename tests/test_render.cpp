@@ -474,3 +474,49 @@ TEST(Camera, AnOrbitKeepsTheTargetDistanceAndFieldOfViewAndStopsShortOfThePoles)
     EXPECT_NEAR(glm::length(top.eye - top.target), r, 1e-9);
     EXPECT_NEAR(std::asin((top.eye.y - top.target.y) / r), glm::radians(85.0), 1e-9);
 }
+
+TEST(Render, RaysOnlyWhereLeavesCouldBeGiveTheSamePicture)
+{
+    // CpuMarcher::render traces a pixel's rays only over the range where the
+    // projections of active leaves cover it (rayRanges): the picture of every
+    // ray traced from the eye to infinity, for a tree from outside, from
+    // within its leaves' boxes (every pixel then) and from below.
+    const BakedGrids g = test::bakeTree(smallLSystemTree(), 0.01);
+    const Box b = activeWorldBounds(*g.surface);
+    const CpuMarcher cpu(*g.surface, g.color.get());
+    const BatchTracer everyRay = cpu.tracer();
+    const glm::dvec3 mid = b.center();
+    const Camera views[] = {framingCamera(b, 4.0 / 3.0),
+                            Camera{mid + glm::dvec3(0.001, 0.002, 0.003),
+                                   glm::dvec3(mid.x, b.lo.y, mid.z), glm::dvec3(1, 0, 0), 60.0},
+                            Camera{glm::dvec3(mid.x, b.lo.y - 0.2, mid.z + 0.01), mid}};
+    for (int view = 0; view < 3; ++view) {
+        SCOPED_TRACE(view);
+        const Camera& cam = views[view];
+        const int W = 120, H = 90, spp = 2;
+        const RenderImage ranged = cpu.render(cam, W, H, spp),
+                          all = renderBatches(cam, W, H, spp, everyRay, 1 << 14);
+        ASSERT_EQ(ranged.rgb.size(), all.rgb.size());
+        size_t differ = 0, covered = 0;
+        for (size_t i = 0; i < all.alpha.size(); ++i) {
+            covered += all.alpha[i] > 0.0f;
+            differ += std::abs(ranged.alpha[i] - all.alpha[i]) > 0.0f ||
+                      std::abs(ranged.depth[i] - all.depth[i]) > 1e-6f * all.depth[i] ||
+                      std::abs(ranged.rgb[3 * i] - all.rgb[3 * i]) > 1e-5f;
+        }
+        EXPECT_EQ(differ, 0u);
+        EXPECT_GT(covered, 50u);
+        // Where the ranges leave a pixel out, no ray of it meets the surface.
+        const RayRanges r = rayRanges(*g.surface, cam, W, H);
+        size_t skipped = 0;
+        for (size_t i = 0; i < r.near.size(); ++i) {
+            if (!(r.near[i] <= r.far[i])) {
+                ++skipped;
+                EXPECT_EQ(all.alpha[i], 0.0f) << i;
+            }
+        }
+        if (view == 0) {
+            EXPECT_GT(skipped, size_t(W * H / 4));  // from outside: most of the sky
+        }
+    }
+}

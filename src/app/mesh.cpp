@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
+
 namespace cambium {
 
 namespace {
@@ -22,6 +24,7 @@ namespace {
 struct MeshRequest {
     std::string input, output, grid = kSurfaceGrid, frames;
     double adaptivity = 0.0;
+    bool timings = false;
 };
 
 /// One line per file; InputError, before any work, for a bad output path or
@@ -29,25 +32,34 @@ struct MeshRequest {
 /// not a float level set.
 int runMeshCommand(const MeshRequest& req)
 {
+    const bool timings = req.timings || std::getenv("CAMBIUM_TIMING");
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
         throw InputError(
             fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
-    forEachFile(req.input, req.output, req.frames, checkMeshOutput,
-                [&](const std::string& in, const std::string& out) {
-                    const auto start = Clock::now();
-                    const LevelSetGrids f = readLevelSet(in, req.grid);
-                    const TriangleMesh mesh =
-                        meshLevelSet(*f.surface, f.color.get(), req.adaptivity);
-                    writeMesh(mesh, out);
-                    const double s = secondsSince(start);
-                    fmt::print(
-                        "meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M "
-                        "triangles/s), area {:.6g}, "
-                        "volume {:.6g}\n",
-                        in, out, mesh.points.size(), mesh.triangles.size(),
-                        f.color ? ", colours from Cd" : "", s,
-                        double(mesh.triangles.size()) / s * 1e-6, meshArea(mesh), meshVolume(mesh));
-                });
+    forEachFile(
+        req.input, req.output, req.frames, checkMeshOutput,
+        [&](const std::string& in, const std::string& out) {
+            const auto start = Clock::now();
+            const LevelSetGrids f = readLevelSet(in, req.grid);
+            const double read = secondsSince(start);
+            MeshTimings tm;
+            const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity, &tm);
+            const auto written = Clock::now();
+            writeMesh(mesh, out);
+            const double s = secondsSince(start);
+            if (timings)
+                fmt::print(stderr,
+                           "timings: read {:.3f} s, volumeToMesh {:.3f} s, triangles "
+                           "{:.3f} s, normals and colours {:.3f} s, written {:.3f} s\n",
+                           read, tm.polygons, tm.triangles, tm.attributes, secondsSince(written));
+            fmt::print(
+                "meshed {} -> {}: {} vertices, {} triangles{}, {:.2f} s ({:.3g} M "
+                "triangles/s), area {:.6g}, "
+                "volume {:.6g}\n",
+                in, out, mesh.points.size(), mesh.triangles.size(),
+                f.color ? ", colours from Cd" : "", s, double(mesh.triangles.size()) / s * 1e-6,
+                meshArea(mesh), meshVolume(mesh));
+        });
     return 0;
 }
 
@@ -65,6 +77,8 @@ void addMeshCommand(CLI::App& app, Action& action)
                     "0: uniform triangles; up to 1: fewer where the surface is flat")
         ->capture_default_str();
     cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
+    cmd->add_flag("--timings", req->timings,
+                  "Print the time of each stage on stderr (also with CAMBIUM_TIMING set)");
     cmd->add_option("--frames", req->frames,
                     "A sequence: frames FIRST-LAST[:STEP] of an input and output with a run of '#' "
                     "(tree.####.vdb)");

@@ -14,6 +14,8 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 
@@ -24,12 +26,14 @@ namespace {
 struct RenderRequest {
     std::string input, output, grid = kSurfaceGrid, camera = "auto", device = "cpu", frames;
     int width = 960, height = 720, spp = 1;
-    bool viaMesh = false;  ///< mesh the level set and trace the triangles with Embree instead
+    bool viaMesh = false;
+    bool timings = false;  ///< mesh the level set and trace the triangles with Embree instead
     std::string mesh;      ///< render this mesh file (OBJ, PLY) with Embree instead of a .vdb
 };
 
-int runRenderCommand(const RenderRequest& req)
+int runRenderCommand(RenderRequest req)
 {
+    req.timings = req.timings || std::getenv("CAMBIUM_TIMING");
     if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
         throw InputError(
             fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
@@ -68,6 +72,7 @@ int runRenderCommand(const RenderRequest& req)
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             const double aspect = double(req.width) / double(req.height);
+            double read = 0.0, readPeak = 0.0;
             RenderImage img;
             const char* how;
             if (meshFile) {
@@ -76,7 +81,9 @@ int runRenderCommand(const RenderRequest& req)
                                        req.width, req.height, req.spp);
                 how = "Embree on the mesh's triangles, reading included";
             } else {
-                const LevelSetGrids f = readLevelSet(in, req.grid);
+                const LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Lazy);
+                read = secondsSince(start);
+                readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
                 if (bounds.empty())
                     throw InputError(
@@ -104,8 +111,16 @@ int runRenderCommand(const RenderRequest& req)
                     });
                 }
             }
+            const auto written = Clock::now();
             writeImage(img, out);
             const double s = secondsSince(start);
+            if (req.timings)
+                fmt::print(stderr,
+                           "timings: read {:.3f} s (peak memory {:.0f} MB), rendered {:.3f} s, "
+                           "written {:.3f} s (peak memory {:.0f} MB)\n",
+                           read, readPeak * 1e-6,
+                           std::chrono::duration<double>(written - start).count() - read,
+                           secondsSince(written), peakMemoryBytes() * 1e-6);
             size_t covered = 0;
             for (float a : img.alpha)
                 covered += a > 0.0f;
@@ -143,6 +158,8 @@ void addRenderCommand(CLI::App& app, Action& action)
                     "docs/rendering.md) or opencl (NanoVDB's HDDA in an OpenCL kernel)")
         ->capture_default_str();
     cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
+    cmd->add_flag("--timings", req->timings,
+                  "Print the time of each stage on stderr (also with CAMBIUM_TIMING set)");
     cmd->add_flag("--via-mesh", req->viaMesh,
                   "Mesh the level set and trace the triangles with Embree (the cross-check)");
     cmd->add_option(

@@ -41,7 +41,7 @@ const ImageCodecApi* loadImageCodec()
 #endif
     std::string tried;
     for (const std::string& place : places) {
-        if (void* lib = ::dlopen(place.c_str(), RTLD_NOW | RTLD_LOCAL)) {
+        if (void* lib = ::dlopen(place.c_str(), RTLD_LAZY | RTLD_LOCAL)) {
             using Entry = const ImageCodecApi* (*)();
             auto entry = reinterpret_cast<Entry>(::dlsym(lib, "cambium_image_codec"));
             const ImageCodecApi* api = entry ? entry() : nullptr;

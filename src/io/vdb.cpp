@@ -613,7 +613,8 @@ VdbSummary inspectVdb(const std::string& path)
     constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
     // A metadata block (the file's, or a grid's ending by `end`): every
     // entry's name, type and value within it; string values kept.
-    auto metadata = [&](uint64_t end, std::map<std::string, std::string>* strings) {
+    auto metadata = [&](uint64_t end, std::map<std::string, std::string>* strings,
+                        int64_t* leaves) {
         if (r.at() + 4 > end)
             r.damaged(fmt::format("no room for metadata at byte {}", r.at()));
         const int32_t metas = r.value<int32_t>("metadata count");
@@ -650,6 +651,8 @@ VdbSummary inspectVdb(const std::string& path)
                 if (count > s.bytes || packed > n - 8)
                     r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count,
                                           packed));
+                if (leaves)
+                    *leaves = count;
                 r.skip(n - 8, "metadata value");
                 continue;
             }
@@ -664,7 +667,7 @@ VdbSummary inspectVdb(const std::string& path)
             }
         }
     };
-    metadata(s.bytes, &s.strings);
+    metadata(s.bytes, &s.strings, nullptr);
     const int32_t grids = r.value<int32_t>("grid count");
     if (grids < 0 || uint64_t(grids) > r.left() / 36)
         r.damaged(fmt::format("{} grids", grids));
@@ -672,10 +675,14 @@ VdbSummary inspectVdb(const std::string& path)
         VdbSummary::Grid g;
         g.name = r.string("grid name", kNameLimit);
         g.type = r.string("grid type", kNameLimit);
-        r.string("instance parent", kNameLimit);
+        g.instanceOf = r.string("instance parent", kNameLimit);
         g.begin = r.value<int64_t>("grid offset");
-        const int64_t block = r.value<int64_t>("grid block offset");
+        g.block = r.value<int64_t>("grid block offset");
         g.end = r.value<int64_t>("grid end offset");
+        // (An instance of another grid's tree has metadata and a transform,
+        // no tree: no block of its own.)
+        const bool instance = !g.instanceOf.empty() && g.block == 0;
+        const int64_t block = instance ? g.end : g.block;
         if (g.begin != int64_t(r.at()) || block < g.begin || g.end < block)
             r.damaged(fmt::format(
                 "grid '{}' has offsets {}, {}, {} that do not follow its descriptor at byte {}",
@@ -688,7 +695,7 @@ VdbSummary inspectVdb(const std::string& path)
         // The grid's compression word, metadata and transform's map type,
         // within its block.
         r.skip(4, "grid compression flags");
-        metadata(uint64_t(block), nullptr);
+        metadata(uint64_t(block), nullptr, &g.leaves);
         if (r.at() + 4 > uint64_t(block))
             r.damaged(fmt::format("grid '{}' has no room for its transform", g.name));
         r.string("transform type", kNameLimit);
@@ -696,6 +703,14 @@ VdbSummary inspectVdb(const std::string& path)
         s.grids.push_back(std::move(g));
     }
     return s;
+}
+
+bool VdbSummary::Grid::half() const
+{
+    // (io::GridDescriptor's suffix for grids stored as halves)
+    const std::string suffix = "_HalfFloat";
+    return type.size() > suffix.size() &&
+           type.compare(type.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
@@ -732,55 +747,6 @@ std::string readSequenceKey(const std::string& path)
     const VdbSummary s = inspectVdb(path);
     const auto key = s.strings.find("cambium_sequence");
     return key == s.strings.end() ? std::string() : key->second;
-}
-
-namespace {
-
-LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool delayed)
-{
-    // A damaged file is named here, before OpenVDB decodes it: its structure,
-    // and for cambium's own files the checksum of every byte.
-    verifyVdbChecksum(path, inspectVdb(path));
-    openvdb::GridPtrVecPtr grids;
-    try {
-        openvdb::io::File file(path);
-        file.setCopyMaxBytes(0);  // no private copy of the file for delayed loading
-        file.open(delayed);       // (not delayed: read whole now)
-        grids = file.getGrids();
-        file.close();
-    } catch (const std::exception& e) {
-        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
-    }
-    LevelSetGrids out;
-    std::string names;
-    for (const auto& g : *grids) {
-        names += (names.empty() ? "" : ", ") + g->getName();
-        if (g->getName() == grid) {
-            out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
-            if (!out.surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
-                throw InputError(fmt::format(
-                    "{}: grid '{}' is a {} {}, not a float level set", path, grid, g->valueType(),
-                    openvdb::GridBase::gridClassToString(g->getGridClass())));
-        }
-        if (g->getName() == kColorGrid)
-            out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(g);
-    }
-    if (!out.surface)
-        throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
-                                     names.empty() ? "no grids" : names));
-    return out;
-}
-
-}  // namespace
-
-LevelSetGrids readLevelSet(const std::string& path, const std::string& grid)
-{
-    return readGrids(path, grid, false);
-}
-
-LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)
-{
-    return readGrids(path, grid, true);
 }
 
 }  // namespace cambium

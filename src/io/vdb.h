@@ -104,7 +104,14 @@ struct VdbSummary {
     uint64_t checksumEnd = 0;  ///< where the bytes `cambium_checksum` covers begin (0: none)
     struct Grid {
         std::string name, type;
+        std::string instanceOf;      ///< the grid whose tree this one shares (empty: none)
         int64_t begin = 0, end = 0;  ///< byte range in the file
+        int64_t block = 0;           ///< where its leaves' values begin
+        /// Leaves, from OpenVDB's delayed-load metadata (-1 where the grid
+        /// has none: files written without compression or before OpenVDB 6).
+        int64_t leaves = -1;
+        /// Whether its floats are stored as halves (the type's _HalfFloat).
+        bool half() const;
     };
     std::vector<Grid> grids;
 };
@@ -121,11 +128,34 @@ VdbSummary inspectVdb(const std::string& path);
 /// Returns false for a file without one (written by other software).
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
 
+/// How much of a file's colour grid `Cd` a reader loads.
+enum class ColourRead {
+    None,   ///< none
+    Whole,  ///< every leaf, now
+    /// Each leaf from the file when it is first touched (OpenVDB's delayed
+    /// loading; thread-safe): a renderer loads the leaves its rays hit.  The
+    /// file must stay as it is while the grid lives.
+    Lazy,
+};
+
 /// Reads grid `grid` (a float level set) and `Cd` from a .vdb file
-/// (inspectVdb and verifyVdbChecksum first).  InputError for an unreadable
-/// or damaged file, a missing grid (the message lists the file's grids) or
-/// one that is not a float level set.  `density` is not read.
-LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid);
+/// (inspectVdb and verifyVdbChecksum first), each grid by readVdbGrid: its
+/// leaves decoded on all cores.  InputError for an unreadable or damaged
+/// file, a missing grid (the message lists the file's grids) or one that is
+/// not a float level set.  `density` is not read.
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid,
+                           ColourRead colour = ColourRead::Whole);
+
+/// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
+/// checked by the caller), equal voxel for voxel to what OpenVDB's io::File
+/// reads: metadata, transform and topology by OpenVDB, then the leaves'
+/// values read from the file a few megabytes at a time and decoded on all
+/// cores (OpenVDB's own decoder, io::readCompressedValues).  Float and Vec3f
+/// grids; other types and instanced grids through io::File.  `lazy`: the
+/// leaves left to OpenVDB's delayed loading instead.  InputError naming the
+/// file for damage.
+openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
+                                   const std::string& grid, bool lazy = false);
 
 /// readLevelSet with OpenVDB's delayed loading (and no private copy of the
 /// file): the grids' topology now, each leaf's values from the file when it

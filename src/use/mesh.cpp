@@ -11,8 +11,12 @@
 #include <fmt/format.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <functional>
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cerrno>
 #include <cmath>
@@ -25,9 +29,103 @@
 
 namespace cambium {
 
+namespace {
+
+/// The differences of a level set's trilinear values half a voxel either
+/// side of a point along each axis (what six WorldSampler lookups give, to
+/// the bit), from the 3 x 3 x 3 voxels they all fall in, read at once.
+class CentralDifferences {
+public:
+    explicit CentralDifferences(const openvdb::FloatGrid& grid)
+        : grid_(grid), accessor_(grid.getConstAccessor()), sampler_(grid)
+    {
+    }
+
+    openvdb::Vec3d operator()(const openvdb::Vec3d& p, double h)
+    {
+        openvdb::Vec3d at[6];  // index space: +x, -x, +y, -y, +z, -z
+        for (int k = 0; k < 3; ++k) {
+            openvdb::Vec3d e(0.0);
+            e[k] = 0.5 * h;
+            at[2 * k] = grid_.transform().worldToIndex(p + e);
+            at[2 * k + 1] = grid_.transform().worldToIndex(p - e);
+        }
+        openvdb::Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+        for (const openvdb::Vec3d& q : at) {
+            const openvdb::Coord c(openvdb::tools::local_util::floorVec3(q));
+            lo.minComponent(c);
+            hi.maxComponent(c);
+        }
+        if (hi[0] - lo[0] > 1 || hi[1] - lo[1] > 1 || hi[2] - lo[2] > 1) {
+            // (not around one voxel: a transform with a rotation, say)
+            openvdb::Vec3d g;
+            for (int k = 0; k < 3; ++k) {
+                openvdb::Vec3d e(0.0);
+                e[k] = 0.5 * h;
+                g[k] = double(sampler_(p + e)) - double(sampler_(p - e));
+            }
+            return g;
+        }
+        gather(lo);
+        float v[6];
+        for (int s = 0; s < 6; ++s) {
+            const openvdb::Vec3i i = openvdb::tools::local_util::floorVec3(at[s]);
+            const openvdb::Vec3d uvw = at[s] - i;
+            const int x = i[0] - lo[0], y = i[1] - lo[1], z = i[2] - lo[2];
+            float data[2][2][2];
+            for (int a = 0; a < 2; ++a)
+                for (int b = 0; b < 2; ++b)
+                    for (int c = 0; c < 2; ++c)
+                        data[a][b][c] = block_[x + a][y + b][z + c];
+            v[s] = openvdb::tools::BoxSampler::trilinearInterpolation(data, uvw);
+        }
+        return openvdb::Vec3d(double(v[0]) - double(v[1]), double(v[2]) - double(v[3]),
+                              double(v[4]) - double(v[5]));
+    }
+
+private:
+    /// The 3 x 3 x 3 values from `lo`, from the buffers of the (up to eight)
+    /// leaves they lie in, found once; through the accessor where a leaf is
+    /// missing (a tile, the background).
+    void gather(const openvdb::Coord& lo)
+    {
+        using LeafT = openvdb::FloatTree::LeafNodeType;
+        const float* leaf[2][2][2];
+        const int l0 = lo[0] >> 3, l1 = lo[1] >> 3, l2 = lo[2] >> 3;
+        const int s0 = ((lo[0] + 2) >> 3) - l0, s1 = ((lo[1] + 2) >> 3) - l1,
+                  s2 = ((lo[2] + 2) >> 3) - l2;
+        for (int a = 0; a <= s0; ++a)
+            for (int b = 0; b <= s1; ++b)
+                for (int c = 0; c <= s2; ++c) {
+                    const LeafT* l = accessor_.probeConstLeaf(
+                        openvdb::Coord((l0 + a) << 3, (l1 + b) << 3, (l2 + c) << 3));
+                    leaf[a][b][c] = l ? l->buffer().data() : nullptr;
+                }
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+                for (int c = 0; c < 3; ++c) {
+                    const openvdb::Coord q = lo.offsetBy(a, b, c);
+                    const float* values =
+                        leaf[(q[0] >> 3) - l0][(q[1] >> 3) - l1][(q[2] >> 3) - l2];
+                    block_[a][b][c] =
+                        values ? values[LeafT::coordToOffset(q)] : accessor_.getValue(q);
+                }
+    }
+
+    const openvdb::FloatGrid& grid_;
+    openvdb::FloatGrid::ConstAccessor accessor_;
+    const WorldSampler<openvdb::FloatGrid> sampler_;
+    float block_[3][3][3];
+};
+
+}  // namespace
+
 TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
-                          double adaptivity)
+                          double adaptivity, MeshTimings* timings)
 {
+    MeshTimings local;
+    MeshTimings& tm = timings ? *timings : local;
+    auto t = Clock::now();
     TriangleMesh mesh;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
@@ -35,21 +133,35 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
                                  std::clamp(adaptivity, 0.0, 1.0));
     // volumeToMesh winds its polygons clockwise seen from outside a level set
     // (whose inside is negative): reversed here.
-    mesh.triangles.reserve(tris.size() + 2 * quads.size());
-    for (const auto& t : tris)
-        mesh.triangles.push_back({t[2], t[1], t[0]});
-    for (const auto& q : quads) {
-        // The shorter diagonal gives the better-shaped pair.
-        const float d02 = (mesh.points[q[0]] - mesh.points[q[2]]).lengthSqr();
-        const float d13 = (mesh.points[q[1]] - mesh.points[q[3]]).lengthSqr();
-        if (d02 <= d13) {
-            mesh.triangles.push_back({q[2], q[1], q[0]});
-            mesh.triangles.push_back({q[3], q[2], q[0]});
-        } else {
-            mesh.triangles.push_back({q[3], q[1], q[0]});
-            mesh.triangles.push_back({q[3], q[2], q[1]});
-        }
-    }
+    tm.polygons = secondsSince(t);
+    t = Clock::now();
+    const size_t nt = tris.size();
+    mesh.triangles.resize(nt + 2 * quads.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i < r.end(); ++i)
+            mesh.triangles[i] = {tris[i][2], tris[i][1], tris[i][0]};
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, quads.size()),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i < r.end(); ++i) {
+                              const openvdb::Vec4I& q = quads[i];
+                              auto* pair = &mesh.triangles[nt + 2 * i];
+                              // The shorter diagonal gives the better-shaped pair.
+                              const float d02 = (mesh.points[q[0]] - mesh.points[q[2]]).lengthSqr();
+                              const float d13 = (mesh.points[q[1]] - mesh.points[q[3]]).lengthSqr();
+                              if (d02 <= d13) {
+                                  pair[0] = {q[2], q[1], q[0]};
+                                  pair[1] = {q[3], q[2], q[0]};
+                              } else {
+                                  pair[0] = {q[3], q[1], q[0]};
+                                  pair[1] = {q[3], q[2], q[1]};
+                              }
+                          }
+                      });
+    std::vector<openvdb::Vec3I>().swap(tris);
+    std::vector<openvdb::Vec4I>().swap(quads);
+    tm.triangles = secondsSince(t);
+    t = Clock::now();
     // Normals: central differences of the trilinear level set, half a voxel
     // either side; colours: trilinear Cd.
     const double h = surface.voxelSize()[0];
@@ -58,45 +170,57 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     if (color)
         mesh.colors.resize(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
-        const WorldSampler<openvdb::FloatGrid> d(surface);
+        CentralDifferences d(surface);
         std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
         if (color)
             c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
         for (size_t i = r.begin(); i < r.end(); ++i) {
             const openvdb::Vec3d p = mesh.points[i];
-            openvdb::Vec3d g;
-            for (int k = 0; k < 3; ++k) {
-                openvdb::Vec3d e(0.0);
-                e[k] = 0.5 * h;
-                g[k] = double(d(p + e)) - double(d(p - e));
-            }
+            const openvdb::Vec3d g = d(p, h);
             const double len = g.length();
             mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
             if (c)
                 mesh.colors[i] = (*c)(p);
         }
     });
+    tm.attributes = secondsSince(t);
     return mesh;
 }
 
+namespace {
+
+/// The sum of f over the mesh's triangles, on all cores, in an order that
+/// does not depend on the threads (the same digits every run).
+template <class F>
+double sumOverTriangles(const TriangleMesh& m, const F& f)
+{
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, m.triangles.size(), 1 << 14), 0.0,
+        [&](const tbb::blocked_range<size_t>& r, double sum) {
+            for (size_t i = r.begin(); i < r.end(); ++i) {
+                const auto& t = m.triangles[i];
+                sum += f(openvdb::Vec3d(m.points[t[0]]), openvdb::Vec3d(m.points[t[1]]),
+                         openvdb::Vec3d(m.points[t[2]]));
+            }
+            return sum;
+        },
+        std::plus<double>());
+}
+
+}  // namespace
+
 double meshArea(const TriangleMesh& m)
 {
-    double a = 0.0;
-    for (const auto& t : m.triangles) {
-        const openvdb::Vec3d p0 = m.points[t[0]], p1 = m.points[t[1]], p2 = m.points[t[2]];
-        a += 0.5 * (p1 - p0).cross(p2 - p0).length();
-    }
-    return a;
+    return sumOverTriangles(
+        m, [](const openvdb::Vec3d& p0, const openvdb::Vec3d& p1, const openvdb::Vec3d& p2) {
+            return 0.5 * (p1 - p0).cross(p2 - p0).length();
+        });
 }
 
 double meshVolume(const TriangleMesh& m)
 {
-    double v = 0.0;
-    for (const auto& t : m.triangles) {
-        const openvdb::Vec3d p0 = m.points[t[0]], p1 = m.points[t[1]], p2 = m.points[t[2]];
-        v += p0.dot(p1.cross(p2)) / 6.0;
-    }
-    return v;
+    return sumOverTriangles(m, [](const openvdb::Vec3d& p0, const openvdb::Vec3d& p1,
+                                  const openvdb::Vec3d& p2) { return p0.dot(p1.cross(p2)) / 6.0; });
 }
 
 }  // namespace cambium

@@ -228,19 +228,46 @@ void resolveRow(RenderImage& img, int spp, int y, const TraceRay* rays, const Tr
 }
 
 /// Renders a row at a time on all threads, with a tracer made per task
-/// (`makeTracer`: tracers may hold accessors or ray buffers).
+/// (`makeTracer`: tracers may hold accessors or ray buffers).  With
+/// `ranges`, each pixel's rays are traced over its range only, and not at
+/// all where it has none (they miss).
 RenderImage renderRows(const Camera& camera, int width, int height, int spp,
-                       const std::function<BatchTracer()>& makeTracer)
+                       const std::function<BatchTracer()>& makeTracer,
+                       const RayRanges* ranges = nullptr)
 {
     RenderImage img = blankImage(width, height);
     spp = std::max(1, spp);
     tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
         const BatchTracer trace = makeTracer();
-        std::vector<TraceRay> rays(size_t(width) * size_t(spp));
-        std::vector<TraceHit> hits(rays.size());
+        std::vector<TraceRay> rays(size_t(width) * size_t(spp)), traced;
+        std::vector<TraceHit> hits(rays.size()), found;
         for (int y = rows.begin(); y < rows.end(); ++y) {
             generateRow(camera, width, height, spp, y, rays.data());
-            trace(rays, hits);
+            if (!ranges) {
+                trace(rays, hits);
+            } else {
+                const size_t row = size_t(y) * size_t(width);
+                traced.clear();
+                for (int x = 0; x < width; ++x) {
+                    const float near = ranges->near[row + size_t(x)];
+                    if (!(near <= ranges->far[row + size_t(x)]))
+                        continue;
+                    for (int s = 0; s < spp; ++s) {
+                        TraceRay r = rays[size_t(x) * size_t(spp) + size_t(s)];
+                        r.tmin = near;
+                        r.tmax = ranges->far[row + size_t(x)];
+                        traced.push_back(r);
+                    }
+                }
+                if (!traced.empty())
+                    trace(traced, found);
+                size_t k = 0;
+                for (int x = 0; x < width; ++x) {
+                    const bool some = ranges->near[row + size_t(x)] <= ranges->far[row + size_t(x)];
+                    for (int s = 0; s < spp; ++s)
+                        hits[size_t(x) * size_t(spp) + size_t(s)] = some ? found[k++] : TraceHit();
+                }
+            }
             resolveRow(img, spp, y, rays.data(), hits.data());
         }
     });
@@ -258,9 +285,10 @@ glm::vec3 unit(double x, double y, double z)
 struct CpuMarcher::Impl {
     using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
     Intersector prototype;  // copied per tracer: its constructor measures the grid
+    const openvdb::FloatGrid& surface;
     const openvdb::Vec3fGrid* color;
-    Impl(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* c)
-        : prototype(surface), color(c)
+    Impl(const openvdb::FloatGrid& s, const openvdb::Vec3fGrid* c)
+        : prototype(s), surface(s), color(c)
     {
     }
 };
@@ -284,7 +312,8 @@ BatchTracer CpuMarcher::tracer() const
         hits.resize(rays.size());
         for (size_t k = 0; k < rays.size(); ++k) {
             const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
-            const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z));
+            const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z),
+                           rays[k].tmin, rays[k].tmax);
             openvdb::Vec3d p, g;
             double t = 0.0;
             TraceHit& h = hits[k];
@@ -303,9 +332,84 @@ BatchTracer CpuMarcher::tracer() const
     };
 }
 
+RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)
+{
+    const size_t n = size_t(width) * size_t(height);
+    RayRanges r;
+    r.near.assign(n, std::numeric_limits<float>::infinity());
+    r.far.assign(n, 0.0f);
+    const CameraFrame f(camera, width, height);
+    const double aspect = double(width) / double(height);
+    bool all = false;
+    // Box b (index space, two voxels wider each way: a crossing of the
+    // interpolated values lies within a cell of the voxels that hold it)
+    // from its corners: the pixels their projections span, and the
+    // distances of its bounding sphere from the eye.
+    auto mark = [&](const openvdb::CoordBBox& b) {
+        double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+        glm::dvec3 corner[8];
+        for (int c = 0; c < 8; ++c) {
+            const openvdb::Vec3d w =
+                grid.indexToWorld(openvdb::Vec3d(c & 1 ? b.max()[0] + 2.0 : b.min()[0] - 2.0,
+                                                 c & 2 ? b.max()[1] + 2.0 : b.min()[1] - 2.0,
+                                                 c & 4 ? b.max()[2] + 2.0 : b.min()[2] - 2.0));
+            corner[c] = glm::dvec3(w.x(), w.y(), w.z());
+            const glm::dvec3 d = corner[c] - f.eye;
+            const double z = glm::dot(d, f.w);
+            if (!(z > 1e-9 * glm::length(d))) {  // at or behind the eye: any pixel
+                all = true;
+                return;
+            }
+            const double sx = glm::dot(d, f.u) / z, sy = glm::dot(d, f.v) / z;
+            const double px = (sx / (f.tanY * aspect) + 1.0) * 0.5 * width,
+                         py = (1.0 - sy / f.tanY) * 0.5 * height;
+            x0 = std::min(x0, px);
+            x1 = std::max(x1, px);
+            y0 = std::min(y0, py);
+            y1 = std::max(y1, py);
+        }
+        const glm::dvec3 centre = 0.5 * (corner[0] + corner[7]);
+        double radius = 0.0;
+        for (const glm::dvec3& c : corner)
+            radius = std::max(radius, glm::length(c - centre));
+        const double d = glm::length(centre - f.eye);
+        const float near = float(std::max(0.0, d - radius) * (1.0 - 1e-6)),
+                    far = float((d + radius) * (1.0 + 1e-6));
+        const int ix0 = std::max(0, int(std::floor(x0)) - 1),
+                  ix1 = std::min(width - 1, int(std::floor(x1)) + 1),
+                  iy0 = std::max(0, int(std::floor(y0)) - 1),
+                  iy1 = std::min(height - 1, int(std::floor(y1)) + 1);
+        for (int y = iy0; y <= iy1; ++y)
+            for (int x = ix0; x <= ix1; ++x) {
+                const size_t i = size_t(y) * size_t(width) + size_t(x);
+                r.near[i] = std::min(r.near[i], near);
+                r.far[i] = std::max(r.far[i], far);
+            }
+    };
+    for (auto it = grid.tree().cbeginLeaf(); it && !all; ++it)
+        mark(it->getNodeBoundingBox());
+    // Active tiles (files of other tools), above the leaves only.
+    auto tile = grid.tree().cbeginValueOn();
+    tile.setMaxDepth(grid.tree().treeDepth() - 2);
+    for (; tile && !all; ++tile) {
+        openvdb::CoordBBox b;
+        tile.getBoundingBox(b);
+        mark(b);
+    }
+    if (all) {
+        std::fill(r.near.begin(), r.near.end(), 0.0f);
+        std::fill(r.far.begin(), r.far.end(), std::numeric_limits<float>::infinity());
+    }
+    return r;
+}
+
 RenderImage CpuMarcher::render(const Camera& camera, int width, int height, int spp) const
 {
-    return renderRows(camera, width, height, spp, [this] { return tracer(); });
+    // Rays through pixels that no active leaf covers miss: they are not
+    // traced (the picture is the same, tests/test_render.cpp).
+    const RayRanges ranges = rayRanges(impl_->surface, camera, width, height);
+    return renderRows(
+        camera, width, height, spp, [this] { return tracer(); }, &ranges);
 }
 
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,

@@ -12,6 +12,7 @@
 #include <glm/glm.hpp>
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,6 +62,7 @@ glm::vec3 shadeBackground(const glm::dvec3& dir);
 /// A ray, and what it hit: distance, unit normal, albedo.
 struct TraceRay {
     glm::dvec3 origin, direction;
+    double tmin = 0.0, tmax = std::numeric_limits<double>::infinity();  ///< CpuMarcher's only
 };
 struct TraceHit {
     bool hit = false;
@@ -98,6 +100,17 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
+
+/// Where each pixel's rays may meet a level set: within the bounding
+/// spheres of the active leaves and tiles (two voxels wider each way) whose
+/// projections cover the pixel, from the nearest to the farthest (world
+/// units from the eye; near > far: nowhere, the rays miss); every pixel from
+/// 0 to infinity where a box lies behind the eye.  CpuMarcher::render traces
+/// each pixel's rays over its range only.
+struct RayRanges {
+    std::vector<float> near, far;  ///< a pixel each, row by row
+};
+RayRanges rayRanges(const openvdb::FloatGrid& surface, const Camera& camera, int width, int height);
 
 /// CpuMarcher(surface, color).render(...): `spp` samples per pixel
 /// (stratified, deterministic).

@@ -1,0 +1,351 @@
+// cambium — reading .vdb files on all cores: OpenVDB reads a grid's
+// metadata, transform and topology (its delayed loading leaves every leaf's
+// values in the file), then the leaves' values are read from the file in
+// blocks and decoded in parallel by OpenVDB's own leaf decoder.  OpenVDB's
+// io::File decodes them one after another on one thread.
+#include "io/vdb.h"
+
+#include "core/error.h"
+
+#include <fmt/format.h>
+#include <openvdb/io/File.h>
+#include <openvdb/io/io.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <istream>
+#include <memory>
+#include <type_traits>
+#include <vector>
+
+namespace cambium {
+
+namespace {
+
+/// A grid layout this reader does not decode (another leaf type, an
+/// unfamiliar compression): io::File reads it instead.
+struct NotParallel {};
+
+/// A read-only, seekable stream buffer over bytes in memory.
+class ViewBuf : public std::streambuf {
+public:
+    void view(const char* data, size_t size)
+    {
+        char* p = const_cast<char*>(data);
+        setg(p, p, p + size);
+    }
+
+protected:
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
+    {
+        const off_type base = dir == std::ios_base::beg   ? 0
+                              : dir == std::ios_base::cur ? off_type(gptr() - eback())
+                                                          : off_type(egptr() - eback());
+        if (base + off < 0 || base + off > off_type(egptr() - eback()))
+            return pos_type(off_type(-1));
+        setg(eback(), eback() + (base + off), egptr());
+        return pos_type(base + off);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+};
+
+/// A file read with pread, closed with its owner.
+class ReadFile {
+public:
+    explicit ReadFile(const std::string& path) : path_(path), fd_(::open(path.c_str(), O_RDONLY))
+    {
+        if (fd_ < 0)
+            throw InputError(
+                fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
+    }
+    ~ReadFile() { ::close(fd_); }
+    ReadFile(const ReadFile&) = delete;
+    ReadFile& operator=(const ReadFile&) = delete;
+
+    /// Exactly n bytes at `offset` (the structure check found the file this long).
+    void read(uint64_t offset, char* out, size_t n) const
+    {
+        while (n > 0) {
+            const ssize_t got = ::pread(fd_, out, n, off_t(offset));
+            if (got < 0 && errno == EINTR)
+                continue;
+            if (got <= 0)
+                throw InputError(fmt::format("{}: cannot read the .vdb file at byte {}: {}", path_,
+                                             offset, got < 0 ? std::strerror(errno) : "it ended"));
+            out += got;
+            n -= size_t(got);
+            offset += uint64_t(got);
+        }
+    }
+
+private:
+    std::string path_;
+    int fd_;
+};
+
+/// Decodes a grid's leaf values in parallel: the leaves are stored one after
+/// another in the tree's order from the grid's block offset, each as its
+/// value mask, a byte saying which inactive values and selection mask
+/// follow, those, and the (compressed) active values.
+template <class GridT>
+class LeafDecoder {
+public:
+    using LeafT = typename GridT::TreeType::LeafNodeType;
+    using ValueT = typename GridT::ValueType;
+    using HalfT = typename openvdb::io::RealToHalf<ValueT>::HalfT;
+    using MaskT = typename LeafT::NodeMaskType;
+
+    LeafDecoder(const std::string& path, const VdbSummary& file, const VdbSummary::Grid& grid,
+                GridT& target)
+        : path_(path),
+          grid_(grid),
+          fileVersion_(file.fileVersion),
+          half_(grid.half()),
+          background_(target.background())
+    {
+        for (auto it = target.tree().beginLeaf(); it; ++it)
+            leaves_.push_back(it.getLeaf());
+        ReadFile f(path);
+        uint32_t compression = 0;  // the grid's, written first in its block
+        f.read(uint64_t(grid.begin), reinterpret_cast<char*>(&compression), sizeof compression);
+        compression_ = compression;
+        namespace io = openvdb::io;
+        if (compression_ &
+            ~uint32_t(io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK | io::COMPRESS_BLOSC))
+            throw NotParallel{};
+        decode(f);
+    }
+
+private:
+    [[noreturn]] void damaged(size_t leaf, const char* why) const
+    {
+        throw InputError(fmt::format("{}: a damaged .vdb file: grid '{}', leaf {} of {}: {}", path_,
+                                     grid_.name, leaf, leaves_.size(), why));
+    }
+
+    /// Leaf i's bytes at `p` (of `left` in the block read): their length, or
+    /// 0 when they run past it.
+    size_t leafBytes(size_t i, const char* p, size_t left) const
+    {
+        namespace io = openvdb::io;
+        const MaskT& mask = leaves_[i]->getValueMask();
+        constexpr size_t maskBytes = sizeof(typename MaskT::Word) * MaskT::WORD_COUNT;
+        size_t at = maskBytes + 1;
+        if (left < at)
+            return 0;
+        for (openvdb::Index w = 0; w < MaskT::WORD_COUNT; ++w) {
+            typename MaskT::Word word;
+            std::memcpy(&word, p + w * sizeof word, sizeof word);
+            if (word != mask.template getWord<typename MaskT::Word>(w))
+                damaged(i, "its value mask is not the topology's");
+        }
+        const int8_t flag = int8_t(p[maskBytes]);
+        if (flag < io::NO_MASK_OR_INACTIVE_VALS || flag > io::NO_MASK_AND_ALL_VALS)
+            damaged(i, "an unknown inactive-value code");
+        if (flag == io::NO_MASK_AND_ONE_INACTIVE_VAL || flag == io::MASK_AND_ONE_INACTIVE_VAL)
+            at += sizeof(ValueT);
+        if (flag == io::MASK_AND_TWO_INACTIVE_VALS)
+            at += 2 * sizeof(ValueT);
+        if (flag == io::MASK_AND_NO_INACTIVE_VALS || flag == io::MASK_AND_ONE_INACTIVE_VAL ||
+            flag == io::MASK_AND_TWO_INACTIVE_VALS)
+            at += maskBytes;
+        const bool maskCompressed = compression_ & io::COMPRESS_ACTIVE_MASK;
+        const size_t count =
+            maskCompressed && flag != io::NO_MASK_AND_ALL_VALS ? mask.countOn() : LeafT::SIZE;
+        if (half_ && count == 0)  // (halves: nothing at all is written for no values)
+            return left >= at ? at : 0;
+        if (compression_ & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP)) {
+            int64_t n;
+            if (left < at + sizeof n)
+                return 0;
+            std::memcpy(&n, p + at, sizeof n);
+            const uint64_t raw = count * (half_ ? sizeof(HalfT) : sizeof(ValueT));
+            // (n <= 0: stored uncompressed, -n bytes)
+            if (n < -int64_t(raw) || (n <= 0 && uint64_t(-n) != raw) || n > int64_t(1) << 30)
+                damaged(i, "its compressed size does not fit its values");
+            at += sizeof n + uint64_t(n < 0 ? -n : n);
+        } else {
+            at += count * (half_ ? sizeof(HalfT) : sizeof(ValueT));
+        }
+        return left >= at ? at : 0;
+    }
+
+    /// The block read a few megabytes at a time: each piece's whole leaves
+    /// found, then decoded on all cores.
+    void decode(const ReadFile& f)
+    {
+        constexpr size_t kPiece = size_t(1) << 20;
+        const uint64_t end = uint64_t(grid_.end);
+        std::vector<char> piece(kPiece);
+        std::vector<size_t> starts;
+        uint64_t at = uint64_t(grid_.block);
+        size_t next = 0;
+        tbb::enumerable_thread_specific<std::unique_ptr<Stream>> streams;
+        while (next < leaves_.size()) {
+            const size_t n = size_t(std::min<uint64_t>(kPiece, end - at));
+            if (n == 0)
+                damaged(next, "the grid ends before its leaves");
+            f.read(at, piece.data(), n);
+            starts.clear();
+            size_t used = 0;
+            const size_t first = next;
+            while (next < leaves_.size()) {
+                const size_t len = leafBytes(next, piece.data() + used, n - used);
+                if (len == 0)
+                    break;
+                starts.push_back(used);
+                used += len;
+                ++next;
+            }
+            if (next == first)
+                damaged(next, "it runs past the end of its grid");
+            starts.push_back(used);
+            tbb::parallel_for(size_t(0), next - first, [&](size_t k) {
+                std::unique_ptr<Stream>& s = streams.local();
+                if (!s)
+                    s = std::make_unique<Stream>(*this);
+                s->leaf(*leaves_[first + k], piece.data() + starts[k], starts[k + 1] - starts[k]);
+            });
+            at += used;
+        }
+    }
+
+    /// A thread's stream, tagged as OpenVDB's reader tags its own.
+    struct Stream {
+        explicit Stream(const LeafDecoder& d) : owner(d), is(&buf)
+        {
+            namespace io = openvdb::io;
+            io::setVersion(is,
+                           openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
+                                              OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
+                           d.fileVersion_);
+            io::setDataCompression(is, d.compression_);
+            io::setGridBackgroundValuePtr(is, &d.background_);
+        }
+        void leaf(LeafT& leaf, const char* bytes, size_t n)
+        {
+            constexpr size_t maskBytes = sizeof(typename MaskT::Word) * MaskT::WORD_COUNT;
+            buf.view(bytes + maskBytes, n - maskBytes);
+            is.clear();
+            typename LeafT::Buffer values(openvdb::PartialCreate(), owner.background_);
+            values.allocate();
+            openvdb::io::readCompressedValues(is, values.data(), LeafT::SIZE, leaf.getValueMask(),
+                                              owner.half_);
+            if (!is)
+                throw InputError(
+                    fmt::format("{}: a damaged .vdb file: grid '{}' has a leaf whose "
+                                "values cannot be decoded",
+                                owner.path_, owner.grid_.name));
+            leaf.swap(values);  // (the leaf's delayed-load record goes with `values`)
+        }
+        const LeafDecoder& owner;
+        ViewBuf buf;
+        std::istream is;
+    };
+
+    const std::string& path_;
+    const VdbSummary::Grid& grid_;
+    uint32_t fileVersion_, compression_ = 0;
+    bool half_;
+    ValueT background_;
+    std::vector<LeafT*> leaves_;
+};
+
+/// The grid by io::File: read whole (`delayed`: its leaves on first touch).
+openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::string& grid,
+                                       bool delayed)
+{
+    try {
+        openvdb::io::File file(path);
+        file.setCopyMaxBytes(0);  // no private copy of the file for delayed loading
+        file.open(delayed);
+        openvdb::GridBase::Ptr g = file.readGrid(grid);
+        file.close();
+        return g;
+    } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
+    }
+}
+
+}  // namespace
+
+openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
+                                   const std::string& name, bool lazy)
+{
+    const VdbSummary::Grid* grid = nullptr;
+    for (const VdbSummary::Grid& g : summary.grids)
+        if (g.name == name)
+            grid = &g;
+    if (!grid)
+        throw InputError(fmt::format("{}: no grid named '{}'", path, name));
+    if (!grid->instanceOf.empty())
+        return readWithOpenVdb(path, name, lazy);
+    // The topology, each leaf's values left in the file.
+    openvdb::GridBase::Ptr g = readWithOpenVdb(path, name, true);
+    if (lazy)
+        return g;
+    try {
+        const bool ours =
+            g->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& typed) {
+                LeafDecoder<std::decay_t<decltype(typed)>>(path, summary, *grid, typed);
+            });
+        if (ours)
+            return g;
+    } catch (const NotParallel&) {
+    }
+    return readWithOpenVdb(path, name, false);
+}
+
+namespace {
+
+LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
+                        ColourRead colour)
+{
+    // A damaged file is named here, before OpenVDB decodes it: its structure,
+    // and for cambium's own files the checksum of every byte.
+    const VdbSummary summary = inspectVdb(path);
+    verifyVdbChecksum(path, summary);
+    std::string names;
+    bool found = false, hasColour = false;
+    for (const VdbSummary::Grid& g : summary.grids) {
+        names += (names.empty() ? "" : ", ") + g.name;
+        found = found || g.name == grid;
+        hasColour = hasColour || g.name == kColorGrid;
+    }
+    if (!found)
+        throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
+                                     names.empty() ? "no grids" : names));
+    LevelSetGrids out;
+    const openvdb::GridBase::Ptr g = readVdbGrid(path, summary, grid, lazy);
+    out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+    if (!out.surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
+        throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,
+                                     g->valueType(),
+                                     openvdb::GridBase::gridClassToString(g->getGridClass())));
+    if (hasColour && colour != ColourRead::None && grid != kColorGrid)
+        out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
+            readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
+    return out;
+}
+
+}  // namespace
+
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour)
+{
+    return readGrids(path, grid, false, colour);
+}
+
+LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)
+{
+    return readGrids(path, grid, true, ColourRead::Lazy);
+}
+
+}  // namespace cambium

@@ -1,0 +1,210 @@
+// cambium tests — the parallel .vdb reader (io/vdb.h readVdbGrid,
+// readLevelSet) against OpenVDB's io::File, voxel for voxel: cambium's own
+// files (surface, Cd, density; floats and halves) and files OpenVDB wrote
+// with every compression it offers.
+#include "bake_util.h"
+#include "temp_dir.h"
+#include "test_util.h"
+
+#include "core/error.h"
+#include "io/vdb.h"
+
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/tools/LevelSetSphere.h>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace cambium;
+using namespace cambium::test;
+
+namespace {
+
+BlobTree twoColouredSpheres()
+{
+    BlobTree t;
+    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
+    t.setColor(a, {1, 0, 0});
+    t.setColor(b, {0, 0, 1});
+    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
+    t.finalize();
+    return t;
+}
+
+/// The grid as OpenVDB's io::File reads it, whole.
+openvdb::GridBase::Ptr openVdbRead(const std::string& path, const std::string& name)
+{
+    openvdb::io::File f(path);
+    f.open(false);
+    openvdb::GridBase::Ptr g = f.readGrid(name);
+    f.close();
+    return g;
+}
+
+/// Same metadata, transform, background, tiles and voxels (values compared
+/// bit for bit, inactive ones too): the trees iterated side by side.
+template <class GridT>
+void expectSameGrid(const GridT& a, const GridT& b, const std::string& what)
+{
+    ASSERT_EQ(a.tree().leafCount(), b.tree().leafCount()) << what;
+    ASSERT_EQ(a.tree().activeTileCount(), b.tree().activeTileCount()) << what;
+    ASSERT_EQ(a.activeVoxelCount(), b.activeVoxelCount()) << what;
+    EXPECT_EQ(a.transform(), b.transform()) << what;
+    EXPECT_EQ(a.getGridClass(), b.getGridClass()) << what;
+    EXPECT_EQ(a.str(), b.str()) << what;  // the metadata
+    EXPECT_EQ(std::memcmp(&a.background(), &b.background(), sizeof a.background()), 0) << what;
+    auto ib = b.tree().cbeginValueAll();
+    size_t values = 0, differ = 0;
+    for (auto ia = a.tree().cbeginValueAll(); ia; ++ia, ++ib, ++values) {
+        ASSERT_TRUE(bool(ib)) << what;
+        ASSERT_EQ(ia.getCoord(), ib.getCoord()) << what;
+        ASSERT_EQ(ia.getDepth(), ib.getDepth()) << what;
+        const auto va = *ia, vb = *ib;
+        differ += ia.isValueOn() != ib.isValueOn() || std::memcmp(&va, &vb, sizeof va) != 0;
+    }
+    EXPECT_FALSE(bool(ib)) << what;
+    EXPECT_EQ(differ, 0u) << what << ": of " << values << " values and tiles";
+    EXPECT_GT(values, 1000u) << what;
+}
+
+void expectReadsAsOpenVdb(const std::string& path, const std::string& what)
+{
+    const VdbSummary s = inspectVdb(path);
+    for (const VdbSummary::Grid& grid : s.grids) {
+        const std::string label = what + ", grid " + grid.name;
+        const openvdb::GridBase::Ptr ours = readVdbGrid(path, s, grid.name),
+                                     theirs = openVdbRead(path, grid.name);
+        ASSERT_EQ(ours->type(), theirs->type()) << label;
+        const bool known = theirs->apply<
+            openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid, openvdb::Int32Grid>>(
+            [&](const auto& t) {
+                using G = std::decay_t<decltype(t)>;
+                expectSameGrid(*openvdb::gridConstPtrCast<G>(ours), t, label);
+            });
+        EXPECT_TRUE(known) << label;
+        // The leaves left in the file load the same values when touched.
+        const openvdb::GridBase::Ptr lazy = readVdbGrid(path, s, grid.name, /*lazy=*/true);
+        theirs->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>(
+            [&](const auto& t) {
+                using G = std::decay_t<decltype(t)>;
+                expectSameGrid(*openvdb::gridConstPtrCast<G>(lazy), t, label + " (lazy)");
+            });
+    }
+}
+
+}  // namespace
+
+TEST(VdbRead, CambiumsOwnFilesReadAsOpenVdbReadsThem)
+{
+    // surface, Cd (many colours) and density, packed by the writer on all
+    // cores into blocks of leaves, stored as floats and as halves.
+    openvdb::initialize();
+    const BakedGrids g = bakeTree(twoColouredSpheres(), 0.0045, 3.0, true, /*fog=*/true);
+    ASSERT_GT(g.surface->tree().leafCount(), 1500u);
+    ASSERT_GT(g.color->activeVoxelCount(), 1000u);
+    const std::string dir = freshDir("cambium_vdb_read").string();
+    for (bool halves : {false, true}) {
+        VdbFileInfo info;
+        info.scene = "two spheres";
+        info.half = halves;
+        const std::string path = dir + (halves ? "/half.vdb" : "/float.vdb");
+        writeVdb(g, path, info);
+        // (more than one of the megabytes the reader reads at a time)
+        const VdbSummary s = inspectVdb(path);
+        ASSERT_GT(s.grids[0].end - s.grids[0].block, 1 << 20);
+        expectReadsAsOpenVdb(path, halves ? "halves" : "floats");
+        // readLevelSet: the level set and its colour, each read so.
+        const LevelSetGrids r = readLevelSet(path);
+        expectSameGrid(*r.surface,
+                       *openvdb::gridPtrCast<openvdb::FloatGrid>(openVdbRead(path, "surface")),
+                       "readLevelSet surface");
+        ASSERT_TRUE(r.color);
+        expectSameGrid(*r.color, *openvdb::gridPtrCast<openvdb::Vec3fGrid>(openVdbRead(path, "Cd")),
+                       "readLevelSet Cd");
+        EXPECT_FALSE(readLevelSet(path, "surface", ColourRead::None).color);
+    }
+}
+
+TEST(VdbRead, FilesOpenVdbWroteReadAsOpenVdbReadsThem)
+{
+    // What other tools write: OpenVDB's own writer with each of its
+    // compressions (Blosc, zip, none; with and without the active-value
+    // mask), halves, a grid with active tiles, a narrow band with both
+    // inactive values (+-background), an integer grid (read by io::File) and
+    // a grid instancing another's tree.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.1f), 0.02f);
+    sphere->setName("surface");
+    openvdb::Vec3fGrid::Ptr colour = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
+    colour->setName("Cd");
+    colour->setTransform(sphere->transform().copy());
+    {
+        auto acc = colour->getAccessor();
+        for (auto it = sphere->cbeginValueOn(); it; ++it) {
+            const openvdb::Coord c = it.getCoord();
+            acc.setValue(c, openvdb::Vec3f(float(c.x() & 7) / 7.0f, *it, 0.5f));
+        }
+        // active tiles: a level-1 tile and a level-2 one
+        colour->tree().addTile(1, openvdb::Coord(800, 0, 0), openvdb::Vec3f(0.25f), true);
+        colour->tree().addTile(2, openvdb::Coord(4096, 0, 0), openvdb::Vec3f(0.75f), true);
+    }
+    openvdb::Int32Grid::Ptr ids = openvdb::Int32Grid::create(-1);
+    ids->setName("ids");
+    for (int i = 0; i < 3000; ++i)
+        ids->tree().setValue(openvdb::Coord(i % 97, i / 97, i % 13), i);
+    openvdb::FloatGrid::Ptr instance = openvdb::FloatGrid::create(sphere->treePtr());
+    instance->setName("surface_instance");
+    instance->setTransform(sphere->transform().copy());
+    namespace io = openvdb::io;
+    const uint32_t compressions[] = {io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK,
+                                     io::COMPRESS_BLOSC,
+                                     io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK,
+                                     io::COMPRESS_ZIP,
+                                     io::COMPRESS_ACTIVE_MASK,
+                                     io::COMPRESS_NONE};
+    const std::string dir = freshDir("cambium_vdb_read_foreign").string();
+    int k = 0;
+    for (uint32_t c : compressions)
+        for (bool halves : {false, true}) {
+            const std::string path = dir + "/foreign" + std::to_string(k++) + ".vdb";
+            sphere->setSaveFloatAsHalf(halves);
+            colour->setSaveFloatAsHalf(halves);
+            io::File f(path);
+            f.setCompression(c);
+            f.write({sphere, colour, ids, instance});
+            f.close();
+            expectReadsAsOpenVdb(path,
+                                 fmt::format("compression {} ({}){}", c, io::compressionToString(c),
+                                             halves ? ", halves" : ""));
+        }
+}
+
+TEST(VdbRead, ALeafThatIsNotItsTopologysIsNamed)
+{
+    // A file without cambium's checksum whose first leaf's value mask was
+    // changed in its value block: the reader names the grid and the leaf
+    // instead of reading values into the wrong voxels.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
+    sphere->setName("surface");
+    const std::string path = freshDir("cambium_vdb_read_damaged").string() + "/d.vdb";
+    {
+        openvdb::io::File f(path);
+        f.write({sphere});
+    }
+    const VdbSummary s = inspectVdb(path);
+    ASSERT_EQ(s.grids.size(), 1u);
+    {
+        std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+        io.seekp(s.grids[0].block);
+        char byte = 0;
+        io.read(&byte, 1);
+        io.seekp(s.grids[0].block);
+        byte = char(~byte);
+        io.write(&byte, 1);
+    }
+    expectInputError([&] { readVdbGrid(path, s, "surface"); }, "leaf 0 of", "a changed mask");
+}
