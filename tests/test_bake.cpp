@@ -10,6 +10,7 @@
 #include "blobtree/evaluator.h"
 #include "bake_util.h"
 #include "test_util.h"
+#include "temp_dir.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
@@ -497,7 +498,7 @@ TEST(BakeColour, TwoColoursGiveCdOnEveryBandVoxel)
     ASSERT_FALSE(FieldProgram::compile(t).uniformColor());
     const double h = 0.02;
     for (bool cpu : {true, false}) {
-        const BakedGrids g = bakeTree(t, h, 3.0, cpu);
+        const BakedGrids g = bakeTree(t, h, 3.0, cpu, false, ColourExtent::Band);
         EXPECT_TRUE(g.color->tree().hasSameTopology(g.surface->tree()));
         EXPECT_GT(g.color->activeVoxelCount(), 1000u);
         for (auto it = g.color->cbeginValueOn(); it; ++it) {
@@ -518,6 +519,107 @@ TEST(BakeColour, TwoColoursGiveCdOnEveryBandVoxel)
             EXPECT_NEAR(side < 0 ? v.x() : v.z(), 1.0, 0.02) << c;
         }
     }
+}
+
+namespace {
+
+/// Whether voxel c is a corner of a cell whose corners lie on both sides of
+/// the level set (value < 0 inside, as volumeToMesh takes it).
+bool cornerOfACrossedCell(openvdb::FloatGrid::ConstAccessor& acc, const openvdb::Coord& c)
+{
+    for (int cx = -1; cx <= 0; ++cx)
+        for (int cy = -1; cy <= 0; ++cy)
+            for (int cz = -1; cz <= 0; ++cz) {
+                int inside = 0;
+                for (int k = 0; k < 8; ++k)
+                    inside += acc.getValue(c.offsetBy(cx + (k & 1), cy + ((k >> 1) & 1),
+                                                      cz + (k >> 2))) < 0.0f;
+                if (inside > 0 && inside < 8)
+                    return true;
+            }
+    return false;
+}
+
+/// Shell Cd against band Cd of the same bake: on every corner of every
+/// crossed cell shell Cd is on (a voxel or a tile) and within a step of 8-bit
+/// colour of the band's (equal off the tiles); off them no voxel is on.
+void expectShellHoldsTheBandsColours(const BakedGrids& shell, const BakedGrids& band,
+                                     const std::string& what)
+{
+    auto s = shell.surface->getConstAccessor();
+    auto cs = shell.color->getConstAccessor();
+    auto cb = band.color->getConstAccessor();
+    size_t corners = 0, tiled = 0, missing = 0, differ = 0, outside = 0;
+    for (auto it = band.color->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord c = it.getCoord();
+        const bool corner = cornerOfACrossedCell(s, c);
+        if (!corner) {
+            outside += cs.isValueOn(c) && cs.getValueDepth(c) == 3;  // a voxel, not a tile
+            continue;
+        }
+        ++corners;
+        if (!cs.isValueOn(c)) {
+            ++missing;
+            continue;
+        }
+        const bool tile = cs.getValueDepth(c) != 3;
+        tiled += tile;
+        const openvdb::Vec3f d = cs.getValue(c) - cb.getValue(c);
+        const float most = std::max({std::abs(d[0]), std::abs(d[1]), std::abs(d[2])});
+        differ += tile ? most > 1.0f / 255.0f + 1e-6f : most != 0.0f;
+    }
+    EXPECT_GT(corners, 1000u) << what;
+    EXPECT_EQ(missing, 0u) << what << ": crossed cells' corners without colour";
+    EXPECT_EQ(differ, 0u) << what << ": colours that differ from the band's";
+    EXPECT_EQ(outside, 0u) << what << ": colour voxels off the shell";
+    EXPECT_GT(tiled, 0u) << what;
+    // Less than the band holds.
+    EXPECT_LT(shell.color->tree().leafCount(), band.color->tree().leafCount()) << what;
+}
+
+}  // namespace
+
+TEST(BakeColour, TheShellHoldsTheBandsColoursWhereTheSurfaceReadsThem)
+{
+    // Cd where a trilinear lookup on the surface reads it (the corners of
+    // the cells the surface crosses), the band's values there, leaves of one
+    // colour as tiles: on the CPU and OpenCL, packed for the file or not, at
+    // the default half-width and a wide band; and what the file holds of it.
+    openvdb::initialize();
+    const BlobTree t = redAndBlueSpheres();
+    for (bool cpu : {true, false})
+        for (double W : {3.0, 6.0}) {
+            const std::string what = fmt::format("{}, half-width {}", cpu ? "cpu" : "opencl", W);
+            const BakedGrids band = bakeTree(t, 0.01, W, cpu, false, ColourExtent::Band);
+            const BakedGrids shell = bakeTree(t, 0.01, W, cpu, false, ColourExtent::Shell);
+            expectIdentical(*shell.surface, *band.surface, what + ": the level set");
+            expectShellHoldsTheBandsColours(shell, band, what);
+            // Packed, its file holds the same grids.
+            const BakedGrids packed = bakeTree(t, 0.01, W, cpu, false, ColourExtent::Shell, true);
+            const std::string path =
+                (freshDir("cambium_shell") / (cpu ? "cpu.vdb" : "cl.vdb")).string();
+            VdbFileInfo info;
+            writeVdb(packed, path, info);
+            const LevelSetGrids read = readLevelSet(path);
+            expectIdentical(*read.color, *shell.color, what + ": Cd in the file");
+            EXPECT_EQ(read.color->tree().activeTileCount(), shell.color->tree().activeTileCount());
+        }
+    // --colour none: no Cd.
+    EXPECT_FALSE(bakeTree(t, 0.02, 3.0, true, false, ColourExtent::None).color);
+}
+
+TEST(BakeColour, ColourMadeWholeIsKeptOnTheShellToo)
+{
+    // A photo's colours and a mesh's are made on the whole band, then kept on
+    // the shell (keepColourShell): the same rule as the bake's own.
+    openvdb::initialize();
+    const BlobTree t = redAndBlueSpheres();
+    const BakedGrids band = bakeTree(t, 0.01, 3.0, true, false, ColourExtent::Band);
+    BakedGrids kept = bakeTree(t, 0.01, 3.0, true, false, ColourExtent::Band);
+    keepColourShell(kept);
+    expectShellHoldsTheBandsColours(kept, band, "keepColourShell");
+    const BakedGrids shell = bakeTree(t, 0.01, 3.0, true, false, ColourExtent::Shell);
+    expectIdentical(*kept.color, *shell.color, "keepColourShell against the bake's shell");
 }
 
 TEST(BakeColour, OneColourIsTheBackgroundOfAnEmptyCdGrid)

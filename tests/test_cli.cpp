@@ -137,6 +137,75 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
     std::filesystem::remove(out);
 }
 
+TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
+{
+    // `cambium info FILE.vdb`: each grid with its type, class, active voxels,
+    // leaves, bounds, memory and cambium's metadata, read from the file's
+    // metadata alone; --check reads every byte against the checksum and
+    // names a changed file (exit 2).  A single bake of a grown tree records
+    // its year as cambium_time.
+    std::string vdb;
+    const auto dir = bakedDir("cambium_cli_info", vdb);
+    const Result r = run("info " + vdb);
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* text :
+         {"grid       surface: float level set, ", "grid       Cd: vec3s", " active voxels in ",
+          " leaves", "  index    (", "  world    (", "in core; ",
+          "in the file (blosc + active values)", "cambium_half_width     3",
+          "cambium_voxel_size     0.05", "checksum   present, not verified"})
+        EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
+    const Result c = run("info " + vdb + " --check");
+    ASSERT_EQ(c.status, 0) << c.err;
+    EXPECT_NE(c.out.find("checksum   holds"), std::string::npos) << c.out;
+    {
+        std::fstream f(vdb, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(-20, std::ios::end);
+        f.put('\x5a');
+    }
+    const Result bad = run("info " + vdb + " --check");
+    EXPECT_EQ(bad.status, 2);
+    EXPECT_NE(bad.err.find("do not match the checksum"), std::string::npos) << bad.err;
+    // Any name: the magic number says it is a .vdb.
+    const std::string other = (dir / "frame.data").string();
+    std::filesystem::copy_file(vdb, other);
+    EXPECT_EQ(run("info " + other).status, 0);
+    EXPECT_EQ(run("info " + kExamples + "sphere_and_cone.json --check").status, 2);
+    const std::string grown = (dir / "grown.vdb").string();
+    ASSERT_EQ(
+        run("bake " + kExamples + "populus/populus.json --year 3 --voxel-size 0.02 -o " + grown)
+            .status,
+        0);
+    EXPECT_NE(run("info " + grown).out.find("cambium_time           3\n"), std::string::npos);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, BakeKeepsColourOnTheShellTheBandOrNowhere)
+{
+    // --colour shell (the default) keeps fewer Cd voxels than band; none
+    // writes no Cd; anything else is refused before any work.
+    std::string vdb;
+    const auto dir = bakedDir("cambium_cli_colour", vdb);
+    const std::string two = kExamples + "operators.json";
+    auto colourVoxels = [&](const std::string& mode) -> std::string {
+        const std::string out = (dir / (mode + ".vdb")).string();
+        const Result b = run("bake " + two + " --voxel-size 0.02 --colour " + mode + " -o " + out);
+        EXPECT_EQ(b.status, 0) << b.err;
+        const Result i = run("info " + out);
+        const size_t at = i.out.find("grid       Cd: vec3s, ");
+        return at == std::string::npos ? std::string("no Cd")
+                                       : i.out.substr(at, i.out.find('\n', at) - at);
+    };
+    const std::string shell = colourVoxels("shell"), band = colourVoxels("band"),
+                      none = colourVoxels("none");
+    EXPECT_NE(shell, band);
+    EXPECT_NE(band.find("leaves"), std::string::npos) << band;
+    EXPECT_EQ(none, "no Cd");
+    expectRefused("bake " + two + " -o " + (dir / "x.vdb").string(),
+                  {{"--colour rainbow", "--colour must be shell, band or none (got 'rainbow')"}});
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.vdb"));
+    std::filesystem::remove_all(dir);
+}
+
 /// Whether the dynamic loader's trace (LD_DEBUG=files) of a run shows
 /// OpenImageIO loaded.
 bool loadsOpenImageIO(const std::string& args, Result& r)

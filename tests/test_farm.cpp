@@ -303,7 +303,9 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
     t.request.output = (dir / "hero.vdb").string();
     t.tiles = 3;
     t.tileBytes = 100e6;
-    t.threshold = loadModel(kPopulus, t.request.model).threshold();
+    const BlobTree model = loadModel(kPopulus, t.request.model);
+    t.threshold = model.threshold();
+    t.time = model.time();
     t.scene = kPopulus;
     SlurmOptions o;
     o.exe = exe;

@@ -132,6 +132,37 @@ TEST(Mesh, ColoursComeFromTheCdGrid)
     }
 }
 
+TEST(Mesh, TheColourShellGivesTheBandsColoursAtEveryVertex)
+{
+    // A mesh's colours looked up in Cd kept on the shell (the default) are
+    // those of Cd on the whole band: equal, or within a step of 8-bit colour
+    // where a leaf of one colour became a tile.  Blended spheres: every
+    // colour between red and blue.
+    BlobTree tree;
+    const int a = tree.sphere({-0.3, 0, 0}, 0.3), b = tree.sphere({0.3, 0.05, 0}, 0.3);
+    tree.setColor(a, {1.0, 0.2, 0.0});
+    tree.setColor(b, {0.0, 0.3, 1.0});
+    tree.setRoot(tree.op(Combiner{}, {a, b}));
+    tree.finalize();
+    const BakedGrids band = bakeTree(tree, 0.01, 3.0, true, false, ColourExtent::Band),
+                     shell = bakeTree(tree, 0.01, 3.0, true, false, ColourExtent::Shell);
+    const TriangleMesh mb = meshLevelSet(*band.surface, band.color.get()),
+                       ms = meshLevelSet(*shell.surface, shell.color.get());
+    ASSERT_EQ(mb.points.size(), ms.points.size());
+    ASSERT_GT(mb.points.size(), 10000u);
+    size_t equal = 0;
+    float most = 0.0f;
+    for (size_t i = 0; i < mb.points.size(); ++i) {
+        const openvdb::Vec3f d = ms.colors[i] - mb.colors[i];
+        most = std::max({most, std::abs(d[0]), std::abs(d[1]), std::abs(d[2])});
+        equal += d == openvdb::Vec3f(0.0f);
+    }
+    EXPECT_LE(most, 1.0f / 255.0f + 1e-6f);
+    EXPECT_GT(equal, mb.points.size() / 2);
+    EXPECT_LT(shell.color->activeVoxelCount() - 512 * shell.color->tree().activeTileCount(),
+              band.color->activeVoxelCount() * 3 / 4);
+}
+
 TEST(Mesh, FilesReadBack)
 {
     BlobTree tree;

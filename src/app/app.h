@@ -81,6 +81,7 @@ struct TilePlan {
     double frameBytes = 0.0;  ///< the whole frame's estimate
     double tileBytes = 0.0;   ///< a tile's share of it
     double threshold = 0.5;   ///< the model's iso-value
+    double time = 0.0;        ///< the model's time (growth files: years)
 };
 TilePlan planTiles(const struct BakeRequest& request, int tiles, double maxMemory, bool here);
 

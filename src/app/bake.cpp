@@ -56,7 +56,7 @@ void addBakeCommand(CLI::App& app, Action& action)
         double voxelSize = 0.0;
         std::string device = "opencl";
         bool timings = false;
-        std::string colouring;
+        std::string colouring, colour = "shell";
         SlurmFlags slurm;
         int tiles = 0;
         std::string tile, maxMemory;
@@ -81,6 +81,10 @@ void addBakeCommand(CLI::App& app, Action& action)
     cmd->add_option("--device", o->device, "opencl or cpu")->capture_default_str();
     cmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     cmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");
+    cmd->add_option("--colour", o->colour,
+                    "Where the colour grid Cd is kept: shell (the voxels a lookup on the surface "
+                    "reads, leaves of one colour as tiles), band (every band voxel) or none")
+        ->capture_default_str();
     cmd->add_option("--threads", bake.threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(1, 4096));
     cmd->add_option("--bark-photo", bake.barkPhoto,
@@ -185,6 +189,7 @@ void addBakeCommand(CLI::App& app, Action& action)
                 req.tile = {k - 1, count};
             }
             checkBakeOptions(req);
+            req.colour = parseColourExtent(o->colour);
             if (!o->colouring.empty()) {
                 const auto& names = kBarkColourings;
                 if (std::find(names.begin(), names.end(), o->colouring) == names.end())

@@ -369,6 +369,7 @@ int runTileFarmCommand(const BakeRequest& asked, const TilePlan& tiles, const Sl
     t.tileBytes = tiles.tileBytes;
     t.frameBytes = tiles.frameBytes;
     t.threshold = tiles.threshold;
+    t.time = tiles.time;
     t.scene = asked.input;
     if (tiles.tiles == 1)
         printNotice(fmt::format("the frame's estimate ({}) is within --max-memory: one task",

@@ -5,6 +5,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/system.h"
+#include "io/vdb.h"
 #include "model/load_model.h"
 #include "shape/synthesis.h"
 
@@ -45,8 +46,70 @@ int runShapeInfo(const std::string& path)
     return 0;
 }
 
-int runInfo(const std::string& scenePath, const ModelOptions& model)
+/// A .vdb file: what vdb_print says and cambium's metadata, from the file's
+/// structure and its grids' metadata (no tree read); `check`: every byte
+/// against cambium's checksum.
+int runVdbInfo(const std::string& path, bool check)
 {
+    const auto start = Clock::now();
+    const VdbDescription d = describeVdb(path);
+    const VdbSummary& s = d.summary;
+    auto text = [&](const char* key) {
+        const auto it = s.strings.find(key);
+        return it == s.strings.end() ? std::string() : it->second;
+    };
+    fmt::print("file       {}: {} bytes, OpenVDB file format {}{}\n", path,
+               formatCount(double(s.bytes)), s.fileVersion,
+               text("creator").empty() ? "" : ", written by " + text("creator"));
+    if (!text("cambium_sequence").empty())
+        fmt::print("sequence   {}\n", text("cambium_sequence"));
+    if (s.checksumEnd == 0) {
+        fmt::print("checksum   none (not written by cambium)\n");
+    } else if (!check) {
+        fmt::print("checksum   present, not verified (--check reads every byte)\n");
+    } else {
+        const auto t = Clock::now();
+        verifyVdbChecksum(path, s);  // (InputError when it does not hold)
+        fmt::print("checksum   holds: every byte as written ({:.2f} s)\n", secondsSince(t));
+    }
+    for (const VdbGridDescription& g : d.grids) {
+        fmt::print(
+            "grid       {}: {}{}{}, {} active voxels{}\n", g.name, g.valueType,
+            g.gridClass == "unknown" ? "" : " " + g.gridClass, g.half ? " (stored as halves)" : "",
+            g.activeVoxels < 0 ? "an unrecorded number of" : formatCount(double(g.activeVoxels)),
+            g.leaves < 0 ? "" : fmt::format(" in {} leaves", formatCount(double(g.leaves))));
+        fmt::print("  voxel    {}\n",
+                   formatVec(glm::dvec3(g.voxelSize.x(), g.voxelSize.y(), g.voxelSize.z())));
+        if (g.bounded) {
+            fmt::print("  index    ({}, {}, {}) to ({}, {}, {}): {} x {} x {} voxels\n",
+                       g.indexMin[0], g.indexMin[1], g.indexMin[2], g.indexMax[0], g.indexMax[1],
+                       g.indexMax[2], g.indexMax[0] - g.indexMin[0] + 1,
+                       g.indexMax[1] - g.indexMin[1] + 1, g.indexMax[2] - g.indexMin[2] + 1);
+            fmt::print("  world    {} to {}\n",
+                       formatVec(glm::dvec3(g.worldMin.x(), g.worldMin.y(), g.worldMin.z())),
+                       formatVec(glm::dvec3(g.worldMax.x(), g.worldMax.y(), g.worldMax.z())));
+        } else {
+            fmt::print("  bounds   not recorded{}\n",
+                       g.activeVoxels == 0 ? " (no active voxels)" : "");
+        }
+        fmt::print(
+            "  memory   {} in core; {} in the file{}\n",
+            g.memoryBytes < 0 ? std::string("unrecorded") : formatBytes(double(g.memoryBytes)),
+            formatBytes(double(g.fileBytes)),
+            g.compression.empty() ? "" : " (" + g.compression + ")");
+        for (const auto& [key, value] : g.metadata)
+            fmt::print("  {:<22} {}\n", key, value);
+    }
+    fmt::print("read       {:.3f} s\n", secondsSince(start));
+    return 0;
+}
+
+int runInfo(const std::string& scenePath, const ModelOptions& model, bool check)
+{
+    if (looksLikeVdbFile(scenePath))
+        return runVdbInfo(scenePath, check);
+    if (check)
+        throw InputError("--check verifies a .vdb file's checksum: give a .vdb file");
     if (looksLikeShapeFile(scenePath))
         return runShapeInfo(scenePath);
     const auto start = Clock::now();
@@ -79,16 +142,21 @@ void addInfoCommand(CLI::App& app, Action& action)
     struct Options {
         std::string scene;
         ModelFlags model;
+        bool check = false;
     };
     auto o = std::make_shared<Options>();
-    auto* cmd = app.add_subcommand("info", "Print a scene's node counts by type, depth and bounds");
+    auto* cmd = app.add_subcommand(
+        "info", "Print a scene's node counts by type, depth and bounds, or a .vdb file's grids");
     cmd->add_option("scene", o->scene,
                     "Scene (JSON, docs/scene-format.md), growth parameters "
                     "(docs/growth-format.md), shape (docs/shape-format.md), L-system (.l, "
-                    "docs/lsystem-format.md) or skeleton (docs/skeleton-format.md)")
+                    "docs/lsystem-format.md), skeleton (docs/skeleton-format.md) or .vdb file")
         ->required();
     addModelFlags(cmd, o->model);
-    cmd->callback([o, &action] { action = [o] { return runInfo(o->scene, o->model.options()); }; });
+    cmd->add_flag("--check", o->check,
+                  "A .vdb file: read every byte and check it against cambium's checksum");
+    cmd->callback(
+        [o, &action] { action = [o] { return runInfo(o->scene, o->model.options(), o->check); }; });
 }
 
 }  // namespace cambium

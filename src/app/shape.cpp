@@ -15,7 +15,7 @@ struct ShapeFlags {
     ShapeRequest request;
     double voxelSize = 0.0;
     CLI::Option* voxelOption = nullptr;
-    std::string device = "opencl";
+    std::string device = "opencl", colour = "shell";
 };
 
 int runShapeCommand(ShapeFlags& f)
@@ -23,6 +23,7 @@ int runShapeCommand(ShapeFlags& f)
     if (f.voxelOption->count())
         f.request.voxelSize = f.voxelSize;
     f.request.device = parseDevice(f.device);
+    f.request.colour = parseColourExtent(f.colour);
     ProgressBar bar;
     ShapeCallbacks cb;
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
@@ -87,6 +88,10 @@ void addShapeCommand(CLI::App& app, Action& action)
         ->capture_default_str();
     cmd->add_flag("--fog", f->request.fog, "Also write a 'density' fog volume");
     cmd->add_flag("--half", f->request.half, "Store the grids' floats as 16-bit halves");
+    cmd->add_option("--colour", f->colour,
+                    "Where a .vdb keeps the colour grid Cd: shell (the voxels a lookup on the "
+                    "surface reads), band (every band voxel) or none")
+        ->capture_default_str();
     cmd->add_option("--time", f->request.time,
                     "Animation time of the output: keyframed numbers take their value at it")
         ->capture_default_str();

@@ -134,6 +134,7 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
     plan.frameBytes = whole.bytes;
     plan.tileBytes = whole.bytes * tileMemoryShare(tiles);
     plan.threshold = tree.threshold();
+    plan.time = tree.time();
     return plan;
 }
 
@@ -188,7 +189,7 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     const auto t = Clock::now();
     BakedGrids grids = mergeTiles(files, req.half);
     checkSomethingBaked(grids.stats, req);
-    writeVdb(grids, req.output, bakeFileInfo(req, plan.threshold));
+    writeVdb(grids, req.output, bakeFileInfo(req, plan.threshold, plan.time));
     const BakeStats& s = grids.stats;
     fmt::print(
         "baked {}: {} tiles merged, {} leaves, {} active voxels, voxel size {:g}, {:.2f} s (merge "

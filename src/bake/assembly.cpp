@@ -161,6 +161,8 @@ void assembleGrids(BakedGrids& out, const BandLeaves& leaves, BakeStats& stats,
             sAcc.addLeaf(leaves.surface[l]);
             if (leaves.color[l])
                 cAcc.addLeaf(leaves.color[l]);
+            else if (l < leaves.colorTile.size() && leaves.colorTile[l])
+                cAcc.addTile(1, leaves.surface[l]->origin(), *leaves.colorTile[l], true);
             ++stats.activeLeaves;
             stats.activeVoxels += leaves.active[l];
         }
@@ -183,6 +185,8 @@ BakedGrids emptyLevelSet(const BakeOptions& opt)
                 openvdb::Vec3f(0.0f));
     if (opt.fog)
         addFog(out);
+    if (opt.colour == ColourExtent::None)
+        out.color.reset();
     out.stats.voxelSize = opt.voxelSize;
     return out;
 }

@@ -102,12 +102,15 @@ BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
     return p;
 }
 
-void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint)
+void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint, ColourExtent colour)
 {
-    if (paint.histogram)
-        colourBarkFromPhoto(grids, tree, *paint.histogram,
-                            paint.coherent ? BarkColouring::Coherent : BarkColouring::Random,
-                            paint.color);
+    if (!paint.histogram || !grids.color)
+        return;
+    colourBarkFromPhoto(grids, tree, *paint.histogram,
+                        paint.coherent ? BarkColouring::Coherent : BarkColouring::Random,
+                        paint.color);
+    if (colour == ColourExtent::Shell)
+        keepColourShell(grids);
 }
 
 std::unique_ptr<FieldSampler> makeSampler(Device device)
@@ -125,7 +128,7 @@ void checkSomethingBaked(const BakeStats& stats, const BakeRequest& req)
                         req.input, stats.voxelSize));
 }
 
-VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold)
+VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold, double time)
 {
     VdbFileInfo info;
     info.scene = req.input;
@@ -133,6 +136,7 @@ VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold)
     info.sequence = req.key;
     info.halfWidth = req.halfWidth;
     info.half = req.half;
+    info.time = time;
     return info;
 }
 
@@ -188,6 +192,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.voxelSize = plan.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
+    opt.colour = req.colour;
     // The grids only go to the file: each leaf is serialised as it is made
     // (unless the fog or a photo's colours need the values afterwards).
     opt.pack = packs(req) && !paint.histogram;
@@ -195,10 +200,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     opt.progress = callbacks.progress;
     opt.tile = req.tile;
     BakedGrids grids = bakeLevelSet(program, *sampler, opt);
-    paintBark(grids, tree, paint);
+    paintBark(grids, tree, paint, req.colour);
     if (req.tile.count == 0)  // (a tile may hold none)
         checkSomethingBaked(grids.stats, req);
-    writeVdb(grids, req.output, bakeFileInfo(req, tree.threshold()));
+    writeVdb(grids, req.output, bakeFileInfo(req, tree.threshold(), tree.time()));
     report.stats = grids.stats;
     report.peakMemoryBytes = peakMemoryBytes();
     return report;

@@ -25,7 +25,8 @@ struct BakeRequest {
     Device device = Device::OpenCL;
     bool fog = false;
     bool half = false;
-    int threads = 0;  ///< 0: all cores
+    ColourExtent colour = ColourExtent::Shell;  ///< where Cd is kept (--colour)
+    int threads = 0;                            ///< 0: all cores
     /// A photo whose colours the bark takes (paper 002 section 3.5; the
     /// model's own "bark.photo" when empty), drawn coherently or at random
     /// (the model's choice when unset).
@@ -66,8 +67,10 @@ struct BarkPaint {
 };
 BarkPaint barkPaint(const BakeRequest& request, const BlobTree& tree);
 
-/// The bake's grids with the bark painted (no-op without a photo).
-void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint);
+/// The bake's grids with the bark painted (no-op without a photo), then
+/// kept where `colour` says (the painting colours the whole band).
+void paintBark(BakedGrids& grids, const BlobTree& tree, const BarkPaint& paint,
+               ColourExtent colour);
 
 /// How a bake talks to whoever runs it (the library never prints).
 struct BakeCallbacks {
@@ -114,8 +117,8 @@ struct BakeReport {
 void checkSomethingBaked(const BakeStats& stats, const BakeRequest& request);
 
 /// What a bake of `request` writes into its file's metadata, for a model
-/// whose iso-value is `threshold`.
-VdbFileInfo bakeFileInfo(const BakeRequest& request, double threshold);
+/// whose iso-value is `threshold` at model time `time` (BlobTree::time).
+VdbFileInfo bakeFileInfo(const BakeRequest& request, double threshold, double time);
 
 /// Validates everything first (model, voxel size, memory, output path) and
 /// throws InputError naming the problem before any work or output; then

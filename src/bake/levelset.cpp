@@ -140,6 +140,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     leaves.surface.assign(n, nullptr);
     leaves.color.assign(n, nullptr);
     leaves.active.assign(n, 0);
+    if (opt.colour == ColourExtent::Shell)
+        leaves.colorTile.assign(n, std::nullopt);
     // The grids first: packing serialises leaves against their backgrounds.
     const glm::dvec3 rgb = uniform.value_or(glm::dvec3(0.0));
     createGrids(out, h, background, openvdb::Vec3f(float(rgb.x), float(rgb.y), float(rgb.z)));
@@ -148,7 +150,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         if (opt.fog)
             throw std::logic_error("bakeLevelSet: a fog volume needs the values: no packing");
         surfacePack = std::make_shared<PackedLeaves>(*out.surface, opt.half, n);
-        if (!uniform)
+        if (!uniform && opt.colour != ColourExtent::None)
             colorPack = std::make_shared<PackedLeaves>(*out.color, opt.half, n);
         leaves.surfacePack = surfacePack.get();
         leaves.colorPack = colorPack.get();
@@ -175,9 +177,10 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
                                        h,
                                        W,
                                        background,
-                                       uniform.has_value(),
+                                       uniform.has_value() || opt.colour == ColourExtent::None,
                                        program.threshold(),
-                                       program.params()[CB_P_XT]};
+                                       program.params()[CB_P_XT],
+                                       opt.colour};
     size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
     auto sampleLayer = [&](size_t u) {
         auto t0 = Clock::now();
@@ -272,6 +275,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     assembleGrids(out, leaves, st, tm);
     out.surfacePacked = surfacePack;
     out.colorPacked = colorPack;
+    if (opt.colour == ColourExtent::None)
+        out.color.reset();
     tm.tree = secondsSince(t) - tm.floodFill;
     if (opt.fog)
         addFog(out);

@@ -32,10 +32,31 @@ struct LeafValueCache {
     std::vector<uint16_t> values;                   ///< 512 per entry
 };
 
+/// Where a bake keeps the colour grid `Cd` (bake --colour).
+enum class ColourExtent {
+    /// The voxels a trilinear lookup anywhere on the surface reads: the
+    /// corners of the cells the surface crosses (about half the band at a
+    /// half-width of 3), with the band's values; a leaf whose colours there
+    /// lie within a step of the bake's 8-bit colours becomes one active tile
+    /// of the first of them.
+    Shell,
+    Band,  ///< every band voxel
+    None,  ///< no Cd grid
+};
+/// "shell", "band" or "none" (InputError naming --colour otherwise), and back.
+ColourExtent parseColourExtent(const std::string& name);
+const char* colourExtentName(ColourExtent extent);
+
+/// Cd of grids made whole (a photo's colours, a mesh's) kept on the shell
+/// of the surface's zero crossing as ColourExtent::Shell says, from the
+/// level set's signs.
+void keepColourShell(LevelSetGrids& grids);
+
 struct BakeOptions {
     double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
     double halfWidth = 3.0;  ///< narrow-band half-width in voxels
     bool fog = false;        ///< also make a `density` fog volume
+    ColourExtent colour = ColourExtent::Shell;
     /// Consecutive layers of leaves (a leaf thick across the slabs) are
     /// sampled together up to this many leaves: fewer sampler calls, a
     /// little more held at once.

@@ -627,8 +627,10 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     out.stats.candidateLeaves = bins.size();
     createGrids(out, h, background, openvdb::Vec3f(0.0f));
     assembleGrids(out, band, out.stats, out.stats.timings, /*leafSigns=*/false);
-    if (mesh.colors.size() != mesh.points.size())
+    if (mesh.colors.size() != mesh.points.size() || opt.colour == ColourExtent::None)
         out.color.reset();
+    else if (opt.colour == ColourExtent::Shell)
+        keepColourShell(out);
     if (opt.fog)
         addFog(out);
     out.stats.seconds = secondsSince(start);

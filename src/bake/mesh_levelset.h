@@ -12,9 +12,10 @@
 namespace cambium {
 
 struct MeshBakeOptions {
-    double voxelSize = 0.0;  ///< world units per voxel (> 0)
-    double halfWidth = 3.0;  ///< voxels
-    bool fog = false;        ///< also the `density` fog volume
+    double voxelSize = 0.0;                     ///< world units per voxel (> 0)
+    double halfWidth = 3.0;                     ///< voxels
+    bool fog = false;                           ///< also the `density` fog volume
+    ColourExtent colour = ColourExtent::Shell;  ///< where Cd is kept
     std::function<void(const char* stage, double fraction)> progress;
 };
 

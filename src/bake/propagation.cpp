@@ -161,7 +161,9 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) in
         const float flat = std::fabs(plane);
         const float blended = flat + (euclid - flat) * (b * b * (3.0f - 2.0f * b));
         const float mag = (plane < 0.0f) != (sign < 0.0f) ? euclid : blended;
-        const float v = sign * mag * h;
+        // (inside strictly negative, as OpenVDB's tools take it: a voxel on
+        // the surface inside would be -0.0, outside for volumeToMesh)
+        const float v = sign < 0.0f ? std::min(-mag * h, -1e-30f) : mag * h;
         const bool in = std::fabs(v) < background;  // false where there is no point (1e15)
         sd[i] = in ? v : sign * background;
         on[i] = in;
@@ -410,17 +412,45 @@ private:
                     words[x] |= uint64_t(on[base + x]) << yz;
                 }
             }
-            if (cl)
-                for (int i = 0; i < kLeafVoxels; ++i)
-                    if (on[i]) {
-                        const uint8_t* rgb = S.rgb[size_t(src[i])].data();
-                        cv[64 * (i & 7) + 8 * ((i >> 3) & 7) + (i >> 6)] =
-                            openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+            // Cd: on the band's voxels, or those of the shell only (and then
+            // perhaps one tile or nothing).
+            uint64_t colourWords[8] = {};
+            if (cl) {
+                InsideBits shell;
+                const bool onShell = in_.colour == ColourExtent::Shell;
+                if (onShell) {
+                    const InsideBits* around[27];
+                    for (int s = 0; s < 27; ++s) {
+                        const int32_t m = in_.nb[l][size_t(s)];
+                        around[s] = m >= 0 ? &state_.inside[size_t(m)] : nullptr;
                     }
+                    around[neighbourSlot(0, 0, 0)] = &state_.inside[l];
+                    shell = colourShell(around);
+                }
+                for (int i = 0; i < kLeafVoxels; ++i)
+                    if (on[i] && (!onShell || ((shell[size_t(i >> 6)] >> (i & 63)) & 1u))) {
+                        const uint8_t* rgb = S.rgb[size_t(src[i])].data();
+                        const int x = i & 7, yz = i >> 3;  // (VDB order: 64 x + 8 y + z)
+                        cv[64 * x + 8 * (yz & 7) + (yz >> 3)] =
+                            openvdb::Vec3f(rgb[0], rgb[1], rgb[2]) / 255.0f;
+                        colourWords[x] |= uint64_t(1) << (8 * (yz & 7) + (yz >> 3));
+                    }
+            }
             for (int x = 0; x < 8; ++x) {
                 sl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
                 if (cl)
-                    cl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) = words[x];
+                    cl->getValueMask().template getWord<uint64_t>(openvdb::Index(x)) =
+                        in_.colour == ColourExtent::Shell ? colourWords[x] : words[x];
+            }
+            if (cl && in_.colour == ColourExtent::Shell) {
+                // A leaf of one colour is a tile of it; one without colour, none.
+                std::optional<openvdb::Vec3f> one;
+                if (cl->isEmpty() || (one = nearlyUniform(*cl))) {
+                    out_.colorTile[l] = one;
+                    if (!pack)
+                        delete cl;
+                    cl = nullptr;
+                }
             }
             if (!pack) {
                 out_.surface[l] = sl;

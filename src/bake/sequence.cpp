@@ -48,9 +48,10 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
     const std::string options = fmt::format(
-        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={} photo={} coherent={}", voxelSize,
-        req.bake.halfWidth, req.fpsPerYear, req.bake.model.leaves, req.bake.fog, req.bake.half,
-        req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1);
+        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={} photo={} coherent={} colour={}",
+        voxelSize, req.bake.halfWidth, req.fpsPerYear, req.bake.model.leaves, req.bake.fog,
+        req.bake.half, req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1,
+        colourExtentName(req.bake.colour));
     return fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
 }
 
@@ -202,6 +203,7 @@ struct FrameBaker {
         opt.voxelSize = plan.voxelSize;
         opt.halfWidth = req.halfWidth;
         opt.fog = req.fog;
+        opt.colour = req.colour;
         opt.pack = packs(req) && !plan.paint.histogram;
         opt.half = req.half;
         opt.reuse = &cache;
@@ -216,7 +218,7 @@ struct FrameBaker {
                 fr.outcome = FrameReport::Outcome::Reused;
             } else {
                 grids = bakeLevelSet(program, *sampler, opt);
-                paintBark(grids, tree, plan.paint);
+                paintBark(grids, tree, plan.paint, req.colour);
                 fr.outcome = grids.stats.activeVoxels ? FrameReport::Outcome::Baked
                                                       : FrameReport::Outcome::Empty;
                 previous = std::move(program);

@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 namespace cambium {
@@ -193,6 +194,9 @@ struct BandLeaves {
     PackedLeaves* surfacePack = nullptr;
     PackedLeaves* colorPack = nullptr;
     std::vector<uint8_t> ends;
+    /// Leaves whose colour is one active tile instead (ColourExtent::Shell;
+    /// empty, or one slot per leaf).
+    std::vector<std::optional<openvdb::Vec3f>> colorTile;
 };
 
 /// The inputs of propagation: the bake's leaves and what stages 2 and 3 found.
@@ -202,9 +206,10 @@ struct PropagationInput {
     const LeafState& state;
     double voxelSize, halfWidth;
     float background;
-    bool uniformColor;  ///< one colour everywhere: no colour per point
+    bool uniformColor;  ///< one colour everywhere (or none kept): no colour per point
     double threshold;   ///< T
     double xT;          ///< w^-1(T): the falloff's argument at the surface (CB_P_XT)
+    ColourExtent colour;
 };
 
 /// The surface points of the listed leaves (the ones `sv` was found for,
@@ -238,6 +243,20 @@ LeafT* maskLeaf(const LeafT& from, const openvdb::Coord& origin,
     leaf->setTransientData(slot);
     return leaf;
 }
+
+// --- colour shell (bake/colour_shell.cpp) ---------------------------------------
+
+/// The voxels of a leaf (bits x + 8 y of plane z, as InsideBits) that are
+/// corners of cells with corners on both sides of the surface: those a
+/// trilinear lookup anywhere on the surface reads (ColourExtent::Shell).
+/// From the inside bits of the leaf and its neighbours, by neighbourSlot
+/// (null: no leaf there; its voxels take the side of the leaf's nearest).
+InsideBits colourShell(const InsideBits* const around[27]);
+
+/// The first active value of a colour leaf whose active values all lie
+/// within a step of 8-bit colour (1/255) of each other in each channel;
+/// none otherwise.
+std::optional<openvdb::Vec3f> nearlyUniform(const openvdb::Vec3fTree::LeafNodeType& leaf);
 
 // --- 5. assembly ----------------------------------------------------------------
 

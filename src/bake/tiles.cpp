@@ -62,6 +62,7 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
         leaves.color.resize(n, nullptr);
         leaves.active.resize(n, 0);
         leaves.ends.resize(n, 0);
+        leaves.colorTile.resize(n);
         openvdb::Vec3fTree* colors = g.color ? &g.color->tree() : nullptr;
         tbb::parallel_for(
             tbb::blocked_range<size_t>(0, tileLeaves.size(), 256),
@@ -82,6 +83,11 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
                         leaves.color[slot] =
                             maskLeaf(*c, c->origin(), out.color->background(), slot);
                         dropValues(*c);
+                    } else if (colors && colors->isValueOn(leaf.origin()) &&
+                               colors->getValueDepth(leaf.origin()) ==
+                                   int(colors->treeDepth()) - 2) {
+                        // (a leaf of one colour: a tile, bake/colour_shell.cpp)
+                        leaves.colorTile[slot] = colors->getValue(leaf.origin());
                     }
                 }
                 surfaceBlock.keep();

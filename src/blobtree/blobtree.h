@@ -135,6 +135,9 @@ public:
     double detailLimit() const { return detailLimit_; }
     void setDetailLimit(double wavelength);
     const BarkLook& barkLook() const { return barkLook_; }
+    /// The model time the tree is of (a grown tree's year; 0 for others).
+    double time() const { return time_; }
+    void setTime(double t) { time_ = t; }
     void setBarkLook(const BarkLook& look) { barkLook_ = look; }
     /// x_T = w^-1(T): where the Wyvill function crosses the threshold (1/2 at T = 1/2).
     double xT() const { return xT_; }
@@ -193,6 +196,7 @@ private:
     double xT_ = 0.5;
     double detailLimit_ = 0.0;
     BarkLook barkLook_;
+    double time_ = 0.0;
 };
 
 }  // namespace cambium

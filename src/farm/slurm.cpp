@@ -58,6 +58,8 @@ std::vector<std::string> bakeArguments(const BakeRequest& b, double voxelSize)
         a.push_back("--fog");
     if (b.half)
         a.push_back("--half");
+    if (b.colour != ColourExtent::Shell)
+        a.insert(a.end(), {"--colour", colourExtentName(b.colour)});
     if (!b.barkPhoto.empty())
         a.insert(a.end(), {"--bark-photo", fs::absolute(b.barkPhoto).string()});
     if (b.barkCoherent)
@@ -314,6 +316,7 @@ SlurmArray planTileArray(const TileFarmRequest& t, const SlurmOptions& o)
     j["tiles"] = t.tiles;
     j["half"] = r.half;
     j["threshold"] = t.threshold;
+    j["time"] = t.time;
     j["half_width"] = r.halfWidth;
     j["scene"] = t.scene;
     std::vector<std::string> parts;
@@ -369,6 +372,9 @@ FarmPlan readFarmPlan(const std::string& farmDir)
         p.merged.threshold = v.number(v.required(j, "threshold", ""), "threshold", -1e30, 1e30);
         p.merged.halfWidth = v.number(v.required(j, "half_width", ""), "half_width", 1.0, 1e6);
         p.merged.half = v.boolean(v.required(j, "half", ""), "half");
+        // (plans written before the merged file recorded its model time: 0)
+        if (j.contains("time"))
+            p.merged.time = v.number(j.at("time"), "time", -1e30, 1e30);
     }
     const nlohmann::json& chunks = v.required(j, "chunks", "");
     if (!chunks.is_array() || chunks.empty() || (p.tiles && int(chunks.size()) != p.tiles))

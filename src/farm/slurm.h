@@ -51,6 +51,7 @@ struct TileFarmRequest {
     double tileBytes = 0.0;   ///< a tile's share of the frame's estimate
     double frameBytes = 0.0;  ///< the frame's estimate (the merge holds less)
     double threshold = 0.5;   ///< the model's, for the merged file's metadata
+    double time = 0.0;        ///< the model's time (growth files: years), the same
     std::string scene;        ///< the input as the user named it, for the same
 };
 SlurmArray planTileArray(const TileFarmRequest& request, const SlurmOptions& options);

@@ -164,6 +164,33 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
 /// stay as it is while the grids live).
 LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid = kSurfaceGrid);
 
+/// What `cambium info FILE.vdb` says of a file: its structure (inspectVdb)
+/// and each grid's metadata and transform as OpenVDB reads them, without
+/// its tree (a second or less for any size).
+struct VdbGridDescription {
+    std::string name, valueType, gridClass;
+    std::string compression;  ///< file_compression ("" when the writer gave none)
+    bool half = false;        ///< stored as halves
+    openvdb::Vec3d voxelSize{0.0};
+    bool bounded = false;                         ///< the statistics give bounds
+    openvdb::Coord indexMin, indexMax;            ///< active voxels' (inclusive)
+    openvdb::Vec3d worldMin{0.0}, worldMax{0.0};  ///< their voxel centres' in world space
+    int64_t activeVoxels = -1, leaves = -1, memoryBytes = -1;  ///< -1: not recorded
+    int64_t fileBytes = 0;
+    /// Every other metadata entry as text, by name (cambium_* among them).
+    std::map<std::string, std::string> metadata;
+};
+struct VdbDescription {
+    VdbSummary summary;
+    std::vector<VdbGridDescription> grids;
+};
+/// InputError naming the file when it is not a whole .vdb.
+VdbDescription describeVdb(const std::string& path);
+
+/// Whether `path` begins with OpenVDB's magic number (a .vdb file whatever
+/// its name); false for a file that cannot be read.
+bool looksLikeVdbFile(const std::string& path);
+
 /// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
 /// when the file is damaged.
 std::string readSequenceKey(const std::string& path);

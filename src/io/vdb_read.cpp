@@ -18,7 +18,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <istream>
+#include <map>
 #include <memory>
 #include <type_traits>
 #include <vector>
@@ -341,6 +343,82 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour)
 {
     return readGrids(path, grid, false, colour);
+}
+
+bool looksLikeVdbFile(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    int64_t magic = 0;
+    return in.read(reinterpret_cast<char*>(&magic), sizeof magic) && magic == 0x56444220;
+}
+
+VdbDescription describeVdb(const std::string& path)
+{
+    VdbDescription d;
+    d.summary = inspectVdb(path);
+    openvdb::GridPtrVecPtr grids;
+    try {
+        openvdb::io::File file(path);
+        file.setCopyMaxBytes(0);
+        file.open(true);
+        grids = file.readAllGridMetadata();
+        file.close();
+    } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
+    }
+    // (OpenVDB lists them by name; the file's order is the writer's)
+    std::map<std::string, const openvdb::GridBase*> byName;
+    for (const auto& g : *grids)
+        byName[g->getName()] = g.get();
+    for (const VdbSummary::Grid& s : d.summary.grids) {
+        const auto found = byName.find(s.name);
+        if (found == byName.end())
+            throw InputError(
+                fmt::format("{}: cannot read the metadata of its grid '{}'", path, s.name));
+        const openvdb::GridBase& g = *found->second;
+        VdbGridDescription out;
+        out.name = s.name;
+        out.valueType = g.valueType();
+        out.gridClass = openvdb::GridBase::gridClassToString(g.getGridClass());
+        out.half = s.half();
+        out.voxelSize = g.voxelSize();
+        out.leaves = s.leaves;
+        out.fileBytes = s.end - s.begin;
+        using openvdb::GridBase;
+        for (auto m = g.beginMeta(); m != g.endMeta(); ++m) {
+            const std::string& key = m->first;
+            if (key == GridBase::META_FILE_BBOX_MIN || key == GridBase::META_FILE_BBOX_MAX ||
+                key == GridBase::META_FILE_MEM_BYTES || key == GridBase::META_FILE_VOXEL_COUNT ||
+                key == GridBase::META_FILE_DELAYED_LOAD || key == GridBase::META_GRID_NAME ||
+                key == GridBase::META_GRID_CLASS || key == GridBase::META_SAVE_HALF_FLOAT)
+                continue;
+            if (key == GridBase::META_FILE_COMPRESSION)
+                out.compression = m->second->str();
+            else
+                out.metadata[key] = m->second->str();
+        }
+        if (const auto v = g.getMetadata<openvdb::Int64Metadata>(GridBase::META_FILE_VOXEL_COUNT))
+            out.activeVoxels = v->value();
+        if (const auto v = g.getMetadata<openvdb::Int64Metadata>(GridBase::META_FILE_MEM_BYTES))
+            out.memoryBytes = v->value();
+        const auto lo = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MIN),
+                   hi = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MAX);
+        if (lo && hi && out.activeVoxels != 0) {
+            out.bounded = true;
+            out.indexMin = openvdb::Coord(lo->value());
+            out.indexMax = openvdb::Coord(hi->value());
+            for (int c = 0; c < 8; ++c) {  // (a transform may turn the box)
+                const openvdb::Vec3d w =
+                    g.indexToWorld(openvdb::Vec3d(c & 1 ? out.indexMax[0] : out.indexMin[0],
+                                                  c & 2 ? out.indexMax[1] : out.indexMin[1],
+                                                  c & 4 ? out.indexMax[2] : out.indexMin[2]));
+                out.worldMin = c ? openvdb::math::minComponent(out.worldMin, w) : w;
+                out.worldMax = c ? openvdb::math::maxComponent(out.worldMax, w) : w;
+            }
+        }
+        d.grids.push_back(std::move(out));
+    }
+    return d;
 }
 
 LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)

@@ -86,7 +86,9 @@ BlobTree grownTree(const GrowthModel& model, const std::string& path, const Mode
     if (sk.internodes.empty())
         throw InputError(
             fmt::format("{}: at year {} the tree has not begun to grow: nothing to bake", path, t));
-    return buildTree(sk, model.buildOptions());
+    BlobTree tree = buildTree(sk, model.buildOptions());
+    tree.setTime(t);
+    return tree;
 }
 
 BlobTree loadModel(const std::string& path, const ModelOptions& o)

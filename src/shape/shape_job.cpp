@@ -91,6 +91,7 @@ void bakeAndWrite(const TriangleMesh& mesh, const ShapeRequest& req, const Shape
     opt.voxelSize = r.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;
+    opt.colour = req.colour;
     opt.progress = cb.progress;
     auto t = Clock::now();
     BakedGrids grids = bakeMeshLevelSet(mesh, opt, req.input);

@@ -19,8 +19,9 @@ struct ShapeRequest {
     int levels = -1;                  ///< overrides the file's (>= 0)
     double halfWidth = 3.0;
     bool fog = false, half = false;
-    Device device = Device::OpenCL;  ///< bakes of captured models
-    double time = 0.0;               ///< the animation time of a single output
+    ColourExtent colour = ColourExtent::Shell;  ///< where a .vdb keeps Cd
+    Device device = Device::OpenCL;             ///< bakes of captured models
+    double time = 0.0;                          ///< the animation time of a single output
     /// A sequence: frames FIRST-LAST[:STEP] (frame f at time f) into an
     /// output pattern with a run of '#'; --resume keeps finished frames.
     std::string frames;
