@@ -4,6 +4,7 @@
 
 #include "bench/bake_bench.h"
 #include "bench/growth_bench.h"
+#include "bench/read_bench.h"
 #include "bench/shape_bench.h"
 #include "bench/tree_generator.h"
 #include "bench/use_bench.h"
@@ -232,6 +233,31 @@ int runPreviewBenchCommand(const PreviewBenchRequest& req)
     return 0;
 }
 
+int runReadBenchCommand(const ReadBenchRequest& req)
+{
+    fmt::print(
+        "Opening a baked frame, whole processes side by side ({} rounds, medians [min-max]; "
+        "peak memory medians)\n",
+        req.repeats);
+    runReadBench(req, [](const ReadBenchFile& f) {
+        fmt::print("\n{} ({}, {:.0f} MB)\n\n| what | seconds | peak MB |\n|---|---:|---:|\n",
+                   f.label, f.path, f.bytes / 1e6);
+        for (const ReadBenchFile::Row& r : f.rows)
+            fmt::print("| {} | {:.2f} [{:.2f}-{:.2f}] | {:.0f} |\n", r.what, r.run.seconds,
+                       r.run.minSeconds, r.run.maxSeconds, r.run.peakBytes / 1e6);
+        const ProcessSummary &all = f.rows[0].run, &surface = f.rows[1].run, &peer = f.rows[2].run,
+                             &render = f.rows[4].run, &mesh = f.rows[5].run;
+        fmt::print(
+            "\nratios (issue 30's goals): every grid / surface alone {:.2f} (<= 1.5); render / "
+            "io::File every grid {:.2f} s (<= 0.6) and {:.2f} memory (<= 0.75); mesh / (io::File "
+            "+ volumeToMesh) {:.2f} (<= 1.5); info {:.2f} s (<= 1)\n",
+            all.seconds / surface.seconds, render.seconds / all.seconds,
+            render.peakBytes / all.peakBytes, mesh.seconds / peer.seconds, f.rows[6].run.seconds);
+        std::fflush(stdout);
+    });
+    return 0;
+}
+
 int runGrowthBenchCommand(const GrowthBenchRequest& req)
 {
     if (req.years.empty())
@@ -298,6 +324,7 @@ void addBenchCommand(CLI::App& app, Action& action)
         GrowthBenchRequest growth;
         std::string growthDevice = "opencl";
         PreviewBenchRequest preview;
+        ReadBenchRequest read;
         std::string previewDevice = "opencl";
     };
     auto o = std::make_shared<Options>();
@@ -426,6 +453,25 @@ void addBenchCommand(CLI::App& app, Action& action)
             return runGrowthBenchCommand(o->growth);
         };
     });
+
+    ReadBenchRequest& rb = o->read;
+    rb.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    auto* read = bench->add_subcommand(
+        "read",
+        "Opening a baked frame: OpenVDB's io::File (every grid, the surface, with volumeToMesh) "
+        "against cambium's reader, render, mesh and info, as whole processes");
+    read->add_option("--file", rb.files,
+                     "A .vdb to measure (repeatable; default: the Populus "
+                     "baked with its colour on the band and on the shell)");
+    read->add_option("--parameters", rb.parameters, "Growth parameter file of the default frame")
+        ->capture_default_str();
+    read->add_option("--year", rb.year, "Year of the default frame")->capture_default_str();
+    read->add_option("--voxel-size", rb.voxelSize, "Voxel size of the default frame")
+        ->capture_default_str();
+    read->add_option("--repeat", rb.repeats, "Rounds of every command")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100));
+    read->callback([o, &action] { action = [o] { return runReadBenchCommand(o->read); }; });
 
     PreviewBenchRequest& pv = o->preview;
     pv.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";

@@ -81,7 +81,7 @@ int runRenderCommand(RenderRequest req)
                                        req.width, req.height, req.spp);
                 how = "Embree on the mesh's triangles, reading included";
             } else {
-                const LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Lazy);
+                LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Lazy);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
@@ -103,10 +103,12 @@ int runRenderCommand(RenderRequest req)
                     how = marcher ? "OpenCL NanoVDB march, conversion included"
                                   : "OpenCL NanoVDB march, conversion and kernel build included";
                     img = withOpenCLHint("render", [&] {
+                        // The march reads its NanoVDB copies only: OpenVDB's go
+                        // as they are made.
                         if (marcher)
-                            marcher->load(*f.surface, f.color.get());
+                            marcher->load(std::move(f));
                         else
-                            marcher = std::make_unique<OpenCLMarcher>(*f.surface, f.color.get());
+                            marcher = std::make_unique<OpenCLMarcher>(std::move(f));
                         return marcher->render(cam, req.width, req.height, req.spp);
                     });
                 }

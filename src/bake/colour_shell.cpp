@@ -51,8 +51,12 @@ InsideBits colourShell(const InsideBits* const around[27])
         const InsideBits* leaf = around[neighbourSlot(sx, sy, sz)];
         if (leaf)
             return unsigned((*leaf)[size_t(z)] >> (8 * y)) & 0xFFu;
-        const unsigned own = unsigned(self[size_t(sz < 0 ? 0 : sz > 0 ? 7 : z)] >>
-                                      (8 * (sy < 0 ? 0 : sy > 0 ? 7 : y))) &
+        const unsigned own = unsigned(self[size_t(sz < 0   ? 0
+                                                  : sz > 0 ? 7
+                                                           : z)] >>
+                                      (8 * (sy < 0   ? 0
+                                            : sy > 0 ? 7
+                                                     : y))) &
                              0xFFu;
         // (x beyond the leaf: its edge voxel's bit, copied across the row)
         return sx < 0 ? (own & 1u) * 0xFFu : sx > 0 ? ((own >> 7) & 1u) * 0xFFu : own;
@@ -83,8 +87,8 @@ InsideBits colourShell(const InsideBits* const around[27])
     InsideBits shell{};
     for (int z = 0; z < 8; ++z)
         for (int y = 0; y < 8; ++y) {
-            const unsigned c = crossed[z][y] | crossed[z][y + 1] | crossed[z + 1][y] |
-                               crossed[z + 1][y + 1];
+            const unsigned c =
+                crossed[z][y] | crossed[z][y + 1] | crossed[z + 1][y] | crossed[z + 1][y + 1];
             const unsigned voxels = (c | (c >> 1)) & 0xFFu;
             shell[size_t(z)] |= uint64_t(voxels) << (8 * y);
         }

@@ -194,21 +194,8 @@ void benchProcesses(const BakeBenchCase& c, int repeats, BakeBenchResult& result
         a.push_back(runProcess(ours, log));
         b.push_back(runProcess(peer, log));
     }
-    auto summary = [](const std::vector<ProcessRun>& runs) {
-        ProcessSummary s;
-        std::vector<double> t, m;
-        for (const ProcessRun& r : runs) {
-            t.push_back(r.seconds);
-            m.push_back(r.peakBytes);
-        }
-        s.seconds = medianOf(t);
-        s.minSeconds = *std::min_element(t.begin(), t.end());
-        s.maxSeconds = *std::max_element(t.begin(), t.end());
-        s.peakBytes = medianOf(m);
-        return s;
-    };
-    result.process = summary(a);
-    result.peerProcess = summary(b);
+    result.process = summariseRuns(a);
+    result.peerProcess = summariseRuns(b);
     result.process.fileBytes = double(std::filesystem::file_size(dir / "cambium.vdb"));
     result.peerProcess.fileBytes = double(std::filesystem::file_size(dir / "peer.vdb"));
 }

@@ -2,6 +2,8 @@
 // would do the same job today, side by side in one process.
 #pragma once
 
+#include "bench/process_run.h"
+
 #include "model/skeleton.h"
 
 #include <functional>
@@ -23,10 +25,6 @@ struct BakeBenchCase {
 
 /// A whole command's runs: median, fastest and slowest wall time, median
 /// peak memory, the file it wrote.
-struct ProcessSummary {
-    double seconds = 0.0, minSeconds = 0.0, maxSeconds = 0.0;
-    double peakBytes = 0.0, fileBytes = 0.0;
-};
 
 /// checkLevelSet's Eikonal test (9) counted: zero-crossing voxels, and those
 /// of them whose squared gradient norm is outside [0.5, 1.5].

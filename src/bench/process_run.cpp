@@ -1,7 +1,10 @@
 // cambium — running and measuring a whole command.
 #include "bench/process_run.h"
 
+#include "bench/median.h"
 #include "core/clock.h"
+
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -17,6 +20,21 @@
 extern char** environ;
 
 namespace cambium {
+
+ProcessSummary summariseRuns(const std::vector<ProcessRun>& runs)
+{
+    ProcessSummary s;
+    std::vector<double> t, m;
+    for (const ProcessRun& r : runs) {
+        t.push_back(r.seconds);
+        m.push_back(r.peakBytes);
+    }
+    s.seconds = medianOf(t);
+    s.minSeconds = *std::min_element(t.begin(), t.end());
+    s.maxSeconds = *std::max_element(t.begin(), t.end());
+    s.peakBytes = medianOf(m);
+    return s;
+}
 
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath)
 {

@@ -94,6 +94,24 @@ public:
                     "clEnqueueWriteBuffer");
         return mem_;
     }
+    /// A buffer of host memory the caller keeps alive and unchanged while
+    /// the buffer lives (CL_MEM_USE_HOST_PTR: on a CPU device no copy of it).
+    cl_mem useHost(const OpenCLContext& ctx, const void* data, size_t bytes, cl_mem_flags flags)
+    {
+        release();
+        cl_int err;
+        mem_ = clCreateBuffer(ctx.context(), flags | CL_MEM_USE_HOST_PTR, bytes,
+                              const_cast<void*>(data), &err);
+        checkCL(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
+        return mem_;  // (size_ 0: a later reserve makes a buffer of its own)
+    }
+    void release()
+    {
+        if (mem_)
+            clReleaseMemObject(mem_);
+        mem_ = nullptr;
+        size_ = 0;
+    }
     cl_mem get() const { return mem_; }
     /// The first `bytes` mapped into host memory (no copy on a CPU device):
     /// CL_MAP_READ, or CL_MAP_WRITE_INVALIDATE_REGION to fill it.

@@ -125,12 +125,17 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
 class OpenCLMarcher {
 public:
     OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color);
+    /// The same, dropping the grids as load(LevelSetGrids&&) does.
+    explicit OpenCLMarcher(LevelSetGrids&& grids);
     ~OpenCLMarcher();
     OpenCLMarcher(const OpenCLMarcher&) = delete;
     OpenCLMarcher& operator=(const OpenCLMarcher&) = delete;
     /// Replaces the grids, keeping the context and the built kernel (the
     /// next frame of a sequence).
     void load(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color);
+    /// The same, dropping each of `grids` once its NanoVDB copy is made (the
+    /// march reads only those): a render holds the level set twice at most.
+    void load(LevelSetGrids&& grids);
     /// hits[i] for rays[i] (world space, unit directions).
     void trace(const std::vector<TraceRay>& rays, std::vector<TraceHit>& hits) const;
     RenderImage render(const Camera& camera, int width, int height, int spp) const;
@@ -140,6 +145,11 @@ public:
     std::string deviceName() const;
 
 private:
+    void build();
+    void warmUp();
+    /// NanoVDB copies of the grids, calling `converted` after each.
+    void convert(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                 const std::function<void(bool colour)>& converted);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -10,6 +10,9 @@
 #include <tbb/parallel_for.h>
 
 #include <cstring>
+#include <functional>
+
+#include <malloc.h>
 
 namespace cambium {
 
@@ -19,6 +22,9 @@ struct OpenCLMarcher::Impl {
     bool hasColor = false;
     cl_program program = nullptr;
     cl_kernel kernel = nullptr;
+    /// The NanoVDB copies, which the device's buffers use in place (no copy
+    /// of them on a CPU device; a GPU's driver keeps its own).
+    nanovdb::GridHandle<nanovdb::HostBuffer> nanoSurface, nanoColor;
     DeviceBuffer surfaceBuffer, colorBuffer;
     float skip = 0.0f;  ///< leaves whose values all exceed it hold no crossing
     mutable DeviceBuffer rays, hits;
@@ -34,13 +40,30 @@ struct OpenCLMarcher::Impl {
 OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
     : impl_(std::make_unique<Impl>())
 {
+    build();
+    load(surface, color);
+    warmUp();
+}
+
+OpenCLMarcher::OpenCLMarcher(LevelSetGrids&& grids) : impl_(std::make_unique<Impl>())
+{
+    build();
+    load(std::move(grids));
+    warmUp();
+}
+
+void OpenCLMarcher::build()
+{
     Impl& m = *impl_;
     m.program =
         m.ctx.build(assembleKernelSource(kernelFile("march.cl")), "-cl-std=CL1.2 -cl-mad-enable");
     cl_int err = CL_SUCCESS;
     m.kernel = clCreateKernel(m.program, "march_rays", &err);
     checkCL(err, "clCreateKernel(march_rays)");
-    load(surface, color);
+}
+
+void OpenCLMarcher::warmUp()
+{
     // PoCL compiles a kernel for its work-group size at the first launch:
     // one group of rays now, so that the first image does not pay for it.
     std::vector<TraceHit> hits;
@@ -49,28 +72,57 @@ OpenCLMarcher::OpenCLMarcher(const openvdb::FloatGrid& surface, const openvdb::V
 
 void OpenCLMarcher::load(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color)
 {
+    convert(surface, color, {});
+}
+
+void OpenCLMarcher::load(LevelSetGrids&& grids)
+{
+    openvdb::FloatGrid::Ptr surface = std::move(grids.surface);
+    openvdb::Vec3fGrid::Ptr color = std::move(grids.color);
+    grids = LevelSetGrids();
+    // (each grid's values, a gigabyte on a large frame, given back to the
+    // system before the next copy is made)
+    convert(*surface, color.get(), [&](bool colour) {
+        if (colour)
+            color.reset();
+        else
+            surface.reset();
+        ::malloc_trim(0);
+    });
+}
+
+void OpenCLMarcher::convert(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                            const std::function<void(bool colour)>& converted)
+{
     Impl& m = *impl_;
+    m.surfaceBuffer.release();  // (before the memory they use goes)
+    m.colorBuffer.release();
+    m.nanoSurface = {};
+    m.nanoColor = {};
     // Leaves' extrema let the march step over leaves far from the surface.
-    // The host copies live only until they are on the device.
-    auto nanoSurface =
+    const float skip = float(2.0 * surface.voxelSize()[0]);
+    m.nanoSurface =
         nanovdb::openToNanoVDB(surface, nanovdb::StatsMode::MinMax, nanovdb::ChecksumMode::Disable);
-    nanovdb::GridHandle<nanovdb::HostBuffer> nanoColor;
+    if (converted)
+        converted(false);  // (`surface` may be gone now)
     if (color)
-        nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox,
-                                           nanovdb::ChecksumMode::Disable);
-    for (const auto* h : {&nanoSurface, &nanoColor})
+        m.nanoColor = nanovdb::openToNanoVDB(*color, nanovdb::StatsMode::BBox,
+                                             nanovdb::ChecksumMode::Disable);
+    if (converted)
+        converted(true);
+    for (const auto* h : {&m.nanoSurface, &m.nanoColor})
         if (h->size() >= (uint64_t(1) << 32))  // kernels/cb_pnanovdb.h: 32-bit addresses
             throw InputError(fmt::format(
                 "the NanoVDB copy of a grid takes {:.1f} GB; the OpenCL march reads grids "
                 "under 4 GB: use --device cpu",
                 double(h->size()) * 1e-9));
-    m.skip = float(2.0 * surface.voxelSize()[0]);
-    m.hasColor = bool(nanoColor);
-    m.gridBytes = nanoSurface.size() + nanoColor.size();
-    m.surfaceBuffer.upload(m.ctx, nanoSurface.data(), nanoSurface.size(), CL_MEM_READ_ONLY);
+    m.skip = skip;
+    m.hasColor = bool(m.nanoColor);
+    m.gridBytes = m.nanoSurface.size() + m.nanoColor.size();
+    m.surfaceBuffer.useHost(m.ctx, m.nanoSurface.data(), m.nanoSurface.size(), CL_MEM_READ_ONLY);
     // Without colour the kernel still needs a buffer argument: the surface's.
     if (m.hasColor)
-        m.colorBuffer.upload(m.ctx, nanoColor.data(), nanoColor.size(), CL_MEM_READ_ONLY);
+        m.colorBuffer.useHost(m.ctx, m.nanoColor.data(), m.nanoColor.size(), CL_MEM_READ_ONLY);
 }
 
 OpenCLMarcher::~OpenCLMarcher() = default;

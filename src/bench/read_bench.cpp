@@ -1,0 +1,67 @@
+// cambium — `cambium bench read` (bench/read_bench.h).
+#include "bench/read_bench.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/system.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <unistd.h>
+
+namespace cambium {
+
+void runReadBench(const ReadBenchRequest& req,
+                  const std::function<void(const ReadBenchFile&)>& done)
+{
+    namespace fs = std::filesystem;
+    const ScratchDirectory scratch(
+        (fs::temp_directory_path() / fmt::format("cambium_read_bench_{}", ::getpid())).string());
+    const fs::path dir = scratch.path();
+    const std::string exe = executableDirectory(), log = (dir / "log.txt").string();
+    const std::string cambium = exe + "/cambium", peer = exe + "/cambium-vdbpeer";
+    std::vector<std::pair<std::string, std::string>> files;  // label, path
+    for (const std::string& f : req.files)
+        files.emplace_back(f, f);
+    if (files.empty())
+        for (const char* colour : {"band", "shell"}) {
+            const std::string out = (dir / fmt::format("{}.vdb", colour)).string();
+            runProcess({cambium, "bake", req.parameters, "--year", fmt::format("{}", req.year),
+                        "--voxel-size", fmt::format("{}", req.voxelSize), "--colour", colour, "-o",
+                        out},
+                       log);
+            files.emplace_back(fmt::format("year {} at {}, --colour {}", req.year,
+                                           req.voxelSize, colour),
+                               out);
+        }
+    const std::string png = (dir / "picture.png").string(), ply = (dir / "mesh.ply").string();
+    for (const auto& [label, path] : files) {
+        checkInputFile(path, ".vdb file");
+        ReadBenchFile r;
+        r.label = label;
+        r.path = path;
+        r.bytes = double(fs::file_size(path));
+        const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
+            {"OpenVDB io::File, every grid", {peer, "read", path}},
+            {"OpenVDB io::File, surface", {peer, "read", path, "surface"}},
+            {"OpenVDB io::File + volumeToMesh", {peer, "mesh", path}},
+            {"cambium's reader (surface and Cd)", {peer, "cambium", path}},
+            {fmt::format("cambium render {}x{}, {} spp", req.width, req.height, req.spp),
+             {cambium, "render", path, "-o", png, "--width", std::to_string(req.width),
+              "--height", std::to_string(req.height), "--spp", std::to_string(req.spp)}},
+            {"cambium mesh (PLY written)", {cambium, "mesh", path, "-o", ply}},
+            {"cambium info", {cambium, "info", path}}};
+        std::vector<std::vector<ProcessRun>> runs(commands.size());
+        // Every command in turn, round after round: a drift of the machine's
+        // speed touches them alike.
+        for (int rep = 0; rep < std::max(1, req.repeats); ++rep)
+            for (size_t k = 0; k < commands.size(); ++k)
+                runs[k].push_back(runProcess(commands[k].second, log));
+        for (size_t k = 0; k < commands.size(); ++k)
+            r.rows.push_back({commands[k].first, summariseRuns(runs[k])});
+        done(r);
+    }
+}
+
+}  // namespace cambium
