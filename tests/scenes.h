@@ -7,6 +7,18 @@
 
 namespace cambium::test {
 
+/// A red and a blue sphere blended: every colour between them on the band.
+inline BlobTree redAndBlueSpheres()
+{
+    BlobTree t;
+    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
+    t.setColor(a, {1, 0, 0});
+    t.setColor(b, {0, 0, 1});
+    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
+    t.finalize();
+    return t;
+}
+
 /// Children that overlap, with tapers and a scar, to combine under operators.
 inline std::vector<int> someChildren(BlobTree& t)
 {

@@ -9,6 +9,7 @@
 #include "blobtree/bounds.h"
 #include "blobtree/evaluator.h"
 #include "bake_util.h"
+#include "scenes.h"
 #include "test_util.h"
 #include "temp_dir.h"
 
@@ -87,16 +88,6 @@ void expectAccurate(const Errors& e, const char* what)
 }
 
 /// A red and a blue sphere of radius 0.3 at x = -0.3 and 0.3, blended.
-BlobTree redAndBlueSpheres()
-{
-    BlobTree t;
-    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
-    t.setColor(a, {1, 0, 0});
-    t.setColor(b, {0, 0, 1});
-    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
-    t.finalize();
-    return t;
-}
 
 TEST(BakeAccuracy, SphereMatchesItsExactDistance)
 {

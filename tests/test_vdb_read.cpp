@@ -3,6 +3,7 @@
 // files (surface, Cd, density; floats and halves) and files OpenVDB wrote
 // with every compression it offers.
 #include "bake_util.h"
+#include "scenes.h"
 #include "temp_dir.h"
 #include "test_util.h"
 
@@ -20,17 +21,6 @@ using namespace cambium;
 using namespace cambium::test;
 
 namespace {
-
-BlobTree twoColouredSpheres()
-{
-    BlobTree t;
-    const int a = t.sphere({-0.3, 0, 0}, 0.3), b = t.sphere({0.3, 0, 0}, 0.3);
-    t.setColor(a, {1, 0, 0});
-    t.setColor(b, {0, 0, 1});
-    t.setRoot(t.op({NodeType::BLEND}, {a, b}));
-    t.finalize();
-    return t;
-}
 
 /// The grid as OpenVDB's io::File reads it, whole.
 openvdb::GridBase::Ptr openVdbRead(const std::string& path, const std::string& name)
@@ -100,7 +90,7 @@ TEST(VdbRead, CambiumsOwnFilesReadAsOpenVdbReadsThem)
     // surface, Cd (many colours) and density, packed by the writer on all
     // cores into blocks of leaves, stored as floats and as halves.
     openvdb::initialize();
-    const BakedGrids g = bakeTree(twoColouredSpheres(), 0.0045, 3.0, true, /*fog=*/true);
+    const BakedGrids g = bakeTree(redAndBlueSpheres(), 0.0045, 3.0, true, /*fog=*/true);
     ASSERT_GT(g.surface->tree().leafCount(), 1500u);
     ASSERT_GT(g.color->activeVoxelCount(), 1000u);
     const std::string dir = freshDir("cambium_vdb_read").string();

@@ -27,11 +27,13 @@ int main(int argc, char** argv)
         if (mode == "read") {
             openvdb::io::File file(path);
             file.open(false);
-            if (grid.empty())
-                for (const auto& g : *file.getGrids())
+            if (grid.empty()) {
+                const openvdb::GridPtrVecPtr grids = file.getGrids();
+                for (const auto& g : *grids)
                     voxels += g->activeVoxelCount();
-            else
+            } else {
                 voxels = file.readGrid(grid)->activeVoxelCount();
+            }
         } else if (mode == "mesh") {
             openvdb::io::File file(path);
             file.open();

@@ -233,6 +233,9 @@ int runPreviewBenchCommand(const PreviewBenchRequest& req)
     return 0;
 }
 
+/// The growth benchmarks' default parameter file: the bundled Populus.
+const char* const kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+
 int runReadBenchCommand(const ReadBenchRequest& req)
 {
     fmt::print(
@@ -430,7 +433,7 @@ void addBenchCommand(CLI::App& app, Action& action)
     });
 
     GrowthBenchRequest& g = o->growth;
-    g.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    g.parameters = kPopulus;
     auto* growth = bench->add_subcommand("growth",
                                          "The growth model's tree by year (internodes, primitives, "
                                          "operators, bake time and memory) and a "
@@ -455,7 +458,7 @@ void addBenchCommand(CLI::App& app, Action& action)
     });
 
     ReadBenchRequest& rb = o->read;
-    rb.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    rb.parameters = kPopulus;
     auto* read = bench->add_subcommand(
         "read",
         "Opening a baked frame: OpenVDB's io::File (every grid, the surface, with volumeToMesh) "
@@ -474,7 +477,7 @@ void addBenchCommand(CLI::App& app, Action& action)
     read->callback([o, &action] { action = [o] { return runReadBenchCommand(o->read); }; });
 
     PreviewBenchRequest& pv = o->preview;
-    pv.parameters = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    pv.parameters = kPopulus;
     auto* preview = bench->add_subcommand(
         "preview",
         "The live preview (docs/preview.md): the first picture of a whole command, then edits "

@@ -27,13 +27,12 @@ void runReadBench(const ReadBenchRequest& req,
     if (files.empty())
         for (const char* colour : {"band", "shell"}) {
             const std::string out = (dir / fmt::format("{}.vdb", colour)).string();
-            runProcess({cambium, "bake", req.parameters, "--year", fmt::format("{}", req.year),
-                        "--voxel-size", fmt::format("{}", req.voxelSize), "--colour", colour, "-o",
-                        out},
-                       log);
-            files.emplace_back(fmt::format("year {} at {}, --colour {}", req.year,
-                                           req.voxelSize, colour),
-                               out);
+            runProcess(
+                {cambium, "bake", req.parameters, "--year", fmt::format("{}", req.year),
+                 "--voxel-size", fmt::format("{}", req.voxelSize), "--colour", colour, "-o", out},
+                log);
+            files.emplace_back(
+                fmt::format("year {} at {}, --colour {}", req.year, req.voxelSize, colour), out);
         }
     const std::string png = (dir / "picture.png").string(), ply = (dir / "mesh.ply").string();
     for (const auto& [label, path] : files) {
@@ -48,8 +47,8 @@ void runReadBench(const ReadBenchRequest& req,
             {"OpenVDB io::File + volumeToMesh", {peer, "mesh", path}},
             {"cambium's reader (surface and Cd)", {peer, "cambium", path}},
             {fmt::format("cambium render {}x{}, {} spp", req.width, req.height, req.spp),
-             {cambium, "render", path, "-o", png, "--width", std::to_string(req.width),
-              "--height", std::to_string(req.height), "--spp", std::to_string(req.spp)}},
+             {cambium, "render", path, "-o", png, "--width", std::to_string(req.width), "--height",
+              std::to_string(req.height), "--spp", std::to_string(req.spp)}},
             {"cambium mesh (PLY written)", {cambium, "mesh", path, "-o", ply}},
             {"cambium info", {cambium, "info", path}}};
         std::vector<std::vector<ProcessRun>> runs(commands.size());
