@@ -98,7 +98,7 @@ private:
             for (int b = 0; b <= s1; ++b)
                 for (int c = 0; c <= s2; ++c) {
                     const LeafT* l = accessor_.probeConstLeaf(
-                        openvdb::Coord((l0 + a) << 3, (l1 + b) << 3, (l2 + c) << 3));
+                        openvdb::Coord((l0 + a) * 8, (l1 + b) * 8, (l2 + c) * 8));
                     leaf[a][b][c] = l ? l->buffer().data() : nullptr;
                 }
         for (int a = 0; a < 3; ++a)
