@@ -312,8 +312,11 @@ BatchTracer CpuMarcher::tracer() const
         hits.resize(rays.size());
         for (size_t k = 0; k < rays.size(); ++k) {
             const glm::dvec3 &o = rays[k].origin, &d = rays[k].direction;
+            // (OpenVDB's rays start a little after the eye and end at the
+            // largest double, as its own defaults do)
             const RayT ray(openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(d.x, d.y, d.z),
-                           rays[k].tmin, rays[k].tmax);
+                           std::max(rays[k].tmin, openvdb::math::Delta<double>::value()),
+                           std::min(rays[k].tmax, std::numeric_limits<double>::max()));
             openvdb::Vec3d p, g;
             double t = 0.0;
             TraceHit& h = hits[k];
