@@ -1,10 +1,12 @@
 // The one checked writer: files appear whole or not at all, a failed write
 // fails and keeps the old file, non-regular outputs are refused, symlinks are
 // written through, stale temporaries are found by their pattern only, and the
-// output lock keeps a second writer out.
+// output lock keeps a second writer out; the files' checksum keeps its
+// definition.
 #include "temp_dir.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/hash.h"
 
 #include <gtest/gtest.h>
 
@@ -219,6 +221,32 @@ TEST(Files, RangeLocksLetDisjointRunsWriteSideBySideAndKeepOverlapsOut)
         EXPECT_FALSE(fs::exists(pattern + ".frames-2-6.lock"));
     }
     EXPECT_TRUE(listing(dir).empty());
+}
+
+TEST(Files, TheChecksumIsItsDefinitionFedInPiecesOfAnySize)
+{
+    // `cambium_checksum` is stored in every .vdb cambium wrote: its value for
+    // given bytes never changes (pinned from its first definition), however
+    // the reader splits them.
+    std::string bytes;
+    for (int i = 0; i < 1000; ++i)
+        bytes.push_back(char((i * 131 + 7) & 255));
+    Checksum64 whole;
+    whole.update(bytes.data(), bytes.size());
+    EXPECT_EQ(whole.value(), 0x430cad965974113cull);
+    for (size_t first : {size_t(1), size_t(3), size_t(8), size_t(13)}) {
+        Checksum64 pieces;
+        size_t at = 0;
+        for (size_t k = first; at < bytes.size(); k = k * 3 % 17 + 1) {
+            const size_t n = std::min(bytes.size() - at, k);
+            pieces.update(bytes.data() + at, n);
+            at += n;
+        }
+        EXPECT_EQ(pieces.value(), whole.value()) << first;
+    }
+    Checksum64 part;
+    part.update(bytes.data(), 13);
+    EXPECT_EQ(part.value(), 0x29e0ff393672153aull);
 }
 
 }  // namespace

@@ -134,7 +134,10 @@ void expectHitsAnAnalyticSphere(const Renderer& render, const char* what)
 
 TEST(Render, MarchHitsAnAnalyticSphereWhereTheRayDoes)
 {
-    expectHitsAnAnalyticSphere(renderLevelSetCpu, "cpu");
+    expectHitsAnAnalyticSphere(
+        [](const openvdb::FloatGrid& s, const openvdb::Vec3fGrid* c, const Camera& cam, int w,
+           int h, int spp) { return renderLevelSetCpu(s, c, cam, w, h, spp); },
+        "cpu");
 }
 
 TEST(Render, OpenCLMarchHitsAnAnalyticSphereWhereTheRayDoes)
@@ -518,5 +521,37 @@ TEST(Render, RaysOnlyWhereLeavesCouldBeGiveTheSamePicture)
         if (view == 0) {
             EXPECT_GT(skipped, size_t(W * H / 4));  // from outside: most of the sky
         }
+    }
+}
+
+TEST(Render, OneGridAtATimeGivesTheSamePicture)
+{
+    // cambium render traces against the level set alone, drops it, then
+    // looks the hits' colours up in Cd: the picture of both grids held at
+    // once, to the bit (a two-colour tree, two views).
+    const BakedGrids g = test::bakeTree(threeConeTree(true), 0.01);
+    ASSERT_TRUE(g.color);
+    ASSERT_GT(g.color->tree().leafCount(), 0u);
+    const Box b = activeWorldBounds(*g.surface);
+    for (double turn : {0.0, 120.0}) {
+        const Camera cam = framingCamera(b, 4.0 / 3.0, 35.0 + turn, 20.0);
+        const RenderImage both = renderLevelSetCpu(*g.surface, g.color.get(), cam, 120, 90, 2);
+        bool asked = false;
+        const RenderImage apart = renderLevelSetCpu(
+            g.surface->deepCopy(),
+            [&] {
+                asked = true;
+                return g.color->deepCopy();
+            },
+            cam, 120, 90, 2);
+        EXPECT_TRUE(asked);
+        EXPECT_EQ(both.rgb, apart.rgb) << turn;
+        EXPECT_EQ(both.alpha, apart.alpha) << turn;
+        EXPECT_EQ(both.depth, apart.depth) << turn;
+        EXPECT_EQ(both.normal, apart.normal) << turn;
+        size_t hit = 0;
+        for (float a : both.alpha)
+            hit += a > 0.0f;
+        EXPECT_GT(hit, 100u);
     }
 }

@@ -198,3 +198,42 @@ TEST(VdbRead, ALeafThatIsNotItsTopologysIsNamed)
     }
     expectInputError([&] { readVdbGrid(path, s, "surface"); }, "leaf 0 of", "a changed mask");
 }
+
+TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)
+{
+    // readLevelSet checks the checksum while OpenVDB reads the topology:
+    // a bit changed in the topology or in the values is named by the
+    // checksum, before any leaf is decoded, whether OpenVDB read the changed
+    // topology or failed on it.
+    openvdb::initialize();
+    const BakedGrids g = bakeTree(redAndBlueSpheres(), 0.01, 3.0, true);
+    const std::string dir = freshDir("cambium_vdb_read_checksum").string();
+    const std::string good = dir + "/good.vdb";
+    writeVdb(g, good, VdbFileInfo());
+    const VdbSummary s = inspectVdb(good);
+    const VdbSummary::Grid* surface = nullptr;
+    for (const VdbSummary::Grid& grid : s.grids)
+        if (grid.name == "surface")
+            surface = &grid;
+    ASSERT_TRUE(surface);
+    ASSERT_GT(surface->block - surface->begin, 100);
+    std::ifstream in(good, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    const int64_t places[] = {surface->begin + (surface->block - surface->begin) / 2,
+                              surface->block - 1, (surface->block + surface->end) / 2};
+    for (int64_t at : places) {
+        for (unsigned char flip : {0x01, 0x80}) {
+            std::string damaged = bytes;
+            damaged[size_t(at)] = char(damaged[size_t(at)] ^ flip);
+            const std::string path = dir + "/damaged.vdb";
+            std::ofstream(path, std::ios::binary) << damaged;
+            const std::string what = "byte " + std::to_string(at) + " ^ " + std::to_string(flip),
+                              message =
+                                  "damaged.vdb: a damaged .vdb file: its bytes do not "
+                                  "match the checksum";
+            expectInputError([&] { readLevelSet(path); }, message, what);
+            expectInputError([&] { readLevelSetDelayed(path); }, message, what + " (delayed)");
+        }
+    }
+    EXPECT_TRUE(readLevelSet(good).surface);
+}

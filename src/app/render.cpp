@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "io/grids.h"
+#include "io/image_codec.h"
 #include "io/image_file.h"
 #include "io/mesh_file.h"
 #include "io/vdb.h"
@@ -81,7 +82,10 @@ int runRenderCommand(RenderRequest req)
                                        req.width, req.height, req.spp);
                 how = "Embree on the mesh's triangles, reading included";
             } else {
-                LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Lazy);
+                // (the CPU march reads the colour once the level set is gone)
+                const bool cpu = device == Device::Cpu && !req.viaMesh;
+                LevelSetGrids f =
+                    readLevelSet(in, req.grid, cpu ? ColourRead::None : ColourRead::Lazy);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
@@ -96,8 +100,14 @@ int runRenderCommand(RenderRequest req)
                                            req.height, req.spp);
                     how = "Embree on the volumeToMesh triangles, meshing included";
                 } else if (device == Device::Cpu) {
-                    img = renderLevelSetCpu(*f.surface, f.color.get(), cam, req.width, req.height,
-                                            req.spp);
+                    img = renderLevelSetCpu(
+                        std::move(f.surface),
+                        [&] {
+                            // (the picture's writer loads while the colours are found)
+                            preloadImageCodec();
+                            return readColourGrid(in, /*lazy=*/true);
+                        },
+                        cam, req.width, req.height, req.spp);
                     how = "OpenVDB's level-set ray intersector";
                 } else {
                     how = marcher ? "OpenCL NanoVDB march, conversion included"

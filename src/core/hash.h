@@ -31,6 +31,13 @@ public:
     {
         length_ += n;
         while (n > 0) {
+            for (; fill_ == 0 && n >= 8; data += 8, n -= 8) {  // (whole words: no copy)
+                uint64_t w;
+                std::memcpy(&w, data, 8);
+                mix(w);
+            }
+            if (n == 0)
+                break;
             const size_t take = std::min(n, size_t(8) - fill_);
             std::memcpy(word_ + fill_, data, take);
             fill_ += take;
@@ -51,11 +58,12 @@ public:
     }
 
 private:
+    void mix(uint64_t w) { state_ = mix64(state_ ^ w) + 0x9e3779b97f4a7c15ull; }
     void mixWord()
     {
         uint64_t w;
         std::memcpy(&w, word_, 8);
-        state_ = mix64(state_ ^ w) + 0x9e3779b97f4a7c15ull;
+        mix(w);
         fill_ = 0;
     }
     uint64_t state_ = 0x243f6a8885a308d3ull, length_ = 0;

@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <dlfcn.h>
+#include <future>
+#include <mutex>
 #include <stdexcept>
 
 namespace cambium {
@@ -55,12 +57,28 @@ const ImageCodecApi* loadImageCodec()
     throw std::runtime_error("cannot load the image codec (OpenImageIO)" + tried);
 }
 
+/// The one load, started by whichever call comes first (a failed load's
+/// error comes back to every caller).
+std::shared_future<const ImageCodecApi*> codecLoad()
+{
+    static std::mutex mutex;
+    static std::shared_future<const ImageCodecApi*> load;
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (!load.valid())
+        load = std::async(std::launch::async, loadImageCodec).share();
+    return load;
+}
+
 }  // namespace
 
 const ImageCodecApi& imageCodec()
 {
-    static const ImageCodecApi* api = loadImageCodec();
-    return *api;
+    return *codecLoad().get();
+}
+
+void preloadImageCodec()
+{
+    codecLoad();
 }
 
 Photo readPhoto(const std::string& path)

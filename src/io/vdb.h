@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -139,12 +140,17 @@ enum class ColourRead {
 };
 
 /// Reads grid `grid` (a float level set) and `Cd` from a .vdb file
-/// (inspectVdb and verifyVdbChecksum first), each grid by readVdbGrid: its
-/// leaves decoded on all cores.  InputError for an unreadable or damaged
-/// file, a missing grid (the message lists the file's grids) or one that is
+/// (inspectVdb first; verifyVdbChecksum beside OpenVDB's read of the
+/// topology, and done before any leaf is decoded: a damaged file is named by
+/// its checksum), each grid by readVdbGrid: its leaves decoded on all cores.  InputError for an
+/// unreadable or damaged file, a missing grid (the message lists the file's grids) or one that is
 /// not a float level set.  `density` is not read.
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid,
                            ColourRead colour = ColourRead::Whole);
+
+/// The `Cd` grid of a file readLevelSet has read (null when it has none),
+/// `lazy` as readVdbGrid's: a render's colour, read once its level set is gone.
+openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy);
 
 /// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
 /// checked by the caller), equal voxel for voxel to what OpenVDB's io::File
@@ -152,10 +158,13 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kS
 /// values read from the file a few megabytes at a time and decoded on all
 /// cores (OpenVDB's own decoder, io::readCompressedValues).  Float and Vec3f
 /// grids; other types and instanced grids through io::File.  `lazy`: the
-/// leaves left to OpenVDB's delayed loading instead.  InputError naming the
-/// file for damage.
+/// leaves left to OpenVDB's delayed loading instead.  `beforeValues`, when
+/// given, runs once the topology is read and before any leaf's values are
+/// (readLevelSet: waits there for the checksum it computes meanwhile).
+/// InputError naming the file for damage.
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
-                                   const std::string& grid, bool lazy = false);
+                                   const std::string& grid, bool lazy = false,
+                                   const std::function<void()>& beforeValues = {});
 
 /// readLevelSet with OpenVDB's delayed loading (and no private copy of the
 /// file): the grids' topology now, each leaf's values from the file when it

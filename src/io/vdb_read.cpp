@@ -19,6 +19,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <istream>
 #include <map>
 #include <memory>
@@ -280,18 +281,26 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
 }  // namespace
 
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
-                                   const std::string& name, bool lazy)
+                                   const std::string& name, bool lazy,
+                                   const std::function<void()>& beforeValues)
 {
+    auto values = [&] {
+        if (beforeValues)
+            beforeValues();
+    };
     const VdbSummary::Grid* grid = nullptr;
     for (const VdbSummary::Grid& g : summary.grids)
         if (g.name == name)
             grid = &g;
     if (!grid)
         throw InputError(fmt::format("{}: no grid named '{}'", path, name));
-    if (!grid->instanceOf.empty())
+    if (!grid->instanceOf.empty()) {
+        values();
         return readWithOpenVdb(path, name, lazy);
+    }
     // The topology, each leaf's values left in the file.
     openvdb::GridBase::Ptr g = readWithOpenVdb(path, name, true);
+    values();
     if (lazy)
         return g;
     try {
@@ -306,6 +315,16 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     return readWithOpenVdb(path, name, false);
 }
 
+openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy)
+{
+    const VdbSummary summary = inspectVdb(path);
+    for (const VdbSummary::Grid& g : summary.grids)
+        if (g.name == kColorGrid)
+            return openvdb::gridPtrCast<openvdb::Vec3fGrid>(
+                readVdbGrid(path, summary, kColorGrid, lazy));
+    return nullptr;
+}
+
 namespace {
 
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
@@ -314,7 +333,6 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     // A damaged file is named here, before OpenVDB decodes it: its structure,
     // and for cambium's own files the checksum of every byte.
     const VdbSummary summary = inspectVdb(path);
-    verifyVdbChecksum(path, summary);
     std::string names;
     bool found = false, hasColour = false;
     for (const VdbSummary::Grid& g : summary.grids) {
@@ -325,8 +343,23 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     if (!found)
         throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
                                      names.empty() ? "no grids" : names));
+    // The checksum (one thread, 0.15 s for 200 MB) beside OpenVDB's serial
+    // read of the topology; waited for before the leaves, and its verdict
+    // first when OpenVDB fails on the same bytes.
+    std::future<void> checksum =
+        std::async(std::launch::async, [&] { verifyVdbChecksum(path, summary); });
+    auto checked = [&] {
+        if (checksum.valid())
+            checksum.get();
+    };
     LevelSetGrids out;
-    const openvdb::GridBase::Ptr g = readVdbGrid(path, summary, grid, lazy);
+    openvdb::GridBase::Ptr g;
+    try {
+        g = readVdbGrid(path, summary, grid, lazy, checked);
+    } catch (...) {
+        checked();
+        throw;
+    }
     out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
     if (!out.surface || g->getGridClass() != openvdb::GRID_LEVEL_SET)
         throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,

@@ -11,6 +11,7 @@
 #include "core/clock.h"
 
 #include <embree3/rtcore.h>
+#include <malloc.h>
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
 #include <openvdb/math/Ray.h>
@@ -325,6 +326,7 @@ BatchTracer CpuMarcher::tracer() const
             if (!h.hit)
                 continue;
             h.t = t;
+            h.position = glm::dvec3(p.x(), p.y(), p.z());
             h.normal = unit(g.x(), g.y(), g.z());
             h.albedo = kBarkAlbedo;
             if (cs) {
@@ -419,6 +421,82 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
                               const Camera& camera, int width, int height, int spp)
 {
     return CpuMarcher(surface, color).render(camera, width, height, spp);
+}
+
+RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
+                              const std::function<openvdb::Vec3fGrid::Ptr()>& colour,
+                              const Camera& camera, int width, int height, int spp)
+{
+    spp = std::max(1, spp);
+    const size_t rowRays = size_t(width) * size_t(spp);
+    // 1. Every row's rays against the level set alone; its hits kept (ray
+    //    index within the row, the hit).
+    std::vector<std::vector<std::pair<uint32_t, TraceHit>>> hits(static_cast<size_t>(height));
+    {
+        const CpuMarcher marcher(*surface, nullptr);
+        const RayRanges ranges = rayRanges(*surface, camera, width, height);
+        tbb::parallel_for(tbb::blocked_range<int>(0, height),
+                          [&](const tbb::blocked_range<int>& r) {
+                              const BatchTracer trace = marcher.tracer();
+                              std::vector<TraceRay> rays(rowRays), traced;
+                              std::vector<uint32_t> index;
+                              std::vector<TraceHit> found;
+                              for (int y = r.begin(); y < r.end(); ++y) {
+                                  generateRow(camera, width, height, spp, y, rays.data());
+                                  traced.clear();
+                                  index.clear();
+                                  const size_t row = size_t(y) * size_t(width);
+                                  for (int x = 0; x < width; ++x) {
+                                      const float near = ranges.near[row + size_t(x)],
+                                                  far = ranges.far[row + size_t(x)];
+                                      if (!(near <= far))
+                                          continue;
+                                      for (int s = 0; s < spp; ++s) {
+                                          const size_t k = size_t(x) * size_t(spp) + size_t(s);
+                                          TraceRay ray = rays[k];
+                                          ray.tmin = near;
+                                          ray.tmax = far;
+                                          traced.push_back(ray);
+                                          index.push_back(uint32_t(k));
+                                      }
+                                  }
+                                  if (traced.empty())
+                                      continue;
+                                  trace(traced, found);
+                                  for (size_t i = 0; i < found.size(); ++i)
+                                      if (found[i].hit)
+                                          hits[size_t(y)].emplace_back(index[i], found[i]);
+                              }
+                          });
+    }
+    // 2. The level set goes (with the memory the allocator keeps), then the
+    //    colour comes, and each hit's albedo is looked up.
+    surface.reset();
+    ::malloc_trim(0);
+    const openvdb::Vec3fGrid::Ptr color = colour ? colour() : nullptr;
+    RenderImage img = blankImage(width, height);
+    tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& r) {
+        std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> sample;
+        if (color)
+            sample = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
+        std::vector<TraceRay> rays(rowRays);
+        std::vector<TraceHit> row(rowRays);
+        for (int y = r.begin(); y < r.end(); ++y) {
+            generateRow(camera, width, height, spp, y, rays.data());
+            std::fill(row.begin(), row.end(), TraceHit());
+            for (const auto& [k, hit] : hits[size_t(y)]) {
+                TraceHit& h = row[k];
+                h = hit;
+                if (sample) {
+                    const glm::dvec3& p = hit.position;
+                    const openvdb::Vec3f c = (*sample)(openvdb::Vec3d(p.x, p.y, p.z));
+                    h.albedo = glm::vec3(c.x(), c.y(), c.z());
+                }
+            }
+            resolveRow(img, spp, y, rays.data(), row.data());
+        }
+    });
+    return img;  // (the colour grid goes with this scope)
 }
 
 RenderImage renderBatches(const Camera& camera, int width, int height, int spp,

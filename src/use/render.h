@@ -67,6 +67,7 @@ struct TraceRay {
 struct TraceHit {
     bool hit = false;
     double t = 0.0;
+    glm::dvec3 position{0.0};  ///< world space (CpuMarcher's only)
     glm::vec3 normal{0.0f}, albedo{0.0f};
 };
 /// Traces a batch of rays (a row's samples): hits[i] for rays[i].
@@ -115,6 +116,16 @@ RayRanges rayRanges(const openvdb::FloatGrid& surface, const Camera& camera, int
 /// CpuMarcher(surface, color).render(...): `spp` samples per pixel
 /// (stratified, deterministic).
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
+                              const Camera& camera, int width, int height, int spp);
+
+/// The same picture holding one grid at a time: every ray traced against
+/// `surface` (its hits kept, a few bytes each), the level set then dropped
+/// and its memory given back, then `colour()` asked for the grid the hits'
+/// colours are looked up in (null: none; a file's Cd, read lazily).  What
+/// `cambium render` runs: its peak is the level set's, not the level set's
+/// and the colour's.
+RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
+                              const std::function<openvdb::Vec3fGrid::Ptr()>& colour,
                               const Camera& camera, int width, int height, int spp);
 
 /// Ray marches a level set with OpenCL (kernels/march.cl): a NanoVDB copy of
