@@ -132,6 +132,52 @@ TEST(Mesh, ColoursComeFromTheCdGrid)
     }
 }
 
+TEST(Mesh, NormalsAndColoursAreTheSamplersOwnUnderAnyTransform)
+{
+    // The CPU reference: a vertex's normal is the normalised difference of
+    // six trilinear lookups half a voxel either side, its colour the
+    // trilinear Cd, each through OpenVDB's GridSampler at the world point;
+    // on the bake's own (scale and move) transform, where the mesh samples
+    // in index space, and on a turned one, where it cannot.
+    BlobTree tree;
+    const int a = tree.sphere({-0.3, 0.05, 0}, 0.25), b = tree.sphere({0.3, -0.05, 0.1}, 0.25);
+    tree.setColor(a, {1.0, 0.2, 0.0});
+    tree.setColor(b, {0.0, 0.3, 1.0});
+    tree.setRoot(tree.op(Combiner{}, {a, b}));
+    tree.finalize();
+    const BakedGrids g = bakeTree(tree, 0.02);
+    ASSERT_TRUE(g.color);
+    for (bool turned : {false, true}) {
+        openvdb::FloatGrid::Ptr surface = g.surface->deepCopy();
+        openvdb::Vec3fGrid::Ptr colour = g.color->deepCopy();
+        if (turned) {
+            for (openvdb::GridBase* grid : {static_cast<openvdb::GridBase*>(surface.get()),
+                                            static_cast<openvdb::GridBase*>(colour.get())})
+                grid->transform().postRotate(0.3, openvdb::math::Y_AXIS);
+        }
+        const TriangleMesh m = meshLevelSet(*surface, colour.get());
+        ASSERT_GT(m.points.size(), 500u);
+        openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(*surface);
+        openvdb::tools::GridSampler<openvdb::Vec3fGrid, openvdb::tools::BoxSampler> c(*colour);
+        const double h = surface->voxelSize()[0];
+        double worstNormal = 0.0, worstColour = 0.0;
+        for (size_t i = 0; i < m.points.size(); ++i) {
+            const openvdb::Vec3d p(m.points[i]);
+            openvdb::Vec3d d;
+            for (int k = 0; k < 3; ++k) {
+                openvdb::Vec3d e(0.0);
+                e[k] = 0.5 * h;
+                d[k] = double(s.wsSample(p + e)) - double(s.wsSample(p - e));
+            }
+            d.normalize();
+            worstNormal = std::max(worstNormal, (d - openvdb::Vec3d(m.normals[i])).length());
+            worstColour = std::max(worstColour, double((c.wsSample(p) - m.colors[i]).length()));
+        }
+        EXPECT_LT(worstNormal, 1e-6) << (turned ? "turned" : "the bake's transform");
+        EXPECT_LT(worstColour, 1e-5) << (turned ? "turned" : "the bake's transform");
+    }
+}
+
 TEST(Mesh, TheColourShellGivesTheBandsColoursAtEveryVertex)
 {
     // A mesh's colours looked up in Cd kept on the shell (the default) are

@@ -31,22 +31,49 @@ namespace cambium {
 
 namespace {
 
+/// Whether a transform only scales and moves along the axes.
+bool scalesAndMovesOnly(const openvdb::math::Transform& xf)
+{
+    using namespace openvdb::math;
+    const MapBase& m = *xf.baseMap();
+    return m.isType<ScaleMap>() || m.isType<ScaleTranslateMap>() || m.isType<UniformScaleMap>() ||
+           m.isType<UniformScaleTranslateMap>() || m.isType<TranslationMap>();
+}
+
 /// The differences of a level set's trilinear values half a voxel either
 /// side of a point along each axis (what six WorldSampler lookups give, to
 /// the bit), from the 3 x 3 x 3 voxels they all fall in, read at once.
 class CentralDifferences {
 public:
-    explicit CentralDifferences(const openvdb::FloatGrid& grid)
-        : grid_(grid), accessor_(grid.getConstAccessor()), sampler_(grid)
+    CentralDifferences(const openvdb::FloatGrid& grid, double h)
+        : grid_(grid),
+          accessor_(grid.getConstAccessor()),
+          sampler_(grid),
+          h_(h),
+          axisAligned_(scalesAndMovesOnly(grid.transform()))
     {
+        const openvdb::Vec3d voxel = grid.voxelSize();
+        for (int k = 0; k < 3; ++k)
+            half_[k] = 0.5 * h / voxel[k];
     }
 
-    openvdb::Vec3d operator()(const openvdb::Vec3d& p, double h)
+    /// Whether index space is world space scaled and moved along its axes:
+    /// a point's six samples then lie half a step from its index point.
+    bool axisAligned() const { return axisAligned_; }
+
+    /// At world point `p`, whose index point is `index` when axisAligned().
+    openvdb::Vec3d operator()(const openvdb::Vec3d& p, const openvdb::Vec3d& index)
     {
         openvdb::Vec3d at[6];  // index space: +x, -x, +y, -y, +z, -z
         for (int k = 0; k < 3; ++k) {
+            if (axisAligned_) {
+                at[2 * k] = at[2 * k + 1] = index;
+                at[2 * k][k] += half_[k];
+                at[2 * k + 1][k] -= half_[k];
+                continue;
+            }
             openvdb::Vec3d e(0.0);
-            e[k] = 0.5 * h;
+            e[k] = 0.5 * h_;
             at[2 * k] = grid_.transform().worldToIndex(p + e);
             at[2 * k + 1] = grid_.transform().worldToIndex(p - e);
         }
@@ -61,7 +88,7 @@ public:
             openvdb::Vec3d g;
             for (int k = 0; k < 3; ++k) {
                 openvdb::Vec3d e(0.0);
-                e[k] = 0.5 * h;
+                e[k] = 0.5 * h_;
                 g[k] = double(sampler_(p + e)) - double(sampler_(p - e));
             }
             return g;
@@ -115,6 +142,9 @@ private:
     const openvdb::FloatGrid& grid_;
     openvdb::FloatGrid::ConstAccessor accessor_;
     const WorldSampler<openvdb::FloatGrid> sampler_;
+    const double h_;
+    const bool axisAligned_;
+    openvdb::Vec3d half_;
     float block_[3][3][3];
 };
 
@@ -169,18 +199,23 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     mesh.normals.resize(n);
     if (color)
         mesh.colors.resize(n);
+    // (one transform of each point where the grids share an axis-aligned one)
+    const openvdb::math::Transform& xf = surface.transform();
+    const bool sameIndex = color && color->transform() == xf;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
-        CentralDifferences d(surface);
+        CentralDifferences d(surface, h);
         std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
         if (color)
             c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
+        const bool aligned = d.axisAligned();
         for (size_t i = r.begin(); i < r.end(); ++i) {
             const openvdb::Vec3d p = mesh.points[i];
-            const openvdb::Vec3d g = d(p, h);
+            const openvdb::Vec3d index = aligned ? xf.worldToIndex(p) : p;
+            const openvdb::Vec3d g = d(p, index);
             const double len = g.length();
             mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
             if (c)
-                mesh.colors[i] = (*c)(p);
+                mesh.colors[i] = aligned && sameIndex ? c->atIndex(index) : (*c)(p);
         }
     });
     tm.attributes = secondsSince(t);

@@ -21,6 +21,11 @@ public:
     {
         return sampler_.wsSample(world);
     }
+    /// The same lookup at an index-space point of the grid.
+    typename GridT::ValueType atIndex(const openvdb::Vec3d& index) const
+    {
+        return sampler_.isSample(index);
+    }
 
 private:
     typename GridT::ConstAccessor accessor_;
