@@ -144,6 +144,43 @@ TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
     }
 }
 
+TEST(LSystem, ExpressionsNestedBeyondTheBoundAreRefusedWithTheirLine)
+{
+    // Sums of 200,000 terms, 10,000 nested parentheses, 200,000 unary
+    // minuses, long chains of powers: each would recurse once per term in
+    // the parser, the evaluator or the tree's destruction (a crash, not an
+    // error); each is refused with its line, in a #define and in a
+    // production.  What people write (a sum of a hundred terms, twenty
+    // parentheses) is kept.
+    auto repeat = [](const std::string& piece, int n) {
+        std::string out;
+        for (int i = 0; i < n; ++i)
+            out += piece;
+        return out;
+    };
+    const std::string sum = "1" + repeat("+1", 200'000),
+                      parens = repeat("(", 10'000) + "1" + repeat(")", 10'000),
+                      minuses = repeat("-", 200'000) + "1", powers = "2" + repeat("^1", 5'000),
+                      calls = repeat("sin(", 1'000) + "1" + repeat(")", 1'000);
+    for (const std::string& e : {sum, parens, minuses, powers, calls}) {
+        test::expectInputError(
+            [&] { parseLSystem("#define D " + e + "\nAxiom: F(D)\n", "deep.l"); },
+            "deep.l:1:", e.substr(0, 12));
+        test::expectInputError(
+            [&] { parseLSystem("#define D " + e + "\nAxiom: F(D)\n", "deep.l"); },
+            "nests deeper than 200 levels", e.substr(0, 12));
+        test::expectInputError(
+            [&] { parseLSystem("Axiom: A(1)\nA(x) --> A(x+" + e + ")\n", "deep.l"); },
+            "deep.l:2:", e.substr(0, 12));
+    }
+    const LSystem fine = parseLSystem("#define D " + repeat("(", 20) + "1" + repeat(")", 20) +
+                                          " +" + repeat("+1", 100) + "\nAxiom: F(D)\n",
+                                      "fine.l");
+    ASSERT_EQ(fine.axiom.size(), 1u);
+    ASSERT_EQ(fine.axiom[0].params.size(), 1u);
+    EXPECT_EQ(fine.axiom[0].params[0], 101.0);
+}
+
 TEST(LSystem, ErrorsNameTheLineAndColumn)
 {
     auto expectError = [](const std::string& text, const std::string& message) {

@@ -40,7 +40,8 @@ struct Expr {
         Call
     } op = Const;
     double value = 0.0;
-    int var = -1;  ///< Var: the formal parameter's index; Call: the function's in kFunctions
+    int var = -1;   ///< Var: the formal parameter's index; Call: the function's in kFunctions
+    int depth = 1;  ///< levels of nodes from this one down (evaluate recurses as deep)
     std::vector<std::shared_ptr<const Expr>> kids;
 };
 
@@ -141,6 +142,13 @@ struct Place {
         fmt::format("{}:{}:{}: {}", *at.source, at.line, at.column + int(offset), what));
 }
 
+/// How deep an expression may nest: parentheses, unary operators and
+/// powers (the parser recurses through them), and the tree it builds (a
+/// sum of many terms is a chain as deep as its terms; evaluation and its
+/// destruction recurse through it).  Far beyond a hand-written expression,
+/// far within a thread's stack.
+constexpr int kMaxExpressionDepth = 200;
+
 /// Recursive descent over one expression (C-like precedence, ^ for power).
 class ExprParser {
 public:
@@ -179,13 +187,41 @@ private:
         }
         return false;
     }
-    static ExprPtr node(Expr::Op op, std::vector<ExprPtr> kids)
+    ExprPtr node(Expr::Op op, std::vector<ExprPtr> kids) const
     {
         auto e = std::make_shared<Expr>();
         e->op = op;
         e->kids = std::move(kids);
+        return deepest(std::move(e));
+    }
+    /// `e` with its depth, or the error when it is too deep.
+    ExprPtr deepest(std::shared_ptr<Expr> e) const
+    {
+        for (const ExprPtr& k : e->kids)
+            e->depth = std::max(e->depth, k->depth + 1);
+        if (e->depth > kMaxExpressionDepth)
+            tooDeep();
         return e;
     }
+    [[noreturn]] void tooDeep() const
+    {
+        fail(at_, std::min(pos_, s_.size()),
+             fmt::format("the expression nests deeper than {} levels (operators, parentheses "
+                         "or terms of one sum)",
+                         kMaxExpressionDepth));
+    }
+    /// One level of the parser's recursion, counted.
+    struct Nested {
+        explicit Nested(ExprParser& p) : parser(p)
+        {
+            if (++parser.nesting_ > kMaxExpressionDepth)
+                parser.tooDeep();
+        }
+        ~Nested() { --parser.nesting_; }
+        Nested(const Nested&) = delete;
+        Nested& operator=(const Nested&) = delete;
+        ExprParser& parser;
+    };
     static ExprPtr constant(double v)
     {
         auto e = std::make_shared<Expr>();
@@ -224,9 +260,14 @@ private:
             l = node(it->op, {l, binary(i + 1)});
         }
     }
-    ExprPtr orExpr() { return binary(0); }
+    ExprPtr orExpr()
+    {
+        const Nested level(*this);
+        return binary(0);
+    }
     ExprPtr unary()
     {
+        const Nested level(*this);
         if (eat("-"))
             return node(Expr::Neg, {unary()});
         if (eat("+"))
@@ -288,7 +329,7 @@ private:
                     fail(at_, start,
                          fmt::format("{} takes {} argument{} (got {})", name, arity,
                                      arity == 1 ? "" : "s", e->kids.size()));
-                return e;
+                return deepest(std::move(e));
             }
             for (size_t i = 0; i < formals_.size(); ++i)
                 if (formals_[i] == name) {
@@ -310,6 +351,7 @@ private:
     const std::vector<std::string>& formals_;
     const std::map<std::string, double>& defines_;
     size_t pos_ = 0;
+    int nesting_ = 0;
 };
 
 // --- module strings -----------------------------------------------------------
