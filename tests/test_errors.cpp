@@ -309,6 +309,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
     writeText(in / "noface.obj", "v 0 0 0\n");
     writeText(in / "bad.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
+    // Outputs that are inputs under other names: a link, a second hard link.
+    fs::create_symlink("trunc90.vdb", in / "alias.ply");
+    fs::create_symlink("flipped.vdb", in / "alias.png");
+    writeText(in / "model.json", fileContents(kScene));
+    fs::create_hard_link(in / "model.json", in / "model.vdb");
     // Outputs that must survive every refusal.
     for (const char* name : {"out.vdb", "out.ply", "out.obj", "out.png", "out.exr", "seq.0001.vdb"})
         writeText(out / name, std::string("a good ") + name);
@@ -397,6 +402,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake " + S + " -o OUT", "OUT: is a directory, not an output file"},
         {"bake " + S + " -o ''", "-o: the output path is empty"},
         {"bake " + S + " -o /dev/null", "/dev/null: is a character device"},
+        {"bake IN/bad.l -o IN/bad.l", "bad.l: unknown output format '.l' (use .vdb)"},
+        {"bake " + S + " -o OUT/x.png", "x.png: unknown output format '.png' (use .vdb)"},
+        {"bake " + S + " -o OUT/noext", "noext: unknown output format '.' (use .vdb)"},
+        {"bake IN/model.json -o IN/model.vdb", "model.vdb: is the input"},
+        {"mesh IN/trunc90.vdb -o IN/alias.ply", "alias.ply: is the input"},
+        {"render IN/flipped.vdb -o IN/alias.png", "alias.png: is the input"},
         {"bake " + S + " -o OUT/no/such/dir/out.vdb",
          "out.vdb: cannot write the output: No such file"},
         {"bake " + S, "--output is required"},

@@ -202,6 +202,8 @@ void addBakeCommand(CLI::App& app, Action& action)
             req.device = parseDevice(o->device);
             if (!sequence)
                 checkOutputPath(req.output);
+            fileFormat(req.output, {"vdb"}, "output");
+            checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
             req.model = o->model.options();
             const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
             if (req.tile.count > 0)  // (what a farm's final job checks the tile by)

@@ -88,6 +88,7 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
 {
     checkBakeOptions(req);
     checkOutputPath(req.output);
+    checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
     if (req.fog)
         throw InputError(
             "--tiles: a fog volume (--fog) is made from the whole grid's values; "

@@ -210,6 +210,20 @@ std::string temporaryPathFor(const std::string& path)
     return fmt::format("{}.tmp-{}", path, ::getpid());
 }
 
+void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
+{
+    struct stat out {};
+    if (output.empty() || ::stat(output.c_str(), &out) != 0)
+        return;  // (nothing there yet: nothing to replace)
+    for (const std::string& input : inputs) {
+        struct stat in {};
+        if (!input.empty() && ::stat(input.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
+            in.st_ino == out.st_ino)
+            throw InputError(
+                fmt::format("{}: is the input {} (the output would replace it)", output, input));
+    }
+}
+
 std::string checkOutputPath(const std::string& path, bool probe)
 {
     if (path.empty())

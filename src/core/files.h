@@ -28,6 +28,11 @@ public:
 /// written (tried, when `probe`, by creating and removing a file beside it).
 std::string checkOutputPath(const std::string& path, bool probe = true);
 
+/// InputError "OUTPUT: is the input INPUT (the output would replace it)"
+/// when `output` names, through links or other names, the same file as one
+/// of `inputs` (empty names skipped); a command checks it before any work.
+void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs);
+
 /// The temporary file the writer fills beside the real target `path`
 /// ("PATH.tmp-PID") before renaming it.
 std::string temporaryPathFor(const std::string& path);

@@ -2,6 +2,7 @@
 #include "core/frames.h"
 
 #include "core/error.h"
+#include "core/files.h"
 
 #include <fmt/format.h>
 
@@ -70,6 +71,7 @@ void forEachFile(const std::string& input, const std::string& output, const std:
 {
     if (!isFramePattern(input) && !isFramePattern(output) && frames.empty()) {
         checkOutput(output);
+        checkOutputIsNoInput(output, {input});
         one(input, output);
         return;
     }
@@ -88,6 +90,8 @@ void forEachFile(const std::string& input, const std::string& output, const std:
                 fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
     }
     checkOutput(framePath(output, list.front()));
+    for (long long f : list)
+        checkOutputIsNoInput(framePath(output, f), {framePath(input, f)});
     for (long long f : list)
         one(framePath(input, f), framePath(output, f));
 }

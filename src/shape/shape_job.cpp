@@ -213,6 +213,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     const int levels = req.levels >= 0 ? req.levels : spec.levels;
     checkShapeLevels(spec, levels);
     checkOutputPath(req.output);
+    checkOutputIsNoInput(req.output, {req.input, spec.base.file, spec.base.control});
 
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
