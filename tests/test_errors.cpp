@@ -442,6 +442,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render --mesh IN/bad.ply -o OUT/out.png",
          "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
+        // farms and the preview server
+        {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
+         "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},
+        {"preview " + S + " --once --port 99999 -o OUT/p.png",
+         "--port must be from 1 to 65535, or 0 for a free one (got 99999)"},
+        {"preview " + S + " --once --port -1 -o OUT/p.png", "--port must be from 1 to 65535"},
         // the command line itself
         {"", "A subcommand is required"},
         {"bogus", "unknown command 'bogus' (the commands: info, eval, bake"},

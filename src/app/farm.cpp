@@ -199,6 +199,14 @@ SlurmOptions slurmOptions(const SlurmFlags& flags)
     o.framesPerChunk = flags.chunk;
     o.throttle = flags.throttle;
     o.retries = flags.retries;
+    for (const std::string& arg : flags.sbatchArgs)
+        for (const char c : arg)
+            if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+                // (each is one "#SBATCH" line of the job scripts: a newline
+                // would start a shell line of its own)
+                throw InputError(fmt::format(
+                    "--slurm-arg '{}': a control character (code {}) in an sbatch option",
+                    printable(arg), int(static_cast<unsigned char>(c))));
     o.sbatchArgs = flags.sbatchArgs;
     o.exe = (fs::path(executableDirectory()) / "cambium").string();
     const Output nodes = capture("sinfo -h -o '%c %m'");

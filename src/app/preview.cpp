@@ -107,6 +107,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
             PreviewSettings& s = o->settings;
+            if (o->port < 0 || o->port > 65535)  // (checked with --once too)
+                throw InputError(fmt::format(
+                    "--port must be from 1 to 65535, or 0 for a free one (got {})", o->port));
             if (voxelOpt->count())
                 s.voxelSize = o->voxelSize;
             s.model = o->model.options();

@@ -10,6 +10,17 @@
 
 namespace cambium {
 
+std::string printable(const std::string& text)
+{
+    std::string out;
+    out.reserve(text.size());
+    for (const char c : text) {
+        const auto u = static_cast<unsigned char>(c);
+        out += u < 0x20 || u == 0x7f ? fmt::format("\\x{:02x}", u) : std::string(1, c);
+    }
+    return out;
+}
+
 uint64_t checkInputFile(const std::string& path, const char* what)
 {
     struct stat st;

@@ -30,6 +30,10 @@ private:
     std::string field_;
 };
 
+/// `text` as a message may show it: each control character (a newline, an
+/// escape) written as \xHH, so that a line of output stays one line.
+std::string printable(const std::string& text);
+
 /// Checks that `path` names a regular file that can be read, and returns its
 /// size: InputError "PATH: cannot read the WHAT: REASON", "PATH: is a
 /// directory, not a WHAT" or "PATH: is a device, FIFO or socket, not a WHAT".
