@@ -309,6 +309,15 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
     writeText(in / "noface.obj", "v 0 0 0\n");
     writeText(in / "bad.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
+    {
+        std::string edits;  // twenty edits each allowed alone, together past any size
+        for (int i = 0; i < 20; ++i)
+            edits += std::string(i ? "," : "") + R"({"at": [0, 0, 1], "radius": 100, "gain": 100})";
+        writeText(in / "far_edits.json",
+                  R"({"base": {"type": "sphere", "radius": 1}, "levels": 6, "details": )"
+                  R"([{"type": "rock", "amplitude": 0.08, "seed": 3}], "edits": [)" +
+                      edits + "]}");
+    }
     // Outputs that are inputs under other names: a link, a second hard link.
     fs::create_symlink("trunc90.vdb", in / "alias.ply");
     fs::create_symlink("flipped.vdb", in / "alias.png");
@@ -442,6 +451,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render --mesh IN/bad.ply -o OUT/out.png",
          "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
+        // shapes
+        {"shape IN/far_edits.json -o OUT/out.ply",
+         "details and edits edits[0] (radius 100, gain 100), edits[1] (radius 100, gain 100)"},
+        {"shape IN/far_edits.json -o OUT/out.vdb", "and 17 more push it beyond any size"},
         // farms and the preview server
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
          "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},

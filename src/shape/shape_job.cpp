@@ -70,11 +70,41 @@ void checkRequest(const ShapeRequest& req, bool levelSet)
 }
 
 /// The synthesis's mesh and its measures, into the report.
+/// InputError when a synthesised point is not finite or lies beyond 1e15
+/// (as scenes' coordinates may not): details and edits whose gains, radii
+/// and amplitudes multiply past any size, named.
+void checkSynthesised(const TriangleMesh& mesh, const ShapeSpec& spec)
+{
+    for (size_t i = 0; i < mesh.points.size(); ++i) {
+        const openvdb::Vec3s& p = mesh.points[i];
+        bool fine = true;
+        for (int k = 0; k < 3; ++k)
+            fine = fine && std::isfinite(p[k]) && std::abs(p[k]) <= 1e15f;
+        if (fine)
+            continue;
+        std::string causes;
+        const size_t named = std::min<size_t>(spec.edits.size(), 3);
+        for (size_t k = 0; k < named; ++k) {
+            const EditSpec& e = spec.edits[k];
+            causes += fmt::format("{}{} (radius {:g}, gain {:g})", k ? ", " : "", e.path, e.radius,
+                                  e.gain);
+        }
+        if (spec.edits.size() > named)
+            causes += fmt::format(" and {} more", spec.edits.size() - named);
+        throw InputError(fmt::format(
+            "{}: the synthesised surface has point {} at ({:g}, {:g}, {:g}): its details{} "
+            "push it beyond any size; lower their amplitudes, gains or radii",
+            spec.source, i, p[0], p[1], p[2],
+            causes.empty() ? "" : fmt::format(" and edits {}", causes)));
+    }
+}
+
 TriangleMesh synthesise(ShapeSurface& shape, ShapeReport& r)
 {
     const auto t = Clock::now();
     shape.synthesize();
     TriangleMesh mesh = shape.mesh();
+    checkSynthesised(mesh, shape.spec());
     r.synthesisSeconds += secondsSince(t);
     r.vertices = mesh.points.size();
     r.faces = mesh.polygons.sizes.size();
