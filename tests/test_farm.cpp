@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace {
@@ -380,3 +381,39 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
 }
 
 }  // namespace
+
+TEST(FarmTiles, AFifoInTheFarmDirectoryIsRefusedNotWaitedFor)
+{
+    // A FIFO where the farm keeps its job list or a chunk's history would
+    // block `cambium farm` for ever on its read: refused by name, exit 2.
+    namespace fs = std::filesystem;
+    const fs::path dir = cambium::test::freshDir("cambium_farm_fifo");
+    TileFarmRequest t;
+    t.request.input = kPopulus;
+    t.request.model.time = 2.0;
+    t.request.voxelSize = 0.05;
+    t.request.device = Device::Cpu;
+    t.request.output = (dir / "hero.vdb").string();
+    t.tiles = 2;
+    t.tileBytes = 100e6;
+    const BlobTree model = loadModel(kPopulus, t.request.model);
+    t.threshold = model.threshold();
+    t.time = model.time();
+    t.scene = kPopulus;
+    SlurmOptions o;
+    o.exe = CAMBIUM_EXE;
+    const SlurmArray array = planTileArray(t, o);
+    fs::create_directories(array.farmDir);
+    std::ofstream(array.scriptPath) << array.script;
+    std::ofstream(array.planPath) << array.planJson;
+    for (const fs::path& fifo :
+         {fs::path(array.farmDir) / "jobs", fs::path(chunkHistoryPath(array.farmDir, 0))}) {
+        ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << fifo;
+        const test::Result r = test::run("farm " + shellQuote(array.farmDir));
+        EXPECT_EQ(r.status, 2) << r.err;
+        EXPECT_NE(r.err.find(fifo.filename().string() + ": is a device, FIFO or socket"),
+                  std::string::npos)
+            << r.err;
+        fs::remove(fifo);
+    }
+}

@@ -66,12 +66,14 @@ Output capture(const std::string& command)
     return out;
 }
 
-std::string fileText(const fs::path& p)
+/// A farm directory's text file, empty when there is none; InputError when
+/// it is not a regular file (a FIFO would block the read for ever).
+std::string fileText(const fs::path& p, const char* what)
 {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
+    std::error_code ec;
+    if (!fs::exists(fs::symlink_status(p, ec)))
+        return {};
+    return readTextFile(p.string(), what);
 }
 
 /// Which of the jobs `ids` (comma-separated) are still queued or running:
@@ -99,7 +101,7 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
 std::string farmJobs(const fs::path& farm)
 {
     std::string list;
-    for (char c : fileText(farm / "jobs"))
+    for (char c : fileText(farm / "jobs", "farm's job list"))
         list += c == '\n' ? ',' : c;
     while (!list.empty() && list.back() == ',')
         list.pop_back();
@@ -154,7 +156,7 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
     // cannot be submitted is cancelled rather than left running untracked.
     const std::string jobsPath = (fs::path(plan.dir) / "jobs").string();
     const std::string array = sbatch(plan.scriptPath, args);
-    std::string jobs = fileText(jobsPath) + array + "\n";
+    std::string jobs = fileText(jobsPath, "farm's job list") + array + "\n";
     writeFile(jobsPath, jobs.data(), jobs.size());
     std::string final;
     try {
@@ -496,7 +498,7 @@ void addFarmCommand(CLI::App& app, Action& action)
             const std::vector<size_t> again = chunksToRetry(plan, state);
             std::vector<std::string> histories;  // (put back where sbatch refuses)
             for (size_t k : again) {
-                histories.push_back(fileText(chunkHistoryPath(plan.dir, k)));
+                histories.push_back(fileText(chunkHistoryPath(plan.dir, k), "chunk history"));
                 markSubmittedAgain(plan.dir, k);
             }
             const std::string manifest = farmManifest(plan, state, again);

@@ -434,7 +434,12 @@ constexpr const char* kSubmittedAgain = "submitted again";
 std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk)
 {
     std::vector<ChunkEvent> events;
-    std::ifstream in(chunkHistoryPath(farmDir, chunk));
+    const std::string path = chunkHistoryPath(farmDir, chunk);
+    std::error_code ec;
+    if (!fs::exists(fs::symlink_status(path, ec)))
+        return events;
+    // (readTextFile refuses a FIFO or a device, whose read would block)
+    std::istringstream in(readTextFile(path, "chunk history"));
     for (std::string line; std::getline(in, line);) {
         ChunkEvent e;
         if (line == kSubmittedAgain)
