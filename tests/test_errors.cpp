@@ -8,6 +8,8 @@
 #include "cli_util.h"
 #include "core/files.h"
 
+#include <openvdb/io/File.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -318,6 +320,18 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
                   R"([{"type": "rock", "amplitude": 0.08, "seed": 3}], "edits": [)" +
                       edits + "]}");
     }
+    {
+        // 4 KB of file, 3.5e13 active voxels in tiles (a 32768-voxel cube)
+        openvdb::initialize();
+        auto tiles = openvdb::FloatGrid::create(0.3f);
+        tiles->setName("surface");
+        tiles->setGridClass(openvdb::GRID_LEVEL_SET);
+        tiles->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+        tiles->tree().fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(32767)), -0.3f,
+                           true);
+        openvdb::io::File((in / "tiles.vdb").string()).write({tiles});
+        writeText(in / "tiles_base.json", R"({"base": {"type": "vdb", "file": "tiles.vdb"}})");
+    }
     // Outputs that are inputs under other names: a link, a second hard link.
     fs::create_symlink("trunc90.vdb", in / "alias.ply");
     fs::create_symlink("flipped.vdb", in / "alias.png");
@@ -451,6 +465,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render --mesh IN/bad.ply -o OUT/out.png",
          "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
+        // active tiles: a few bytes in the file, terabytes as voxels
+        {"mesh IN/tiles.vdb -o OUT/out.ply",
+         "tiles.vdb: grid 'surface' has 3.52e+13 active voxels in tiles, 141 TB as voxels"},
+        {"render IN/tiles.vdb --via-mesh -o OUT/out.png", "not a narrow-band level set"},
+        {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
+        {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},
         // shapes
         {"shape IN/far_edits.json -o OUT/out.ply",
          "details and edits edits[0] (radius 100, gain 100), edits[1] (radius 100, gain 100)"},

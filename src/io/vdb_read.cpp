@@ -6,6 +6,7 @@
 #include "io/vdb.h"
 
 #include "core/error.h"
+#include "core/system.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
@@ -327,6 +328,25 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy)
 
 namespace {
 
+/// A level set's band is voxels: active tiles (a few bytes in a file) are
+/// made into voxels by whatever meshes, resamples or converts the grid, so
+/// their volume is bounded by the memory their voxels would take.
+void checkActiveTiles(const openvdb::FloatGrid& grid, const std::string& path)
+{
+    using Tree = openvdb::FloatTree;
+    double voxels = 0.0;
+    auto tile = grid.tree().cbeginValueOn();
+    tile.setMaxDepth(Tree::ValueOnCIter::LEAF_DEPTH - 1);  // (tiles only, not leaves' voxels)
+    for (; tile; ++tile)
+        voxels += double(tile.getVoxelCount());
+    const double bytes = voxels * sizeof(float), have = availableMemoryBytes();
+    if (bytes > have)
+        throw InputError(fmt::format(
+            "{}: grid '{}' has {:.3g} active voxels in tiles, {} as voxels (this machine has "
+            "{} available): not a narrow-band level set",
+            path, grid.getName(), voxels, formatBytes(bytes), formatBytes(have)));
+}
+
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
                         ColourRead colour)
 {
@@ -365,6 +385,7 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
         throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,
                                      g->valueType(),
                                      openvdb::GridBase::gridClassToString(g->getGridClass())));
+    checkActiveTiles(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
