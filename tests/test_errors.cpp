@@ -332,6 +332,16 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         openvdb::io::File((in / "tiles.vdb").string()).write({tiles});
         writeText(in / "tiles_base.json", R"({"base": {"type": "vdb", "file": "tiles.vdb"}})");
     }
+    {
+        // 80 bytes whose PNG header claims 11000 x 11000 grey pixels
+        const std::string hex =
+            "89504e470d0a1a0a0000000d4948445200002af800002af80800000000eb44c5560000001749444154789"
+            "c63601805a360148c8251300a46c150070007d000019b79c96f0000000049454e44ae426082";
+        std::string bytes;
+        for (size_t i = 0; i < hex.size(); i += 2)
+            bytes.push_back(char(std::stoi(hex.substr(i, 2), nullptr, 16)));
+        writeText(in / "liar.png", bytes);
+    }
     // Outputs that are inputs under other names: a link, a second hard link.
     fs::create_symlink("trunc90.vdb", in / "alias.ply");
     fs::create_symlink("flipped.vdb", in / "alias.png");
@@ -471,6 +481,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/tiles.vdb --via-mesh -o OUT/out.png", "not a narrow-band level set"},
         {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
         {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},
+        // photos that lie
+        {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/liar.png -o OUT/out.vdb",
+         "liar.png: its header says 11000 x 11000 pixels, more than the 50 million pixels read"},
         // shapes
         {"shape IN/far_edits.json -o OUT/out.ply",
          "details and edits edits[0] (radius 100, gain 100), edits[1] (radius 100, gain 100)"},

@@ -31,15 +31,16 @@ struct CodecImage {
 /// not cross the plugin's boundary): an empty string is success.
 struct ImageCodecApi {
     int abi;
-    /// Reads `path`; refuses, before reading the pixels, an image of more
-    /// than `maxValues` channel values.  The message names the file.
-    std::string (*decode)(const std::string& path, size_t maxValues, CodecImage& out);
+    /// Reads `path`; refuses, from its header, before any pixel is read or
+    /// held, an image of more than `maxPixels` pixels.  The message names
+    /// the file.
+    std::string (*decode)(const std::string& path, size_t maxPixels, CodecImage& out);
     /// Encodes `image` into `bytes` in the format of `path`'s extension.
     std::string (*encode)(const std::string& path, const CodecImage& image,
                           std::vector<unsigned char>& bytes);
 };
 
-constexpr int kImageCodecAbi = 1;
+constexpr int kImageCodecAbi = 2;
 
 /// The plugin, loaded on the first call: from $CAMBIUM_IMAGE_CODEC, else
 /// beside the executable, else where the build put it.  std::runtime_error

@@ -85,8 +85,11 @@ Photo readPhoto(const std::string& path)
 {
     checkInputFile(path, "photo");
     CodecImage img;
-    constexpr size_t kMaxValues = 400'000'000;  // far more than a bark photo needs
-    const std::string error = imageCodec().decode(path, kMaxValues, img);
+    // Far more than a bark photo needs (8192 x 6144), and at most 7 floats
+    // a pixel held (the decoded channels, then RGB): 1.4 GB.  Counted in
+    // pixels from the header, so a grey or a lying file is no bomb.
+    constexpr size_t kMaxPixels = 50'000'000;
+    const std::string error = imageCodec().decode(path, kMaxPixels, img);
     if (!error.empty())
         throw InputError(error);
     // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones

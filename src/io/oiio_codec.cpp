@@ -11,7 +11,7 @@
 
 namespace {
 
-std::string decode(const std::string& path, size_t maxValues, cambium::CodecImage& out)
+std::string decode(const std::string& path, size_t maxPixels, cambium::CodecImage& out)
 try {
     auto in = OIIO::ImageInput::open(path);
     if (!in)
@@ -19,11 +19,11 @@ try {
     const OIIO::ImageSpec& spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);
-    if (double(spec.width) * spec.height * spec.nchannels > double(maxValues))
+    if (double(spec.width) * spec.height > double(maxPixels))
         return fmt::format(
-            "{}: {} x {} pixels of {} channels is more than the {:g} million values read: scale "
+            "{}: its header says {} x {} pixels, more than the {:g} million pixels read: scale "
             "it down",
-            path, spec.width, spec.height, spec.nchannels, double(maxValues) / 1e6);
+            path, spec.width, spec.height, double(maxPixels) / 1e6);
     out.width = spec.width;
     out.height = spec.height;
     out.channels = spec.nchannels;
