@@ -331,6 +331,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
                            true);
         openvdb::io::File((in / "tiles.vdb").string()).write({tiles});
         writeText(in / "tiles_base.json", R"({"base": {"type": "vdb", "file": "tiles.vdb"}})");
+        // two grids of one name, and a level set with nothing in it
+        auto sphere = openvdb::FloatGrid::create(0.3f);
+        sphere->setName("surface");
+        sphere->setGridClass(openvdb::GRID_LEVEL_SET);
+        sphere->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+        openvdb::io::File((in / "empty.vdb").string()).write({sphere});
+        sphere->tree().setValue(openvdb::Coord(0), -0.1f);
+        openvdb::io::File((in / "twice.vdb").string()).write({sphere, sphere->deepCopy()});
     }
     {
         // 80 bytes whose PNG header claims 11000 x 11000 grey pixels
@@ -481,6 +489,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/tiles.vdb --via-mesh -o OUT/out.png", "not a narrow-band level set"},
         {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
         {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},
+        {"mesh IN/empty.vdb -o OUT/out.ply",
+         "empty.vdb: the level set has no active voxels: nothing to mesh"},
+        {"render IN/empty.vdb -o OUT/out.png", "empty.vdb: the level set has no active voxels"},
+        {"mesh IN/twice.vdb -o OUT/out.ply",
+         "twice.vdb: more than one grid is named 'surface': which one is meant?"},
         // photos that lie
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/liar.png -o OUT/out.vdb",
          "liar.png: its header says 11000 x 11000 pixels, more than the 50 million pixels read"},

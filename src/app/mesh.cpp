@@ -42,6 +42,9 @@ int runMeshCommand(const MeshRequest& req)
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             LevelSetGrids f = readLevelSet(in, req.grid);
+            if (f.surface->activeVoxelCount() == 0)
+                throw InputError(
+                    fmt::format("{}: the level set has no active voxels: nothing to mesh", in));
             const double read = secondsSince(start);
             MeshTimings tm;
             const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity, &tm);

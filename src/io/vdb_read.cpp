@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
 #include <openvdb/io/io.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -356,7 +357,12 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     std::string names;
     bool found = false, hasColour = false;
     for (const VdbSummary::Grid& g : summary.grids) {
-        names += (names.empty() ? "" : ", ") + g.name;
+        names += (names.empty() ? "" : ", ") + printable(g.name);
+        // (OpenVDB stores a second grid of a name with a suffix of its own)
+        if (g.name != grid && openvdb::io::GridDescriptor::stripSuffix(g.name) == grid)
+            throw InputError(
+                fmt::format("{}: more than one grid is named '{}': which one is meant?", path,
+                            printable(grid)));
         found = found || g.name == grid;
         hasColour = hasColour || g.name == kColorGrid;
     }
