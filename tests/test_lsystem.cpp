@@ -188,6 +188,8 @@ TEST(LSystem, ErrorsNameTheLineAndColumn)
     };
     expectError("Axiom: F[+F\n", "bad.l:1:12: 1 '[' without a matching ']'");
     expectError("Axiom: F]\n", "bad.l:1:9: ']' without a matching '['");
+    expectError("Axiom: A\n/* ok */ A --> B /* never closed\nB --> C\n",
+                "bad.l:2:18: a comment '/*' that is never closed with '*/'");
     expectError("Axiom: A\nA --> B[C\n", "bad.l:2:");
     expectError("Axiom: A(1)\nA(x) : x < --> A(x)\n", "bad.l:2:");
     expectError("Axiom: A(1)\nA(x) --> A(y)\n",

@@ -458,7 +458,7 @@ public:
 
     LSystem read(const std::string& text)
     {
-        const std::string clean = stripComments(text);
+        const std::string clean = stripComments(text, system_.source);
         std::istringstream in(clean);
         std::string line;
         int lineNo = 0;
@@ -547,13 +547,21 @@ public:
     }
 
 private:
-    static std::string stripComments(const std::string& text)
+    static std::string stripComments(const std::string& text, const std::string& source)
     {
         std::string out;
         out.reserve(text.size());
         for (size_t i = 0; i < text.size(); ++i) {
             if (text.compare(i, 2, "/*") == 0) {
                 const size_t end = text.find("*/", i + 2);
+                if (end == std::string::npos) {  // (it would swallow the rest of the file)
+                    const size_t lineStart = text.rfind('\n', i);
+                    const int line =
+                        1 + int(std::count(text.begin(), text.begin() + long(i), '\n'));
+                    const size_t column = i - (lineStart == std::string::npos ? 0 : lineStart + 1);
+                    fail(Place{&source, line, 1}, column,
+                         "a comment '/*' that is never closed with '*/'");
+                }
                 for (size_t k = i; k < (end == std::string::npos ? text.size() : end + 2); ++k)
                     out += text[k] == '\n' ? '\n' : ' ';  // keep line and column numbers
                 i = end == std::string::npos ? text.size() : end + 1;
