@@ -4,6 +4,7 @@
 #include "bake/bake.h"
 #include "bake/bark_photo.h"
 #include "bake/levelset.h"
+#include "bake/sequence.h"
 #include "bake/sampler.h"
 #include "core/error.h"
 #include "io/image_file.h"
@@ -279,4 +280,32 @@ TEST(BarkPhoto, ASceneFileNamesItsPhotoAndTheColourItReplaces)
     std::ofstream(dir + "/species.json") << species.dump();
     expectInputError([&] { runBake(req); }, "bark.photo", "species photo");
     EXPECT_FALSE(std::filesystem::exists(req.output));
+}
+
+TEST(BarkPhoto, ResumeDoesNotKeepFramesMadeFromAnotherPhoto)
+{
+    // A sequence's key holds its photo's bytes, not only its name: frames
+    // of the same photo are kept, a repainted photo under the same name
+    // makes the old frames another bake's.
+    openvdb::initialize();
+    const std::string dir = tempDir() + "/resume";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string photo = writePhoto(dir, "uint8");
+    SequenceRequest r;
+    r.bake.input = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json";
+    r.bake.output = dir + "/s.##.vdb";
+    r.bake.voxelSize = 0.05;
+    r.bake.device = Device::Cpu;
+    r.bake.barkPhoto = photo;
+    r.frames = "2-3";
+    r.fpsPerYear = 1.0;
+    bakeSequence(r);
+    r.resume = true;
+    for (const FrameReport& f : bakeSequence(r).frames)
+        EXPECT_EQ(f.outcome, FrameReport::Outcome::Skipped) << f.frame;
+    std::filesystem::copy_file(writePhoto(dir, "grey"), photo,
+                               std::filesystem::copy_options::overwrite_existing);
+    expectInputError([&] { bakeSequence(r); }, "s.02.vdb exists from another bake",
+                     "a repainted photo");
 }

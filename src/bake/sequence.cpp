@@ -8,6 +8,7 @@
 #include "core/files.h"
 #include "core/frames.h"
 #include "model/growth.h"
+#include "model/growth_params.h"
 #include "core/clock.h"
 
 #include <fmt/format.h>
@@ -52,7 +53,10 @@ std::string sequenceKey(const SequenceRequest& req, const std::string& text, dou
         voxelSize, req.bake.halfWidth, req.fpsPerYear, req.bake.model.leaves, req.bake.fog,
         req.bake.half, req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1,
         colourExtentName(req.bake.colour));
-    return fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
+    // (the photos' bytes too: a repainted photo makes other frames)
+    const std::string files =
+        filesContentKey({req.bake.barkPhoto, loadGrowthParameters(req.bake.input).barkPhoto});
+    return fmt::format("{:016x}", fnv1a64(files, fnv1a64(options, fnv1a64(text))));
 }
 
 SequencePlan planSequence(const SequenceRequest& request)

@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "core/frames.h"
+#include "core/hash.h"
 
 #include <fmt/format.h>
 
@@ -208,6 +209,24 @@ void RemoveOnSignal::release()
 std::string temporaryPathFor(const std::string& path)
 {
     return fmt::format("{}.tmp-{}", path, ::getpid());
+}
+
+std::string filesContentKey(const std::vector<std::string>& paths)
+{
+    std::string key;
+    std::vector<char> piece(size_t(1) << 20);
+    for (const std::string& path : paths) {
+        if (path.empty())
+            continue;
+        std::ifstream in(path, std::ios::binary);
+        Checksum64 sum;
+        while (in) {
+            in.read(piece.data(), std::streamsize(piece.size()));
+            sum.update(piece.data(), size_t(in.gcount()));
+        }
+        key += fmt::format("{}={:016x};", path, in.eof() ? sum.value() : 0);
+    }
+    return fmt::format("{:016x}", fnv1a64(key));
 }
 
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)

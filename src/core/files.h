@@ -33,6 +33,12 @@ std::string checkOutputPath(const std::string& path, bool probe = true);
 /// of `inputs` (empty names skipped); a command checks it before any work.
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs);
 
+/// A key of the bytes of the files `paths` (each name with a 64-bit
+/// checksum of its contents; an empty name or a file that cannot be read
+/// counts as none): what a sequence's frames depend on besides its main
+/// input, so that --resume does not keep frames made from other files.
+std::string filesContentKey(const std::vector<std::string>& paths);
+
 /// The temporary file the writer fills beside the real target `path`
 /// ("PATH.tmp-PID") before renaming it.
 std::string temporaryPathFor(const std::string& path);

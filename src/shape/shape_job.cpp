@@ -70,6 +70,14 @@ void checkRequest(const ShapeRequest& req, bool levelSet)
 }
 
 /// The synthesis's mesh and its measures, into the report.
+/// The painted PLYs an alpha signal reads, its operands' too.
+void paintedFiles(const AlphaSpec& alpha, std::vector<std::string>& files)
+{
+    files.push_back(alpha.file);
+    for (const AlphaSpec& a : alpha.of)
+        paintedFiles(a, files);
+}
+
 /// InputError when a synthesised point is not finite or lies beyond 1e15
 /// (as scenes' coordinates may not): details and edits whose gains, radii
 /// and amplitudes multiply past any size, named.
@@ -192,7 +200,12 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     const std::string options =
         fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={}", r.voxelSize,
                     req.halfWidth, levels, req.fog, req.half, deviceName(req.device));
-    const std::string key = fmt::format("{:016x}", fnv1a64(options, fnv1a64(text)));
+    // (the files the shape reads too: an edited control mesh or painted
+    // PLY makes other frames)
+    std::vector<std::string> files = {specs.front().base.file, specs.front().base.control};
+    paintedFiles(specs.front().blend.alpha, files);
+    const std::string key =
+        fmt::format("{:016x}", fnv1a64(filesContentKey(files), fnv1a64(options, fnv1a64(text))));
     auto notice = [&](const std::string& line) {
         if (cb.notice)
             cb.notice(line);
