@@ -204,6 +204,19 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("plan.json: output"), std::string::npos) << e.what();
     }
+    // Nor is one of another version.
+    for (const std::string version : {"2", "\"1\"", "0.5"}) {
+        std::ofstream(array.planPath) << "{\"cambium_farm_plan\": " + version + "}";
+        try {
+            readFarmPlan(array.farmDir);
+            ADD_FAILURE() << "a plan of version " << version << " was read";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("plan.json: cambium_farm_plan: version " +
+                                                 version + " is not the one this cambium reads"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
 
     // An output path that #SBATCH lines cannot name is refused, by name.
     for (const std::string bad : {"with space", "per%cent"}) {

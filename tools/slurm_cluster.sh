@@ -42,7 +42,7 @@ start() {
     mkdir -p "$dir/munge" "$dir/spool" "$dir/state" "$dir/log"
     chmod 700 "$dir/munge"
     # The namespace: loopback only, and 127.0.0.2 on it, without which Slurm
-    # cannot resolve "localhost" there (../shared/STACK.md).
+    # cannot resolve "localhost" there.
     setsid unshare -n -- sleep infinity </dev/null >/dev/null 2>&1 &
     echo $! >"$dir/netns.pid"
     for _ in $(seq 50); do

@@ -337,8 +337,8 @@ void addBenchCommand(CLI::App& app, Action& action)
     auto* bake = bench->add_subcommand(
         "bake",
         "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
-        "ParticlesToLevelSet, on generated trees (the statistics of "
-        "../shared/bench/gen_skeleton.py)");
+        "ParticlesToLevelSet, on generated trees (the statistics of the "
+        "benchmark generator, src/bench/tree_generator.cpp)");
     bake->add_option("--case", o->cases, "INTERNODES:VOXEL_SIZE (repeatable)")
         ->capture_default_str();
     bake->add_flag("--skip-cpu", o->skipCpu, "Leave out the CPU path");

@@ -21,6 +21,9 @@ namespace cambium {
 
 namespace fs = std::filesystem;
 
+/// The plan.json layout this cambium writes and reads.
+constexpr int kFarmPlanVersion = 1;
+
 std::string shellQuote(const std::string& s)
 {
     std::string out = "'";
@@ -208,7 +211,7 @@ nlohmann::ordered_json planHeader(const SlurmArray& s, const std::string& kind,
                                   const std::string& key, double voxelSize, const SlurmOptions& o)
 {
     nlohmann::ordered_json j;
-    j["cambium_farm_plan"] = 1;
+    j["cambium_farm_plan"] = kFarmPlanVersion;
     j["kind"] = kind;
     j["input"] = input;
     j["input_hash"] = fmt::format("{:016x}", fnv1a64(readTextFile(input, "input file")));
@@ -352,6 +355,12 @@ FarmPlan readFarmPlan(const std::string& farmDir)
     v.object(j, "", "a farm plan (an object)");
     if (!j.contains("cambium_farm_plan"))
         v.fail("cambium_farm_plan", "missing: not a plan cambium bake --slurm wrote");
+    if (const nlohmann::json& version = j.at("cambium_farm_plan");
+        !version.is_number_integer() || version.get<long long>() != kFarmPlanVersion)
+        v.fail("cambium_farm_plan",
+               fmt::format("version {} is not the one this cambium reads ({}): a plan of "
+                           "another cambium",
+                           printable(version.dump()), kFarmPlanVersion));
     FarmPlan p;
     p.dir = fs::absolute(farmDir).string();
     p.output = v.string(v.required(j, "output", ""), "output");
