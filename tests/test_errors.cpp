@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -339,6 +340,18 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         openvdb::io::File((in / "empty.vdb").string()).write({sphere});
         sphere->tree().setValue(openvdb::Coord(0), -0.1f);
         openvdb::io::File((in / "twice.vdb").string()).write({sphere, sphere->deepCopy()});
+        // what OpenVDB's tools take for granted of a level set, broken
+        openvdb::FloatGrid::Ptr nan = sphere->deepCopy();
+        nan->tree().setValue(openvdb::Coord(3, 4, 5), std::nanf(""));
+        openvdb::io::File((in / "nan.vdb").string()).write({nan});
+        openvdb::FloatGrid::Ptr flat = sphere->deepCopy();
+        flat->transform().preScale(openvdb::Vec3d(1.0, 1.0, 0.5));
+        openvdb::io::File((in / "flat.vdb").string()).write({flat});
+        openvdb::FloatGrid::Ptr fog = openvdb::FloatGrid::create(0.0f);
+        fog->setName("surface");
+        fog->setGridClass(openvdb::GRID_LEVEL_SET);
+        fog->tree().setValue(openvdb::Coord(0), 1.0f);
+        openvdb::io::File((in / "fog.vdb").string()).write({fog});
     }
     {
         // 80 bytes whose PNG header claims 11000 x 11000 grey pixels
@@ -494,6 +507,13 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/empty.vdb -o OUT/out.png", "empty.vdb: the level set has no active voxels"},
         {"mesh IN/twice.vdb -o OUT/out.ply",
          "twice.vdb: more than one grid is named 'surface': which one is meant?"},
+        {"mesh IN/nan.vdb -o OUT/out.ply",
+         "nan.vdb: grid 'surface' has a voxel at (3, 4, 5) whose value is not a number"},
+        {"render IN/nan.vdb -o OUT/out.png", "nan.vdb: grid 'surface' has a voxel at (3, 4, 5)"},
+        {"mesh IN/flat.vdb -o OUT/out.ply",
+         "flat.vdb: grid 'surface' has voxels of 0.1 x 0.1 x 0.05: a level set's are cubes"},
+        {"mesh IN/fog.vdb -o OUT/out.ply",
+         "fog.vdb: grid 'surface' has the background 0, not a level set's positive half-width"},
         // photos that lie
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/liar.png -o OUT/out.vdb",
          "liar.png: its header says 11000 x 11000 pixels, more than the 50 million pixels read"},

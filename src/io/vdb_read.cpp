@@ -18,11 +18,14 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <future>
 #include <istream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <type_traits>
@@ -61,6 +64,20 @@ protected:
         return seekoff(off_type(pos), std::ios_base::beg, which);
     }
 };
+
+bool finite(float v)
+{
+    return std::isfinite(v);
+}
+bool finite(const openvdb::Vec3f& v)
+{
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+std::string coordText(const openvdb::Coord& c)
+{
+    return fmt::format("({}, {}, {})", c.x(), c.y(), c.z());
+}
 
 /// A file read with pread, closed with its owner.
 class ReadFile {
@@ -127,6 +144,12 @@ public:
             ~uint32_t(io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK | io::COMPRESS_BLOSC))
             throw NotParallel{};
         decode(f);
+        if (const size_t bad = firstNonFinite_.load(); bad < leaves_.size())
+            for (auto v = leaves_[bad]->cbeginValueAll(); v; ++v)
+                if (!finite(*v))
+                    throw InputError(
+                        fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number",
+                                    path, grid.name, coordText(v.getCoord())));
     }
 
 private:
@@ -217,7 +240,7 @@ private:
                 std::unique_ptr<Stream>& s = streams.local();
                 if (!s)
                     s = std::make_unique<Stream>(*this);
-                s->leaf(*leaves_[first + k], piece.data() + starts[k], starts[k + 1] - starts[k]);
+                s->leaf(first + k, piece.data() + starts[k], starts[k + 1] - starts[k]);
             });
             at += used;
         }
@@ -235,8 +258,9 @@ private:
             io::setDataCompression(is, d.compression_);
             io::setGridBackgroundValuePtr(is, &d.background_);
         }
-        void leaf(LeafT& leaf, const char* bytes, size_t n)
+        void leaf(size_t index, const char* bytes, size_t n)
         {
+            LeafT& leaf = *owner.leaves_[index];
             constexpr size_t maskBytes = sizeof(typename MaskT::Word) * MaskT::WORD_COUNT;
             buf.view(bytes + maskBytes, n - maskBytes);
             is.clear();
@@ -249,6 +273,14 @@ private:
                     fmt::format("{}: a damaged .vdb file: grid '{}' has a leaf whose "
                                 "values cannot be decoded",
                                 owner.path_, owner.grid_.name));
+            for (size_t k = 0; k < LeafT::SIZE; ++k)
+                if (!finite(values.data()[k])) {  // (the first in the tree's order is named)
+                    size_t seen = owner.firstNonFinite_.load();
+                    while (index < seen &&
+                           !owner.firstNonFinite_.compare_exchange_weak(seen, index))
+                        ;
+                    break;
+                }
             leaf.swap(values);  // (the leaf's delayed-load record goes with `values`)
         }
         const LeafDecoder& owner;
@@ -262,6 +294,7 @@ private:
     bool half_;
     ValueT background_;
     std::vector<LeafT*> leaves_;
+    mutable std::atomic<size_t> firstNonFinite_{std::numeric_limits<size_t>::max()};
 };
 
 /// The grid by io::File: read whole (`delayed`: its leaves on first touch).
@@ -329,17 +362,40 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy)
 
 namespace {
 
-/// A level set's band is voxels: active tiles (a few bytes in a file) are
-/// made into voxels by whatever meshes, resamples or converts the grid, so
-/// their volume is bounded by the memory their voxels would take.
-void checkActiveTiles(const openvdb::FloatGrid& grid, const std::string& path)
+/// What OpenVDB's tools take for granted of a level set, checked when it is
+/// read (else they fail unnamed, or work on garbage):
+/// - cubic voxels (the intersector and volumeToMesh refuse others);
+/// - a positive background, its band's half-width (a fog volume labelled a
+///   level set has 0);
+/// - every active tile's value a number (the leaves' values are checked
+///   as they are decoded);
+/// - active tiles (a few bytes in a file) that fit in memory as voxels, for
+///   whatever meshes, resamples or converts the grid makes them voxels.
+void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
 {
+    const openvdb::Vec3d v = grid.voxelSize();
+    if (!(v[0] == v[1] && v[1] == v[2]))
+        throw InputError(
+            fmt::format("{}: grid '{}' has voxels of {:g} x {:g} x {:g}: a level set's "
+                        "are cubes",
+                        path, grid.getName(), v[0], v[1], v[2]));
+    if (!(grid.background() > 0.0f))
+        throw InputError(fmt::format(
+            "{}: grid '{}' has the background {:g}, not a level set's positive half-width "
+            "(a fog volume labelled a level set?)",
+            path, grid.getName(), grid.background()));
     using Tree = openvdb::FloatTree;
     double voxels = 0.0;
     auto tile = grid.tree().cbeginValueOn();
     tile.setMaxDepth(Tree::ValueOnCIter::LEAF_DEPTH - 1);  // (tiles only, not leaves' voxels)
-    for (; tile; ++tile)
+    for (; tile; ++tile) {
+        if (!std::isfinite(*tile))
+            throw InputError(
+                fmt::format("{}: grid '{}' has a tile at {} whose value is not a "
+                            "number ({})",
+                            path, grid.getName(), coordText(tile.getCoord()), *tile));
         voxels += double(tile.getVoxelCount());
+    }
     const double bytes = voxels * sizeof(float), have = availableMemoryBytes();
     if (bytes > have)
         throw InputError(fmt::format(
@@ -391,7 +447,7 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
         throw InputError(fmt::format("{}: grid '{}' is a {} {}, not a float level set", path, grid,
                                      g->valueType(),
                                      openvdb::GridBase::gridClassToString(g->getGridClass())));
-    checkActiveTiles(*out.surface, path);
+    checkLevelSet(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
