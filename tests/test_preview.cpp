@@ -117,6 +117,13 @@ TEST(PreviewSession, AnEditMakesANewPictureAndABadOneKeepsTheLast)
     EXPECT_EQ(u.outcome, O::Failed);
     EXPECT_NE(u.error.find("branching_angle"), std::string::npos) << u.error;
     EXPECT_EQ(fileContents(dir / "preview.png"), second);
+    // Deleted: named, the picture kept; made again: pictured.
+    fs::remove(dir / "tree.json");
+    u = session.update();
+    EXPECT_EQ(u.outcome, O::Failed);
+    EXPECT_TRUE(u.inputError);
+    EXPECT_NE(u.error.find("tree.json"), std::string::npos) << u.error;
+    EXPECT_EQ(fileContents(dir / "preview.png"), second);
     // Back to the first text: its picture again, byte for byte.
     writeSpecies(dir / "tree.json", "55");
     u = session.update();
@@ -218,6 +225,12 @@ TEST(PreviewLoop, InotifySeesTheFileWrittenOrRenamedOverAndNothingElse)
     writeSpecies(dir / "tree.json", "40");
     EXPECT_TRUE(changes.wait(some));
     EXPECT_FALSE(changes.wait(none));
+    // Deleted (a change: the page says the file is gone), and made again.
+    fs::remove(dir / "tree.json");
+    EXPECT_TRUE(changes.wait(some));
+    writeSpecies(dir / "tree.json", "55");
+    EXPECT_TRUE(changes.wait(some));
+    EXPECT_FALSE(changes.wait(std::chrono::milliseconds(200)));
     // A directory that is not there: bad input, named.
     try {
         InotifyChanges missing((dir / "no" / "tree.json").string());
@@ -304,6 +317,28 @@ TEST(PreviewSession, FramesBakedInTheBackgroundAreShownAtOnceAndFollowTheFile)
     u = session.update();
     ASSERT_EQ(u.outcome, O::Rendered) << u.error;
     EXPECT_FALSE(u.prebaked);  // (year 4 of the new text is not baked yet)
+    // Memory: the kept frames stop at the cap (one frame's bytes and a half
+    // keep one), and the frames past it are baked when shown.
+    PreviewSettings capped = settingsFor(dir);
+    capped.frames = {3.0, 4.0};
+    capped.output = (dir / "capped.png").string();
+    capped.framesMemory = 1.5 * session.prebakedBytes();  // (one frame of the text)
+    PreviewSession small(capped);
+    ASSERT_EQ(small.update().outcome, O::Rendered);
+    EXPECT_TRUE(small.prebake());
+    EXPECT_FALSE(small.prebakeFull());
+    EXPECT_FALSE(small.prebake());
+    EXPECT_TRUE(small.prebakeFull());
+    EXPECT_EQ(small.prebakedFrames(), 1u);
+    EXPECT_LE(small.prebakedBytes(), capped.framesMemory);
+    PreviewView later = small.view();
+    later.time = 4.0;
+    small.setView(later);
+    u = small.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_FALSE(u.prebaked);
+    capped.framesMemory = -1.0;
+    EXPECT_THROW(PreviewSession{capped}, InputError);
     // Years outside the tree's, or a file of another kind: refused first.
     PreviewSettings late = settingsFor(dir);
     late.frames = {28.0};

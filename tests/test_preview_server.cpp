@@ -349,3 +349,163 @@ TEST(PreviewServer, AFileThatIsNotUtf8IsReportedNotFatal)
     EXPECT_EQ(pushed["outcome"], "failed");
     EXPECT_NE(pushed["error"].get<std::string>().find("tree.json"), std::string::npos);
 }
+
+namespace {
+
+/// A TCP connection to 127.0.0.1:`port` (-1 when refused).
+int openConnection(int port)
+{
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(port));
+    ::inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+    if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0)
+        return fd;
+    if (fd >= 0)
+        ::close(fd);
+    return -1;
+}
+
+/// Everything the server sends on `fd` until it closes the connection (or
+/// `seconds` pass with nothing read).
+std::string readUntilClosed(int fd, int seconds)
+{
+    timeval limit{seconds, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
+    std::string answer;
+    char buffer[4096];
+    for (;;) {
+        const ssize_t n = ::read(fd, buffer, sizeof buffer);
+        if (n <= 0)
+            return n == 0 ? answer : answer + "<timed out>";
+        answer.append(buffer, size_t(n));
+    }
+}
+
+bool sendAll(int fd, const std::string& bytes)
+{
+    return ::write(fd, bytes.data(), bytes.size()) == ssize_t(bytes.size());
+}
+
+}  // namespace
+
+TEST(PreviewServer, IdleSlowAndManyConnectionsDoNotStallThePage)
+{
+    Fixture f("cambium_preview_server_load");
+    const int port = f.server.port();
+    const std::string host = fmt::format("Host: 127.0.0.1:{}\r\n", port);
+    // 200 connections that send nothing, and 8 that send half a request and
+    // stop (each held by the server until its read times out).
+    std::vector<int> idle, slow;
+    for (int i = 0; i < 200; ++i)
+        idle.push_back(openConnection(port));
+    for (int i = 0; i < 8; ++i) {
+        slow.push_back(openConnection(port));
+        sendAll(slow.back(), "GET " + f.withToken("/model") + " HTTP/1.1\r\nHo");
+    }
+    for (int fd : idle)
+        ASSERT_GE(fd, 0);
+    // The page's request is answered beside them.  (A pool of 24 threads
+    // held each idle connection for its 2 s timeout: over 16 s for this
+    // one; 10 s is what a page can wait.)
+    const auto start = std::chrono::steady_clock::now();
+    auto r = f.client.Get(f.withToken("/model").c_str());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_LT(seconds, 10.0);
+    // Connections that send nothing are closed by the server, with nothing
+    // sent; the slow ones too.
+    for (int fd : idle) {
+        EXPECT_EQ(readUntilClosed(fd, 30), "");
+        ::close(fd);
+    }
+    for (int fd : slow) {
+        EXPECT_EQ(readUntilClosed(fd, 30).find("<timed out>"), std::string::npos);
+        ::close(fd);
+    }
+    // 200 requests on 200 connections at once: every one answered.
+    std::vector<int> many;
+    for (int i = 0; i < 200; ++i) {
+        many.push_back(openConnection(port));
+        ASSERT_GE(many.back(), 0);
+        ASSERT_TRUE(sendAll(many.back(), "GET " + f.withToken("/model") + " HTTP/1.1\r\n" +
+                                             host + "Connection: close\r\n\r\n"));
+    }
+    for (int fd : many) {
+        const std::string answer = readUntilClosed(fd, 30);
+        EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer.substr(0, 80);
+        EXPECT_NE(answer.find("\"curves\""), std::string::npos);
+        ::close(fd);
+    }
+}
+
+TEST(PreviewServer, HugeMalformedAndEncodedRequestsAreRefusedAndNothingIsWritten)
+{
+    Fixture f("cambium_preview_server_abuse");
+    const int port = f.server.port();
+    const std::string before = fileContents(f.dir / "tree.json");
+    std::ofstream(f.dir / "secret.txt") << "not for the page";
+    const std::string host = fmt::format("Host: 127.0.0.1:{}\r\n", port);
+    // Bodies: over the 1 MB limit (sent, or only announced), cut short, not
+    // JSON, deeply nested, not UTF-8.
+    const std::string curve = "POST " + f.withToken("/curve") + " HTTP/1.1\r\n" + host +
+                              "Content-Type: application/json\r\nConnection: close\r\n";
+    const auto sized = [](const std::string& body) {
+        return fmt::format("Content-Length: {}\r\n\r\n", body.size()) + body;
+    };
+    const struct {
+        std::string request;
+        const char* status;  // (the answer's first digits; "": any, or none)
+    } bad[] = {
+        {curve + sized(std::string(2000000, '[')), "413"},
+        {curve + "Content-Length: 1000000000000\r\n\r\n{}", "413"},
+        {curve + "Content-Length: -5\r\n\r\n{}", "4"},
+        {curve + "Content-Length: 10\r\n\r\n{\"ke", ""},  // (cut short)
+        {curve + sized("{\"key\": }"), "400"},
+        {curve + sized(std::string(100000, '[')), "400"},
+        {curve + sized("{\"key\": \"G\xff\", \"points\": [[0,0]]}"), "400"},
+        {curve + sized("{\"key\": \"Gh\", \"points\": [[0,0], [1e999, 1]]}"), "400"},
+        {curve + "Transfer-Encoding: chunked\r\n\r\nFFFFFFFFFF\r\n{}", ""},
+    };
+    // (All at once: the ones cut short wait out their timeouts together.)
+    std::vector<int> fds;
+    for (const auto& b : bad) {
+        fds.push_back(openConnection(port));
+        ASSERT_GE(fds.back(), 0);
+        sendAll(fds.back(), b.request);  // (the connection kept open: the answer is awaited)
+    }
+    for (size_t i = 0; i < fds.size(); ++i) {
+        const auto& b = bad[i];
+        const std::string answer = readUntilClosed(fds[i], 30);
+        ::close(fds[i]);
+        EXPECT_EQ(answer.find("<timed out>"), std::string::npos) << b.request.substr(0, 120);
+        const std::string expected = std::string("HTTP/1.1 ") + b.status;
+        if (*b.status) {
+            EXPECT_EQ(answer.substr(0, expected.size()), expected)
+                << b.request.substr(0, 160) << "\n"
+                << answer.substr(0, 200);
+        }
+    }
+    // Paths in every encoding: no file reached.
+    for (const char* path :
+         {"/%252e%252e/secret.txt", "/..%5csecret.txt", "/%c0%ae%c0%ae/secret.txt",
+          "/picture.png%00/../secret.txt", "/%2E%2E%2Fsecret.txt", "/.%2e/.%2e/secret.txt",
+          "/model/..;/secret.txt", "/%u002e%u002e/secret.txt"}) {
+        auto r = f.client.Get(f.withToken(path).c_str());
+        ASSERT_TRUE(r) << path;
+        EXPECT_NE(r->status, 200) << path;
+        EXPECT_EQ(r->body.find("not for the page"), std::string::npos) << path;
+    }
+    // The server still serves, and the watched file is as it was.
+    auto r = f.client.Get(f.withToken("/model").c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_EQ(fileContents(f.dir / "tree.json"), before);
+    std::set<std::string> files;
+    for (const auto& entry : fs::directory_iterator(f.dir))
+        files.insert(entry.path().filename().string());
+    EXPECT_EQ(files, (std::set<std::string>{"secret.txt", "tree.json"}));
+}

@@ -66,6 +66,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
         bool once = false;
         int port = 0;
         std::string frames;
+        double framesMemoryGB = 0.0;
     };
     auto o = std::make_shared<Options>();
     auto* cmd = app.add_subcommand(
@@ -101,6 +102,9 @@ void addPreviewCommand(CLI::App& app, Action& action)
     cmd->add_option("--frames", o->frames,
                     "Years A-B[:STEP] of a growth parameter file to bake in the background "
                     "after the first picture, so that the page's year slider shows them at once");
+    cmd->add_option("--frames-memory", o->framesMemoryGB,
+                    "GB the --frames kept may take; the years past it are baked when the "
+                    "slider reaches them (default: a quarter of the memory available at start)");
     cmd->add_flag("--once", o->once,
                   "One picture, then exit (2: bad input, 1: a failure): what scripts and tests "
                   "run");
@@ -118,6 +122,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
             if (!o->frames.empty())
                 for (long long year : parseFrames(o->frames, "--frames"))
                     s.frames.push_back(double(year));
+            s.framesMemory = o->framesMemoryGB * 1e9;
             PreviewSession session(s);
             if (o->once) {
                 const PreviewUpdate u = session.update();
@@ -137,8 +142,16 @@ void addPreviewCommand(CLI::App& app, Action& action)
             const std::atomic<bool> never{false};  // (a signal ends the process)
             PreviewLoopOptions loop;
             bool first = true;
+            bool toldFull = false;
             loop.idle = [&](const std::atomic<bool>* interrupt) {
-                return session.prebake(interrupt);
+                const bool more = session.prebake(interrupt);
+                if (session.prebakeFull() && !toldFull)
+                    fmt::print("--frames: {} years kept ({}), the most --frames-memory allows; "
+                               "the others are baked when shown\n",
+                               session.prebakedFrames(), formatBytes(session.prebakedBytes()));
+                toldFull = session.prebakeFull();
+                std::fflush(stdout);
+                return more;
             };
             loop.updated = [&](const PreviewUpdate& u) {
                 report(s, u);

@@ -26,8 +26,11 @@ InotifyChanges::InotifyChanges(const std::string& path) : path_(path)
     if (fd_ < 0)
         throw std::runtime_error(fmt::format("inotify: {}", std::strerror(errno)));
     const std::string dir = file.parent_path().string();
+    // The file written, renamed over, deleted or renamed away (the page
+    // then says it is gone, and the next write brings it back).
     if (::inotify_add_watch(fd_, dir.c_str(),
-                            IN_CLOSE_WRITE | IN_MOVED_TO | IN_DELETE_SELF | IN_MOVE_SELF) < 0) {
+                            IN_CLOSE_WRITE | IN_MOVED_TO | IN_DELETE | IN_MOVED_FROM |
+                                IN_DELETE_SELF | IN_MOVE_SELF) < 0) {
         const int e = errno;
         ::close(fd_);
         const std::string message =

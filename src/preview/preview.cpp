@@ -43,6 +43,9 @@ struct PreviewSession::State {
     std::map<uint64_t, BakedGrids> prebaked;
     std::set<uint64_t> unbakeable;  // years of the text whose bake failed
     uint64_t prebakedText = 0;
+    double prebakedBytes = 0.0;  // the kept frames' grids
+    double framesMemory = 0.0;   // what they may take
+    bool prebakeFull = false;    // a frame did not fit: no more for this text
     bool marcherStale = true;       // the marcher holds an older bake
     std::optional<uint64_t> baked;  // its file text and time, when known
     PreviewView pictured;           // the last picture's view
@@ -79,6 +82,11 @@ PreviewSession::PreviewSession(PreviewSettings settings)
     // The camera's spec, before any work.
     parseCamera(settings_.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);
     state_->view.time = settings_.model.time;
+    if (!(settings_.framesMemory >= 0.0) || !std::isfinite(settings_.framesMemory))
+        throw InputError(fmt::format("--frames-memory must be a number of GB >= 0 (got {})",
+                                     settings_.framesMemory / 1e9));
+    state_->framesMemory = settings_.framesMemory > 0.0 ? settings_.framesMemory
+                                                        : 0.25 * availableMemoryBytes();
     if (!settings_.frames.empty()) {
         if (!isGrowthParameterFile(settings_.input))
             throw InputError(fmt::format(
@@ -209,7 +217,11 @@ bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
             s.prebaked.clear();
             s.unbakeable.clear();
             s.prebakedText = fnv1a64(text);
+            s.prebakedBytes = 0.0;
+            s.prebakeFull = false;
         }
+        if (s.prebakeFull)
+            return false;
         for (double year : settings_.frames) {
             const uint64_t key = bakeKey(text, year);
             if (s.prebaked.count(key) || s.unbakeable.count(key))
@@ -218,8 +230,18 @@ bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
             bool known = true;
             try {
                 BakedGrids grids = bakeText(text, year, interrupt, u, known);
-                if (known)
+                const double bytes = double(grids.surface->memUsage()) +
+                                     (grids.color ? double(grids.color->memUsage()) : 0.0);
+                if (known && s.prebakedBytes + bytes > s.framesMemory) {
+                    // (Kept, it would pass the cap: it and the frames after
+                    // it are baked when the slider reaches them.)
+                    s.prebakeFull = true;
+                    return false;
+                }
+                if (known) {
                     s.prebaked.emplace(key, std::move(grids));
+                    s.prebakedBytes += bytes;
+                }
             } catch (const BakeInterrupted&) {
                 return false;
             } catch (const std::exception&) {
@@ -238,6 +260,16 @@ bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
 size_t PreviewSession::prebakedFrames() const
 {
     return state_->prebaked.size();
+}
+
+double PreviewSession::prebakedBytes() const
+{
+    return state_->prebakedBytes;
+}
+
+bool PreviewSession::prebakeFull() const
+{
+    return state_->prebakeFull;
 }
 
 PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)

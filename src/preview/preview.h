@@ -37,6 +37,10 @@ struct PreviewSettings {
     /// Times (years) to bake in the background once the first picture is
     /// made (prebake): a year slider on one of them shows it at once.
     std::vector<double> frames;
+    /// Bytes the frames kept may take together (0: a quarter of the memory
+    /// available when the session starts); the frames past it are baked
+    /// when the slider reaches them, as without --frames.
+    double framesMemory = 0.0;
 };
 
 /// The default preview resolution: voxels across the first model's bounds.
@@ -102,8 +106,12 @@ public:
     /// is not made yet, the file does not read, or `interrupt` stopped it.
     /// The loop's thread only, as update.
     bool prebake(const std::atomic<bool>* interrupt = nullptr);
-    /// The frames baked in the background and kept.
+    /// The frames baked in the background and kept, and their bytes.
     size_t prebakedFrames() const;
+    double prebakedBytes() const;
+    /// Whether prebake stopped at the settings' framesMemory (until the
+    /// file's text changes).
+    bool prebakeFull() const;
 
     const PreviewSettings& settings() const { return settings_; }
 

@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <deque>
 #include <fstream>
 #include <iterator>
 #include <mutex>
@@ -26,6 +27,9 @@ namespace cambium {
 namespace {
 
 using json = nlohmann::json;
+
+/// Connections served at once (each on a thread of its own).
+constexpr size_t kConnectionThreads = 256;
 
 /// 128 random bits from the system's source, as hex.
 std::string randomToken()
@@ -118,6 +122,68 @@ std::optional<json> jsonBody(const httplib::Request& req, httplib::Response& res
     return body;
 }
 
+/// Runs each connection on a thread of its own, up to `most` at once (the
+/// rest wait their turn), and keeps the threads for the next connections.
+/// A fixed pool of N threads (httplib's) is stalled by N connections that
+/// send nothing, each held until its timeout; here an idle or slow client
+/// holds only its own thread, and a page's request is answered beside them.
+class ConnectionThreads final : public httplib::TaskQueue {
+public:
+    explicit ConnectionThreads(size_t most) : most_(most) {}
+    ~ConnectionThreads() override { shutdown(); }
+
+    void enqueue(std::function<void()> fn) override
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        jobs_.push_back(std::move(fn));
+        if (jobs_.size() > idle_ && threads_.size() < most_)
+            threads_.emplace_back([this] { work(); });
+        else
+            ready_.notify_one();
+    }
+
+    /// Serves what is queued, then joins every thread (httplib calls it when
+    /// its accept loop ends: nothing is queued after).
+    void shutdown() override
+    {
+        std::vector<std::thread> threads;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            stopping_ = true;
+            threads.swap(threads_);
+        }
+        ready_.notify_all();
+        for (std::thread& t : threads)
+            t.join();
+    }
+
+private:
+    void work()
+    {
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (;;) {
+            ++idle_;
+            ready_.wait(lock, [&] { return stopping_ || !jobs_.empty(); });
+            --idle_;
+            if (jobs_.empty())
+                return;  // (stopping, and nothing left to serve)
+            std::function<void()> job = std::move(jobs_.front());
+            jobs_.pop_front();
+            lock.unlock();
+            job();
+            lock.lock();
+        }
+    }
+
+    const size_t most_;
+    std::mutex mutex_;
+    std::condition_variable ready_;
+    std::deque<std::function<void()>> jobs_;
+    std::vector<std::thread> threads_;
+    size_t idle_ = 0;
+    bool stopping_ = false;
+};
+
 }  // namespace
 
 struct PreviewServer::Impl {
@@ -126,6 +192,7 @@ struct PreviewServer::Impl {
     httplib::Server server;
     std::string token = randomToken();
     int port = 0;
+    socket_t listening = INVALID_SOCKET;  // (httplib's, closed by it)
     std::thread thread;
     std::atomic<bool> listened{false};  // the listening loop has returned
 
@@ -319,14 +386,21 @@ PreviewServer::PreviewServer(PreviewSession& session, ChangeSource& changes, int
         throw InputError(fmt::format("--port must be 0 (any free port) to 65535 (got {})", port));
     Impl& s = *impl_;
     s.server.set_payload_max_length(1 << 20);
-    // Threads for a few pages' event streams and their requests besides.
-    s.server.new_task_queue = [] { return new httplib::ThreadPool(24); };
+    // A thread for each connection, bounded (a thread's stack is mostly
+    // untouched: 256 idle connections cost a few MB), and connections that
+    // send nothing for 2 s closed: a browser opens a new one when it needs
+    // it, and the page's event stream writes every 5 s.
+    s.server.new_task_queue = [] { return new ConnectionThreads(kConnectionThreads); };
+    s.server.set_keep_alive_timeout(2);
+    s.server.set_read_timeout(2, 0);
+    s.server.set_write_timeout(5, 0);
     // SO_REUSEADDR (a restart finds the port free at once), and not
     // httplib's SO_REUSEPORT, with which a second server on the port would
     // share its connections instead of being refused.
-    s.server.set_socket_options([](socket_t sock) {
+    s.server.set_socket_options([&s](socket_t sock) {
         const int yes = 1;
         ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+        s.listening = sock;
     });
     s.routes();
     // Loopback only: no other address of the machine reaches it.
@@ -338,6 +412,11 @@ PreviewServer::PreviewServer(PreviewSession& session, ChangeSource& changes, int
     if (s.port <= 0)
         throw InputError(
             fmt::format("--port {}: cannot listen on 127.0.0.1:{} (in use?)", port, port));
+    // httplib listens with a backlog of 5: a burst of connections (a page's
+    // requests beside idle ones) past it has its SYNs dropped and retried by
+    // the client 1, 3, 7 s later.  Listening again sets the queue's length.
+    if (s.listening != INVALID_SOCKET)
+        ::listen(s.listening, SOMAXCONN);
     s.thread = std::thread([&s] {
         s.server.listen_after_bind();
         s.listened = true;
