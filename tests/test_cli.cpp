@@ -137,6 +137,41 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
     std::filesystem::remove(out);
 }
 
+TEST(Cli, DryRunPrintsThePlanOfAnyBakeAndWritesNothing)
+{
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_dry_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string populus = kExamples + "populus/populus.json";
+    const std::string out = (dir / "one.vdb").string();
+    // One bake: its voxel size is the one the bake then uses.
+    Result r = run("bake " + populus + " -o " + out + " --dry-run");
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* line : {"plan: bake ", "voxel size ", "band: about ", "time: roughly ",
+                             "memory: about ", "disk: at least about ", "nothing baked"})
+        EXPECT_NE(r.out.find(line), std::string::npos) << line << "\n" << r.out;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.out, m, std::regex("voxel size ([0-9.e-]+)"))) << r.out;
+    const std::string planned = m[1];
+    // A sequence (a million frames' plan is a second, not minutes) and tiles.
+    r = run("bake " + populus + " --frames 1-100000 --fps-per-year 50000 --voxel-size 0.05 -o " +
+            (dir / "s.####.vdb").string() + " --dry-run");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("plan: bake 100,000 frames"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("s.0001.vdb to "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("s.100000.vdb"), std::string::npos) << r.out;  // (widened)
+    r = run("bake " + populus + " --tiles 3 -o " + out + " --dry-run");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("as 3 tiles"), std::string::npos) << r.out;
+    EXPECT_TRUE(std::filesystem::is_empty(dir));
+    // Then the bake: the planned voxel size.
+    r = run("bake " + populus + " -o " + out + " --device cpu");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("voxel size " + planned + " "), std::string::npos) << r.out;
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
 {
     // `cambium info FILE.vdb`: each grid with its type, class, active voxels,

@@ -114,8 +114,11 @@ TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
 {
     const fs::path dir = freshDir("cambium_errors_full");
     if (::geteuid() != 0 ||
-        std::system(("mount -t tmpfs -o size=256k tmpfs " + dir.string() + " 2>/dev/null").c_str()))
+        std::system(("mount -t tmpfs -o size=700k tmpfs " + dir.string() + " 2>/dev/null").c_str()))
         GTEST_SKIP() << "cannot mount a tmpfs here (not root, or no permission)";
+    // (Sizes between the bake's disk estimate, which is low on purpose, and
+    // what it writes: the estimate passes, the write fails.  A plan whose
+    // estimate does not fit is refused before work: BadInput below.)
     std::ofstream(dir / "keep.vdb") << "a good file";
     const auto before = snapshot(dir);
     for (const std::string& args :
@@ -128,9 +131,11 @@ TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
         EXPECT_EQ(snapshot(dir), before) << args;
     }
     // A sequence stops at the first frame that does not fit; every frame
-    // that is there is whole.
+    // that is there is whole.  (Its estimate: 2.4 MB; its frames: 2.6 MB and
+    // 8.1 MB.)
+    ASSERT_EQ(std::system(("mount -o remount,size=5m " + dir.string()).c_str()), 0);
     const Result r =
-        run("bake " + kPopulus + " --frames 8-27:4 --voxel-size 0.01 --jobs 1 --device cpu -o " +
+        run("bake " + kPopulus + " --frames 8-12:4 --voxel-size 0.01 --jobs 1 --device cpu -o " +
             (dir / "tree.####.vdb").string());
     EXPECT_EQ(r.status, 1) << r.out << r.err;
     EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
@@ -434,6 +439,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake " + P + " --frames 1-3 --fps-per-year 0 -o OUT/seq.####.vdb",
          "--fps-per-year must be a positive"},
         {"bake " + P + " --frames 1-300 -o OUT/seq.####.vdb", "frame 28 is year 28"},
+        // (13.6 TB estimated, and a million frame paths checked: a few s)
+        {"bake " + P +
+             " --frames 1-1000000 --fps-per-year 100000 --voxel-size 0.005 -o OUT/h.####.vdb",
+         "1,000,000 frames of OUT/h.####.vdb (roughly"},
+        {"bake " + P +
+             " --frames 1-1000000 --fps-per-year 100000 --voxel-size 0.005 -o OUT/h.####.vdb "
+             "--dry-run",
+         "TB of disk, and OUT has"},
         {"bake " + P + " --frames 1-3 --jobs 0 -o OUT/seq.####.vdb",
          "--jobs: Value 0 not in range"},
         {"bake " + S + " --frames 1-3 -o OUT/seq.####.vdb",

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <climits>
+#include <cmath>
 
 #include <algorithm>
 #include <cstdlib>
@@ -221,6 +222,26 @@ TEST(Files, RangeLocksLetDisjointRunsWriteSideBySideAndKeepOverlapsOut)
         EXPECT_FALSE(fs::exists(pattern + ".frames-2-6.lock"));
     }
     EXPECT_TRUE(listing(dir).empty());
+}
+
+TEST(Files, APlanThatDoesNotFitTheOutputsDiskIsRefusedWithItsNumbers)
+{
+    const fs::path dir = freshDir("cambium_files_disk");
+    const std::string out = (dir / "f.vdb").string();
+    const double free = freeDiskBytes(out);
+    ASSERT_GT(free, 0.0);
+    EXPECT_NO_THROW(checkDiskSpace(out, 1e3, "a small file"));
+    try {
+        checkDiskSpace(out, 2.0 * free + 1e15, "27 frames of x.####.vdb");
+        ADD_FAILURE() << "more than the disk holds";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("27 frames of x.####.vdb would need about "), std::string::npos)
+            << what;
+        EXPECT_NE(what.find(dir.string() + " has "), std::string::npos) << what;
+    }
+    // A directory that is not there: the output check names it, not this.
+    EXPECT_TRUE(std::isinf(freeDiskBytes((dir / "no" / "f.vdb").string())));
 }
 
 TEST(Files, TheChecksumIsItsDefinitionFedInPiecesOfAnySize)

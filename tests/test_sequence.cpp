@@ -15,6 +15,7 @@
 #include <openvdb/io/File.h>
 
 #include <algorithm>
+#include <tuple>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -293,6 +294,32 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
         << "largest change " << largest << ", median " << median;  // measured 2.9
     // And it grows overall.
     EXPECT_GT(volume.back(), 1.3 * volume.front());
+}
+
+TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
+{
+    // 135 frames (more than the 64 the plan estimates, linear between
+    // them): within 10 % of the sum of every frame's estimate (the leaves'
+    // seasons fall between samples); 27 frames (all estimated): equal.
+    TempDir dir;
+    for (const auto& [frames, fps, tolerance] :
+         {std::tuple{"1-135", 5.0, 0.1}, std::tuple{"1-27", 1.0, 1e-12}}) {
+        const SequencePlan plan = planSequence(sequence(dir / "a.####.vdb", frames, fps));
+        const BakeRequest& req = plan.request.bake;
+        const TreeBuildOptions build = plan.model->buildOptions();
+        double sum = 0.0;
+        for (double t : plan.times) {
+            const Skeleton sk = plan.model->skeleton(t, req.model.leaves);
+            sum += sk.internodes.empty()
+                       ? 4096.0
+                       : estimateFileBytes(FieldProgram::compile(buildTree(sk, build)),
+                                           plan.voxelSize, req.halfWidth, req.colour, req.half,
+                                           req.fog);
+        }
+        EXPECT_NEAR(plan.fileBytes, sum, tolerance * sum) << frames;
+        EXPECT_GT(plan.bandVoxels, 0.0);
+    }
+    EXPECT_TRUE(fs::is_empty(dir.path));
 }
 
 TEST(Sequence, BadRequestsAreRefusedBeforeAnyOutput)

@@ -80,6 +80,8 @@ struct TilePlan {
     int tiles = 1;
     double frameBytes = 0.0;  ///< the whole frame's estimate
     double tileBytes = 0.0;   ///< a tile's share of it
+    double fileBytes = 0.0;   ///< the merged file's estimate
+    double bandVoxels = 0.0;  ///< the frame's estimated band voxels
     double threshold = 0.5;   ///< the model's iso-value
     double time = 0.0;        ///< the model's time (growth files: years)
 };

@@ -15,8 +15,10 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <thread>
 
 namespace cambium {
 
@@ -47,6 +49,66 @@ int runBakeCommand(const BakeRequest& req, bool timings)
         printTimings(s);
     return 0;
 }
+
+namespace {
+
+/// The lines of --dry-run that every plan has: time, memory and disk.
+void printResources(double bandVoxels, double memory, int atOnce, double file,
+                    const std::string& output)
+{
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    fmt::print("  time: roughly {} of baking on this machine's {} cores\n",
+               formatDuration(estimateBakeSeconds(bandVoxels, cores)), cores);
+    fmt::print("  memory: about {} a bake{}, of {} available\n", formatBytes(memory),
+               atOnce > 1 ? fmt::format(", {} at once", atOnce) : std::string(),
+               formatBytes(availableMemoryBytes()));
+    const double free = freeDiskBytes(output);
+    fmt::print("  disk: at least about {}{}\n", formatBytes(file),
+               std::isfinite(free) ? fmt::format(", of {} free", formatBytes(free)) : std::string());
+    fmt::print("nothing baked or written (--dry-run)\n");
+}
+
+std::string voxelLine(double h, bool automatic, const std::string& across)
+{
+    return fmt::format("  voxel size {:g}{}\n", h,
+                       automatic ? fmt::format(" (auto: 512 voxels across {})", across)
+                                 : std::string());
+}
+
+int printBakePlan(const BakeRequest& req, const VoxelPlan& plan)
+{
+    fmt::print("plan: bake {} into {}\n{}", req.input, req.output,
+               voxelLine(plan.voxelSize, plan.automatic, fmt::format("{:.4g}", plan.extent)));
+    fmt::print("  band: about {} voxels (from the primitives' areas)\n",
+               formatCount(plan.bandVoxels));
+    printResources(plan.bandVoxels, plan.bytes, 1, plan.fileBytes, req.output);
+    return 0;
+}
+
+int printSequencePlan(const SequencePlan& plan)
+{
+    const BakeRequest& req = plan.request.bake;
+    fmt::print("plan: bake {} frames of {} ({} to {}, years {:g} to {:g}) into {} ({} to {})\n",
+               formatCount(double(plan.frames.size())), req.input, plan.frames.front(),
+               plan.frames.back(), plan.times.front(), plan.times.back(), req.output,
+               plan.paths.front(), plan.paths.back());
+    fmt::print("{}", voxelLine(plan.voxelSize, plan.autoVoxelSize, "the last frame"));
+    fmt::print("  band: about {} voxels in all frames\n", formatCount(plan.bandVoxels));
+    printResources(plan.bandVoxels, plan.bytesPerFrame, sequenceJobs(plan, plan.frames.size()),
+                   plan.fileBytes, req.output);
+    return 0;
+}
+
+int printTilePlan(const BakeRequest& req, const TilePlan& plan)
+{
+    fmt::print("plan: bake {} into {} as {} tiles, merged\n", req.input, req.output, plan.tiles);
+    fmt::print("  voxel size {:g}; the frame's memory about {}\n", plan.voxelSize,
+               formatBytes(plan.frameBytes));
+    printResources(plan.bandVoxels, plan.tileBytes, 1, plan.fileBytes, req.output);
+    return 0;
+}
+
+}  // namespace
 
 void addBakeCommand(CLI::App& app, Action& action)
 {
@@ -137,8 +199,8 @@ void addBakeCommand(CLI::App& app, Action& action)
                   "With --slurm: follow the array to its end, a line per chunk")
         ->needs(slurmOpt);
     cmd->add_flag("--dry-run", o->slurm.dryRun,
-                  "With --slurm: print the plan and the batch script, submit nothing")
-        ->needs(slurmOpt);
+                  "Print the plan (voxel size, memory, disk; with --slurm the batch scripts) "
+                  "and bake or submit nothing");
     auto* tilesOpt =
         cmd->add_option("--tiles", o->tiles,
                         "Bake the frame as this many spatial tiles, each by a process of its own "
@@ -161,8 +223,11 @@ void addBakeCommand(CLI::App& app, Action& action)
             // In the order the checks ran before the commands parsed options:
             // frames, half-width, device, output, the model options.
             const bool sequence = !request.frames.empty();
-            if (sequence)
-                parseFrames(request.frames);
+            if (sequence && parseFrames(request.frames).size() >= 100000)
+                // (A second or more: each frame's path is checked.  On
+                // stderr, with the progress bars: stdout is the report.)
+                fmt::print(stderr, "planning {} frames\n",
+                           formatCount(double(parseFrames(request.frames).size())));
             const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
             if (o->slurm.slurm && !sequence && !tiled)
                 throw InputError(
@@ -210,6 +275,12 @@ void addBakeCommand(CLI::App& app, Action& action)
                 req.key = tileFarmKey(req, req.tile.count);
             if (o->slurm.slurm && tiled && o->slurm.chunk != 1)
                 throw InputError("--chunk counts frames: a frame's tiles are a task each");
+            if (o->slurm.dryRun && !o->slurm.slurm) {
+                if (tiled)
+                    return printTilePlan(req, planTiles(req, o->tiles, maxMemory, true));
+                return sequence ? printSequencePlan(planSequence(request))
+                                : printBakePlan(req, planBake(req));
+            }
             if (o->slurm.slurm && tiled)
                 return runTileFarmCommand(req, planTiles(req, o->tiles, maxMemory, false),
                                           o->slurm);

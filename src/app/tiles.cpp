@@ -134,6 +134,10 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
     plan.tiles = tiles;
     plan.frameBytes = whole.bytes;
     plan.tileBytes = whole.bytes * tileMemoryShare(tiles);
+    plan.fileBytes = whole.fileBytes;
+    plan.bandVoxels = whole.bandVoxels;
+    checkDiskSpace(req.output, 2.0 * whole.fileBytes,
+                   fmt::format("the tiles of {} and their merge", req.output));
     plan.threshold = tree.threshold();
     plan.time = tree.time();
     return plan;

@@ -78,6 +78,8 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     // (A species file's bark photo, which the program does not tell, stops
     // the packing too: its frames need about 8 bytes a band voxel more.)
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));
+    plan.bandVoxels = estimateBandVoxels(program, h, req.halfWidth);
+    plan.fileBytes = estimateFileBytes(program, h, req.halfWidth, req.colour, req.half, req.fog);
     const double have = availableMemoryBytes();
     if (!(plan.bytes * tileMemoryShare(req.tile.count) <= have))
         throw InputError(fmt::format(
@@ -140,6 +142,17 @@ VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold, double time)
     return info;
 }
 
+VoxelPlan planBake(const BakeRequest& req)
+{
+    checkBakeOptions(req);
+    checkOutputPath(req.output);
+    const BlobTree tree = loadModel(req.input, req.model);
+    barkPaint(req, tree);  // (its photo checked)
+    const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree), req);
+    checkDiskSpace(req.output, plan.fileBytes, req.output);
+    return plan;
+}
+
 BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
 {
     BakeReport report;
@@ -165,6 +178,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     const BarkPaint paint = barkPaint(req, tree);
     const FieldProgram program = FieldProgram::compile(tree);
     const VoxelPlan plan = planVoxelSize(program, req);
+    checkDiskSpace(req.output, plan.fileBytes, req.output);
     report.extent = plan.extent;
     report.autoVoxelSize = plan.automatic;
     // Primitives thinner than a voxel bake as voxel-sized blocks or vanish:

@@ -94,6 +94,8 @@ struct VoxelPlan {
     bool automatic = false;
     double extent = 0.0;  ///< largest extent of the surface bounds
     double bytes = 0.0;   ///< estimated memory of one bake
+    double bandVoxels = 0.0;  ///< estimated voxels in the band (an overestimate)
+    double fileBytes = 0.0;   ///< estimated bytes of the .vdb written
 };
 /// The smallest voxel size baked: OpenVDB's transforms refuse a voxel whose
 /// volume is below 3e-15 (h < 1.44e-5).
@@ -125,5 +127,10 @@ VdbFileInfo bakeFileInfo(const BakeRequest& request, double threshold, double ti
 /// bakes and writes.  An OpenCL failure names the problem and suggests
 /// --device cpu.
 BakeReport runBake(const BakeRequest& request, const BakeCallbacks& callbacks = {});
+
+/// What runBake would do (bake --dry-run): the model read and compiled, its
+/// voxel size and estimates, every check runBake makes before it bakes;
+/// nothing sampled or written.
+VoxelPlan planBake(const BakeRequest& request);
 
 }  // namespace cambium

@@ -147,11 +147,24 @@ BakedGrids emptyLevelSet(const BakeOptions& options);
 /// the surface bounds.
 double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);
 
+/// Estimated voxels within the band at this voxel size, from the
+/// primitives' surface area (an overestimate where they overlap).
+double estimateBandVoxels(const FieldProgram& program, double voxelSize, double halfWidth);
+
 /// Estimated bytes a bake needs at this voxel size (from the primitives'
 /// surface area): used to refuse a voxel size the machine cannot hold.
 /// `packed`: the bake packs its leaves (BakeOptions::pack).
 double estimateBakeBytes(const FieldProgram& program, double voxelSize, double halfWidth,
                          bool packed);
+
+/// Estimated bytes of the .vdb a bake of these options writes (its
+/// compressed leaves), for the check that it fits on the output's disk.
+double estimateFileBytes(const FieldProgram& program, double voxelSize, double halfWidth,
+                         ColourExtent colour, bool half, bool fog);
+
+/// Rough seconds `cores` take to bake `bandVoxels` estimated band voxels
+/// (what a plan reports, never a limit).
+double estimateBakeSeconds(double bandVoxels, int cores);
 
 /// Estimated bytes of the two leaf-value caches a sequence's bake holds
 /// besides (BakeOptions::reuse: the last frame's and the one being filled,

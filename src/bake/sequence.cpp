@@ -44,6 +44,39 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
     return runs;
 }
 
+/// Frames the plan estimates at most (memory of the last year's, files).
+constexpr size_t kSampledFrames = 64;
+
+/// At most `most` indices of [0, n), evenly spread, the first and last among
+/// them (all when n <= most).
+std::vector<size_t> spread(size_t n, size_t most)
+{
+    std::vector<size_t> out;
+    if (n <= most) {
+        for (size_t i = 0; i < n; ++i)
+            out.push_back(i);
+        return out;
+    }
+    for (size_t k = 0; k < most; ++k)
+        out.push_back(size_t(std::llround(double(k) * double(n - 1) / double(most - 1))));
+    return out;
+}
+
+/// The sum over the frames from at.front() to at.back() of a value known at
+/// the sorted indices `at`, linear between them.
+double sumOverFrames(const std::vector<size_t>& at, const std::vector<double>& values)
+{
+    if (at.empty())
+        return 0.0;
+    double sum = values.front();
+    for (size_t k = 1; k < at.size(); ++k) {
+        const double span = double(at[k] - at[k - 1]);
+        // (the frames after at[k-1] up to at[k]: a trapezoid's share)
+        sum += span * 0.5 * (values[k - 1] + values[k]) + 0.5 * (values[k] - values[k - 1]);
+    }
+    return sum;
+}
+
 }  // namespace
 
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
@@ -112,21 +145,49 @@ SequencePlan planSequence(const SequenceRequest& request)
     const FieldProgram lastProgram = FieldProgram::compile(lastTree);
     VoxelPlan voxels =
         planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
+    BakeRequest fixed = req;
+    fixed.voxelSize = voxels.voxelSize;
     if (req.model.leaves) {
         // Wood only grows, but leaves come and go within a year: the last
-        // year's frames in leaf may need more than the last frame.
-        BakeRequest fixed = req;
-        fixed.voxelSize = voxels.voxelSize;
+        // year's frames in leaf may need more than the last frame.  (At
+        // most kSampledFrames of them, evenly spread: a million frames a
+        // year must not make the plan take minutes.)
         const int lastYear = growthYear(plan.times.back());
+        std::vector<size_t> lastYears;
         for (size_t i = 0; i + 1 < plan.times.size(); ++i)
-            if (growthYear(plan.times[i]) == lastYear) {
-                const Skeleton sk = model.skeleton(plan.times[i], true);
-                if (!sk.internodes.empty())
-                    voxels.bytes = std::max(
-                        voxels.bytes,
-                        planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
-            }
+            if (growthYear(plan.times[i]) == lastYear)
+                lastYears.push_back(i);
+        for (size_t i : spread(lastYears.size(), kSampledFrames)) {
+            const Skeleton sk = model.skeleton(plan.times[lastYears[i]], true);
+            if (!sk.internodes.empty())
+                voxels.bytes = std::max(
+                    voxels.bytes,
+                    planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
+        }
     }
+    // The files: estimated at up to kSampledFrames frames spread over the
+    // sequence, linear between them; all must fit on the output's disk.
+    const std::vector<size_t> sampled = spread(plan.times.size(), kSampledFrames);
+    std::vector<double> fileAt, bandAt;
+    for (size_t i : sampled) {
+        const Skeleton sk = model.skeleton(plan.times[i], req.model.leaves);
+        if (sk.internodes.empty()) {
+            fileAt.push_back(4096.0);  // (an empty grid's file)
+            bandAt.push_back(0.0);
+            continue;
+        }
+        const FieldProgram p = FieldProgram::compile(buildTree(sk, build));
+        fileAt.push_back(
+            estimateFileBytes(p, voxels.voxelSize, req.halfWidth, req.colour, req.half, req.fog));
+        bandAt.push_back(estimateBandVoxels(p, voxels.voxelSize, req.halfWidth));
+    }
+    plan.fileBytes = sumOverFrames(sampled, fileAt);
+    plan.bandVoxels = sumOverFrames(sampled, bandAt);
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    checkDiskSpace(req.output, plan.fileBytes,
+                   fmt::format("{} frames of {} (roughly {} of baking here)",
+                               formatCount(double(plan.frames.size())), req.output,
+                               formatDuration(estimateBakeSeconds(plan.bandVoxels, cores))));
     plan.voxelSize = voxels.voxelSize;
     plan.autoVoxelSize = voxels.automatic;
     plan.bytesPerFrame =  // each worker also holds the caches of unchanged leaves' values
@@ -243,6 +304,15 @@ struct FrameBaker {
 
 }  // namespace
 
+int sequenceJobs(const SequencePlan& plan, size_t frames)
+{
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    const int byMemory =
+        int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytesPerFrame, 1.0))));
+    const int asked = plan.request.jobs > 0 ? plan.request.jobs : cores;
+    return std::max(1, int(std::min<size_t>(size_t(std::min(asked, byMemory)), frames)));
+}
+
 SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
                            const SequenceCallbacks& callbacks)
 {
@@ -255,11 +325,7 @@ SequenceReport runSequence(const SequencePlan& plan, size_t first, size_t last,
     SequenceReport report;
     report.voxelSize = plan.voxelSize;
     report.autoVoxelSize = plan.autoVoxelSize;
-    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
-    const int byMemory =
-        int(std::max(1.0, std::floor(availableMemoryBytes() / std::max(plan.bytesPerFrame, 1.0))));
-    report.jobs = std::max(
-        1, std::min({request.jobs > 0 ? request.jobs : cores, byMemory, int(last - first)}));
+    report.jobs = sequenceJobs(plan, last - first);
     auto notice = [&](const std::string& line) {
         if (callbacks.notice)
             callbacks.notice(line);

@@ -41,6 +41,8 @@ struct SequencePlan {
     double voxelSize = 0.0;          ///< the whole sequence's (the last frame sizes it)
     bool autoVoxelSize = false;
     double bytesPerFrame = 0.0;  ///< estimated memory of the largest frame's bake
+    double fileBytes = 0.0;      ///< estimated bytes of all the frames' files
+    double bandVoxels = 0.0;     ///< estimated band voxels of all the frames
     double threshold = 0.5;
     /// Reuse groups: frames of one growth year, in order (indices into
     /// frames).  A worker bakes a group in order, so that a dormant frame
@@ -54,6 +56,10 @@ struct SequencePlan {
 /// voxel size at the last frame, memory at the last year's frames) and
 /// throws InputError naming the problem before any output.
 SequencePlan planSequence(const SequenceRequest& request);
+
+/// Frames a run of `frames` of the plan bakes at once: --jobs, else the
+/// cores, at most what memory holds and the frames there are.
+int sequenceJobs(const SequencePlan& plan, size_t frames);
 
 struct FrameReport {
     long long frame = 0;

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "core/hash.h"
+#include "core/system.h"
 
 #include <fmt/format.h>
 
@@ -22,9 +23,11 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <fstream>
+#include <limits>
 #include <ostream>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <thread>
 #include <unistd.h>
 #include <vector>
@@ -227,6 +230,34 @@ std::string filesContentKey(const std::vector<std::string>& paths)
         key += fmt::format("{}={:016x};", path, in.eof() ? sum.value() : 0);
     }
     return fmt::format("{:016x}", fnv1a64(key));
+}
+
+namespace {
+
+std::filesystem::path outputDirectory(const std::string& output)
+{
+    const std::filesystem::path dir = std::filesystem::path(output).parent_path();
+    return dir.empty() ? std::filesystem::path(".") : dir;
+}
+
+}  // namespace
+
+double freeDiskBytes(const std::string& output)
+{
+    struct statvfs fs {};
+    if (::statvfs(outputDirectory(output).c_str(), &fs) != 0)
+        return std::numeric_limits<double>::infinity();  // (checkOutputPath names the directory)
+    return double(fs.f_bavail) * double(fs.f_frsize);
+}
+
+void checkDiskSpace(const std::string& output, double bytes, const std::string& what)
+{
+    const double free = freeDiskBytes(output);
+    if (bytes > free)
+        throw InputError(fmt::format(
+            "{} would need about {} of disk, and {} has {} free: free some space, write "
+            "elsewhere, or bake fewer frames or a larger --voxel-size",
+            what, formatBytes(bytes), outputDirectory(output).string(), formatBytes(free)));
 }
 
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)

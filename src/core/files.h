@@ -28,6 +28,15 @@ public:
 /// written (tried, when `probe`, by creating and removing a file beside it).
 std::string checkOutputPath(const std::string& path, bool probe = true);
 
+/// Bytes free to this user on the file system `output` is to be written on
+/// (its directory's); infinity when that cannot be told.
+double freeDiskBytes(const std::string& output);
+
+/// InputError, before any work, when `bytes` (an estimate of what `what`
+/// writes) would not fit in the free space of the file system `output` is
+/// to be written on (the estimate and the free space named).
+void checkDiskSpace(const std::string& output, double bytes, const std::string& what);
+
 /// InputError "OUTPUT: is the input INPUT (the output would replace it)"
 /// when `output` names, through links or other names, the same file as one
 /// of `inputs` (empty names skipped); a command checks it before any work.

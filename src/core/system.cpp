@@ -90,6 +90,17 @@ ThreadLimit::ThreadLimit(int threads)
 
 ThreadLimit::~ThreadLimit() = default;
 
+std::string formatDuration(double seconds)
+{
+    if (seconds < 60.0)
+        return fmt::format("{:.2g} s", seconds);
+    if (seconds < 3600.0)
+        return fmt::format("{:.2g} min", seconds / 60.0);
+    if (seconds < 86400.0 * 2.0)
+        return fmt::format("{:.2g} h", seconds / 3600.0);
+    return fmt::format("{:.3g} days", seconds / 86400.0);
+}
+
 std::string formatCount(double count)
 {
     std::string s = fmt::format("{:.0f}", count);

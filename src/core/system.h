@@ -21,6 +21,8 @@ double processAgeSeconds();
 std::string executableDirectory();
 /// "1.5 GB": bytes in decimal units, three significant digits.
 std::string formatBytes(double bytes);
+/// "45 s", "12 min", "3.5 h", "4.2 days": a duration, two significant digits.
+std::string formatDuration(double seconds);
 /// "1,234,567": a count with thousands separated (rounded to a whole number).
 std::string formatCount(double count);
 
