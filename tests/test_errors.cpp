@@ -368,6 +368,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
             bytes.push_back(char(std::stoi(hex.substr(i, 2), nullptr, 16)));
         writeText(in / "liar.png", bytes);
     }
+    {
+        // A PNG cut at 70 %: libpng's message comes in three lines.
+        const std::string png = fileContents(CAMBIUM_SOURCE_DIR "/docs/images/bush.png");
+        writeText(in / "cut.png", png.substr(0, png.size() * 7 / 10));
+    }
     // Outputs that are inputs under other names: a link, a second hard link.
     fs::create_symlink("trunc90.vdb", in / "alias.ply");
     fs::create_symlink("flipped.vdb", in / "alias.png");
@@ -528,6 +533,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"mesh IN/fog.vdb -o OUT/out.ply",
          "fog.vdb: grid 'surface' has the background 0, not a level set's positive half-width"},
         // photos that lie
+        {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/cut.png -o OUT/out.vdb",
+         "cut.png: cannot read the image: Read error: hit end of file; PNG read error"},
+        {"bake 'IN/a\x1b[31mred\nx.json' -o OUT/out.vdb",
+         "a\\x1b[31mred\\x0ax.json: cannot read the scene file"},
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/liar.png -o OUT/out.vdb",
          "liar.png: its header says 11000 x 11000 pixels, more than the 50 million pixels read"},
         // shapes

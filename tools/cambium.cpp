@@ -45,8 +45,8 @@ int main(int argc, char** argv)
         known = known || (argc >= 2 && c->get_name() == argv[1]);
     }
     if (argc >= 2 && argv[1][0] != '-' && !known) {
-        std::fprintf(stderr, "cambium: error: unknown command '%s' (the commands: %s)\n", argv[1],
-                     names.c_str());
+        std::fprintf(stderr, "cambium: error: unknown command '%s' (the commands: %s)\n",
+                     cambium::printable(argv[1]).c_str(), names.c_str());
         return 2;
     }
     try {
@@ -55,16 +55,28 @@ int main(int argc, char** argv)
         return app.exit(e) == 0 ? 0 : 2;  // --help and --version are not errors
     }
     openvdb::initialize();
+    // A message is one line, its control characters (a newline or an
+    // escape sequence in a file name) shown escaped, not sent to the
+    // terminal.  (std::fprintf: never throws, whatever stderr is.)
+    auto say = [](const char* how, const char* what) {
+        std::string line;
+        try {
+            line = cambium::printable(what);
+        } catch (...) {
+            line = what;
+        }
+        std::fprintf(stderr, "cambium: %s: %s\n", how, line.c_str());
+    };
     try {
         return action ? action() : 0;
     } catch (const cambium::InputError& e) {
-        std::fprintf(stderr, "cambium: error: %s\n", e.what());  // never throws, whatever stderr is
+        say("error", e.what());
         return 2;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "cambium: failed: out of memory\n");
         return 1;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "cambium: failed: %s\n", e.what());
+        say("failed", e.what());
         return 1;
     }
 }

@@ -11,11 +11,32 @@
 
 namespace {
 
+/// An image library's message on one line: its lines joined with "; "
+/// (libpng's come as three: "Read error ...\nPNG read error: ...\nPNG
+/// library error").
+std::string oneLine(const std::string& text)
+{
+    std::string out;
+    size_t at = 0;
+    while (at < text.size()) {
+        size_t end = text.find('\n', at);
+        if (end == std::string::npos)
+            end = text.size();
+        std::string line = text.substr(at, end - at);
+        while (!line.empty() && (line.back() == '\r' || line.back() == ' '))
+            line.pop_back();
+        if (!line.empty())
+            out += (out.empty() ? "" : "; ") + line;
+        at = end + 1;
+    }
+    return out;
+}
+
 std::string decode(const std::string& path, size_t maxPixels, cambium::CodecImage& out)
 try {
     auto in = OIIO::ImageInput::open(path);
     if (!in)
-        return fmt::format("{}: not an image OpenImageIO can read ({})", path, OIIO::geterror());
+        return fmt::format("{}: not an image OpenImageIO can read ({})", path, oneLine(OIIO::geterror()));
     const OIIO::ImageSpec& spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);
@@ -29,7 +50,7 @@ try {
     out.channels = spec.nchannels;
     out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
-        return fmt::format("{}: cannot read the image: {}", path, in->geterror());
+        return fmt::format("{}: cannot read the image: {}", path, oneLine(in->geterror()));
     out.colourSpace = spec.get_string_attribute("oiio:ColorSpace");
     out.floatFormat = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
                       spec.format.basetype == OIIO::TypeDesc::HALF ||
@@ -44,7 +65,7 @@ std::string encode(const std::string& path, const cambium::CodecImage& img,
 try {
     auto out = OIIO::ImageOutput::create(path);  // the plugin by the name's extension
     if (!out)
-        return OIIO::geterror();
+        return oneLine(OIIO::geterror());
     if (!out->supports("ioproxy"))
         return "OpenImageIO cannot encode " + path + " into memory";
     OIIO::Filesystem::IOVecOutput memory(bytes);
@@ -61,7 +82,7 @@ try {
     spec.attribute("Software", "cambium");
     if (!out->set_ioproxy(&memory) || !out->open(path, spec) ||
         !out->write_image(OIIO::TypeDesc::FLOAT, img.pixels.data()) || !out->close())
-        return out->geterror();
+        return oneLine(out->geterror());
     return {};
 } catch (const std::exception& e) {
     return e.what();
