@@ -163,6 +163,15 @@ TEST(Files, StaleTemporariesAreThoseOfThePatternOnly)
         names.push_back(fs::path(f).filename().string());
     EXPECT_EQ(names, (std::vector<std::string>{"tree.0001.vdb.tmp-99999999", "tree.0012.vdb.tmp-4",
                                                "tree.12345.vdb.tmp-7"}));
+    // A single file's: its own (a bake removes them before it bakes: a
+    // killed bake's temporary does not outlive the next bake of the file).
+    for (const char* name : {"one.vdb.tmp-99999998", "one.vdb.tmp-3", "xone.vdb.tmp-3",
+                             "one.vdb.tmp-3x", "one.vdbx.tmp-3"})
+        std::ofstream(dir / name) << "x";
+    names.clear();
+    for (const std::string& f : staleTemporaries((dir / "one.vdb").string()))
+        names.push_back(fs::path(f).filename().string());
+    EXPECT_EQ(names, (std::vector<std::string>{"one.vdb.tmp-3", "one.vdb.tmp-99999998"}));
 }
 
 TEST(Files, TheOutputLockKeepsASecondWriterOutAndNamesTheHolder)

@@ -12,6 +12,8 @@
 #include "core/math.h"
 
 #include <fmt/format.h>
+
+#include <filesystem>
 #include <tbb/global_control.h>
 
 #include <cmath>
@@ -158,6 +160,13 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     BakeReport report;
     checkBakeOptions(req);
     checkOutputPath(req.output);
+    // What a killed bake of this file left (its process gone): removed,
+    // as a sequence removes its frames' (a tile's are its farm's to keep).
+    if (req.tile.count == 0)
+        for (const std::string& stale : staleTemporaries(req.output))
+            if (std::filesystem::remove(stale) && callbacks.notice)
+                callbacks.notice(fmt::format(
+                    "removed {}, a temporary file left by an interrupted run", stale));
     const ThreadLimit threads(req.threads);
     // The model is read on a thread of its own while this one starts the
     // device (PoCL: its libraries, the device, the programs from cambium's

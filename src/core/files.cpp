@@ -381,6 +381,11 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
         guard.release();
         failWrite(path, std::strerror(e));
     }
+    // (The signal test's seam: stopped here, with the temporary made, until
+    // the test sends its signal and SIGCONT; a race before.)
+    static const bool stopInWrite = std::getenv("CAMBIUM_TEST_STOP_IN_WRITE") != nullptr;
+    if (stopInWrite)
+        ::raise(SIGSTOP);
     int open = fd;
     auto abandon = [&] {
         if (open >= 0)
@@ -462,9 +467,9 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
     const std::string dir = directoryOf(pattern);
     const std::string name =
         pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
-    if (name.find('#') == std::string::npos)
-        return {};
-    const auto [first, last] = frameRun(name);
+    // (A path without '#': its own temporaries, "NAME.tmp-<pid>".)
+    const bool frames = name.find('#') != std::string::npos;
+    const auto [first, last] = frames ? frameRun(name) : std::pair<size_t, size_t>{name.size(), name.size()};
     const size_t hashes = last - first;
     const std::string prefix = name.substr(0, first),
                       suffix = name.substr(first + hashes) + ".tmp-";
@@ -483,7 +488,8 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
             continue;
         const size_t tmp = f.rfind(suffix);
         if (tmp == std::string::npos || tmp < prefix.size() + hashes ||
-            !digits(f, prefix.size(), tmp) || !digits(f, tmp + suffix.size(), f.size()))
+            (frames ? !digits(f, prefix.size(), tmp) : tmp != prefix.size()) ||
+            !digits(f, tmp + suffix.size(), f.size()))
             continue;
         // A process that is still running and is a cambium may still be writing it.
         const std::string pid = f.substr(tmp + suffix.size());

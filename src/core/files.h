@@ -91,7 +91,8 @@ void installCleanupOnSignals();
 /// Temporaries that an earlier, killed process left for the frames of
 /// `pattern` (a path with a run of '#'): files "PREFIX<digits>SUFFIX.tmp-<pid>"
 /// in its directory, with as many digits as the pattern has '#' or more, and
-/// nothing else.
+/// nothing else; for a path without '#', its own "PATH.tmp-<pid>".  Not the
+/// temporaries of a cambium process that is running.
 std::vector<std::string> staleTemporaries(const std::string& pattern);
 
 /// Registers a path to be removed if a signal ends the process while the
