@@ -158,6 +158,18 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     EXPECT_EQ(state.good, 6u);
     EXPECT_EQ(state.frames, 6u);
     EXPECT_TRUE(chunksToRetry(farm, state).empty());
+    // A frame copied over another (p.0003 over p.0004): that one is missing.
+    const std::string four = fileContents(dir / "farm" / "p.0004.vdb");
+    fs::copy_file(dir / "farm" / "p.0003.vdb", dir / "farm" / "p.0004.vdb",
+                  fs::copy_options::overwrite_existing);
+    state = assessFarm(farm);
+    EXPECT_EQ(state.good, 5u);
+    std::vector<long long> missing;
+    for (const FarmChunkState& c : state.chunks)
+        missing.insert(missing.end(), c.missing.begin(), c.missing.end());
+    EXPECT_EQ(missing, std::vector<long long>{4});
+    std::ofstream(dir / "farm" / "p.0004.vdb", std::ios::binary) << four;
+    EXPECT_EQ(assessFarm(farm).good, 6u);
     fs::remove(dir / "farm" / "p.0005.vdb");
     std::ofstream(array.farmDir + "/task-1.status") << "137 78\n";
     fs::remove(dir / "farm" / "p.0008.vdb");

@@ -109,7 +109,7 @@ TEST(Sequence, FilesAreNamedPaddedAndConsistent)
         }
         std::sort(gridNames.begin(), gridNames.end());
         EXPECT_EQ(gridNames, (std::vector<std::string>{"Cd", "surface"}));
-        EXPECT_EQ(readSequenceKey(f.path),
+        EXPECT_EQ(readFileStamp(f.path).key,
                   sequenceKey(sequence("", "", 1.0), readTextFile(kPopulus, "t"), 0.04));
     }
     // The tree grows: more voxels every frame.
@@ -134,6 +134,23 @@ TEST(Sequence, ResumeKeepsFinishedFramesAndRefusesOthers)
             << f.frame;
     EXPECT_EQ(fs::last_write_time(dir / "p.05.vdb"), stamp);
     EXPECT_TRUE(fs::exists(dir / "p.06.vdb"));
+    EXPECT_EQ(readFileStamp(dir / "p.06.vdb").part, "frame 6");
+    // A frame copied over another of the sequence: that one baked again,
+    // with a note; the rest kept.
+    fs::copy_file(dir / "p.04.vdb", dir / "p.07.vdb", fs::copy_options::overwrite_existing);
+    std::vector<std::string> notes;
+    SequenceCallbacks callbacks;
+    callbacks.notice = [&](const std::string& line) { notes.push_back(line); };
+    const SequenceReport copied = bakeSequence(again, callbacks);
+    for (const FrameReport& f : copied.frames)
+        EXPECT_EQ(f.outcome,
+                  f.frame == 7 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped)
+            << f.frame;
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_NE(notes[0].find("p.07.vdb holds frame 4 of this sequence, not frame 7"),
+              std::string::npos)
+        << notes[0];
+    EXPECT_EQ(readFileStamp(dir / "p.07.vdb").part, "frame 7");
     // Files from another bake (here another voxel size) are not taken for finished.
     SequenceRequest other = sequence(pattern, "4-7", 1.0, 0.05);
     other.resume = true;
@@ -230,7 +247,7 @@ TEST(Sequence, RangesOfOnePlanWriteTheFramesOfOneRun)
         expectIdentical(*surface(a / name), *surface(b / name), "surface of " + name);
         expectIdentical(*colour(a / name), *colour(b / name), "Cd of " + name);
         EXPECT_EQ(surface(b / name)->voxelSize()[0], one.voxelSize) << name;
-        EXPECT_EQ(readSequenceKey(a / name), readSequenceKey(b / name)) << name;
+        EXPECT_EQ(readFileStamp(a / name).key, readFileStamp(b / name).key) << name;
     }
     expectInputError([&] { runSequence(plan, 2, 2); }, "not a range", "empty range");
     expectInputError([&] { runSequence(plan, 3, 7); }, "not a range", "past the end");

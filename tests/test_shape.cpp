@@ -571,7 +571,7 @@ TEST(ShapeAnimation, ASequenceFrameIsTheSingleBakeAtItsTimeAndStillFramesAreIden
     // Frames 1 and 2 differ (the tentacles grow).
     EXPECT_NE(grids("g.0001.vdb").surface->activeVoxelCount(), two.surface->activeVoxelCount());
     // The sequence writer's metadata and --resume.
-    EXPECT_FALSE(readSequenceKey(dir + "/g.0001.vdb").empty());
+    EXPECT_FALSE(readFileStamp(dir + "/g.0001.vdb").key.empty());
     r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/g.####.vdb --resume" +
                   opts);
     ASSERT_EQ(r.status, 0) << r.err;

@@ -62,7 +62,8 @@ int runVdbInfo(const std::string& path, bool check)
                formatCount(double(s.bytes)), s.fileVersion,
                text("creator").empty() ? "" : ", written by " + text("creator"));
     if (!text("cambium_sequence").empty())
-        fmt::print("sequence   {}\n", text("cambium_sequence"));
+        fmt::print("sequence   {}{}\n", text("cambium_sequence"),
+                   text("cambium_part").empty() ? "" : ", " + text("cambium_part"));
     if (s.checksumEnd == 0) {
         fmt::print("checksum   none (not written by cambium)\n");
     } else if (!check) {

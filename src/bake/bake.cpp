@@ -138,6 +138,8 @@ VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold, double time)
     info.scene = req.input;
     info.threshold = threshold;
     info.sequence = req.key;
+    if (req.tile.count > 0)
+        info.part = tilePart(req.tile.index, req.tile.count);
     info.halfWidth = req.halfWidth;
     info.half = req.half;
     info.time = time;

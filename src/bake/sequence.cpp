@@ -225,18 +225,24 @@ SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<lon
         return;
     for (size_t i = first; i < last; ++i)
         if (std::filesystem::exists(paths[i])) {
-            std::string found;
+            FileStamp found;
             try {
-                found = readSequenceKey(paths[i]);
+                found = readFileStamp(paths[i]);
             } catch (const InputError& e) {
                 notice(fmt::format("{} (baking it again)", e.what()));
                 continue;
             }
-            if (found != key)
+            if (found.key != key)
                 throw InputError(
                     fmt::format("{} exists from another bake (other parameters or options): remove "
                                 "it, or bake without --resume to overwrite it",
                                 paths[i]));
+            if (!found.part.empty() && found.part != framePart(frames[i])) {
+                // (This sequence's file, but another frame's: copied over it.)
+                notice(fmt::format("{} holds {} of this sequence, not frame {} (baking it again)",
+                                   paths[i], found.part, frames[i]));
+                continue;
+            }
             finished_[i] = true;
         }
 }
@@ -298,6 +304,7 @@ struct FrameBaker {
         info.time = plan.times[i];
         info.half = req.half;
         info.sequence = plan.key;
+        info.part = framePart(plan.frames[i]);
         writeVdb(grids, plan.paths[i], info);
     }
 };

@@ -517,14 +517,17 @@ FarmState assessFarm(const FarmPlan& plan)
         const std::vector<ChunkEvent> events = readChunkEvents(plan.dir, k);
         c.status = events.empty() || events.back().again ? -1 : events.back().status;
         for (const FarmPlan::File& file : plan.chunkFiles(k)) {
-            std::string key;
+            FileStamp stamp;
             try {
                 if (!s.merged)
-                    key = readSequenceKey(file.path);
+                    stamp = readFileStamp(file.path);
             } catch (const InputError&) {
             }
+            // (Another frame's or tile's file copied over it is not it.)
+            const std::string part = plan.tiles ? tilePart(int(k), int(plan.chunks.size()))
+                                                : framePart(file.number);
             ++s.frames;
-            if (s.merged || key == plan.key)
+            if (s.merged || (stamp.key == plan.key && (stamp.part.empty() || stamp.part == part)))
                 ++s.good;
             else
                 c.missing.push_back(file.number);

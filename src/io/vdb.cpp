@@ -359,6 +359,8 @@ PreparedVdb prepareVdb(const LevelSetGrids& grids, const VdbFileInfo& info, bool
     fileMeta.insertMeta("creator", openvdb::StringMetadata(fmt::format("cambium {}", version())));
     if (!info.sequence.empty())
         fileMeta.insertMeta("cambium_sequence", openvdb::StringMetadata(info.sequence));
+    if (!info.part.empty())
+        fileMeta.insertMeta("cambium_part", openvdb::StringMetadata(info.part));
     fileMeta.insertMeta(kChecksumKey, openvdb::StringMetadata(kPlaceholder));
     return v;
 }
@@ -742,11 +744,25 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
     return true;
 }
 
-std::string readSequenceKey(const std::string& path)
+std::string framePart(long long frame)
+{
+    return fmt::format("frame {}", frame);
+}
+
+std::string tilePart(int k, int count)
+{
+    return fmt::format("tile {}/{}", k + 1, count);
+}
+
+FileStamp readFileStamp(const std::string& path)
 {
     const VdbSummary s = inspectVdb(path);
-    const auto key = s.strings.find("cambium_sequence");
-    return key == s.strings.end() ? std::string() : key->second;
+    FileStamp stamp;
+    if (const auto key = s.strings.find("cambium_sequence"); key != s.strings.end())
+        stamp.key = key->second;
+    if (const auto part = s.strings.find("cambium_part"); part != s.strings.end())
+        stamp.part = part->second;
+    return stamp;
 }
 
 }  // namespace cambium

@@ -24,7 +24,16 @@ struct VdbFileInfo {
     bool half = false;    ///< store floats as 16-bit halves
     std::string
         sequence;  ///< a sequence's key (file metadata `cambium_sequence`), empty for a single bake
+    /// Which of the sequence's or farm's files it is (file metadata
+    /// `cambium_part`: framePart, tilePart), empty for a single bake: a file
+    /// copied over another of the same sequence is told by it.
+    std::string part;
 };
+
+/// `cambium_part` of a sequence's frame: "frame 12".
+std::string framePart(long long frame);
+/// `cambium_part` of tile `k` (from 0) of `count`: "tile 3/8".
+std::string tilePart(int k, int count);
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
 /// metadata and cambium's own metadata, Blosc-compressed, through the checked
@@ -200,8 +209,12 @@ VdbDescription describeVdb(const std::string& path);
 /// its name); false for a file that cannot be read.
 bool looksLikeVdbFile(const std::string& path);
 
-/// The `cambium_sequence` file metadata of a .vdb (inspectVdb); InputError
-/// when the file is damaged.
-std::string readSequenceKey(const std::string& path);
+/// What a sequence's or farm's file says it is: its key (`cambium_sequence`)
+/// and part (`cambium_part`; empty in files written before it).
+struct FileStamp {
+    std::string key, part;
+};
+/// The stamp of a .vdb (inspectVdb); InputError when the file is damaged.
+FileStamp readFileStamp(const std::string& path);
 
 }  // namespace cambium

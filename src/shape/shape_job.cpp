@@ -230,6 +230,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
             info.frame = frames[i];
             info.time = double(frames[i]);
             info.sequence = key;
+            info.part = framePart(frames[i]);
             bakeAndWrite(mesh, req, cb, info, paths[i], r);
             fr.activeVoxels = r.stats.activeVoxels;
         }
