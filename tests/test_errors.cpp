@@ -233,6 +233,56 @@ TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
     EXPECT_EQ(left.begin()->first, "tree.vdb");
 }
 
+TEST(NothingIsLost, ASignalToALocalTiledBakeEndsItsTileAndRemovesItsTiles)
+{
+    // The tiles' bakes stop themselves in their writes (the writer's test
+    // seam); the first one's stop is when the signal reaches the parent
+    // (the parent alone, as `kill` sends it; Ctrl-C reaches both): the
+    // tile's bake must end and remove its temporary, and the parent the
+    // tiles' directory.
+    const fs::path dir = freshDir("cambium_errors_tiles_signal");
+    const std::string out = (dir / "tree.vdb").string();
+    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) +
+                            " bake " + kScene + " --voxel-size 0.05 --device cpu --tiles 3 -o " +
+                            out + " >/dev/null 2>&1 & echo $!";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    long pid = 0;
+    ASSERT_EQ(std::fscanf(p, "%ld", &pid), 1);
+    ::pclose(p);
+    // The first tile's bake, stopped with its temporary made.
+    const fs::path tiles = dir / (".tree.vdb.tiles-" + std::to_string(pid));
+    long child = 0;
+    const auto start = std::chrono::steady_clock::now();
+    while (child == 0 && std::chrono::steady_clock::now() - start < std::chrono::minutes(5)) {
+        std::error_code ec;
+        for (const auto& e : fs::directory_iterator(tiles, ec)) {
+            const std::string name = e.path().filename().string();
+            if (name.rfind("tile-1.vdb.tmp-", 0) == 0)
+                child = std::stol(name.substr(15));
+        }
+        if (child == 0 || processState(child) != 'T') {
+            child = 0;
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    }
+    ASSERT_NE(child, 0) << "the first tile's bake did not stop in its write";
+    // (SIGTERM: a background job of a script starts with SIGINT ignored,
+    // which cambium keeps, as for nohup; the handler is the same.)
+    ::kill(pid_t(pid), SIGTERM);
+    for (const long q : {pid, child}) {
+        char state;
+        const auto sent = std::chrono::steady_clock::now();
+        while ((state = processState(q)) != 0 && state != 'Z' &&
+               std::chrono::steady_clock::now() - sent < std::chrono::seconds(60))
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        EXPECT_TRUE(state == 0 || state == 'Z') << q << " still runs";
+    }
+    ::kill(pid_t(child), SIGKILL);  // (nothing, when it ended as it should)
+    ::kill(pid_t(pid), SIGKILL);
+    EXPECT_TRUE(snapshot(dir).empty()) << "left: " << snapshot(dir).begin()->first;
+    EXPECT_FALSE(fs::exists(tiles));
+}
+
 TEST(NothingIsLost, OneSequenceAtATimePerPattern)
 {
     const fs::path dir = freshDir("cambium_errors_lock");

@@ -53,6 +53,9 @@ std::pair<int, double> runChild(const std::vector<std::string>& argv)
         ::execv(args[0], args.data());
         ::_exit(127);
     }
+    // A signal that ends this process ends the tile's bake first (it removes
+    // its temporary), then the tiles' directory goes.
+    RemoveOnSignal child(pid);
     int status = 0;
     struct rusage usage {};
     while (::wait4(pid, &status, 0, &usage) < 0)

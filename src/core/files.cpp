@@ -28,6 +28,8 @@
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
+#include <sys/syscall.h>
+#include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
 #include <vector>
@@ -45,17 +47,60 @@ constexpr int kSlots = 64;
 enum SlotState : int { Free, Filling, Live, Taken };
 struct CleanupSlot {
     std::atomic<int> state{Free};
+    RemoveOnSignal::Kind kind = RemoveOnSignal::Kind::File;
+    pid_t pid = 0;  // (Kind::Child)
     char path[PATH_MAX];
 };
 CleanupSlot gSlots[kSlots];
 
+/// Unlinks every entry of directory `path` (not its subdirectories) and the
+/// directory: raw getdents64, which a signal handler may call.
+void removeFlatDirectory(const char* path)
+{
+    const int fd = ::open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return;
+    alignas(8) static char buffer[16384];
+    for (;;) {
+        const long n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer);
+        if (n <= 0)
+            break;
+        for (long at = 0; at < n;) {
+            // struct linux_dirent64: ino (8), off (8), reclen (2), type (1), name
+            unsigned short reclen;
+            std::memcpy(&reclen, buffer + at + 16, sizeof reclen);
+            const char* name = buffer + at + 19;
+            if (!(name[0] == '.' && (name[1] == 0 || (name[1] == '.' && name[2] == 0))))
+                ::unlinkat(fd, name, 0);
+            at += reclen;
+        }
+    }
+    ::close(fd);
+    ::rmdir(path);
+}
+
 extern "C" void removeOnSignal(int sig)
 {
-    for (CleanupSlot& s : gSlots) {
-        int live = Live;
-        if (s.state.compare_exchange_strong(live, Taken))
-            ::unlink(s.path);
-    }
+    // Children first (they remove their own files as they end), then
+    // files, then the directories they were in.
+    for (auto kind : {RemoveOnSignal::Kind::Child, RemoveOnSignal::Kind::File,
+                      RemoveOnSignal::Kind::Directory})
+        for (CleanupSlot& s : gSlots) {
+            int live = Live;
+            if (s.kind != kind || !s.state.compare_exchange_strong(live, Taken))
+                continue;
+            if (kind == RemoveOnSignal::Kind::Child) {
+                ::kill(s.pid, sig);
+                ::kill(s.pid, SIGCONT);  // (a stopped child must run to end)
+                int status;
+                while (::waitpid(s.pid, &status, 0) < 0 && errno == EINTR) {
+                }
+            } else if (kind == RemoveOnSignal::Kind::File) {
+                ::unlink(s.path);
+            } else {
+                removeFlatDirectory(s.path);
+            }
+        }
     ::signal(sig, SIG_DFL);
     ::raise(sig);
 }
@@ -180,7 +225,13 @@ std::string fileKind(mode_t mode)
 
 }  // namespace
 
-RemoveOnSignal::RemoveOnSignal(const std::string& path)
+RemoveOnSignal::RemoveOnSignal(const std::string& path, Kind kind) : RemoveOnSignal(path, kind, 0)
+{
+}
+
+RemoveOnSignal::RemoveOnSignal(pid_t child) : RemoveOnSignal(std::string(), Kind::Child, child) {}
+
+RemoveOnSignal::RemoveOnSignal(const std::string& path, Kind kind, pid_t pid)
 {
     if (path.size() >= PATH_MAX)
         return;
@@ -188,6 +239,8 @@ RemoveOnSignal::RemoveOnSignal(const std::string& path)
         int free = Free;
         if (gSlots[i].state.compare_exchange_strong(free, Filling)) {
             std::memcpy(gSlots[i].path, path.c_str(), path.size() + 1);
+            gSlots[i].kind = kind;
+            gSlots[i].pid = pid;
             gSlots[i].state.store(Live);
             slot_ = i;
             return;
@@ -655,7 +708,8 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
     throw InputError(fmt::format("{}: unknown {} format '.{}' (use {})", path, kind, ext, list));
 }
 
-ScratchDirectory::ScratchDirectory(std::string path) : path_(std::move(path))
+ScratchDirectory::ScratchDirectory(std::string path)
+    : path_(std::move(path)), guard_(path_, RemoveOnSignal::Kind::Directory)
 {
     std::filesystem::create_directories(path_);
 }

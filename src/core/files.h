@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <sys/types.h>
+
 namespace cambium {
 
 /// A failure while writing an output (a full disk, an I/O error): the work
@@ -99,13 +101,19 @@ std::vector<std::string> staleTemporaries(const std::string& pattern);
 /// guard lives (installCleanupOnSignals); release() when it is no longer ours.
 class RemoveOnSignal {
 public:
-    explicit RemoveOnSignal(const std::string& path);
+    /// What the handler does: removes a file; removes a directory and the
+    /// files in it; sends a child process the signal (and SIGCONT) and
+    /// waits for it to end, before any file is removed.
+    enum class Kind { File, Directory, Child };
+    explicit RemoveOnSignal(const std::string& path, Kind kind = Kind::File);
+    explicit RemoveOnSignal(pid_t child);
     ~RemoveOnSignal() { release(); }
     RemoveOnSignal(const RemoveOnSignal&) = delete;
     RemoveOnSignal& operator=(const RemoveOnSignal&) = delete;
     void release();
 
 private:
+    RemoveOnSignal(const std::string& path, Kind kind, pid_t pid);
     int slot_ = -1;
 };
 
@@ -137,7 +145,9 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
                        const char* kind);
 
 /// A working directory, created (with its parents) now and removed with
-/// everything in it when this goes out of scope, however the scope ends.
+/// everything in it when this goes out of scope, however the scope ends,
+/// and when a signal ends the process (installCleanupOnSignals: the files
+/// directly in it).
 class ScratchDirectory {
 public:
     explicit ScratchDirectory(std::string path);
@@ -148,6 +158,7 @@ public:
 
 private:
     std::string path_;
+    RemoveOnSignal guard_;  // (its files, on a signal too)
 };
 
 }  // namespace cambium
