@@ -208,8 +208,20 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
                   .find("4 of 6 frames written and of this plan; 2 chunks failed, 1 for bad input"),
               std::string::npos)
         << fileContents(dir / "check.txt");
+    // An edited plan (its retries raised by hand) is refused.
+    std::string edited = array.planJson;
+    edited.replace(edited.find("\"retries\": 2"), 12, "\"retries\": 5");
+    std::ofstream(array.planPath) << edited;
+    try {
+        readFarmPlan(array.farmDir);
+        ADD_FAILURE() << "an edited plan was read";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("plan.json: plan_hash: the plan was edited"),
+                  std::string::npos)
+            << e.what();
+    }
     // A plan file that is not one is named.
-    std::ofstream(array.planPath) << "{\"cambium_farm_plan\": 1, \"output\": 3}";
+    std::ofstream(array.planPath) << "{\"cambium_farm_plan\": 2, \"output\": 3}";
     try {
         readFarmPlan(array.farmDir);
         ADD_FAILURE() << "a damaged plan was read";
@@ -217,7 +229,7 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
         EXPECT_NE(std::string(e.what()).find("plan.json: output"), std::string::npos) << e.what();
     }
     // Nor is one of another version.
-    for (const std::string version : {"2", "\"1\"", "0.5"}) {
+    for (const std::string version : {"1", "3", "\"2\"", "2.5"}) {
         std::ofstream(array.planPath) << "{\"cambium_farm_plan\": " + version + "}";
         try {
             readFarmPlan(array.farmDir);
@@ -363,6 +375,11 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
                               shellQuote(tilePath(farm.dir, 1)) + " > /dev/null";
     ASSERT_EQ(std::system(stale.c_str()), 0);
     EXPECT_EQ(assessFarm(farm).chunks[1].missing, std::vector<long long>{2});
+    // Nor is this plan's tile 1 copied into tile 2's place.
+    fs::copy_file(tilePath(farm.dir, 0), tilePath(farm.dir, 1),
+                  fs::copy_options::overwrite_existing);
+    EXPECT_EQ(assessFarm(farm).chunks[1].missing, std::vector<long long>{2});
+    EXPECT_TRUE(assessFarm(farm).chunks[0].missing.empty());
     fs::rename(dir / "kept.vdb", tilePath(farm.dir, 1));
     auto farmCommand = [&](const std::string& args) {
         const std::string command = exe + " farm " + args + " " + shellQuote(farm.dir) + " > " +

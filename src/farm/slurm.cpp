@@ -22,7 +22,22 @@ namespace cambium {
 namespace fs = std::filesystem;
 
 /// The plan.json layout this cambium writes and reads.
-constexpr int kFarmPlanVersion = 1;
+constexpr int kFarmPlanVersion = 2;  // (2: with plan_hash)
+
+/// The hash a plan carries of its own fields (`plan_hash`: of its JSON with
+/// sorted keys, without that field), so that an edited plan is told.
+std::string planHash(nlohmann::json plan)
+{
+    plan.erase("plan_hash");
+    return fmt::format("{:016x}", fnv1a64(plan.dump()));
+}
+
+/// The plan's text, its hash among its fields.
+std::string planText(nlohmann::ordered_json plan)
+{
+    plan["plan_hash"] = planHash(nlohmann::json::parse(plan.dump()));
+    return plan.dump(2) + "\n";
+}
 
 std::string shellQuote(const std::string& s)
 {
@@ -268,7 +283,7 @@ SlurmArray planSlurmArray(const SequencePlan& plan, const SlurmOptions& o)
         parts.push_back(c.frames);
     }
     j["chunks"] = chunks;
-    s.planJson = j.dump(2) + "\n";
+    s.planJson = planText(j);
     writeScripts(s, parts, chunkBakeArguments(plan, kPart, kThreads),
                  fmt::format("{} frames of {} in {} chunks ({})", plan.frames.size(), input,
                              s.chunks.size(), plan.request.frames),
@@ -329,7 +344,7 @@ SlurmArray planTileArray(const TileFarmRequest& t, const SlurmOptions& o)
         chunks.push_back({{"tile", parts.back()}, {"file", tilePath(s.farmDir, size_t(k))}});
     }
     j["chunks"] = chunks;
-    s.planJson = j.dump(2) + "\n";
+    s.planJson = planText(j);
     // Task k: tile k+1 into the farm's tile-K.vdb, as floats (the merge
     // packs halves itself); "K/N" is the task's part.
     BakeRequest one = r;
@@ -400,6 +415,11 @@ FarmPlan readFarmPlan(const std::string& farmDir)
             parseFrames(part, path + ": " + at + ".frames");
         p.chunks.push_back(part);
     }
+    // (Last: a plan whose fields are wrong is named by its field first.)
+    if (!j.contains("plan_hash") || !j.at("plan_hash").is_string() ||
+        j.at("plan_hash").get<std::string>() != planHash(j))
+        v.fail("plan_hash", "the plan was edited after cambium wrote it (its fields do not match "
+                            "its plan_hash): plan the farm again");
     return p;
 }
 
