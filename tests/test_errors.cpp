@@ -388,6 +388,24 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "zeros.vdb", std::string(4096, '\0'));
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
     writeText(in / "noface.obj", "v 0 0 0\n");
+    writeText(in / "back.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -9\n");
+    writeText(in / "index.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float "
+              "y\nproperty float z\nelement face 2\nproperty list uchar int "
+              "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 7\n");
+    {
+        // A binary PLY whose header claims 2^31 faces and holds one.
+        std::string ply =
+            "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty "
+            "float y\nproperty float z\nelement face 2147483648\nproperty list uchar int "
+            "vertex_indices\nend_header\n";
+        const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+        ply.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+        const int32_t face[3] = {0, 1, 2};
+        ply.push_back(char(3));
+        ply.append(reinterpret_cast<const char*>(face), sizeof face);
+        writeText(in / "liar.ply", ply);
+    }
     writeText(in / "bad.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
     {
         std::string edits;  // twenty edits each allowed alone, together past any size
@@ -583,6 +601,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render -o OUT/out.png", "nothing to render"},
         {"render --mesh IN/index.obj -o OUT/out.png", "index.obj:4: vertex index 9 out of range"},
         {"render --mesh IN/noface.obj -o OUT/out.png", "noface.obj: the mesh has no faces"},
+        {"render --mesh IN/back.obj -o OUT/out.png",
+         "back.obj:4: vertex index -9 out of range (the file has 3 vertices before it)"},
+        {"render --mesh IN/index.ply -o OUT/out.png",
+         "index.ply: vertex index 7 out of range (the file has 3 vertices) (face 1)"},
+        {"render --mesh IN/liar.ply -o OUT/out.png",
+         "liar.ply: the file ends inside element 'face' (1 of 2147483648)"},
         {"render --mesh IN/bad.ply -o OUT/out.png",
          "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},

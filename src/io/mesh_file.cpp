@@ -34,17 +34,21 @@ namespace {
                           : fmt::format("{}: {}", path, what));
 }
 
-/// Fans a polygon (indices into the points, checked) into triangles.
-void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly, const std::string& path,
-                size_t line)
+/// Fans a polygon (indices into the points, checked) into triangles.  A
+/// bad one is named as the file wrote it: `written` (its indices as
+/// written), `where` (" (face 3)" for a PLY face; OBJ names the line).
+void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly,
+                const std::vector<int64_t>& written, const std::string& path, size_t line,
+                const std::string& where)
 {
     if (poly.size() < 3)
-        fail(path, line, fmt::format("a face needs at least 3 vertices (got {})", poly.size()));
-    for (int64_t v : poly)
-        if (v < 0 || size_t(v) >= m.points.size())
+        fail(path, line,
+             fmt::format("a face needs at least 3 vertices (got {}){}", poly.size(), where));
+    for (size_t i = 0; i < poly.size(); ++i)
+        if (poly[i] < 0 || size_t(poly[i]) >= m.points.size())
             fail(path, line,
-                 fmt::format("vertex index {} out of range (the file has {} vertices so far)",
-                             v + 1, m.points.size()));
+                 fmt::format("vertex index {} out of range (the file has {} vertices{}){}",
+                             written[i], m.points.size(), line ? " before it" : "", where));
     std::vector<uint32_t> corners(poly.begin(), poly.end());
     m.addPolygon(corners.data(), corners.size());
 }
@@ -56,7 +60,7 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
     std::vector<std::pair<size_t, int64_t>> cornerNormals;  // (point, normal) pairs from the faces
     std::string text;
     size_t line = 0;
-    std::vector<int64_t> poly;
+    std::vector<int64_t> poly, written;
     while (std::getline(in, text)) {
         ++line;
         std::istringstream s(text);
@@ -84,6 +88,7 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
             }
         } else if (tag == "f") {
             poly.clear();
+            written.clear();
             std::string corner;
             while (s >> corner) {
                 // v, v/vt, v/vt/vn or v//vn; negative indices count from the end.
@@ -93,6 +98,7 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                     fail(path, line, fmt::format("bad face corner '{}'", corner));
                 const int64_t vi = v > 0 ? v - 1 : int64_t(m.points.size()) + v;
                 poly.push_back(vi);
+                written.push_back(v);
                 const auto slash1 = corner.find('/');
                 const auto slash2 =
                     slash1 == std::string::npos ? slash1 : corner.find('/', slash1 + 1);
@@ -104,7 +110,7 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                                                n > 0 ? n - 1 : int64_t(normals.size()) + n);
                 }
             }
-            addPolygon(m, poly, path, line);
+            addPolygon(m, poly, written, path, line, "");
         }
         // Other statements (vt, o, g, s, usemtl, mtllib, l, ...) do not change the surface.
     }
@@ -313,7 +319,7 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
             if (a >= 0)
                 m.alpha.push_back(float(values[size_t(a)] * alphaScale));
         } else if (e.name == "face") {
-            addPolygon(m, poly, path, 0);
+            addPolygon(m, poly, poly, path, 0, fmt::format(" (face {})", item));
         }
     }
 }
