@@ -45,7 +45,7 @@ seeds() {
 report=$build/fuzz-report.txt
 printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' harness seconds executions exec/s cov features corpus result | tee "$report"
 status=0
-for h in scene lsystem skeleton growth shape mesh vdb; do
+for h in scene lsystem skeleton growth shape mesh vdb photo request; do
   corpus=$build/corpus/$h
   findings=$build/findings/$h
   mkdir -p "$corpus" "$findings"

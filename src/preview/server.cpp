@@ -111,17 +111,6 @@ void refuse(httplib::Response& res, int status, const std::string& why)
     reply(res, status, {{"error", why}});
 }
 
-/// The request's JSON body: an object, else 400.
-std::optional<json> jsonBody(const httplib::Request& req, httplib::Response& res)
-{
-    json body = json::parse(req.body, nullptr, /*allow_exceptions=*/false);
-    if (!body.is_object()) {
-        refuse(res, 400, "the request's body must be a JSON object");
-        return std::nullopt;
-    }
-    return body;
-}
-
 /// Runs each connection on a thread of its own, up to `most` at once (the
 /// rest wait their turn), and keeps the threads for the next connections.
 /// A fixed pool of N threads (httplib's) is stalled by N connections that
@@ -185,6 +174,52 @@ private:
 };
 
 }  // namespace
+
+namespace {
+
+/// The request's body as a JSON object, else InputError.
+json jsonObject(const std::string& body)
+{
+    json j = json::parse(body, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_object())
+        throw InputError("the request's body must be a JSON object");
+    return j;
+}
+
+}  // namespace
+
+CurveEdit parseCurveEdit(const std::string& body)
+{
+    const json j = jsonObject(body);
+    if (!j.contains("key") || !j["key"].is_string() || !j.contains("points") ||
+        !j["points"].is_array())
+        throw InputError("expected {\"key\": CURVE, \"points\": [[x, y], ...]}");
+    CurveEdit edit;
+    edit.key = j["key"].get<std::string>();
+    for (const json& p : j["points"]) {
+        if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+            throw InputError("each point must be [x, y], two numbers");
+        edit.points.emplace_back(p[0].get<double>(), p[1].get<double>());
+    }
+    return edit;
+}
+
+PreviewView parseViewEdit(const std::string& body, PreviewView v)
+{
+    const json j = jsonObject(body);
+    for (const auto& [key, value] : j.items()) {
+        if (key == "time" && value.is_null())
+            v.time.reset();
+        else if (key == "time" && value.is_number())
+            v.time = value.get<double>();
+        else if ((key == "azimuth" || key == "elevation") && value.is_number())
+            (key == "azimuth" ? v.azimuth : v.elevation) = value.get<double>();
+        else
+            throw InputError(fmt::format(
+                "{}: expected time (years or null), azimuth or elevation (degrees)", key));
+    }
+    return v;
+}
 
 struct PreviewServer::Impl {
     PreviewSession& session;
@@ -253,22 +288,14 @@ struct PreviewServer::Impl {
 
     /// A page's curve edit: checked by the file's reader, then written over
     /// the file through the checked writer.  The watcher sees the write.
-    void editCurve(const json& body, httplib::Response& res)
+    void editCurve(const std::string& body, httplib::Response& res)
     {
-        if (!body.contains("key") || !body["key"].is_string() || !body.contains("points") ||
-            !body["points"].is_array())
-            return refuse(res, 400, "expected {\"key\": CURVE, \"points\": [[x, y], ...]}");
-        std::vector<std::pair<double, double>> points;
-        for (const json& p : body["points"]) {
-            if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
-                return refuse(res, 400, "each point must be [x, y], two numbers");
-            points.emplace_back(p[0].get<double>(), p[1].get<double>());
-        }
         const std::string& input = session.settings().input;
         std::lock_guard<std::mutex> lock(fileMutex);
         try {
-            const std::string edited = withCurvePoints(readTextFile(input, "model"), input,
-                                                       body["key"].get<std::string>(), points);
+            const CurveEdit edit = parseCurveEdit(body);
+            const std::string edited =
+                withCurvePoints(readTextFile(input, "model"), input, edit.key, edit.points);
             writeFile(input, edited.data(), edited.size());
         } catch (const InputError& e) {
             return refuse(res, 400, e.what());
@@ -279,22 +306,12 @@ struct PreviewServer::Impl {
     }
 
     /// A page's move of the year slider or the camera.
-    void editView(const json& body, httplib::Response& res)
+    void editView(const std::string& body, httplib::Response& res)
     {
         std::lock_guard<std::mutex> lock(viewMutex);
-        PreviewView v = session.view();
+        PreviewView v;
         try {
-            for (const auto& [key, value] : body.items()) {
-                if (key == "time" && value.is_null())
-                    v.time.reset();
-                else if (key == "time" && value.is_number())
-                    v.time = value.get<double>();
-                else if ((key == "azimuth" || key == "elevation") && value.is_number())
-                    (key == "azimuth" ? v.azimuth : v.elevation) = value.get<double>();
-                else
-                    throw InputError(fmt::format(
-                        "{}: expected time (years or null), azimuth or elevation (degrees)", key));
-            }
+            v = parseViewEdit(body, session.view());
             session.setView(v);
         } catch (const InputError& e) {
             return refuse(res, 400, e.what());
@@ -344,12 +361,10 @@ struct PreviewServer::Impl {
             reply(res, 200, model());
         });
         server.Post("/curve", [this](const httplib::Request& req, httplib::Response& res) {
-            if (auto body = jsonBody(req, res))
-                editCurve(*body, res);
+            editCurve(req.body, res);
         });
         server.Post("/view", [this](const httplib::Request& req, httplib::Response& res) {
-            if (auto body = jsonBody(req, res))
-                editView(*body, res);
+            editView(req.body, res);
         });
         server.Get("/events", [this](const httplib::Request&, httplib::Response& res) {
             // Each page gets the latest update at once, then each new one;

@@ -17,6 +17,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace cambium {
 
@@ -46,5 +48,19 @@ private:
 
 /// The page's HTML, script and style, embedded in the binary.
 extern const char* const kPreviewPage;
+
+/// A page's curve edit, from the body of POST /curve: {"key": CURVE,
+/// "points": [[x, y], ...]}.  InputError (the server's 400) for a body that
+/// is not that JSON object.  (The server's parsers, shared with the fuzzer.)
+struct CurveEdit {
+    std::string key;
+    std::vector<std::pair<double, double>> points;
+};
+CurveEdit parseCurveEdit(const std::string& body);
+
+/// `view` moved by the body of POST /view: {"time": YEARS or null,
+/// "azimuth": DEGREES, "elevation": DEGREES}, any of them.  InputError for
+/// another body (a time or angle out of range is PreviewSession's to refuse).
+PreviewView parseViewEdit(const std::string& body, PreviewView view);
 
 }  // namespace cambium

@@ -13,8 +13,10 @@
 #include "model/skeleton.h"
 #include "model/tree_builder.h"
 #include "model/turtle.h"
+#include "io/image_file.h"
 #include "io/mesh_file.h"
 #include "io/vdb.h"
+#include "preview/server.h"
 #include "shape/shape.h"
 #include "shape/synthesis.h"
 
@@ -22,7 +24,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -92,6 +96,31 @@ inline const std::map<std::string, std::function<void(const std::string&)>>& rea
              const std::string format = in[0] & 1 ? "ply" : "obj";
              std::istringstream s(in.substr(1));
              parseMesh(s, "fuzz." + format, format);
+         }},
+        {"photo",
+         [](const std::string& in) {
+             // A bark photo: any format OpenImageIO reads (its header's
+             // pixels capped before decoding), made linear RGB.
+             readPhoto(asFile(in, ".img"));
+         }},
+        {"request",
+         [](const std::string& in) {
+             // The preview server's bodies (the first byte picks the route):
+             // a view edit, or a curve edit applied to a growth file's text
+             // by the reader that the server writes the file with.
+             if (in.empty())
+                 return;
+             const std::string body = in.substr(1);
+             if (in[0] & 1) {
+                 parseViewEdit(body, PreviewView{});
+                 return;
+             }
+             static const std::string growth = [] {
+                 std::ifstream f(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+                 return std::string(std::istreambuf_iterator<char>(f), {});
+             }();
+             const CurveEdit edit = parseCurveEdit(body);
+             withCurvePoints(growth, "fuzz.json", edit.key, edit.points);
          }},
         {"vdb",
          [](const std::string& in) {
