@@ -14,6 +14,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <sstream>
 
 namespace {
@@ -208,4 +209,27 @@ TEST(Json, AValueSpanSkipsStringsAndCommentsThatLookLikeKeys)
     EXPECT_EQ(spanText({"a"}), R"("{\"b\": 1}")");
     EXPECT_EQ(spanText({"c", "e"}), "(none)");
     EXPECT_EQ(spanText({"a", "b"}), "(none)");
+    // Keys as the parser reads them (escapes, quotes inside), comments
+    // between a key and its colon, empty objects, a value that is no object.
+    const std::string keys = R"({"q\"b": 1, "\u0062" /* c */ : {}, "e": {"f": []}, "s": "x"})";
+    auto span = [&](const std::vector<std::string>& path) {
+        const auto at = jsonValueSpan(keys, path);
+        return at ? keys.substr(at->first, at->second - at->first) : "(none)";
+    };
+    EXPECT_EQ(span({"q\"b"}), "1");
+    EXPECT_EQ(span({"b"}), "{}");
+    EXPECT_EQ(span({"b", "x"}), "(none)");
+    EXPECT_EQ(span({"e", "f"}), "[]");
+    EXPECT_EQ(span({"s", "x"}), "(none)");
+    EXPECT_EQ(jsonValueSpan("[1, 2]", {"a"}), std::nullopt);
+    EXPECT_EQ(jsonValueSpan("{}", {"a"}), std::nullopt);
+    // A growth file whose curve's key is written with an escape is edited
+    // where the parser reads it.
+    std::ifstream in(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json");
+    std::string growth((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t gh = growth.find("\"Gh\"");
+    ASSERT_NE(gh, std::string::npos);
+    growth.replace(gh, 4, "\"G\\u0068\"");
+    const std::string edited = withCurvePoints(growth, "tree.json", "Gh", {{0, 0.2}, {1, 1}});
+    EXPECT_DOUBLE_EQ(parseGrowthParameters(edited, "tree.json").Gh(0.0), 0.2);
 }

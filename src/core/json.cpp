@@ -192,6 +192,20 @@ struct JsonScanner {
 
 }  // namespace
 
+namespace {
+
+/// A key's text between its quotes as the parser reads it: escapes decoded
+/// ("G\u0068" is the key Gh).
+std::string decodedKey(const std::string& raw)
+{
+    if (raw.find('\\') == std::string::npos)
+        return raw;
+    const json j = json::parse("\"" + raw + "\"", nullptr, /*allow_exceptions=*/false);
+    return j.is_string() ? j.get<std::string>() : raw;
+}
+
+}  // namespace
+
 std::optional<std::pair<size_t, size_t>> jsonValueSpan(const std::string& text,
                                                        const std::vector<std::string>& keys)
 {
@@ -207,7 +221,7 @@ std::optional<std::pair<size_t, size_t>> jsonValueSpan(const std::string& text,
                 ++s.i;
                 continue;
             }
-            const std::string name = s.string();
+            const std::string name = decodedKey(s.string());
             s.space();
             ++s.i;  // ':'
             s.space();

@@ -81,15 +81,11 @@ void preloadImageCodec()
     codecLoad();
 }
 
-Photo readPhoto(const std::string& path)
+Photo readPhoto(const std::string& path, size_t maxPixels)
 {
     checkInputFile(path, "photo");
     CodecImage img;
-    // Far more than a bark photo needs (8192 x 6144), and at most 7 floats
-    // a pixel held (the decoded channels, then RGB): 1.4 GB.  Counted in
-    // pixels from the header, so a grey or a lying file is no bomb.
-    constexpr size_t kMaxPixels = 50'000'000;
-    const std::string error = imageCodec().decode(path, kMaxPixels, img);
+    const std::string error = imageCodec().decode(path, maxPixels, img);
     if (!error.empty())
         throw InputError(error);
     // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones

@@ -2,6 +2,7 @@
 // and normals for tools.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,10 @@ struct Photo {
 /// RGB), as linear colour: files that store sRGB-encoded values (what
 /// OpenImageIO's colour space or the format says) are decoded.  InputError
 /// naming the file when it is missing, unreadable or empty.
-Photo readPhoto(const std::string& path);
+/// Far more than a bark photo needs (8192 x 6144), and at most 7 floats a
+/// pixel held (at most 4 decoded channels, then RGB): 1.4 GB.  Counted in
+/// pixels from the header, so a grey or a lying file is no bomb.
+constexpr size_t kMaxPhotoPixels = 50'000'000;
+Photo readPhoto(const std::string& path, size_t maxPixels = kMaxPhotoPixels);
 
 }  // namespace cambium

@@ -7,6 +7,7 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <exception>
 
 namespace {
@@ -47,9 +48,11 @@ try {
             path, spec.width, spec.height, double(maxPixels) / 1e6);
     out.width = spec.width;
     out.height = spec.height;
-    out.channels = spec.nchannels;
-    out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
+    // At most four channels read (grey, grey and alpha, RGB, RGBA): a header
+    // claiming a thousand channels is no bomb.
+    out.channels = std::min(spec.nchannels, 4);
+    out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(out.channels));
+    if (!in->read_image(0, 0, 0, out.channels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
         return fmt::format("{}: cannot read the image: {}", path, oneLine(in->geterror()));
     out.colourSpace = spec.get_string_attribute("oiio:ColorSpace");
     out.floatFormat = spec.format.basetype == OIIO::TypeDesc::FLOAT ||

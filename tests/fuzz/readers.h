@@ -100,8 +100,9 @@ inline const std::map<std::string, std::function<void(const std::string&)>>& rea
         {"photo",
          [](const std::string& in) {
              // A bark photo: any format OpenImageIO reads (its header's
-             // pixels capped before decoding), made linear RGB.
-             readPhoto(asFile(in, ".img"));
+             // pixels capped before decoding: here at a million, so that
+             // one input's run stays small), made linear RGB.
+             readPhoto(asFile(in, ".img"), 1'000'000);
          }},
         {"request",
          [](const std::string& in) {
