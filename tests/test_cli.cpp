@@ -139,8 +139,8 @@ TEST(Cli, BakeWritesALevelSetAndSaysWhatItDid)
 
 TEST(Cli, DryRunPrintsThePlanOfAnyBakeAndWritesNothing)
 {
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("cambium_cli_dry_" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("cambium_cli_dry_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     const std::string populus = kExamples + "populus/populus.json";

@@ -197,8 +197,8 @@ TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
     const std::string out = (dir / "tree.vdb").string();
     // The bake stops itself once its temporary exists (the writer's test
     // seam): the signal comes then, not in a race with the write.
-    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) +
-                            " bake " + kScene + " --voxel-size 0.05 --device cpu -o " + out +
+    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) + " bake " +
+                            kScene + " --voxel-size 0.05 --device cpu -o " + out +
                             " >/dev/null 2>&1 & echo $!";
     FILE* p = ::popen(cmd.c_str(), "r");
     long pid = 0;
@@ -242,9 +242,9 @@ TEST(NothingIsLost, ASignalToALocalTiledBakeEndsItsTileAndRemovesItsTiles)
     // tiles' directory.
     const fs::path dir = freshDir("cambium_errors_tiles_signal");
     const std::string out = (dir / "tree.vdb").string();
-    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) +
-                            " bake " + kScene + " --voxel-size 0.05 --device cpu --tiles 3 -o " +
-                            out + " >/dev/null 2>&1 & echo $!";
+    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) + " bake " +
+                            kScene + " --voxel-size 0.05 --device cpu --tiles 3 -o " + out +
+                            " >/dev/null 2>&1 & echo $!";
     FILE* p = ::popen(cmd.c_str(), "r");
     long pid = 0;
     ASSERT_EQ(std::fscanf(p, "%ld", &pid), 1);

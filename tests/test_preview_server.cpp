@@ -431,8 +431,8 @@ TEST(PreviewServer, IdleSlowAndManyConnectionsDoNotStallThePage)
     for (int i = 0; i < 200; ++i) {
         many.push_back(openConnection(port));
         ASSERT_GE(many.back(), 0);
-        ASSERT_TRUE(sendAll(many.back(), "GET " + f.withToken("/model") + " HTTP/1.1\r\n" +
-                                             host + "Connection: close\r\n\r\n"));
+        ASSERT_TRUE(sendAll(many.back(), "GET " + f.withToken("/model") + " HTTP/1.1\r\n" + host +
+                                             "Connection: close\r\n\r\n"));
     }
     for (int fd : many) {
         const std::string answer = readUntilClosed(fd, 30);

@@ -327,11 +327,11 @@ TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
         double sum = 0.0;
         for (double t : plan.times) {
             const Skeleton sk = plan.model->skeleton(t, req.model.leaves);
-            sum += sk.internodes.empty()
-                       ? 4096.0
-                       : estimateFileBytes(FieldProgram::compile(buildTree(sk, build)),
-                                           plan.voxelSize, req.halfWidth, req.colour, req.half,
-                                           req.fog);
+            sum +=
+                sk.internodes.empty()
+                    ? 4096.0
+                    : estimateFileBytes(FieldProgram::compile(buildTree(sk, build)), plan.voxelSize,
+                                        req.halfWidth, req.colour, req.half, req.fog);
         }
         EXPECT_NEAR(plan.fileBytes, sum, tolerance * sum) << frames;
         EXPECT_GT(plan.bandVoxels, 0.0);

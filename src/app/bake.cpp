@@ -63,16 +63,17 @@ void printResources(double bandVoxels, double memory, int atOnce, double file,
                atOnce > 1 ? fmt::format(", {} at once", atOnce) : std::string(),
                formatBytes(availableMemoryBytes()));
     const double free = freeDiskBytes(output);
-    fmt::print("  disk: at least about {}{}\n", formatBytes(file),
-               std::isfinite(free) ? fmt::format(", of {} free", formatBytes(free)) : std::string());
+    fmt::print(
+        "  disk: at least about {}{}\n", formatBytes(file),
+        std::isfinite(free) ? fmt::format(", of {} free", formatBytes(free)) : std::string());
     fmt::print("nothing baked or written (--dry-run)\n");
 }
 
 std::string voxelLine(double h, bool automatic, const std::string& across)
 {
-    return fmt::format("  voxel size {:g}{}\n", h,
-                       automatic ? fmt::format(" (auto: 512 voxels across {})", across)
-                                 : std::string());
+    return fmt::format(
+        "  voxel size {:g}{}\n", h,
+        automatic ? fmt::format(" (auto: 512 voxels across {})", across) : std::string());
 }
 
 int printBakePlan(const BakeRequest& req, const VoxelPlan& plan)

@@ -146,9 +146,10 @@ void addPreviewCommand(CLI::App& app, Action& action)
             loop.idle = [&](const std::atomic<bool>* interrupt) {
                 const bool more = session.prebake(interrupt);
                 if (session.prebakeFull() && !toldFull)
-                    fmt::print("--frames: {} years kept ({}), the most --frames-memory allows; "
-                               "the others are baked when shown\n",
-                               session.prebakedFrames(), formatBytes(session.prebakedBytes()));
+                    fmt::print(
+                        "--frames: {} years kept ({}), the most --frames-memory allows; "
+                        "the others are baked when shown\n",
+                        session.prebakedFrames(), formatBytes(session.prebakedBytes()));
                 toldFull = session.prebakeFull();
                 std::fflush(stdout);
                 return more;

@@ -167,8 +167,8 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     if (req.tile.count == 0)
         for (const std::string& stale : staleTemporaries(req.output))
             if (std::filesystem::remove(stale) && callbacks.notice)
-                callbacks.notice(fmt::format(
-                    "removed {}, a temporary file left by an interrupted run", stale));
+                callbacks.notice(
+                    fmt::format("removed {}, a temporary file left by an interrupted run", stale));
     const ThreadLimit threads(req.threads);
     // The model is read on a thread of its own while this one starts the
     // device (PoCL: its libraries, the device, the programs from cambium's

@@ -92,8 +92,8 @@ void checkBakeOptions(const BakeRequest& request);
 struct VoxelPlan {
     double voxelSize = 0.0;
     bool automatic = false;
-    double extent = 0.0;  ///< largest extent of the surface bounds
-    double bytes = 0.0;   ///< estimated memory of one bake
+    double extent = 0.0;      ///< largest extent of the surface bounds
+    double bytes = 0.0;       ///< estimated memory of one bake
     double bandVoxels = 0.0;  ///< estimated voxels in the band (an overestimate)
     double fileBytes = 0.0;   ///< estimated bytes of the .vdb written
 };

@@ -94,7 +94,8 @@ double estimateFileBytes(const FieldProgram& program, double h, double halfWidth
     const double band = estimateBandVoxels(program, h, halfWidth);
     double perVoxel = half ? kFileHalfSurface : kFileSurface;
     if (!program.uniformColor() && colour != ColourExtent::None)
-        perVoxel += (colour == ColourExtent::Band ? 1.0 : 0.5) * (half ? kFileHalfColour : kFileColour);
+        perVoxel +=
+            (colour == ColourExtent::Band ? 1.0 : 0.5) * (half ? kFileHalfColour : kFileColour);
     if (fog)
         perVoxel += half ? kFileHalfSurface : kFileSurface;
     return band * perVoxel + 4096.0;

@@ -83,8 +83,8 @@ extern "C" void removeOnSignal(int sig)
 {
     // Children first (they remove their own files as they end), then
     // files, then the directories they were in.
-    for (auto kind : {RemoveOnSignal::Kind::Child, RemoveOnSignal::Kind::File,
-                      RemoveOnSignal::Kind::Directory})
+    for (auto kind :
+         {RemoveOnSignal::Kind::Child, RemoveOnSignal::Kind::File, RemoveOnSignal::Kind::Directory})
         for (CleanupSlot& s : gSlots) {
             int live = Live;
             if (s.kind != kind || !s.state.compare_exchange_strong(live, Taken))
@@ -522,7 +522,8 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
         pattern.substr(pattern.rfind('/') == std::string::npos ? 0 : pattern.rfind('/') + 1);
     // (A path without '#': its own temporaries, "NAME.tmp-<pid>".)
     const bool frames = name.find('#') != std::string::npos;
-    const auto [first, last] = frames ? frameRun(name) : std::pair<size_t, size_t>{name.size(), name.size()};
+    const auto [first, last] =
+        frames ? frameRun(name) : std::pair<size_t, size_t>{name.size(), name.size()};
     const size_t hashes = last - first;
     const std::string prefix = name.substr(0, first),
                       suffix = name.substr(first + hashes) + ".tmp-";

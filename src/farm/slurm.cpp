@@ -418,8 +418,9 @@ FarmPlan readFarmPlan(const std::string& farmDir)
     // (Last: a plan whose fields are wrong is named by its field first.)
     if (!j.contains("plan_hash") || !j.at("plan_hash").is_string() ||
         j.at("plan_hash").get<std::string>() != planHash(j))
-        v.fail("plan_hash", "the plan was edited after cambium wrote it (its fields do not match "
-                            "its plan_hash): plan the farm again");
+        v.fail("plan_hash",
+               "the plan was edited after cambium wrote it (its fields do not match "
+               "its plan_hash): plan the farm again");
     return p;
 }
 
@@ -544,8 +545,8 @@ FarmState assessFarm(const FarmPlan& plan)
             } catch (const InputError&) {
             }
             // (Another frame's or tile's file copied over it is not it.)
-            const std::string part = plan.tiles ? tilePart(int(k), int(plan.chunks.size()))
-                                                : framePart(file.number);
+            const std::string part =
+                plan.tiles ? tilePart(int(k), int(plan.chunks.size())) : framePart(file.number);
             ++s.frames;
             if (s.merged || (stamp.key == plan.key && (stamp.part.empty() || stamp.part == part)))
                 ++s.good;

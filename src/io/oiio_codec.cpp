@@ -37,7 +37,8 @@ std::string decode(const std::string& path, size_t maxPixels, cambium::CodecImag
 try {
     auto in = OIIO::ImageInput::open(path);
     if (!in)
-        return fmt::format("{}: not an image OpenImageIO can read ({})", path, oneLine(OIIO::geterror()));
+        return fmt::format("{}: not an image OpenImageIO can read ({})", path,
+                           oneLine(OIIO::geterror()));
     const OIIO::ImageSpec& spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);

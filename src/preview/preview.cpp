@@ -43,9 +43,9 @@ struct PreviewSession::State {
     std::map<uint64_t, BakedGrids> prebaked;
     std::set<uint64_t> unbakeable;  // years of the text whose bake failed
     uint64_t prebakedText = 0;
-    double prebakedBytes = 0.0;  // the kept frames' grids
-    double framesMemory = 0.0;   // what they may take
-    bool prebakeFull = false;    // a frame did not fit: no more for this text
+    double prebakedBytes = 0.0;     // the kept frames' grids
+    double framesMemory = 0.0;      // what they may take
+    bool prebakeFull = false;       // a frame did not fit: no more for this text
     bool marcherStale = true;       // the marcher holds an older bake
     std::optional<uint64_t> baked;  // its file text and time, when known
     PreviewView pictured;           // the last picture's view
@@ -85,8 +85,8 @@ PreviewSession::PreviewSession(PreviewSettings settings)
     if (!(settings_.framesMemory >= 0.0) || !std::isfinite(settings_.framesMemory))
         throw InputError(fmt::format("--frames-memory must be a number of GB >= 0 (got {})",
                                      settings_.framesMemory / 1e9));
-    state_->framesMemory = settings_.framesMemory > 0.0 ? settings_.framesMemory
-                                                        : 0.25 * availableMemoryBytes();
+    state_->framesMemory =
+        settings_.framesMemory > 0.0 ? settings_.framesMemory : 0.25 * availableMemoryBytes();
     if (!settings_.frames.empty()) {
         if (!isGrowthParameterFile(settings_.input))
             throw InputError(fmt::format(
