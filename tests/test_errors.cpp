@@ -191,19 +191,41 @@ char processState(long pid)
     return line[line.rfind(')') + 2];
 }
 
+/// The pid of `cambium ARGS` started in the background with the writer's
+/// test seam set (it stops itself with SIGSTOP once a temporary exists).
+long startStoppingInWrite(const std::string& args)
+{
+    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) + " " +
+                            args + " >/dev/null 2>&1 & echo $!";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    long pid = 0;
+    if (std::fscanf(p, "%ld", &pid) != 1)
+        pid = 0;
+    ::pclose(p);
+    return pid;
+}
+
+/// Whether process `pid` ended within a minute (gone, or a zombie no one
+/// reaps here: it has finished all the same).
+bool endsWithinAMinute(long pid)
+{
+    const auto start = std::chrono::steady_clock::now();
+    char state;
+    while ((state = processState(pid)) != 0 && state != 'Z' &&
+           std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    return state == 0 || state == 'Z';
+}
+
 TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
 {
     const fs::path dir = freshDir("cambium_errors_signal");
     const std::string out = (dir / "tree.vdb").string();
     // The bake stops itself once its temporary exists (the writer's test
     // seam): the signal comes then, not in a race with the write.
-    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) + " bake " +
-                            kScene + " --voxel-size 0.05 --device cpu -o " + out +
-                            " >/dev/null 2>&1 & echo $!";
-    FILE* p = ::popen(cmd.c_str(), "r");
-    long pid = 0;
-    ASSERT_EQ(std::fscanf(p, "%ld", &pid), 1);
-    ::pclose(p);
+    const long pid =
+        startStoppingInWrite("bake " + kScene + " --voxel-size 0.05 --device cpu -o " + out);
+    ASSERT_NE(pid, 0);
     const auto start = std::chrono::steady_clock::now();
     char state = processState(pid);
     while (state != 'T' && state != 0 && state != 'Z' &&
@@ -216,9 +238,7 @@ TEST(NothingIsLost, ASignalDuringTheWriteRemovesTheTemporary)
     EXPECT_TRUE(fs::exists(tmp));
     ::kill(pid_t(pid), SIGTERM);
     ::kill(pid_t(pid), SIGCONT);
-    // Gone (or a zombie no one reaps here: it has finished all the same).
-    while ((state = processState(pid)) != 0 && state != 'Z')
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    EXPECT_TRUE(endsWithinAMinute(pid)) << pid << " still runs";
     EXPECT_TRUE(snapshot(dir).empty()) << "left: " << snapshot(dir).begin()->first;
     // A temporary that a killed bake left (its process gone) is removed by
     // the next bake of the file, which says so.
@@ -242,13 +262,9 @@ TEST(NothingIsLost, ASignalToALocalTiledBakeEndsItsTileAndRemovesItsTiles)
     // tiles' directory.
     const fs::path dir = freshDir("cambium_errors_tiles_signal");
     const std::string out = (dir / "tree.vdb").string();
-    const std::string cmd = "CAMBIUM_TEST_STOP_IN_WRITE=1 " + std::string(CAMBIUM_EXE) + " bake " +
-                            kScene + " --voxel-size 0.05 --device cpu --tiles 3 -o " + out +
-                            " >/dev/null 2>&1 & echo $!";
-    FILE* p = ::popen(cmd.c_str(), "r");
-    long pid = 0;
-    ASSERT_EQ(std::fscanf(p, "%ld", &pid), 1);
-    ::pclose(p);
+    const long pid = startStoppingInWrite("bake " + kScene +
+                                          " --voxel-size 0.05 --device cpu --tiles 3 -o " + out);
+    ASSERT_NE(pid, 0);
     // The first tile's bake, stopped with its temporary made.
     const fs::path tiles = dir / (".tree.vdb.tiles-" + std::to_string(pid));
     long child = 0;
@@ -269,14 +285,8 @@ TEST(NothingIsLost, ASignalToALocalTiledBakeEndsItsTileAndRemovesItsTiles)
     // (SIGTERM: a background job of a script starts with SIGINT ignored,
     // which cambium keeps, as for nohup; the handler is the same.)
     ::kill(pid_t(pid), SIGTERM);
-    for (const long q : {pid, child}) {
-        char state;
-        const auto sent = std::chrono::steady_clock::now();
-        while ((state = processState(q)) != 0 && state != 'Z' &&
-               std::chrono::steady_clock::now() - sent < std::chrono::seconds(60))
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        EXPECT_TRUE(state == 0 || state == 'Z') << q << " still runs";
-    }
+    for (const long q : {pid, child})
+        EXPECT_TRUE(endsWithinAMinute(q)) << q << " still runs";
     ::kill(pid_t(child), SIGKILL);  // (nothing, when it ended as it should)
     ::kill(pid_t(pid), SIGKILL);
     EXPECT_TRUE(snapshot(dir).empty()) << "left: " << snapshot(dir).begin()->first;

@@ -219,9 +219,12 @@ TEST(PreviewServer, NoPathReachesAFileAndOnlyTheWatchedFileIsWritten)
     const std::string before = fileContents(f.dir / "tree.json");
     std::ofstream(f.dir / "secret.txt") << "not for the page";
     // (What the file system holds around the watched file.)
-    for (const char* path : {"/../secret.txt", "/..%2fsecret.txt", "/%2e%2e/%2e%2e/etc/passwd",
-                             "/picture.png/../secret.txt", "/secret.txt", "/tree.json",
-                             "//etc/passwd", "/events/../secret.txt"}) {
+    for (const char* path :
+         {"/../secret.txt", "/..%2fsecret.txt", "/%2e%2e/%2e%2e/etc/passwd",
+          "/picture.png/../secret.txt", "/secret.txt", "/tree.json", "//etc/passwd",
+          "/events/../secret.txt", "/%252e%252e/secret.txt", "/..%5csecret.txt",
+          "/%c0%ae%c0%ae/secret.txt", "/picture.png%00/../secret.txt", "/%2E%2E%2Fsecret.txt",
+          "/.%2e/.%2e/secret.txt", "/model/..;/secret.txt", "/%u002e%u002e/secret.txt"}) {
         auto r = f.client.Get(f.withToken(path).c_str());
         ASSERT_TRUE(r) << path;
         EXPECT_NE(r->status, 200) << path;
@@ -442,7 +445,7 @@ TEST(PreviewServer, IdleSlowAndManyConnectionsDoNotStallThePage)
     }
 }
 
-TEST(PreviewServer, HugeMalformedAndEncodedRequestsAreRefusedAndNothingIsWritten)
+TEST(PreviewServer, HugeAndMalformedRequestsAreRefusedAndNothingIsWritten)
 {
     Fixture f("cambium_preview_server_abuse");
     const int port = f.server.port();
@@ -489,16 +492,7 @@ TEST(PreviewServer, HugeMalformedAndEncodedRequestsAreRefusedAndNothingIsWritten
                 << answer.substr(0, 200);
         }
     }
-    // Paths in every encoding: no file reached.
-    for (const char* path :
-         {"/%252e%252e/secret.txt", "/..%5csecret.txt", "/%c0%ae%c0%ae/secret.txt",
-          "/picture.png%00/../secret.txt", "/%2E%2E%2Fsecret.txt", "/.%2e/.%2e/secret.txt",
-          "/model/..;/secret.txt", "/%u002e%u002e/secret.txt"}) {
-        auto r = f.client.Get(f.withToken(path).c_str());
-        ASSERT_TRUE(r) << path;
-        EXPECT_NE(r->status, 200) << path;
-        EXPECT_EQ(r->body.find("not for the page"), std::string::npos) << path;
-    }
+    // (Paths in every encoding: NoPathReachesAFileAndOnlyTheWatchedFileIsWritten.)
     // The server still serves, and the watched file is as it was.
     auto r = f.client.Get(f.withToken("/model").c_str());
     ASSERT_TRUE(r);

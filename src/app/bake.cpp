@@ -224,11 +224,11 @@ void addBakeCommand(CLI::App& app, Action& action)
             // In the order the checks ran before the commands parsed options:
             // frames, half-width, device, output, the model options.
             const bool sequence = !request.frames.empty();
-            if (sequence && parseFrames(request.frames).size() >= 100000)
+            const size_t frames = sequence ? parseFrames(request.frames).size() : 0;
+            if (frames >= 100000)
                 // (A second or more: each frame's path is checked.  On
                 // stderr, with the progress bars: stdout is the report.)
-                fmt::print(stderr, "planning {} frames\n",
-                           formatCount(double(parseFrames(request.frames).size())));
+                fmt::print(stderr, "planning {} frames\n", formatCount(double(frames)));
             const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
             if (o->slurm.slurm && !sequence && !tiled)
                 throw InputError(
