@@ -18,7 +18,7 @@ packages=(
   libopenimageio-dev openimageio-tools libglm-dev libembree-dev libtbb-dev libosd-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libfmt-dev libcpp-httplib-dev
-  time
+  time ccache
 )
 # More for a caller's own needs (tools/sanitize.sh: clang and its runtimes).
 read -r -a extra <<<"${CAMBIUM_EXTRA_PACKAGES:-}"
