@@ -109,22 +109,103 @@ int printTilePlan(const BakeRequest& req, const TilePlan& plan)
     return 0;
 }
 
+/// What bake's options set.
+struct BakeCommandOptions {
+    SequenceRequest sequence;  // .bake: a single bake's request
+    ModelFlags model;
+    double voxelSize = 0.0;
+    std::string device = "opencl";
+    bool timings = false;
+    std::string colouring, colour = "shell";
+    SlurmFlags slurm;
+    int tiles = 0;
+    std::string tile, maxMemory;
+};
+
+/// --tile K/N: tile K - 1 of N.
+BandTile parseTileOption(const std::string& t)
+{
+    const size_t slash = t.find('/');
+    int k = 0, count = 0;
+    auto whole = [&](size_t from, size_t to, int& v) {
+        const auto r = std::from_chars(t.data() + from, t.data() + to, v);
+        return from < to && r.ec == std::errc() && r.ptr == t.data() + to;
+    };
+    if (slash == std::string::npos || !whole(0, slash, k) || !whole(slash + 1, t.size(), count) ||
+        count < 1 || count > 4096 || k < 1 || k > count)
+        throw InputError(fmt::format("--tile must be K/N with 1 <= K <= N <= 4096 (got '{}')", t));
+    return {k - 1, count};
+}
+
+/// The bake command once its options are parsed: checks them, then bakes,
+/// plans or submits what they ask for.
+int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven)
+{
+    SequenceRequest& request = o->sequence;
+    BakeRequest& req = request.bake;
+    if (voxelGiven)
+        req.voxelSize = o->voxelSize;
+    // In the order the checks ran before the commands parsed options:
+    // frames, half-width, device, output, the model options.
+    const bool sequence = !request.frames.empty();
+    const size_t frames = sequence ? parseFrames(request.frames).size() : 0;
+    if (frames >= 100000)
+        // (A second or more: each frame's path is checked.  On
+        // stderr, with the progress bars: stdout is the report.)
+        fmt::print(stderr, "planning {} frames\n", formatCount(double(frames)));
+    const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
+    if (o->slurm.slurm && !sequence && !tiled)
+        throw InputError(
+            "--slurm bakes a sequence (--frames) or one frame's tiles (--tiles or "
+            "--max-memory): it needs one of them");
+    if (sequence && (tiled || !o->tile.empty()))
+        throw InputError("--tiles, --tile and --max-memory bake one frame: not with --frames");
+    const double maxMemory =
+        o->maxMemory.empty() ? 0.0 : parseByteSize(o->maxMemory, "--max-memory");
+    if (!o->tile.empty())
+        req.tile = parseTileOption(o->tile);
+    checkBakeOptions(req);
+    req.colour = parseColourExtent(o->colour);
+    if (!o->colouring.empty()) {
+        const auto& names = kBarkColourings;
+        if (std::find(names.begin(), names.end(), o->colouring) == names.end())
+            throw InputError(fmt::format("--bark-colouring must be {} (got '{}')",
+                                         fmt::join(names, " or "), o->colouring));
+        req.barkCoherent = o->colouring == names.front();
+    }
+    if (!req.barkPhoto.empty())
+        checkInputFile(req.barkPhoto, "bark photo");
+    req.device = parseDevice(o->device);
+    if (!sequence)
+        checkOutputPath(req.output);
+    fileFormat(req.output, {"vdb"}, "output");
+    checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
+    req.model = o->model.options();
+    const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
+    if (req.tile.count > 0)  // (what a farm's final job checks the tile by)
+        req.key = tileFarmKey(req, req.tile.count);
+    if (o->slurm.slurm && tiled && o->slurm.chunk != 1)
+        throw InputError("--chunk counts frames: a frame's tiles are a task each");
+    if (o->slurm.dryRun && !o->slurm.slurm) {
+        if (tiled)
+            return printTilePlan(req, planTiles(req, o->tiles, maxMemory, true));
+        return sequence ? printSequencePlan(planSequence(request))
+                        : printBakePlan(req, planBake(req));
+    }
+    if (o->slurm.slurm && tiled)
+        return runTileFarmCommand(req, planTiles(req, o->tiles, maxMemory, false), o->slurm);
+    if (o->slurm.slurm)
+        return runSlurmCommand(request, o->slurm);
+    if (tiled)
+        return runTiledBakeCommand(req, o->tiles, maxMemory, timings);
+    return sequence ? runSequenceCommand(request, timings) : runBakeCommand(req, timings);
+}
+
 }  // namespace
 
 void addBakeCommand(CLI::App& app, Action& action)
 {
-    struct Options {
-        SequenceRequest sequence;  // .bake: a single bake's request
-        ModelFlags model;
-        double voxelSize = 0.0;
-        std::string device = "opencl";
-        bool timings = false;
-        std::string colouring, colour = "shell";
-        SlurmFlags slurm;
-        int tiles = 0;
-        std::string tile, maxMemory;
-    };
-    auto o = std::make_shared<Options>();
+    auto o = std::make_shared<BakeCommandOptions>();
     BakeRequest& bake = o->sequence.bake;
     auto* cmd = app.add_subcommand("bake",
                                    "Bake a scene, L-system, skeleton or grown tree into a "
@@ -216,81 +297,7 @@ void addBakeCommand(CLI::App& app, Action& action)
         ->excludes(tilesOpt)
         ->excludes(memoryOpt);
     cmd->callback([o, voxelOpt, &action] {
-        action = [o, voxelOpt] {
-            SequenceRequest& request = o->sequence;
-            BakeRequest& req = request.bake;
-            if (voxelOpt->count())
-                req.voxelSize = o->voxelSize;
-            // In the order the checks ran before the commands parsed options:
-            // frames, half-width, device, output, the model options.
-            const bool sequence = !request.frames.empty();
-            const size_t frames = sequence ? parseFrames(request.frames).size() : 0;
-            if (frames >= 100000)
-                // (A second or more: each frame's path is checked.  On
-                // stderr, with the progress bars: stdout is the report.)
-                fmt::print(stderr, "planning {} frames\n", formatCount(double(frames)));
-            const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
-            if (o->slurm.slurm && !sequence && !tiled)
-                throw InputError(
-                    "--slurm bakes a sequence (--frames) or one frame's tiles (--tiles or "
-                    "--max-memory): it needs one of them");
-            if (sequence && (tiled || !o->tile.empty()))
-                throw InputError(
-                    "--tiles, --tile and --max-memory bake one frame: not with --frames");
-            const double maxMemory =
-                o->maxMemory.empty() ? 0.0 : parseByteSize(o->maxMemory, "--max-memory");
-            if (!o->tile.empty()) {
-                const std::string& t = o->tile;
-                const size_t slash = t.find('/');
-                int k = 0, count = 0;
-                auto whole = [&](size_t from, size_t to, int& v) {
-                    const auto r = std::from_chars(t.data() + from, t.data() + to, v);
-                    return from < to && r.ec == std::errc() && r.ptr == t.data() + to;
-                };
-                if (slash == std::string::npos || !whole(0, slash, k) ||
-                    !whole(slash + 1, t.size(), count) || count < 1 || count > 4096 || k < 1 ||
-                    k > count)
-                    throw InputError(fmt::format(
-                        "--tile must be K/N with 1 <= K <= N <= 4096 (got '{}')", o->tile));
-                req.tile = {k - 1, count};
-            }
-            checkBakeOptions(req);
-            req.colour = parseColourExtent(o->colour);
-            if (!o->colouring.empty()) {
-                const auto& names = kBarkColourings;
-                if (std::find(names.begin(), names.end(), o->colouring) == names.end())
-                    throw InputError(fmt::format("--bark-colouring must be {} (got '{}')",
-                                                 fmt::join(names, " or "), o->colouring));
-                req.barkCoherent = o->colouring == names.front();
-            }
-            if (!req.barkPhoto.empty())
-                checkInputFile(req.barkPhoto, "bark photo");
-            req.device = parseDevice(o->device);
-            if (!sequence)
-                checkOutputPath(req.output);
-            fileFormat(req.output, {"vdb"}, "output");
-            checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
-            req.model = o->model.options();
-            const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
-            if (req.tile.count > 0)  // (what a farm's final job checks the tile by)
-                req.key = tileFarmKey(req, req.tile.count);
-            if (o->slurm.slurm && tiled && o->slurm.chunk != 1)
-                throw InputError("--chunk counts frames: a frame's tiles are a task each");
-            if (o->slurm.dryRun && !o->slurm.slurm) {
-                if (tiled)
-                    return printTilePlan(req, planTiles(req, o->tiles, maxMemory, true));
-                return sequence ? printSequencePlan(planSequence(request))
-                                : printBakePlan(req, planBake(req));
-            }
-            if (o->slurm.slurm && tiled)
-                return runTileFarmCommand(req, planTiles(req, o->tiles, maxMemory, false),
-                                          o->slurm);
-            if (o->slurm.slurm)
-                return runSlurmCommand(request, o->slurm);
-            if (tiled)
-                return runTiledBakeCommand(req, o->tiles, maxMemory, timings);
-            return sequence ? runSequenceCommand(request, timings) : runBakeCommand(req, timings);
-        };
+        action = [o, voxelOpt] { return runBakeOptions(o, voxelOpt->count() > 0); };
     });
 }
 

@@ -314,26 +314,23 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
     return withBenchDirectory([&](const std::string& dir) { runGrowthBench(req, dir, callbacks); });
 }
 
-}  // namespace
+/// What the bench subcommands' options set.
+struct BenchOptions {
+    std::vector<std::string> cases = {"1000:0.01", "20000:0.005"};
+    bool skipCpu = false;
+    int repeats = 3;
+    int internodes = 1000, width = 768, height = 768;
+    double voxelSize = 0.01;
+    GrowthBenchRequest growth;
+    std::string growthDevice = "opencl";
+    PreviewBenchRequest preview;
+    ReadBenchRequest read;
+    std::string previewDevice = "opencl";
+};
 
-void addBenchCommand(CLI::App& app, Action& action)
+/// bench bake: cambium against the dense evaluation and ParticlesToLevelSet.
+void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Action& action)
 {
-    struct Options {
-        std::vector<std::string> cases = {"1000:0.01", "20000:0.005"};
-        bool skipCpu = false;
-        int repeats = 3;
-        int internodes = 1000, width = 768, height = 768;
-        double voxelSize = 0.01;
-        GrowthBenchRequest growth;
-        std::string growthDevice = "opencl";
-        PreviewBenchRequest preview;
-        ReadBenchRequest read;
-        std::string previewDevice = "opencl";
-    };
-    auto o = std::make_shared<Options>();
-    auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
-    bench->require_subcommand(1);
-
     auto* bake = bench->add_subcommand(
         "bake",
         "cambium's bake (OpenCL and CPU) against a naive dense evaluation and OpenVDB's "
@@ -366,7 +363,11 @@ void addBenchCommand(CLI::App& app, Action& action)
             return 0;
         };
     });
+}
 
+/// bench mesh and bench render, on a baked benchmark tree.
+void addUseBenches(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Action& action)
+{
     auto useOptions = [o](CLI::App* cmd) {
         cmd->add_option("--internodes", o->internodes, "Internodes of the generated tree")
             ->capture_default_str();
@@ -401,7 +402,11 @@ void addBenchCommand(CLI::App& app, Action& action)
             return 0;
         };
     });
+}
 
+/// bench shape: paper 004's synthesis and mesh -> level set.
+void addShapeBench(CLI::App* bench, Action& action)
+{
     auto shapeRequest = std::make_shared<ShapeBenchRequest>();
     auto* shape = bench->add_subcommand(
         "shape",
@@ -431,7 +436,11 @@ void addBenchCommand(CLI::App& app, Action& action)
             return 0;
         };
     });
+}
 
+/// bench growth: the growth model year by year and a whole sequence.
+void addGrowthBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Action& action)
+{
     GrowthBenchRequest& g = o->growth;
     g.parameters = kPopulus;
     auto* growth = bench->add_subcommand("growth",
@@ -456,7 +465,11 @@ void addBenchCommand(CLI::App& app, Action& action)
             return runGrowthBenchCommand(o->growth);
         };
     });
+}
 
+/// bench read: opening a baked frame, by OpenVDB and by cambium's commands.
+void addReadBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Action& action)
+{
     ReadBenchRequest& rb = o->read;
     rb.parameters = kPopulus;
     auto* read = bench->add_subcommand(
@@ -475,7 +488,11 @@ void addBenchCommand(CLI::App& app, Action& action)
         ->capture_default_str()
         ->check(CLI::Range(1, 100));
     read->callback([o, &action] { action = [o] { return runReadBenchCommand(o->read); }; });
+}
 
+/// bench preview: the live preview's first picture and edits.
+void addPreviewBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Action& action)
+{
     PreviewBenchRequest& pv = o->preview;
     pv.parameters = kPopulus;
     auto* preview = bench->add_subcommand(
@@ -498,6 +515,21 @@ void addBenchCommand(CLI::App& app, Action& action)
             return runPreviewBenchCommand(o->preview);
         };
     });
+}
+
+}  // namespace
+
+void addBenchCommand(CLI::App& app, Action& action)
+{
+    auto o = std::make_shared<BenchOptions>();
+    auto* bench = app.add_subcommand("bench", "Throughput benchmarks, side by side in one run");
+    bench->require_subcommand(1);
+    addBakeBench(bench, o, action);
+    addUseBenches(bench, o, action);
+    addShapeBench(bench, action);
+    addGrowthBench(bench, o, action);
+    addReadBench(bench, o, action);
+    addPreviewBench(bench, o, action);
 }
 
 }  // namespace cambium

@@ -35,16 +35,227 @@ void sampleLeafValues(FieldSampler& sampler, const std::vector<LeafJob>& leaves,
     }
 }
 
+namespace {
+
+/// The program the bake samples: procedural detail (bark) keeps only the
+/// octaves four voxels or more long, what the grid can hold without
+/// aliasing.  `limited` holds it where that differs from `given`.
+const FieldProgram& detailLimited(const FieldProgram& given, double h,
+                                  std::optional<FieldProgram>& limited)
+{
+    if (given.barkCount() == 0 || given.detailLimit() == 4.0 * h)
+        return given;
+    limited = given;
+    limited->setDetailLimit(4.0 * h);
+    return *limited;
+}
+
+/// A layer of the stream: one or more consecutive layers (a leaf thick
+/// across the slab axis) of one slab.
+struct Layer {
+    size_t slab, begin, end;  ///< its (last) slab, its leaves order[begin, end)
+    int lo, hi;               ///< its layers' origin[axis] / 8
+};
+
+/// The topology's leaves as the bake streams through them: slab by slab,
+/// each slab's leaves by their layer (counting sort); consecutive small
+/// layers go together (a sampler call costs about half a millisecond however
+/// few its leaves).
+struct Layers {
+    int axis;
+    std::vector<size_t> slab;     ///< slabRuns: where each slab starts, then n
+    std::vector<uint32_t> order;  ///< leaf indices, layer by layer
+    std::vector<Layer> layer;
+
+    Layers(const BandTopology& topo, size_t groupLeaves)
+        : axis(topo.slabAxis), slab(slabRuns(topo.leaves, axis)), order(topo.leaves.size())
+    {
+        const auto& leaves = topo.leaves;
+        for (size_t i = 0; i + 1 < slab.size(); ++i) {
+            size_t count[8] = {};
+            for (size_t l = slab[i]; l < slab[i + 1]; ++l)
+                ++count[(leaves[l].origin[axis] >> 3) & 7];
+            size_t at[8], next = slab[i];
+            const int base = firstLayer(topo, i);
+            for (int k = 0; k < 8; ++k) {
+                at[k] = next;
+                if (count[k] && !layer.empty() &&
+                    layer.back().end - layer.back().begin < groupLeaves)
+                    layer.back() = {i, layer.back().begin, next + count[k], layer.back().lo,
+                                    base + k};
+                else if (count[k])
+                    layer.push_back({i, next, next + count[k], base + k, base + k});
+                next += count[k];
+            }
+            for (size_t l = slab[i]; l < slab[i + 1]; ++l)
+                order[at[(leaves[l].origin[axis] >> 3) & 7]++] = uint32_t(l);
+        }
+    }
+    size_t slabs() const { return slab.size() - 1; }
+    /// Of slab i: origin[axis] / 8 of its first layer.
+    int firstLayer(const BandTopology& topo, size_t i) const
+    {
+        return (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
+    }
+    LeafList list(size_t u) const
+    {
+        return LeafList{order.data() + layer[u].begin, layer[u].end - layer[u].begin};
+    }
+};
+
+/// The grid leaves are the bake's until the grids take them: a sampler that
+/// fails mid-stream must not leave the finished slabs' leaves behind (a
+/// long-lived process bakes again).
+struct LeafOwner {
+    BandLeaves& leaves;
+    bool owned = true;
+    ~LeafOwner()
+    {
+        if (owned)
+            for (size_t l = 0; l < leaves.surface.size(); ++l) {
+                delete leaves.surface[l];
+                delete leaves.color[l];
+            }
+    }
+};
+
+/// Stages 2-4, streamed through the topology's slabs: the values of each
+/// layer of leaves, the voxels next to a sign change of F - T with their
+/// gradients and colours, then each slab's propagation into signed distances
+/// and grid leaves.  A layer's surface voxels need the values of the layers
+/// next to it, a slab's propagation the surface voxels of the layers next to
+/// it: the stages run a layer or two ahead of each other, and a layer's
+/// values and surface voxels are freed once the stages of its neighbours are
+/// done with them.  The bake holds its output and the state of about a slab
+/// and a quarter, not of the band.
+struct LayerStream {
+    const FieldProgram& program;
+    FieldSampler& sampler;
+    const BakeOptions& opt;
+    const BandTopology& topo;
+    const std::vector<LeafNeighbours>& nb;
+    const Layers& layers;
+    const PropagationInput& propagation;
+    LeafState& state;
+    BandLeaves& leaves;
+    LeafValueCache* next;  ///< the values for a next bake (BakeOptions::reuse)
+    const Progress& progress;
+    BakeStats& st;
+
+    std::vector<ParallelArray<uint16_t>> values =
+        std::vector<ParallelArray<uint16_t>>(layers.layer.size());
+    std::vector<SurfaceVoxels> surface = std::vector<SurfaceVoxels>(layers.layer.size());
+    size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
+
+    void sampleLayer(size_t u)
+    {
+        BakeTimings& tm = st.timings;
+        const double h = opt.voxelSize;
+        auto t0 = Clock::now();
+        const LeafList list = layers.list(u);
+        values[u] = parallelArray<uint16_t>(list.size * kLeafVoxels);
+        if (u == 0)
+            tm.startToSampling = processAgeSeconds();
+        if (next)
+            sampleWithReuse(program, sampler, topo, list, h, *opt.reuse, *next, values[u].get(),
+                            st.reusedLeaves);
+        else
+            sampleLeafValues(sampler, topo.leaves, list, h, values[u].get());
+        for (size_t k = 0; k < list.size; ++k)
+            state.value[list.index[k]] = values[u].get() + k * kLeafVoxels;
+        tm.values += secondsSince(t0);
+        t0 = Clock::now();
+        findInsideBits(state, list);
+        tm.insideBits += secondsSince(t0);
+        sampled += list.size;
+        reportProgress();
+        heldLeaves += list.size;
+        st.heldLeaves = std::max(st.heldLeaves, heldLeaves);
+    }
+
+    void surfaceLayer(size_t u)
+    {
+        BakeTimings& tm = st.timings;
+        const LeafList list = layers.list(u);
+        SurfaceVoxels& sv = surface[u];
+        sv = findSurfaceVoxels(list, nb, state, tm);
+        const auto t0 = Clock::now();
+        sv.samples = parallelArray<SurfaceSample>(sv.count);
+        sampler.sampleSurface(sv.queries.get(), sv.count, opt.voxelSize, sv.samples.get());
+        sv.queries.reset();
+        tm.surfaceSamples += secondsSince(t0);
+        const auto t1 = Clock::now();
+        makeSurfacePoints(propagation, list, sv, state);
+        tm.surfacePoints += secondsSince(t1);
+        st.surfacePoints += sv.count;
+        heldPoints += sv.count;
+        st.heldSurfacePoints = std::max(st.heldSurfacePoints, heldPoints);
+    }
+
+    template <typename Array, typename Pointers>
+    void release(Array& array, Pointers& pointers, size_t u)
+    {
+        array.reset();
+        const LeafList list = layers.list(u);
+        for (size_t k = 0; k < list.size; ++k)
+            pointers[list.index[k]] = nullptr;
+    }
+
+    void reportProgress()
+    {
+        progress("baking", 0.5 * double(sampled + propagated) / double(topo.leaves.size()));
+    }
+
+    void run()
+    {
+        const std::vector<Layer>& layer = layers.layer;
+        const size_t count = layer.size(), slabs = layers.slabs();
+        const std::vector<size_t>& slab = layers.slab;
+        size_t sampledLayers = 0, surfaced = 0, valuesFreed = 0, surfaceFreed = 0;
+        for (size_t p = 0; p < slabs; ++p) {
+            // Slab p's propagation needs the surface voxels of its layers and
+            // of the layers next to it, which need the values of the layers
+            // next to them.
+            const int first = layers.firstLayer(topo, p);
+            while (surfaced < count && layer[surfaced].lo <= first + 8) {
+                while (sampledLayers < count && layer[sampledLayers].lo <= layer[surfaced].hi + 1)
+                    sampleLayer(sampledLayers++);
+                surfaceLayer(surfaced++);
+            }
+            // (A tile's bake: its halo's slabs only serve its own; slabs are
+            // 64 voxels thick, its run a multiple of 128.)
+            if (topo.owns(topo.leaves[slab[p]]))
+                propagate(propagation, slab[p], slab[p + 1], leaves, st.timings);
+            propagated += slab[p + 1] - slab[p];
+            reportProgress();
+            // Values serve the surface voxels of their own and the
+            // neighbouring layers and their slab's propagation; surface
+            // voxels the propagation of their own and the neighbouring slabs.
+            const auto t0 = Clock::now();
+            while (valuesFreed < sampledLayers && layer[valuesFreed].slab <= p &&
+                   (surfaced == count || layer[surfaced].lo > layer[valuesFreed].hi + 1)) {
+                release(values[valuesFreed], state.value, valuesFreed);
+                heldLeaves -= layer[valuesFreed].end - layer[valuesFreed].begin;
+                ++valuesFreed;
+            }
+            const int needed = p + 1 < slabs ? layers.firstLayer(topo, p + 1) - 1
+                                             : std::numeric_limits<int>::max();
+            while (surfaceFreed < surfaced && layer[surfaceFreed].hi < needed) {
+                release(surface[surfaceFreed].points, state.point, surfaceFreed);
+                heldPoints -= surface[surfaceFreed].count;
+                ++surfaceFreed;
+            }
+            st.timings.freeing += secondsSince(t0);
+        }
+    }
+};
+
+}  // namespace
+
 BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const BakeOptions& opt)
 {
-    // Procedural detail (bark) keeps only the octaves four voxels or more
-    // long: what the grid can hold without aliasing.
     std::optional<FieldProgram> limited;
-    if (given.barkCount() > 0 && given.detailLimit() != 4.0 * opt.voxelSize) {
-        limited = given;
-        limited->setDetailLimit(4.0 * opt.voxelSize);
-    }
-    const FieldProgram& program = limited ? *limited : given;
+    const FieldProgram& program = detailLimited(given, opt.voxelSize, limited);
     const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
     const float background = bandBackground(h, W);
@@ -74,15 +285,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     st.candidateLeaves = n;
     st.meanProgramLength = n ? double(topo.pool.size()) / double(n) : 0.0;
 
-    // 2-4, streamed through the topology's slabs: the values of each layer
-    // of leaves (a leaf thick), the voxels next to a sign change of F - T
-    // with their gradients and colours, then each slab's propagation into
-    // signed distances and grid leaves.  A layer's surface voxels need the
-    // values of the layers next to it, a slab's propagation the surface
-    // voxels of the layers next to it: the stages run a layer or two ahead
-    // of each other, and a layer's values and surface voxels are freed once
-    // the stages of its neighbours are done with them.  The bake holds its
-    // output and the state of about a slab and a quarter, not of the band.
+    // 2-4, streamed (LayerStream).
     sampler.setProgram(program);
     sampler.setLeaves(topo.leaves, topo.pool);
     // The device holds the programs now; a cache of leaf values still needs
@@ -92,46 +295,8 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     t = Clock::now();
     const std::vector<LeafNeighbours> nb = findNeighbours(topo.leaves);
     tm.neighbours = secondsSince(t);
-    const int axis = topo.slabAxis;
-    const std::vector<size_t> slab = slabRuns(topo.leaves, axis);
-    const size_t slabs = slab.size() - 1;
-    auto firstLayer = [&](size_t i) {  // of slab i: origin[axis] / 8 of its first layer
-        return (topo.leaves[slab[i]].origin[axis] >> 6) * 8;
-    };
-    // The layers: each slab's leaves by their layer (counting sort), in
-    // order; consecutive small layers go together (a sampler call costs
-    // about half a millisecond however few its leaves).
-    struct Layer {
-        size_t slab, begin, end;  ///< its (last) slab, its leaves order[begin, end)
-        int lo, hi;               ///< its layers' origin[axis] / 8
-    };
-    std::vector<uint32_t> order(n);
-    std::vector<Layer> layer;
-    for (size_t i = 0; i < slabs; ++i) {
-        size_t count[8] = {};
-        for (size_t l = slab[i]; l < slab[i + 1]; ++l)
-            ++count[(topo.leaves[l].origin[axis] >> 3) & 7];
-        size_t at[8], next = slab[i];
-        const int base = firstLayer(i);
-        for (int k = 0; k < 8; ++k) {
-            at[k] = next;
-            if (count[k] && !layer.empty() &&
-                layer.back().end - layer.back().begin < opt.layerGroupLeaves)
-                layer.back() = {i, layer.back().begin, next + count[k], layer.back().lo, base + k};
-            else if (count[k])
-                layer.push_back({i, next, next + count[k], base + k, base + k});
-            next += count[k];
-        }
-        for (size_t l = slab[i]; l < slab[i + 1]; ++l)
-            order[at[(topo.leaves[l].origin[axis] >> 3) & 7]++] = uint32_t(l);
-    }
-    const size_t layers = layer.size();
-    auto listOf = [&](size_t u) {
-        return LeafList{order.data() + layer[u].begin, layer[u].end - layer[u].begin};
-    };
+    const Layers layers(topo, opt.layerGroupLeaves);
     LeafState state(n);
-    std::vector<ParallelArray<uint16_t>> values(layers);
-    std::vector<SurfaceVoxels> surface(layers);
     std::optional<LeafValueCache> next;
     if (opt.reuse)
         next = startReuse(topo, h);
@@ -156,21 +321,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
         leaves.colorPack = colorPack.get();
         leaves.ends.assign(n, 0);
     }
-    // The grid leaves are this function's until the grids take them: a
-    // sampler that fails mid-stream must not leave the finished slabs' leaves
-    // behind (a long-lived process bakes again).
-    struct LeafOwner {
-        BandLeaves& leaves;
-        bool owned = true;
-        ~LeafOwner()
-        {
-            if (owned)
-                for (size_t l = 0; l < leaves.surface.size(); ++l) {
-                    delete leaves.surface[l];
-                    delete leaves.color[l];
-                }
-        }
-    } owner{leaves};
+    LeafOwner owner{leaves};
     const PropagationInput propagation{topo.leaves,
                                        nb,
                                        state,
@@ -181,86 +332,10 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
                                        program.threshold(),
                                        program.params()[CB_P_XT],
                                        opt.colour};
-    size_t sampled = 0, propagated = 0, heldLeaves = 0, heldPoints = 0;
-    auto sampleLayer = [&](size_t u) {
-        auto t0 = Clock::now();
-        const LeafList list = listOf(u);
-        values[u] = parallelArray<uint16_t>(list.size * kLeafVoxels);
-        if (u == 0)
-            tm.startToSampling = processAgeSeconds();
-        if (next)
-            sampleWithReuse(program, sampler, topo, list, h, *opt.reuse, *next, values[u].get(),
-                            st.reusedLeaves);
-        else
-            sampleLeafValues(sampler, topo.leaves, list, h, values[u].get());
-        for (size_t k = 0; k < list.size; ++k)
-            state.value[list.index[k]] = values[u].get() + k * kLeafVoxels;
-        tm.values += secondsSince(t0);
-        t0 = Clock::now();
-        findInsideBits(state, list);
-        tm.insideBits += secondsSince(t0);
-        sampled += list.size;
-        progress("baking", 0.5 * double(sampled + propagated) / double(n));
-        heldLeaves += list.size;
-        st.heldLeaves = std::max(st.heldLeaves, heldLeaves);
-    };
-    auto surfaceLayer = [&](size_t u) {
-        const LeafList list = listOf(u);
-        SurfaceVoxels& sv = surface[u];
-        sv = findSurfaceVoxels(list, nb, state, tm);
-        const auto t0 = Clock::now();
-        sv.samples = parallelArray<SurfaceSample>(sv.count);
-        sampler.sampleSurface(sv.queries.get(), sv.count, h, sv.samples.get());
-        sv.queries.reset();
-        tm.surfaceSamples += secondsSince(t0);
-        const auto t1 = Clock::now();
-        makeSurfacePoints(propagation, list, sv, state);
-        tm.surfacePoints += secondsSince(t1);
-        st.surfacePoints += sv.count;
-        heldPoints += sv.count;
-        st.heldSurfacePoints = std::max(st.heldSurfacePoints, heldPoints);
-    };
-    auto release = [&](auto& array, auto& pointers, size_t u) {
-        array.reset();
-        const LeafList list = listOf(u);
-        for (size_t k = 0; k < list.size; ++k)
-            pointers[list.index[k]] = nullptr;
-    };
-    size_t sampledLayers = 0, surfaced = 0, valuesFreed = 0, surfaceFreed = 0;
-    for (size_t p = 0; p < slabs; ++p) {
-        // Slab p's propagation needs the surface voxels of its layers and of
-        // the layers next to it, which need the values of the layers next to
-        // them.
-        const int first = firstLayer(p);
-        while (surfaced < layers && layer[surfaced].lo <= first + 8) {
-            while (sampledLayers < layers && layer[sampledLayers].lo <= layer[surfaced].hi + 1)
-                sampleLayer(sampledLayers++);
-            surfaceLayer(surfaced++);
-        }
-        // (A tile's bake: its halo's slabs only serve its own; slabs are 64
-        // voxels thick, its run a multiple of 128.)
-        if (topo.owns(topo.leaves[slab[p]]))
-            propagate(propagation, slab[p], slab[p + 1], leaves, tm);
-        propagated += slab[p + 1] - slab[p];
-        progress("baking", 0.5 * double(sampled + propagated) / double(n));
-        // Values serve the surface voxels of their own and the neighbouring
-        // layers and their slab's propagation; surface voxels the
-        // propagation of their own and the neighbouring slabs.
-        const auto t0 = Clock::now();
-        while (valuesFreed < sampledLayers && layer[valuesFreed].slab <= p &&
-               (surfaced == layers || layer[surfaced].lo > layer[valuesFreed].hi + 1)) {
-            release(values[valuesFreed], state.value, valuesFreed);
-            heldLeaves -= layer[valuesFreed].end - layer[valuesFreed].begin;
-            ++valuesFreed;
-        }
-        const int needed = p + 1 < slabs ? firstLayer(p + 1) - 1 : std::numeric_limits<int>::max();
-        while (surfaceFreed < surfaced && layer[surfaceFreed].hi < needed) {
-            release(surface[surfaceFreed].points, state.point, surfaceFreed);
-            heldPoints -= surface[surfaceFreed].count;
-            ++surfaceFreed;
-        }
-        tm.freeing += secondsSince(t0);
-    }
+    LayerStream stream{program,  sampler,     opt,   topo,   nb,
+                       layers,   propagation, state, leaves, next ? &*next : nullptr,
+                       progress, st};
+    stream.run();
     if (next)
         finishReuse(topo, *next, *opt.reuse);
     st.samplingSeconds = tm.values + tm.surfaceSamples;

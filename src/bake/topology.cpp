@@ -83,6 +83,59 @@ void bandIndexBounds(const FieldProgram& program, double h, double halfWidth, lo
     }
 }
 
+namespace {
+
+/// A tile's bake: its run of layers across `axis`, balanced by the leaves
+/// the search finds in each (counted in a first descent that keeps nothing:
+/// about the topology's time again), into out.ownedLo and ownedHi; then
+/// only the nodes of `level` that reach into the run or its halo stay.
+void keepTileRun(Search& search, std::vector<Coarse>& level,
+                 tbb::enumerable_thread_specific<Search::Scratch>& scratch, const long long t0[3],
+                 const long long nt[3], int axis, BandTile tile, BandTopology& out)
+{
+    std::vector<size_t> leavesOf(level.size());
+    tbb::enumerable_thread_specific<std::pair<std::vector<LeafJob>, std::vector<Instr>>> count;
+    tbb::parallel_for(size_t(0), level.size(), [&](size_t t) {
+        auto& [jobs, code] = count.local();
+        jobs.clear();
+        code.clear();
+        search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), jobs, code);
+        leavesOf[t] = jobs.size();
+    });
+    std::vector<size_t> perLayer(static_cast<size_t>(nt[axis]), 0);
+    double total = 0.0;
+    for (size_t t = 0; t < level.size(); ++t) {
+        perLayer[size_t(level[t].o[axis] / kTile - t0[axis])] += leavesOf[t];
+        total += double(leavesOf[t]);
+    }
+    double before = 0.0;
+    long long first = -1, last = -1;  // the tile's layers [first, last)
+    for (size_t L = 0; L < perLayer.size(); ++L) {
+        const int owner = std::min(
+            tile.count - 1,
+            int(double(tile.count) * (before + 0.5 * double(perLayer[L])) / std::max(total, 1.0)));
+        before += double(perLayer[L]);
+        if (owner == tile.index) {
+            if (first < 0)
+                first = (long long)L;
+            last = (long long)L + 1;
+        }
+    }
+    if (first < 0)
+        first = last = 0;  // an empty tile (more tiles than layers)
+    out.ownedLo = (t0[axis] + first) * kTile;
+    out.ownedHi = (t0[axis] + last) * kTile;
+    const long long keepLo = out.ownedLo - kTileHalo, keepHi = out.ownedHi + kTileHalo;
+    level.erase(std::remove_if(level.begin(), level.end(),
+                               [&](const Coarse& c) {
+                                   return first == last || c.o[axis] + kTile <= keepLo ||
+                                          c.o[axis] >= keepHi;
+                               }),
+                level.end());
+}
+
+}  // namespace
+
 BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWidth,
                             const std::function<void(double)>& progress, BandTile tile)
 {
@@ -137,51 +190,8 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
     const int axis = int(std::max_element(nt, nt + 3) - nt), a = (axis + 1) % 3, b = (axis + 2) % 3;
     out.slabAxis = axis;
     tbb::enumerable_thread_specific<Search::Scratch> scratch;
-    if (tile.count > 0) {
-        // The tile's run of layers, balanced by the leaves the search finds
-        // in each (counted in a first descent that keeps nothing: about the
-        // topology's time again); then only the nodes that reach into the
-        // run or its halo are searched for their leaves.
-        std::vector<size_t> leavesOf(level.size());
-        tbb::enumerable_thread_specific<std::pair<std::vector<LeafJob>, std::vector<Instr>>> count;
-        tbb::parallel_for(size_t(0), level.size(), [&](size_t t) {
-            auto& [jobs, code] = count.local();
-            jobs.clear();
-            code.clear();
-            search.descend(level[t].code, level[t].o, kTile, 0, scratch.local(), jobs, code);
-            leavesOf[t] = jobs.size();
-        });
-        std::vector<size_t> perLayer(static_cast<size_t>(nt[axis]), 0);
-        double total = 0.0;
-        for (size_t t = 0; t < level.size(); ++t) {
-            perLayer[size_t(level[t].o[axis] / kTile - t0[axis])] += leavesOf[t];
-            total += double(leavesOf[t]);
-        }
-        double before = 0.0;
-        long long first = -1, last = -1;  // the tile's layers [first, last)
-        for (size_t L = 0; L < perLayer.size(); ++L) {
-            const int owner = std::min(
-                tile.count - 1, int(double(tile.count) * (before + 0.5 * double(perLayer[L])) /
-                                    std::max(total, 1.0)));
-            before += double(perLayer[L]);
-            if (owner == tile.index) {
-                if (first < 0)
-                    first = (long long)L;
-                last = (long long)L + 1;
-            }
-        }
-        if (first < 0)
-            first = last = 0;  // an empty tile (more tiles than layers)
-        out.ownedLo = (t0[axis] + first) * kTile;
-        out.ownedHi = (t0[axis] + last) * kTile;
-        const long long keepLo = out.ownedLo - kTileHalo, keepHi = out.ownedHi + kTileHalo;
-        level.erase(std::remove_if(level.begin(), level.end(),
-                                   [&](const Coarse& c) {
-                                       return first == last || c.o[axis] + kTile <= keepLo ||
-                                              c.o[axis] >= keepHi;
-                                   }),
-                    level.end());
-    }
+    if (tile.count > 0)
+        keepTileRun(search, level, scratch, t0, nt, axis, tile, out);
     const size_t tiles = level.size();
     std::vector<std::vector<LeafJob>> tileLeaves(tiles);
     std::vector<std::vector<Instr>> tilePools(tiles);

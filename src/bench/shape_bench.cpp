@@ -99,6 +99,78 @@ void openSubdiv(const ControlMesh& mesh, int levels, double& topology, double& i
     vertices = size_t(r->GetLevel(levels).GetNumVertices());
 }
 
+/// Mesh -> level set, both ways, on the finest mesh of `shape`: times, voxel
+/// counts and their differences into `r`.
+void compareMeshToLevelSet(const ShapeBenchRequest& req, ShapeSurface& shape, ShapeBenchResult& r,
+                           const std::function<void(const std::string&)>& say)
+{
+    shape.synthesize();
+    // Distances only, as meshToLevelSet makes (the command also bakes Cd).
+    TriangleMesh mesh = shape.mesh();
+    mesh.colors.clear();
+    r.faces = mesh.polygons.sizes.size();
+    r.voxelSize = req.voxelSize;
+    std::vector<openvdb::Vec3s> points = mesh.points;
+    std::vector<openvdb::Vec3I> tris;
+    for (const auto& t : mesh.triangles)
+        tris.push_back(openvdb::Vec3I(t[0], t[1], t[2]));
+    const auto xform = openvdb::math::Transform::createLinearTransform(req.voxelSize);
+    std::vector<double> ours, theirs;
+    BakedGrids mine;
+    openvdb::FloatGrid::Ptr oracle;
+    for (int run = 0; run < req.repeats; ++run) {
+        say("cambium mesh -> level set");
+        MeshBakeOptions opt;
+        opt.voxelSize = req.voxelSize;
+        auto t = Clock::now();
+        mine = bakeMeshLevelSet(mesh, opt, "bench");
+        ours.push_back(secondsSince(t));
+        say("OpenVDB meshToLevelSet");
+        t = Clock::now();
+        oracle = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, tris, 3.0f);
+        theirs.push_back(secondsSince(t));
+    }
+    r.cambiumBake = medianOf(ours);
+    r.openvdbBake = medianOf(theirs);
+    r.cambiumVoxels = size_t(mine.surface->activeVoxelCount());
+    r.openvdbVoxels = size_t(oracle->activeVoxelCount());
+    auto acc = oracle->getConstAccessor();
+    std::vector<openvdb::Coord> disagree;
+    for (auto it = mine.surface->tree().cbeginValueOn(); it; ++it) {
+        if (std::fabs(*it) > req.voxelSize || !acc.isValueOn(it.getCoord()))
+            continue;
+        const double d = double(std::fabs(*it - acc.getValue(it.getCoord()))) / req.voxelSize;
+        r.largestDifference = std::max(r.largestDifference, d);
+        ++r.compared;
+        if (d > 0.05) {
+            ++r.beyondTolerance;
+            if (disagree.size() < 16)
+                disagree.push_back(it.getCoord());
+        }
+    }
+    // Where the two disagree by more than the tolerance, the exact distance
+    // (every triangle, OpenVDB's closest point, double precision) decides.
+    say("brute-force distances where they disagree");
+    auto mineAcc = mine.surface->getConstAccessor();
+    for (const openvdb::Coord& c : disagree) {
+        const openvdb::Vec3d p = mine.surface->indexToWorld(c);
+        double best = 1e300;
+        for (const auto& t : mesh.triangles) {
+            openvdb::Vec3d uvw;
+            const openvdb::Vec3d q = openvdb::math::closestPointOnTriangleToPoint(
+                openvdb::Vec3d(mesh.points[t[0]]), openvdb::Vec3d(mesh.points[t[1]]),
+                openvdb::Vec3d(mesh.points[t[2]]), p, uvw);
+            best = std::min(best, (q - p).lengthSqr());
+        }
+        best = std::sqrt(best);
+        ++r.bruteChecked;
+        r.bruteCambium +=
+            std::fabs(std::fabs(double(mineAcc.getValue(c))) - best) < 1e-3 * req.voxelSize;
+        r.bruteOpenVdb +=
+            std::fabs(std::fabs(double(acc.getValue(c))) - best) < 1e-3 * req.voxelSize;
+    }
+}
+
 }  // namespace
 
 ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
@@ -196,71 +268,7 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
     r.shadedMesh = medianOf(shadedMesh);
 
     // Mesh -> level set, both ways, on the finest mesh.
-    shape->synthesize();
-    // Distances only, as meshToLevelSet makes (the command also bakes Cd).
-    TriangleMesh mesh = shape->mesh();
-    mesh.colors.clear();
-    r.faces = mesh.polygons.sizes.size();
-    r.voxelSize = req.voxelSize;
-    std::vector<openvdb::Vec3s> points = mesh.points;
-    std::vector<openvdb::Vec3I> tris;
-    for (const auto& t : mesh.triangles)
-        tris.push_back(openvdb::Vec3I(t[0], t[1], t[2]));
-    const auto xform = openvdb::math::Transform::createLinearTransform(req.voxelSize);
-    std::vector<double> ours, theirs;
-    BakedGrids mine;
-    openvdb::FloatGrid::Ptr oracle;
-    for (int run = 0; run < req.repeats; ++run) {
-        say("cambium mesh -> level set");
-        MeshBakeOptions opt;
-        opt.voxelSize = req.voxelSize;
-        auto t = Clock::now();
-        mine = bakeMeshLevelSet(mesh, opt, "bench");
-        ours.push_back(secondsSince(t));
-        say("OpenVDB meshToLevelSet");
-        t = Clock::now();
-        oracle = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, tris, 3.0f);
-        theirs.push_back(secondsSince(t));
-    }
-    r.cambiumBake = medianOf(ours);
-    r.openvdbBake = medianOf(theirs);
-    r.cambiumVoxels = size_t(mine.surface->activeVoxelCount());
-    r.openvdbVoxels = size_t(oracle->activeVoxelCount());
-    auto acc = oracle->getConstAccessor();
-    std::vector<openvdb::Coord> disagree;
-    for (auto it = mine.surface->tree().cbeginValueOn(); it; ++it) {
-        if (std::fabs(*it) > req.voxelSize || !acc.isValueOn(it.getCoord()))
-            continue;
-        const double d = double(std::fabs(*it - acc.getValue(it.getCoord()))) / req.voxelSize;
-        r.largestDifference = std::max(r.largestDifference, d);
-        ++r.compared;
-        if (d > 0.05) {
-            ++r.beyondTolerance;
-            if (disagree.size() < 16)
-                disagree.push_back(it.getCoord());
-        }
-    }
-    // Where the two disagree by more than the tolerance, the exact distance
-    // (every triangle, OpenVDB's closest point, double precision) decides.
-    say("brute-force distances where they disagree");
-    auto mineAcc = mine.surface->getConstAccessor();
-    for (const openvdb::Coord& c : disagree) {
-        const openvdb::Vec3d p = mine.surface->indexToWorld(c);
-        double best = 1e300;
-        for (const auto& t : mesh.triangles) {
-            openvdb::Vec3d uvw;
-            const openvdb::Vec3d q = openvdb::math::closestPointOnTriangleToPoint(
-                openvdb::Vec3d(mesh.points[t[0]]), openvdb::Vec3d(mesh.points[t[1]]),
-                openvdb::Vec3d(mesh.points[t[2]]), p, uvw);
-            best = std::min(best, (q - p).lengthSqr());
-        }
-        best = std::sqrt(best);
-        ++r.bruteChecked;
-        r.bruteCambium +=
-            std::fabs(std::fabs(double(mineAcc.getValue(c))) - best) < 1e-3 * req.voxelSize;
-        r.bruteOpenVdb +=
-            std::fabs(std::fabs(double(acc.getValue(c))) - best) < 1e-3 * req.voxelSize;
-    }
+    compareMeshToLevelSet(req, *shape, r, say);
     return r;
 }
 
