@@ -1,5 +1,6 @@
 // Multi-resolution Catmull-Clark surfaces: closed forms, OpenSubdiv as a
 // second path, frames, analysis and synthesis, control mesh checks.
+#include "core/half_edges.h"
 #include "shape/base_shapes.h"
 #include "subdiv/multires.h"
 #include "test_util.h"
@@ -237,4 +238,60 @@ TEST(Subdiv, ControlMeshChecksNameTheProblem)
     EXPECT_EQ(plane.eulerCharacteristic(), 1);
     EXPECT_EQ(plane.boundaryEdges, 12u);
     EXPECT_EQ(checkControlMesh(fuseBase(3, 1, 2, 8, 8).mesh, "fuse").eulerCharacteristic(), 2);
+}
+
+// One search of the half-edges serves the control meshes and the meshes
+// baked into level sets (core/half_edges.h): a twin runs its corner's edge
+// back, twins pair up, and a fan of triangles finds the same pairs as the
+// same mesh given as polygons.
+TEST(Subdiv, HalfEdgesPairEachEdgeWithTheFaceRunningItBack)
+{
+    auto check = [](const ControlMesh& m, size_t boundary) {
+        std::vector<size_t> first(1, 0);
+        for (int n : m.faceSizes)
+            first.push_back(first.back() + size_t(n));
+        std::vector<uint32_t> corner(m.faceVerts.begin(), m.faceVerts.end());
+        const FaceCorners faces{first.data(), m.faceSizes.size(), 0, corner.data(),
+                                m.points.size()};
+        const HalfEdges he = findHalfEdges(faces);
+        EXPECT_EQ(he.firstBad, HalfEdges::kNone);
+        size_t open = 0;
+        for (size_t c = 0; c < corner.size(); ++c) {
+            const uint32_t t = he.twin[c];
+            if (t == HalfEdges::kNone) {
+                ++open;
+                continue;
+            }
+            EXPECT_EQ(he.twin[t], c);
+            EXPECT_EQ(corner[t], corner[faces.next(c)]);
+            EXPECT_EQ(corner[faces.next(t)], corner[c]);
+            EXPECT_NE(faces.faceOf(t), faces.faceOf(c));
+        }
+        EXPECT_EQ(open, boundary);
+        return he;
+    };
+    check(cubeBase(2).mesh, 0);
+    check(torusBase(2, 0.5, 8, 6).mesh, 0);
+    check(planeBase(1, 3).mesh, 12);
+
+    // A quad and the same quad fanned into two triangles of fixed size 3.
+    const std::vector<uint32_t> tris = {0, 1, 2, 0, 2, 3, 0, 3, 4};
+    const FaceCorners fan{nullptr, 3, 3, tris.data(), 5};
+    const HalfEdges he = findHalfEdges(fan);
+    EXPECT_EQ(he.twin[2], 3u);  // 2 -> 0 runs back as 0 -> 2
+    EXPECT_EQ(he.twin[5], 6u);
+    EXPECT_EQ(std::count(he.twin.begin(), he.twin.end(), HalfEdges::kNone), 5);
+    EXPECT_EQ(he.start[0], 0u);
+    EXPECT_EQ(he.start[1], 3u);  // point 0 is a corner of all three
+
+    // An edge run the same way twice, and one shared by three faces.
+    const std::vector<uint32_t> twice = {0, 1, 2, 0, 1, 3};
+    EXPECT_EQ(findHalfEdges(FaceCorners{nullptr, 2, 3, twice.data(), 4}).firstBad, 0u);
+    const std::vector<uint32_t> three = {0, 1, 2, 1, 0, 3, 1, 0, 4};
+    EXPECT_EQ(findHalfEdges(FaceCorners{nullptr, 3, 3, three.data(), 5}).firstBad, 0u);
+    // A face that uses a point twice has no edges of its own.
+    const std::vector<uint32_t> flat = {0, 1, 1, 1, 0, 2};
+    const HalfEdges f = findHalfEdges(FaceCorners{nullptr, 2, 3, flat.data(), 3});
+    EXPECT_EQ(f.firstBad, HalfEdges::kNone);
+    EXPECT_EQ(std::count(f.twin.begin(), f.twin.end(), HalfEdges::kNone), 6);
 }

@@ -10,6 +10,7 @@
 #include "bake/stages.h"
 #include "core/clock.h"
 #include "core/error.h"
+#include "core/half_edges.h"
 #include "core/memory.h"
 #include "core/system.h"
 
@@ -126,16 +127,16 @@ dvec3 barycentric(const dvec3& q, const dvec3& a, const dvec3& b, const dvec3& c
 }
 
 /// The problem at triangle i's edges, named.
-[[noreturn]] void refuseEdge(const TriangleMesh& mesh, const std::vector<uint32_t>& start,
-                             const std::vector<uint32_t>& around, size_t i, const std::string& what)
+[[noreturn]] void refuseEdge(const TriangleMesh& mesh, const HalfEdges& he, size_t i,
+                             const std::string& what)
 {
     const auto& t = mesh.triangles[i];
     for (int k = 0; k < 3; ++k) {
         const uint32_t a = t[size_t(k)], b = t[size_t(k + 1) % 3];
         size_t faces = 1;
-        for (uint32_t j = start[a]; j < start[a + 1]; ++j)
-            if (around[j] != i) {
-                const auto& u = mesh.triangles[around[j]];
+        for (uint32_t j = he.start[a]; j < he.start[a + 1]; ++j)
+            if (he.around[j] / 3 != i) {
+                const auto& u = mesh.triangles[he.around[j] / 3];
                 faces += (u[0] == b || u[1] == b || u[2] == b) ? 1 : 0;
             }
         if (faces != 2)
@@ -192,27 +193,23 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, double W, const s
         const double len = glm::length(n);
         t.n = len > 1e-20 ? glm::vec3(n / len) : glm::vec3(0.0f);
     });
-    // The triangles around each point (compressed rows).
-    std::vector<uint32_t> start(np + 1, 0), around(3 * nt);
-    for (const auto& t : mesh.triangles)
-        for (uint32_t v : t)
-            ++start[v + 1];
-    for (size_t v = 0; v < np; ++v)
-        start[v + 1] += start[v];
-    {
-        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-        for (size_t i = 0; i < nt; ++i)
-            for (uint32_t v : mesh.triangles[i])
-                around[fill[v]++] = uint32_t(i);
-    }
+    // Each edge a -> b has exactly one triangle running b -> a beside it
+    // (core/half_edges.h); the corners at each point come with them.
+    std::vector<uint32_t> corner(3 * nt);
+    tbb::parallel_for(size_t(0), nt, [&](size_t i) {
+        for (size_t k = 0; k < 3; ++k)
+            corner[3 * i + k] = mesh.triangles[i][k];
+    });
+    const FaceCorners faces{nullptr, nt, 3, corner.data(), np};
+    const HalfEdges he = findHalfEdges(faces);
+    corner = {};
     // Corners: the faces' normals weighted by their angles there.
     T.corner.resize(np);
     tbb::parallel_for(size_t(0), np, [&](size_t v) {
         dvec3 s(0.0);
-        for (uint32_t k = start[v]; k < start[v + 1]; ++k) {
-            const Tri& t = T.tris[around[k]];
-            const auto& idx = mesh.triangles[around[k]];
-            const int c = idx[0] == v ? 0 : idx[1] == v ? 1 : 2;
+        for (uint32_t k = he.start[v]; k < he.start[v + 1]; ++k) {
+            const Tri& t = T.tris[he.around[k] / 3];
+            const int c = int(he.around[k] % 3);
             const dvec3 q[3] = {dvec3(t.a), dvec3(t.b), dvec3(t.c)};
             const dvec3 e1 = q[(c + 1) % 3] - q[c], e2 = q[(c + 2) % 3] - q[c];
             const double l1 = glm::length(e1), l2 = glm::length(e2);
@@ -221,44 +218,27 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, double W, const s
         }
         T.corner[v] = glm::vec3(s);
     });
-    // Edges: a -> b has exactly one triangle running b -> a beside it.
+    // Each edge's neighbour; a triangle with a point twice has no area and
+    // no edges of its own (its neighbours are itself).
     T.across = Scratch<std::array<uint32_t, 3>>(nt);
-    std::atomic<size_t> firstBad{nt};
-    auto repeats = [&](size_t i) {
-        const auto& t = mesh.triangles[i];
-        return t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
-    };
+    std::atomic<size_t> firstOpen{nt};
     tbb::parallel_for(size_t(0), nt, [&](size_t i) {
         const auto& t = mesh.triangles[i];
-        T.across[i] = {uint32_t(i), uint32_t(i), uint32_t(i)};
-        if (repeats(i))  // a point twice: no area, no edges of its own
-            return;
-        for (int k = 0; k < 3; ++k) {
-            const uint32_t a = t[size_t(k)], b = t[size_t(k + 1) % 3];
-            int sides = 0;
-            uint32_t other = uint32_t(i);
-            for (uint32_t j = start[a]; j < start[a + 1]; ++j) {
-                if (around[j] == i || repeats(around[j]))
-                    continue;
-                const auto& u = mesh.triangles[around[j]];
-                for (int m = 0; m < 3; ++m)
-                    if (u[size_t(m)] == a && u[size_t(m + 1) % 3] == b) {
-                        sides += 100;  // the same way: not oriented, or a third face
-                    } else if (u[size_t(m)] == b && u[size_t(m + 1) % 3] == a) {
-                        ++sides;
-                        other = around[j];
-                    }
-            }
-            if (sides != 1) {
-                size_t cur = firstBad.load();
-                while (i < cur && !firstBad.compare_exchange_weak(cur, i)) {
+        const bool repeats = t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+        for (size_t k = 0; k < 3; ++k) {
+            const uint32_t twin = he.twin[3 * i + k];
+            T.across[i][k] = twin == HalfEdges::kNone ? uint32_t(i) : twin / 3;
+            if (twin == HalfEdges::kNone && !repeats) {
+                size_t cur = firstOpen.load();
+                while (i < cur && !firstOpen.compare_exchange_weak(cur, i)) {
                 }
             }
-            T.across[i][size_t(k)] = other;
         }
     });
+    const size_t firstBad =
+        std::min(firstOpen.load(), he.firstBad == HalfEdges::kNone ? nt : size_t(he.firstBad / 3));
     if (firstBad < nt)
-        refuseEdge(mesh, start, around, firstBad, what);
+        refuseEdge(mesh, he, firstBad, what);
     if (std::all_of(T.tris.begin(), T.tris.end(),
                     [](const Tri& t) { return t.n == glm::vec3(0.0f); }))
         throw InputError(fmt::format("{}: the mesh has no triangles of any area", what));

@@ -2,6 +2,7 @@
 #include "subdiv/control_mesh.h"
 
 #include "core/error.h"
+#include "core/half_edges.h"
 
 #include <fmt/format.h>
 
@@ -9,16 +10,10 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
-#include <unordered_map>
 
 namespace cambium {
 
 namespace {
-
-uint64_t edgeKey(int a, int b)
-{
-    return (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
-}
 
 [[noreturn]] void refuse(const std::string& what, const std::string& problem)
 {
@@ -58,95 +53,56 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
     if (!mesh.scalar.empty() && mesh.scalar.size() != nv)
         refuse(what, fmt::format("{} scalars for {} points", mesh.scalar.size(), nv));
     const std::vector<size_t> first = faceStarts(mesh, what);
-
-    // Each directed edge once; its reverse at most once.
-    std::unordered_map<uint64_t, int> uses;  // edge -> +1 per (a<b) run, +2 per (a>b) run
-    uses.reserve(mesh.faceVerts.size());
-    std::vector<int> valence(nv, 0);
-    for (size_t f = 0; f < nf; ++f) {
-        const int n = mesh.faceSizes[f];
-        for (int k = 0; k < n; ++k) {
-            const int a = mesh.faceVerts[first[f] + k];
-            const int b = mesh.faceVerts[first[f] + (k + 1) % n];
+    std::vector<uint32_t> corner(mesh.faceVerts.size());
+    for (size_t f = 0; f < nf; ++f)
+        for (size_t c = first[f]; c < first[f + 1]; ++c) {
+            const int a = mesh.faceVerts[c];
             if (a < 0 || size_t(a) >= nv)
                 refuse(what,
                        fmt::format("face {} uses point {}, but there are {} points", f, a, nv));
-            for (int j = 0; j < k; ++j)
-                if (mesh.faceVerts[first[f] + j] == a)
+            for (size_t j = first[f]; j < c; ++j)
+                if (mesh.faceVerts[j] == a)
                     refuse(what, fmt::format("face {} uses point {} twice", f, a));
-            ++valence[a];
-            int& u = uses[edgeKey(a, b)];
-            const int bit = a < b ? 1 : 2;
-            if (u & bit)
-                refuse(what, fmt::format("the edge {}-{} is run the same way by two faces (face {} "
-                                         "and another): the faces are not consistently oriented, "
-                                         "or more than two faces share it (not a 2-manifold)",
-                                         a, b, f));
-            u |= bit;
+            corner[c] = uint32_t(a);
         }
+
+    // Every edge run at most once each way (core/half_edges.h).
+    const FaceCorners faces{first.data(), nf, 0, corner.data(), nv};
+    const HalfEdges he = findHalfEdges(faces);
+    if (he.firstBad != HalfEdges::kNone) {
+        const size_t c = he.firstBad;
+        refuse(what, fmt::format("the edge {}-{} is run the same way by two faces, or shared by "
+                                 "more than two (face {} and another): the faces are not "
+                                 "consistently oriented, or the mesh is not a 2-manifold",
+                                 corner[c], corner[faces.next(c)], faces.faceOf(c)));
     }
     for (size_t i = 0; i < nv; ++i)
-        if (valence[i] == 0)
+        if (he.start[i] == he.start[i + 1])
             refuse(what, fmt::format("point {} is used by no face", i));
 
     MeshTopologyStats st;
     st.vertices = nv;
     st.faces = nf;
-    st.edges = uses.size();
-    for (const auto& [key, u] : uses)
-        if (u != 3)
-            ++st.boundaryEdges;
+    st.boundaryEdges = size_t(std::count(he.twin.begin(), he.twin.end(), HalfEdges::kNone));
+    st.edges = (corner.size() + st.boundaryEdges) / 2;
 
-    // The faces around each point must be one fan: walk from a face across
-    // shared edges around the point and count the faces reached.
-    // outgoing[a] lists (b, face) for each directed edge a -> b.
-    std::vector<size_t> start(nv + 1, 0);
-    for (size_t i = 0; i < nv; ++i)
-        start[i + 1] = start[i] + size_t(valence[i]);
-    std::vector<std::pair<int, int>> out(start.back());
-    std::vector<size_t> fill(start.begin(), start.end() - 1);
-    std::vector<int> prevOf(out.size());  // for edge a->b of face f: the corner before a in f
-    for (size_t f = 0; f < nf; ++f) {
-        const int n = mesh.faceSizes[f];
-        for (int k = 0; k < n; ++k) {
-            const int a = mesh.faceVerts[first[f] + k];
-            const int b = mesh.faceVerts[first[f] + (k + 1) % n];
-            const int p = mesh.faceVerts[first[f] + (k + n - 1) % n];
-            prevOf[fill[a]] = p;
-            out[fill[a]++] = {b, int(f)};
-        }
-    }
+    // The faces around each point must be one fan: walk from a corner at the
+    // point to the next face's (across the edge into the point from the
+    // corner before it) and count the faces reached.  Start from a boundary
+    // sector if there is one (a corner whose edge no face runs back), so
+    // that an open fan is walked whole.
     for (size_t v = 0; v < nv; ++v) {
-        // Around v: the face with outgoing edge v->b also has incoming p->v;
-        // the next face around has outgoing edge v->p.
-        const size_t s = start[v], e = start[v + 1], n = e - s;
-        auto find = [&](int b) -> size_t {
-            for (size_t i = s; i < e; ++i)
-                if (out[i].first == b)
-                    return i;
-            return e;
-        };
-        // Start from a boundary sector if there is one (an outgoing edge whose
-        // reverse no face runs), so that an open fan is walked whole.
-        size_t i0 = s;
-        for (size_t i = s; i < e; ++i) {
-            const int b = out[i].first;
-            if (uses[edgeKey(int(v), b)] != 3) {
-                // Outgoing v->b without b->v: this face begins the fan clockwise.
-                bool hasReverse = false;
-                for (size_t j = start[b]; j < start[b + 1]; ++j)
-                    hasReverse |= out[j].first == int(v);
-                if (!hasReverse) {
-                    i0 = i;
-                    break;
-                }
-            }
-        }
-        size_t reached = 0, i = i0;
+        const uint32_t* at = he.around.data() + he.start[v];
+        const size_t n = he.start[v + 1] - he.start[v];
+        const uint32_t* open =
+            std::find_if(at, at + n, [&](uint32_t c) { return he.twin[c] == HalfEdges::kNone; });
+        const uint32_t c0 = open != at + n ? *open : at[0];
+        size_t reached = 0;
+        uint32_t c = c0;
         do {
             ++reached;
-            i = find(prevOf[i]);
-        } while (i != e && i != i0 && reached <= n);
+            c = he.twin[faces.previous(c)];
+        } while (c != HalfEdges::kNone && c != c0 && reached <= n);
         if (reached != n)
             refuse(what, fmt::format("the faces around point {} are not one fan (a non-manifold "
                                      "point: {} of its {} faces are connected)",
