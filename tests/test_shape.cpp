@@ -99,6 +99,20 @@ TEST(ShapeFile, BadInputIsNamed)
     std::ofstream(dir + "/fin.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\n"
                                        "f 1 2 3\nf 2 1 4\nf 1 2 5\n";
     says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/fin.obj"}})", "not a 2-manifold");
+    // Points named as the file numbers them: OBJ from 1, PLY from 0.
+    const std::string tetra =
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 5 5 5\n"
+        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+    std::ofstream(dir + "/spare.obj") << tetra;
+    says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/spare.obj"}})",
+         "spare.obj: point 5 is used by no face");
+    std::ofstream(dir + "/spare.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n5 5 5\n3 0 2 1\n3 0 1 3\n3 1 2 3\n"
+           "3 0 3 2\n";
+    says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/spare.ply"}})",
+         "spare.ply: point 4 is used by no face");
 }
 
 TEST(ShapeDetails, RockIsOneOverFAndTheSameForTheSameSeed)

@@ -4,6 +4,7 @@
 #include "bake/bake.h"
 #include "bake/mesh_levelset.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "field/program.h"
 #include "io/vdb.h"
 #include "model/load_model.h"
@@ -169,6 +170,7 @@ ControlMesh readControlMesh(const std::string& path)
         c.points.push_back({double(p.x()), double(p.y()), double(p.z())});
     c.faceSizes.assign(m.polygons.sizes.begin(), m.polygons.sizes.end());
     c.faceVerts.assign(m.polygons.corners.begin(), m.polygons.corners.end());
+    c.firstIndex = fileFormat(path, {"obj", "ply"}, "mesh") == "obj" ? 1 : 0;
     return c;
 }
 

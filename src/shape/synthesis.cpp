@@ -54,6 +54,8 @@ BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
                 return captureBase(b, source, device);
             BaseShape s;
             s.mesh = readControlMesh(b.file);
+            // Checked here to name the file (MultiresSurface knows the shape).
+            checkControlMesh(s.mesh, fmt::format("{}: base {}", source, b.file));
             return s;
         }
         case BaseType::LevelSet:

@@ -26,10 +26,11 @@ std::vector<size_t> faceStarts(const ControlMesh& mesh, const std::string& what)
     std::vector<size_t> first(mesh.faceSizes.size() + 1, 0);
     for (size_t f = 0; f < mesh.faceSizes.size(); ++f) {
         if (mesh.faceSizes[f] < 3)
-            refuse(what, fmt::format("face {} has {} corners (a face needs at least 3)", f,
-                                     mesh.faceSizes[f]));
+            refuse(what, fmt::format("face {} has {} corners (a face needs at least 3)",
+                                     f + size_t(mesh.firstIndex), mesh.faceSizes[f]));
         if (mesh.faceSizes[f] > 255)
-            refuse(what, fmt::format("face {} has {} corners (at most 255)", f, mesh.faceSizes[f]));
+            refuse(what, fmt::format("face {} has {} corners (at most 255)",
+                                     f + size_t(mesh.firstIndex), mesh.faceSizes[f]));
         first[f + 1] = first[f] + size_t(mesh.faceSizes[f]);
     }
     if (first.back() != mesh.faceVerts.size())
@@ -43,12 +44,13 @@ std::vector<size_t> faceStarts(const ControlMesh& mesh, const std::string& what)
 MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& what)
 {
     const size_t nv = mesh.points.size(), nf = mesh.faceSizes.size();
+    const auto n = [&](size_t i) { return i + size_t(mesh.firstIndex); };  // as the file numbers
     if (nf == 0)
         refuse(what, "the mesh has no faces");
     for (size_t i = 0; i < nv; ++i) {
         const glm::dvec3& p = mesh.points[i];
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            refuse(what, fmt::format("point {} is not finite", i));
+            refuse(what, fmt::format("point {} is not finite", n(i)));
     }
     if (!mesh.scalar.empty() && mesh.scalar.size() != nv)
         refuse(what, fmt::format("{} scalars for {} points", mesh.scalar.size(), nv));
@@ -58,11 +60,11 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
         for (size_t c = first[f]; c < first[f + 1]; ++c) {
             const int a = mesh.faceVerts[c];
             if (a < 0 || size_t(a) >= nv)
-                refuse(what,
-                       fmt::format("face {} uses point {}, but there are {} points", f, a, nv));
+                refuse(what, fmt::format("face {} uses point {}, but there are {} points", n(f),
+                                         a + mesh.firstIndex, nv));
             for (size_t j = first[f]; j < c; ++j)
                 if (mesh.faceVerts[j] == a)
-                    refuse(what, fmt::format("face {} uses point {} twice", f, a));
+                    refuse(what, fmt::format("face {} uses point {} twice", n(f), n(size_t(a))));
             corner[c] = uint32_t(a);
         }
 
@@ -74,11 +76,11 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
         refuse(what, fmt::format("the edge {}-{} is run the same way by two faces, or shared by "
                                  "more than two (face {} and another): the faces are not "
                                  "consistently oriented, or the mesh is not a 2-manifold",
-                                 corner[c], corner[faces.next(c)], faces.faceOf(c)));
+                                 n(corner[c]), n(corner[faces.next(c)]), n(faces.faceOf(c))));
     }
     for (size_t i = 0; i < nv; ++i)
         if (he.start[i] == he.start[i + 1])
-            refuse(what, fmt::format("point {} is used by no face", i));
+            refuse(what, fmt::format("point {} is used by no face", n(i)));
 
     MeshTopologyStats st;
     st.vertices = nv;
@@ -93,20 +95,20 @@ MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& w
     // that an open fan is walked whole.
     for (size_t v = 0; v < nv; ++v) {
         const uint32_t* at = he.around.data() + he.start[v];
-        const size_t n = he.start[v + 1] - he.start[v];
-        const uint32_t* open =
-            std::find_if(at, at + n, [&](uint32_t c) { return he.twin[c] == HalfEdges::kNone; });
-        const uint32_t c0 = open != at + n ? *open : at[0];
+        const size_t count = he.start[v + 1] - he.start[v];
+        const uint32_t* open = std::find_if(
+            at, at + count, [&](uint32_t c) { return he.twin[c] == HalfEdges::kNone; });
+        const uint32_t c0 = open != at + count ? *open : at[0];
         size_t reached = 0;
         uint32_t c = c0;
         do {
             ++reached;
             c = he.twin[faces.previous(c)];
-        } while (c != HalfEdges::kNone && c != c0 && reached <= n);
-        if (reached != n)
+        } while (c != HalfEdges::kNone && c != c0 && reached <= count);
+        if (reached != count)
             refuse(what, fmt::format("the faces around point {} are not one fan (a non-manifold "
                                      "point: {} of its {} faces are connected)",
-                                     v, reached, n));
+                                     n(v), reached, count));
     }
     return st;
 }

@@ -17,6 +17,9 @@ struct ControlMesh {
     std::vector<int> faceSizes;
     std::vector<int> faceVerts;  ///< each face's corners in turn
     std::vector<double> scalar;
+    /// How messages number its points and faces: as its file does (OBJ
+    /// from 1; PLY and the built-in shapes from 0).
+    int firstIndex = 0;
 
     size_t faceCount() const { return faceSizes.size(); }
 };
@@ -32,7 +35,8 @@ struct MeshTopologyStats {
 /// distinct corners that exist, every point used, every edge shared by at
 /// most two faces that run it in opposite directions (a consistently oriented
 /// 2-manifold), the faces around each point one fan.  InputError naming
-/// `what` (the file or shape) and the first problem, with its face or point.
+/// `what` (the file or shape) and the first problem, with its face or point
+/// (numbered from mesh.firstIndex).
 MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& what);
 
 /// The volume a closed mesh encloses (divergence theorem over its faces
