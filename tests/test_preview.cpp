@@ -256,6 +256,9 @@ TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
     } bad[] = {
         {(dir / "missing.json").string() + common, "missing.json"},
         {(dir / "tree.json").string() + common + " --voxel-size -1", "--voxel-size"},
+        // The band's limits as bake's (bake/bake.h: checkVoxelSize).
+        {(dir / "tree.json").string() + common + " --voxel-size 1e-5",
+         "--voxel-size must be a number from 0.0001 to 1e9 (got 1e-05)"},
         {(dir / "tree.json").string() + common + " --width 0", "pixels a side"},
         {(dir / "tree.json").string() + common + " --camera sideways", "sideways"},
         {(dir / "tree.json").string() + " --once -o " + (dir / "p.txt").string(), "p.txt"},

@@ -447,6 +447,11 @@ TEST(ShapeCommand, WritesMeshesAndLevelSetsAndRefusesBadInputFirst)
     EXPECT_EQ(r.status, 2);
     r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.vdb --voxel-size 0.00001");
     EXPECT_EQ(r.status, 2) << r.out;
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.vdb --voxel-size 2e9");
+    EXPECT_EQ(r.status, 2) << r.out;  // the band's limits as bake's
+    EXPECT_NE(r.err.find("--voxel-size must be a number from 0.0001 to 1e9 (got 2000000000)"),
+              std::string::npos)
+        << r.err;
     r = test::run("shape " + dir + "/rock.json -o " + dir + "/bad.vdb --levels 12");
     EXPECT_EQ(r.status, 2) << r.out;  // 6 x 4^12 x 330 bytes: more than this machine has
     std::ofstream(dir + "/plane.json") << R"({"base": {"type": "plane"}, "levels": 2})";

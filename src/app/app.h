@@ -103,6 +103,8 @@ int runSequenceCommand(const struct SequenceRequest& request, bool timings);
 /// A bake's stage timings (BakeStats::timings), one line on stderr: what
 /// --timings prints.
 void printTimings(const struct BakeStats& stats);
+/// Whether stage times are printed: the command's --timings, or CAMBIUM_TIMING set.
+bool timingsAsked(bool flag);
 
 /// "(x, y, z)" with six significant digits.
 std::string formatVec(const glm::dvec3& v);

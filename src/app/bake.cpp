@@ -181,7 +181,7 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
     fileFormat(req.output, {"vdb"}, "output");
     checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
     req.model = o->model.options();
-    const bool timings = o->timings || std::getenv("CAMBIUM_TIMING");
+    const bool timings = timingsAsked(o->timings);
     if (req.tile.count > 0)  // (what a farm's final job checks the tile by)
         req.key = tileFarmKey(req, req.tile.count);
     if (o->slurm.slurm && tiled && o->slurm.chunk != 1)

@@ -89,6 +89,11 @@ void ProgressBar::clear()
     shown_ = false;
 }
 
+bool timingsAsked(bool flag)
+{
+    return flag || std::getenv("CAMBIUM_TIMING");
+}
+
 void printTimings(const BakeStats& s)
 {
     const BakeTimings& t = s.timings;

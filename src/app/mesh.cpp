@@ -33,7 +33,7 @@ struct MeshRequest {
 /// not a float level set.
 int runMeshCommand(const MeshRequest& req)
 {
-    const bool timings = req.timings || std::getenv("CAMBIUM_TIMING");
+    const bool timings = timingsAsked(req.timings);
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
         throw InputError(
             fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));

@@ -34,7 +34,7 @@ struct RenderRequest {
 
 int runRenderCommand(RenderRequest req)
 {
-    req.timings = req.timings || std::getenv("CAMBIUM_TIMING");
+    req.timings = timingsAsked(req.timings);
     if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
         throw InputError(
             fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,

@@ -28,11 +28,24 @@
 
 namespace cambium {
 
+void checkVoxelSize(double voxelSize, const std::string& name)
+{
+    static_assert(kMaxVoxelSize == 1e9, "the message says 1e9");
+    if (!(voxelSize >= kMinVoxelSize && voxelSize <= kMaxVoxelSize))
+        throw InputError(fmt::format("{} must be a number from {:g} to 1e9 (got {})", name,
+                                     kMinVoxelSize, voxelSize));
+}
+
+void checkHalfWidth(double halfWidth, const std::string& name)
+{
+    if (!(halfWidth >= 1.0 && halfWidth <= 64.0))
+        throw InputError(
+            fmt::format("{} must be between 1 and 64 voxels (got {})", name, halfWidth));
+}
+
 void checkBakeOptions(const BakeRequest& req)
 {
-    if (!std::isfinite(req.halfWidth) || req.halfWidth < 1.0 || req.halfWidth > 64.0)
-        throw InputError(
-            fmt::format("--half-width must be between 1 and 64 voxels (got {})", req.halfWidth));
+    checkHalfWidth(req.halfWidth);
 }
 
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
@@ -56,9 +69,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
             req.input, far));
     if (req.voxelSize) {
         plan.voxelSize = *req.voxelSize;
-        if (!(plan.voxelSize >= kMinVoxelSize && plan.voxelSize <= 1e9))
-            throw InputError(fmt::format("--voxel-size must be a number from {:g} to 1e9 (got {})",
-                                         kMinVoxelSize, plan.voxelSize));
+        checkVoxelSize(plan.voxelSize);
     } else {
         plan.voxelSize = autoVoxelSize(program);
         plan.automatic = true;

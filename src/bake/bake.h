@@ -100,7 +100,15 @@ struct VoxelPlan {
 /// The smallest voxel size baked: OpenVDB's transforms refuse a voxel whose
 /// volume is below 3e-15 (h < 1.44e-5).
 constexpr double kMinVoxelSize = 1e-4;
+constexpr double kMaxVoxelSize = 1e9;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
+
+/// The band's options as every command that bakes checks them (bake, shape,
+/// preview, and the mesh bake under them): a voxel size from kMinVoxelSize
+/// to kMaxVoxelSize, a half-width from 1 to 64 voxels.  InputError naming
+/// the option (`name`) and the value.
+void checkVoxelSize(double voxelSize, const std::string& name = "--voxel-size");
+void checkHalfWidth(double halfWidth, const std::string& name = "--half-width");
 
 /// The sampler of `device` (an OpenCL failure is named with a hint to use
 /// --device cpu).

@@ -7,6 +7,8 @@
 // precision, the mesh's own indices, leaves binned by counting.
 #include "bake/mesh_levelset.h"
 
+#include "bake/bake.h"
+
 #include "bake/stages.h"
 #include "core/clock.h"
 #include "core/error.h"
@@ -574,9 +576,8 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
 {
     const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
-    if (!(h > 0.0) || !(W >= 1.0))
-        throw InputError(
-            fmt::format("{}: voxel size {} and half-width {} (need > 0 and >= 1)", what, h, W));
+    checkVoxelSize(h, what + ": the voxel size");
+    checkHalfWidth(W, what + ": the half-width");
     if (mesh.triangles.empty())
         throw InputError(fmt::format("{}: the mesh has no triangles", what));
     auto progress = [&](const char* stage, double f) {

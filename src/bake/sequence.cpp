@@ -296,13 +296,8 @@ struct FrameBaker {
             }
         }
         fr.stats = grids.stats;
-        VdbFileInfo info;
-        info.scene = req.input;
-        info.threshold = plan.threshold;
-        info.halfWidth = req.halfWidth;
+        VdbFileInfo info = bakeFileInfo(req, plan.threshold, plan.times[i]);
         info.frame = plan.frames[i];
-        info.time = plan.times[i];
-        info.half = req.half;
         info.sequence = plan.key;
         info.part = framePart(plan.frames[i]);
         writeVdb(grids, plan.paths[i], info);

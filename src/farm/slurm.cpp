@@ -52,20 +52,15 @@ std::vector<std::string> bakeArguments(const BakeRequest& b, double voxelSize)
     std::vector<std::string> a = {"bake",         fs::absolute(b.input).string(),
                                   "--voxel-size", fmt::format("{}", voxelSize),
                                   "--half-width", fmt::format("{}", b.halfWidth),
-                                  "--device",     b.device == Device::Cpu ? "cpu" : "opencl",
+                                  "--device",     deviceName(b.device),
                                   "-o",           fs::absolute(b.output).string()};
     const ModelOptions& m = b.model;
-    using J = ModelOptions::Junctions;
-    using P = ModelOptions::Primitives;
     if (m.junctions)
-        a.insert(a.end(), {"--junctions", *m.junctions == J::Pcm      ? "pcm"
-                                          : *m.junctions == J::Smooth ? "smooth"
-                                                                      : "blend"});
+        a.insert(a.end(), {"--junctions", junctionsName(*m.junctions)});
     if (m.bendDegrees != 0.0)
         a.insert(a.end(), {"--bend", fmt::format("{}", m.bendDegrees)});
-    if (m.primitives != P::Cone)
-        a.insert(a.end(),
-                 {"--primitives", m.primitives == P::Convolution ? "convolution" : "mixed"});
+    if (m.primitives != ModelOptions::Primitives::Cone)
+        a.insert(a.end(), {"--primitives", primitivesName(m.primitives)});
     if (m.regrowth != 0.0)
         a.insert(a.end(), {"--regrowth", fmt::format("{}", m.regrowth)});
     if (m.time)
@@ -81,7 +76,7 @@ std::vector<std::string> bakeArguments(const BakeRequest& b, double voxelSize)
     if (!b.barkPhoto.empty())
         a.insert(a.end(), {"--bark-photo", fs::absolute(b.barkPhoto).string()});
     if (b.barkCoherent)
-        a.insert(a.end(), {"--bark-colouring", *b.barkCoherent ? "coherent" : "random"});
+        a.insert(a.end(), {"--bark-colouring", kBarkColourings[*b.barkCoherent ? 0 : 1]});
     if (b.threads > 0)
         a.insert(a.end(), {"--threads", std::to_string(b.threads)});
     return a;

@@ -37,21 +37,42 @@ TreeBuildOptions treeOptions(const ModelOptions& o, ModelOptions::Junctions junc
 
 }  // namespace
 
+namespace {
+
+constexpr const char* kJunctionNames[] = {"pcm", "smooth", "blend"};
+constexpr const char* kPrimitiveNames[] = {"cone", "convolution", "mixed"};
+
+/// The index of `name` in `names`, or InputError naming the option and the choices.
+template <size_t N>
+int nameIndex(const std::string& name, const char* const (&names)[N], const char* option)
+{
+    for (size_t i = 0; i < N; ++i)
+        if (name == names[i])
+            return int(i);
+    throw InputError(fmt::format("{} must be {}, {} or {} (got '{}')", option, names[0], names[1],
+                                 names[2], name));
+}
+
+}  // namespace
+
 ModelOptions::Junctions parseJunctions(const std::string& name)
 {
-    using J = ModelOptions::Junctions;
-    if (name == "pcm" || name == "smooth" || name == "blend")
-        return name == "pcm" ? J::Pcm : name == "smooth" ? J::Smooth : J::Blend;
-    throw InputError(fmt::format("--junctions must be pcm, smooth or blend (got '{}')", name));
+    return ModelOptions::Junctions(nameIndex(name, kJunctionNames, "--junctions"));
 }
 
 ModelOptions::Primitives parsePrimitives(const std::string& name)
 {
-    using P = ModelOptions::Primitives;
-    if (name == "cone" || name == "convolution" || name == "mixed")
-        return name == "cone" ? P::Cone : name == "convolution" ? P::Convolution : P::Mixed;
-    throw InputError(
-        fmt::format("--primitives must be cone, convolution or mixed (got '{}')", name));
+    return ModelOptions::Primitives(nameIndex(name, kPrimitiveNames, "--primitives"));
+}
+
+const char* junctionsName(ModelOptions::Junctions junctions)
+{
+    return kJunctionNames[int(junctions)];
+}
+
+const char* primitivesName(ModelOptions::Primitives primitives)
+{
+    return kPrimitiveNames[int(primitives)];
 }
 
 void checkModelOptions(const ModelOptions& o)

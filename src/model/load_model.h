@@ -41,6 +41,8 @@ void checkGrowthOptions(const std::string& path, const ModelOptions& options);
 /// back: InputError naming the option and the values it takes.
 ModelOptions::Junctions parseJunctions(const std::string& name);
 ModelOptions::Primitives parsePrimitives(const std::string& name);
+const char* junctionsName(ModelOptions::Junctions junctions);
+const char* primitivesName(ModelOptions::Primitives primitives);
 class GrowthModel;
 /// A grown model's tree at `options.time` (the file's last year when
 /// unset), as loadModel makes it from `path`: for a caller that keeps the

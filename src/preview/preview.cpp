@@ -69,9 +69,8 @@ PreviewSession::PreviewSession(PreviewSettings settings)
 {
     checkInputFile(settings_.input, "model");
     checkModelOptions(settings_.model);
-    if (settings_.voxelSize && !(*settings_.voxelSize > 0.0))
-        throw InputError(
-            fmt::format("--voxel-size must be a positive number (got {})", *settings_.voxelSize));
+    if (settings_.voxelSize)
+        checkVoxelSize(*settings_.voxelSize);
     if (settings_.width < 1 || settings_.height < 1 || settings_.width > 8192 ||
         settings_.height > 8192 || settings_.spp < 1 || settings_.spp > 1024)
         throw InputError(fmt::format(

@@ -42,12 +42,9 @@ void checkBakeMemory(double area, double voxelSize, double halfWidth, const std:
 /// The request's own checks (before the shape file is read).
 void checkRequest(const ShapeRequest& req, bool levelSet)
 {
-    if (req.voxelSize && !(*req.voxelSize >= kMinVoxelSize && std::isfinite(*req.voxelSize)))
-        throw InputError(fmt::format("--voxel-size must be at least {} (got {})", kMinVoxelSize,
-                                     *req.voxelSize));
-    if (!(req.halfWidth >= 1.0 && req.halfWidth <= 64.0))
-        throw InputError(
-            fmt::format("--half-width must be from 1 to 64 voxels (got {})", req.halfWidth));
+    if (req.voxelSize)
+        checkVoxelSize(*req.voxelSize);
+    checkHalfWidth(req.halfWidth);
     if (req.levels > kMaxSubdivisionLevels)
         throw InputError(
             fmt::format("--levels {}: at most {} (OpenSubdiv's uniform refinement "
