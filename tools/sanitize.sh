@@ -8,8 +8,9 @@ set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${CAMBIUM_FUZZ_BUILD_DIR:-$root/build-fuzz}
-# The project's Debian packages, and clang with its sanitizer and fuzzer runtimes.
-CAMBIUM_EXTRA_PACKAGES="clang-14 libclang-rt-14-dev" bash "$root/tools/setup.sh" packages
+# The project's Debian packages, and clang with its sanitizer and fuzzer
+# runtimes and its linker.
+CAMBIUM_EXTRA_PACKAGES="clang-14 libclang-rt-14-dev lld" bash "$root/tools/setup.sh" packages
 
 if [ ! -f "$build/CMakeCache.txt" ]; then
   # -O1 and line tables only: a third less to compile than -O2 -g, and
