@@ -36,6 +36,49 @@ bool FaceCorners::repeatsPoint(size_t f) const
     return false;
 }
 
+namespace {
+
+/// Each corner's twin and the first bad corner, with the corners' next,
+/// previous and face given as functions (arithmetic for faces of one size).
+/// Corner c runs a -> b: its twin is the corner before the one corner at a
+/// whose face comes from b (that face runs b -> a); another corner at a
+/// that runs a -> b, or a second face coming from b, is one too many.
+template <typename Next, typename Previous, typename Face>
+void findTwins(const FaceCorners& mesh, const std::vector<uint8_t>& repeats, Next next,
+               Previous previous, Face face, HalfEdges& out)
+{
+    const uint32_t* corner = mesh.corner;
+    out.twin.assign(mesh.corners(), HalfEdges::kNone);
+    std::atomic<size_t> firstBad{HalfEdges::kNone};
+    tbb::parallel_for(size_t(0), mesh.corners(), [&](size_t c) {
+        if (repeats[face(c)])
+            return;
+        const uint32_t a = corner[c], b = corner[next(c)];
+        bool bad = false;
+        uint32_t twin = HalfEdges::kNone;
+        for (uint32_t k = out.start[a]; k < out.start[a + 1]; ++k) {
+            const uint32_t d = out.around[k];
+            if (d == c || repeats[face(d)])
+                continue;
+            bad |= corner[next(d)] == b;
+            const uint32_t p = uint32_t(previous(d));
+            if (corner[p] == b) {
+                bad |= twin != HalfEdges::kNone;
+                twin = p;
+            }
+        }
+        out.twin[c] = twin;
+        if (bad) {
+            size_t cur = firstBad.load();
+            while (c < cur && !firstBad.compare_exchange_weak(cur, c)) {
+            }
+        }
+    });
+    out.firstBad = firstBad;
+}
+
+}  // namespace
+
 HalfEdges findHalfEdges(const FaceCorners& mesh)
 {
     const size_t nf = mesh.faces, nc = mesh.corners();
@@ -52,46 +95,29 @@ HalfEdges findHalfEdges(const FaceCorners& mesh)
         for (size_t c = 0; c < nc; ++c)
             out.around[fill[mesh.corner[c]]++] = uint32_t(c);
     }
-    // Each corner's face and the point its edge runs to.
-    std::vector<uint32_t> face(nc), to(nc);
     std::vector<uint8_t> repeats(nf);
+    tbb::parallel_for(size_t(0), nf, [&](size_t f) { repeats[f] = mesh.repeatsPoint(f); });
+    if (mesh.faceSize) {
+        const size_t n = mesh.faceSize;
+        findTwins(
+            mesh, repeats, [n](size_t c) { return c % n == n - 1 ? c + 1 - n : c + 1; },
+            [n](size_t c) { return c % n == 0 ? c + n - 1 : c - 1; },
+            [n](size_t c) { return c / n; }, out);
+        return out;
+    }
+    // Polygons: each corner's face, next and previous corner.
+    std::vector<uint32_t> face(nc), next(nc), previous(nc);
     tbb::parallel_for(size_t(0), nf, [&](size_t f) {
-        repeats[f] = mesh.repeatsPoint(f);
         const size_t b = mesh.begin(f), e = mesh.end(f);
         for (size_t c = b; c < e; ++c) {
             face[c] = uint32_t(f);
-            to[c] = mesh.corner[c + 1 < e ? c + 1 : b];
+            next[c] = uint32_t(c + 1 < e ? c + 1 : b);
+            previous[c] = uint32_t(c > b ? c - 1 : e - 1);
         }
     });
-    // Corner c runs a -> b: its twin is the one corner at b whose edge runs
-    // b -> a; another corner at a that runs a -> b is one too many.
-    out.twin.assign(nc, HalfEdges::kNone);
-    std::atomic<size_t> firstBad{HalfEdges::kNone};
-    tbb::parallel_for(size_t(0), nc, [&](size_t c) {
-        if (repeats[face[c]])
-            return;
-        const uint32_t a = mesh.corner[c], b = to[c];
-        bool bad = false;
-        for (uint32_t k = out.start[a]; k < out.start[a + 1]; ++k) {
-            const uint32_t d = out.around[k];
-            bad |= d != c && to[d] == b && !repeats[face[d]];
-        }
-        uint32_t twin = HalfEdges::kNone;
-        for (uint32_t k = out.start[b]; k < out.start[b + 1]; ++k) {
-            const uint32_t d = out.around[k];
-            if (to[d] == a && !repeats[face[d]]) {
-                bad |= twin != HalfEdges::kNone;
-                twin = d;
-            }
-        }
-        out.twin[c] = twin;
-        if (bad) {
-            size_t cur = firstBad.load();
-            while (c < cur && !firstBad.compare_exchange_weak(cur, c)) {
-            }
-        }
-    });
-    out.firstBad = firstBad;
+    findTwins(
+        mesh, repeats, [&](size_t c) { return next[c]; }, [&](size_t c) { return previous[c]; },
+        [&](size_t c) { return face[c]; }, out);
     return out;
 }
 
