@@ -166,13 +166,8 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
         req.tile = parseTileOption(o->tile);
     checkBakeOptions(req);
     req.colour = parseColourExtent(o->colour);
-    if (!o->colouring.empty()) {
-        const auto& names = kBarkColourings;
-        if (std::find(names.begin(), names.end(), o->colouring) == names.end())
-            throw InputError(fmt::format("--bark-colouring must be {} (got '{}')",
-                                         fmt::join(names, " or "), o->colouring));
-        req.barkCoherent = o->colouring == names.front();
-    }
+    if (!o->colouring.empty())  // (kBarkColourings: coherent first)
+        req.barkCoherent = optionChoice(o->colouring, kBarkColourings, "--bark-colouring") == 0;
     if (!req.barkPhoto.empty())
         checkInputFile(req.barkPhoto, "bark photo");
     req.device = parseDevice(o->device);

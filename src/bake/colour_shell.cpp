@@ -21,20 +21,21 @@
 
 namespace cambium {
 
+namespace {
+
+/// --colour's words, in ColourExtent's order.
+const std::vector<std::string> kColourExtentNames{"shell", "band", "none"};
+
+}  // namespace
+
 ColourExtent parseColourExtent(const std::string& name)
 {
-    if (name == "shell")
-        return ColourExtent::Shell;
-    if (name == "band")
-        return ColourExtent::Band;
-    if (name == "none")
-        return ColourExtent::None;
-    throw InputError(fmt::format("--colour must be shell, band or none (got '{}')", name));
+    return ColourExtent(optionChoice(name, kColourExtentNames, "--colour"));
 }
 
 const char* colourExtentName(ColourExtent e)
 {
-    return e == ColourExtent::Shell ? "shell" : e == ColourExtent::Band ? "band" : "none";
+    return kColourExtentNames[size_t(e)].c_str();
 }
 
 InsideBits colourShell(const InsideBits* const around[27])

@@ -8,7 +8,6 @@
 #include "bake/mesh_levelset.h"
 
 #include "bake/bake.h"
-
 #include "bake/stages.h"
 #include "core/clock.h"
 #include "core/error.h"

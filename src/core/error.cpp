@@ -10,6 +10,18 @@
 
 namespace cambium {
 
+size_t optionChoice(const std::string& value, const std::vector<std::string>& names,
+                    const char* option)
+{
+    for (size_t i = 0; i < names.size(); ++i)
+        if (value == names[i])
+            return i;
+    std::string list;
+    for (size_t i = 0; i < names.size(); ++i)
+        list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+    throw InputError(fmt::format("{} must be {} (got '{}')", option, list, value));
+}
+
 std::string printable(const std::string& text)
 {
     std::string out;

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -29,6 +30,12 @@ public:
 private:
     std::string field_;
 };
+
+/// The index of `value` among an option's `names`, or InputError
+/// "OPTION must be a, b or c (got 'VALUE')": the one parser of every option
+/// that takes one of a few words (--device, --junctions, --colour, ...).
+size_t optionChoice(const std::string& value, const std::vector<std::string>& names,
+                    const char* option);
 
 /// `text` as a message may show it: each control character (a newline, an
 /// escape) written as \xHH, so that a line of output stays one line.

@@ -109,16 +109,21 @@ std::string formatCount(double count)
     return s;
 }
 
+namespace {
+
+/// --device's words, in Device's order.
+const std::vector<std::string> kDeviceNames{"opencl", "cpu"};
+
+}  // namespace
+
 const char* deviceName(Device device)
 {
-    return device == Device::Cpu ? "cpu" : "opencl";
+    return kDeviceNames[size_t(device)].c_str();
 }
 
 Device parseDevice(const std::string& name)
 {
-    if (name != "opencl" && name != "cpu")
-        throw InputError(fmt::format("--device must be opencl or cpu (got '{}')", name));
-    return name == "cpu" ? Device::Cpu : Device::OpenCL;
+    return Device(optionChoice(name, kDeviceNames, "--device"));
 }
 
 }  // namespace cambium

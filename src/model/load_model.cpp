@@ -39,40 +39,29 @@ TreeBuildOptions treeOptions(const ModelOptions& o, ModelOptions::Junctions junc
 
 namespace {
 
-constexpr const char* kJunctionNames[] = {"pcm", "smooth", "blend"};
-constexpr const char* kPrimitiveNames[] = {"cone", "convolution", "mixed"};
-
-/// The index of `name` in `names`, or InputError naming the option and the choices.
-template <size_t N>
-int nameIndex(const std::string& name, const char* const (&names)[N], const char* option)
-{
-    for (size_t i = 0; i < N; ++i)
-        if (name == names[i])
-            return int(i);
-    throw InputError(fmt::format("{} must be {}, {} or {} (got '{}')", option, names[0], names[1],
-                                 names[2], name));
-}
+const std::vector<std::string> kJunctionNames{"pcm", "smooth", "blend"};
+const std::vector<std::string> kPrimitiveNames{"cone", "convolution", "mixed"};
 
 }  // namespace
 
 ModelOptions::Junctions parseJunctions(const std::string& name)
 {
-    return ModelOptions::Junctions(nameIndex(name, kJunctionNames, "--junctions"));
+    return ModelOptions::Junctions(optionChoice(name, kJunctionNames, "--junctions"));
 }
 
 ModelOptions::Primitives parsePrimitives(const std::string& name)
 {
-    return ModelOptions::Primitives(nameIndex(name, kPrimitiveNames, "--primitives"));
+    return ModelOptions::Primitives(optionChoice(name, kPrimitiveNames, "--primitives"));
 }
 
 const char* junctionsName(ModelOptions::Junctions junctions)
 {
-    return kJunctionNames[int(junctions)];
+    return kJunctionNames[size_t(junctions)].c_str();
 }
 
 const char* primitivesName(ModelOptions::Primitives primitives)
 {
-    return kPrimitiveNames[int(primitives)];
+    return kPrimitiveNames[size_t(primitives)].c_str();
 }
 
 void checkModelOptions(const ModelOptions& o)

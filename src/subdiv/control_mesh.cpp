@@ -15,6 +15,12 @@ namespace cambium {
 
 namespace {
 
+/// Point or face i as the mesh's file numbers it (ControlMesh::firstIndex).
+size_t numbered(const ControlMesh& mesh, size_t i)
+{
+    return i + size_t(mesh.firstIndex);
+}
+
 [[noreturn]] void refuse(const std::string& what, const std::string& problem)
 {
     throw InputError(fmt::format("{}: {}", what, problem));
@@ -27,10 +33,10 @@ std::vector<size_t> faceStarts(const ControlMesh& mesh, const std::string& what)
     for (size_t f = 0; f < mesh.faceSizes.size(); ++f) {
         if (mesh.faceSizes[f] < 3)
             refuse(what, fmt::format("face {} has {} corners (a face needs at least 3)",
-                                     f + size_t(mesh.firstIndex), mesh.faceSizes[f]));
+                                     numbered(mesh, f), mesh.faceSizes[f]));
         if (mesh.faceSizes[f] > 255)
-            refuse(what, fmt::format("face {} has {} corners (at most 255)",
-                                     f + size_t(mesh.firstIndex), mesh.faceSizes[f]));
+            refuse(what, fmt::format("face {} has {} corners (at most 255)", numbered(mesh, f),
+                                     mesh.faceSizes[f]));
         first[f + 1] = first[f] + size_t(mesh.faceSizes[f]);
     }
     if (first.back() != mesh.faceVerts.size())
@@ -44,7 +50,7 @@ std::vector<size_t> faceStarts(const ControlMesh& mesh, const std::string& what)
 MeshTopologyStats checkControlMesh(const ControlMesh& mesh, const std::string& what)
 {
     const size_t nv = mesh.points.size(), nf = mesh.faceSizes.size();
-    const auto n = [&](size_t i) { return i + size_t(mesh.firstIndex); };  // as the file numbers
+    const auto n = [&](size_t i) { return numbered(mesh, i); };
     if (nf == 0)
         refuse(what, "the mesh has no faces");
     for (size_t i = 0; i < nv; ++i) {
