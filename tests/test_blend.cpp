@@ -287,7 +287,7 @@ TEST(Shader, OnAShapeHeightsFollowTheScalarAndColoursTheBlendParameter)
         sea += f.scalar[v] < 0.0;
         // Every colour is the shader's of the point's scalar and blend parameter.
         const glm::dvec3 c = shade(s.spec().shader, f.scalar[v], beta[v]).color;
-        ASSERT_EQ(m.colors[v], openvdb::Vec3s(float(c.x), float(c.y), float(c.z)));
+        ASSERT_EQ(m.colors[v], openvdb::math::Vec3s(float(c.x), float(c.y), float(c.z)));
         ASSERT_GE(beta[v], 0.0);
         ASSERT_LE(beta[v], 1.0);
         const double d = planeDistance(f.points[v]);

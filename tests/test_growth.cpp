@@ -2,7 +2,7 @@
 // properties on the bundled Populus and on parameter sets made to show one
 // thing each; the skeleton's geometry (phyllotaxis, headings); continuity in
 // time; bud scale scars and bark ridges over time.
-#include "bake/levelset.h"
+#include "bake/options.h"
 #include "blobtree/evaluator.h"
 #include "core/error.h"
 #include "model/growth.h"

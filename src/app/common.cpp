@@ -1,7 +1,7 @@
 // cambium — what the commands share: model options, reports, progress.
 #include "app/app.h"
 
-#include "bake/levelset.h"
+#include "bake/options.h"
 
 #include <fmt/format.h>
 

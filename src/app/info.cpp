@@ -5,7 +5,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/system.h"
-#include "io/vdb.h"
+#include "io/vdb_header.h"
 #include "model/load_model.h"
 #include "shape/synthesis.h"
 
@@ -79,16 +79,13 @@ int runVdbInfo(const std::string& path, bool check)
             g.gridClass == "unknown" ? "" : " " + g.gridClass, g.half ? " (stored as halves)" : "",
             g.activeVoxels < 0 ? "an unrecorded number of" : formatCount(double(g.activeVoxels)),
             g.leaves < 0 ? "" : fmt::format(" in {} leaves", formatCount(double(g.leaves))));
-        fmt::print("  voxel    {}\n",
-                   formatVec(glm::dvec3(g.voxelSize.x(), g.voxelSize.y(), g.voxelSize.z())));
+        fmt::print("  voxel    {}\n", formatVec(g.voxelSize));
         if (g.bounded) {
             fmt::print("  index    ({}, {}, {}) to ({}, {}, {}): {} x {} x {} voxels\n",
                        g.indexMin[0], g.indexMin[1], g.indexMin[2], g.indexMax[0], g.indexMax[1],
                        g.indexMax[2], g.indexMax[0] - g.indexMin[0] + 1,
                        g.indexMax[1] - g.indexMin[1] + 1, g.indexMax[2] - g.indexMin[2] + 1);
-            fmt::print("  world    {} to {}\n",
-                       formatVec(glm::dvec3(g.worldMin.x(), g.worldMin.y(), g.worldMin.z())),
-                       formatVec(glm::dvec3(g.worldMax.x(), g.worldMax.y(), g.worldMax.z())));
+            fmt::print("  world    {} to {}\n", formatVec(g.worldMin), formatVec(g.worldMax));
         } else {
             fmt::print("  bounds   not recorded{}\n",
                        g.activeVoxels == 0 ? " (no active voxels)" : "");

@@ -1,11 +1,11 @@
 // cambium — a bake from a model file to a .vdb file: validation, sampling
-// device, level set, output.  What `cambium bake` runs.
+// device, level set, output.  What `cambium bake` runs; no OpenVDB here.
 #pragma once
 
-#include "bake/levelset.h"
+#include "bake/options.h"
 #include "blobtree/blobtree.h"
 #include "core/system.h"
-#include "io/vdb.h"
+#include "io/vdb_header.h"
 #include "model/load_model.h"
 
 #include <functional>
@@ -14,6 +14,8 @@
 #include <string>
 
 namespace cambium {
+
+struct BakedGrids;  // bake/levelset.h
 
 /// One bake: a model file to one .vdb file.
 struct BakeRequest {

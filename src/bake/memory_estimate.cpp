@@ -1,5 +1,5 @@
 // cambium — how much memory a bake will need, before it starts.
-#include "bake/levelset.h"
+#include "bake/options.h"
 
 #include "cb_program.h"
 

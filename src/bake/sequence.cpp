@@ -1,6 +1,7 @@
 // cambium — growth frame sequences.
 #include "bake/sequence.h"
 
+#include "bake/levelset.h"
 #include "core/hash.h"
 #include "core/system.h"
 #include "io/vdb.h"

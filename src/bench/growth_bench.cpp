@@ -2,6 +2,7 @@
 #include "bench/growth_bench.h"
 
 #include "bake/bake.h"
+#include "bake/levelset.h"
 #include "cl/runtime.h"
 #include "bake/sequence.h"
 #include "io/vdb.h"

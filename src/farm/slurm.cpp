@@ -6,7 +6,7 @@
 #include "core/frames.h"
 #include "core/hash.h"
 #include "core/json.h"
-#include "io/vdb.h"
+#include "io/vdb_header.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

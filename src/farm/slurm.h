@@ -7,7 +7,7 @@
 #pragma once
 
 #include "farm/chunks.h"
-#include "io/vdb.h"
+#include "io/vdb_header.h"
 
 #include <string>
 #include <vector>

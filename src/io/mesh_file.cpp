@@ -56,7 +56,7 @@ void addPolygon(TriangleMesh& m, const std::vector<int64_t>& poly,
 TriangleMesh readObj(std::istream& in, const std::string& path)
 {
     TriangleMesh m;
-    std::vector<openvdb::Vec3s> normals;
+    std::vector<openvdb::math::Vec3s> normals;
     std::vector<std::pair<size_t, int64_t>> cornerNormals;  // (point, normal) pairs from the faces
     std::string text;
     size_t line = 0;
@@ -117,7 +117,7 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
     if (!m.colors.empty() && m.colors.size() != m.points.size())
         fail(path, 0, "some vertices have colours and others not");
     if (!cornerNormals.empty()) {
-        m.normals.assign(m.points.size(), openvdb::Vec3s(0.0f));
+        m.normals.assign(m.points.size(), openvdb::math::Vec3s(0.0f));
         for (const auto& [p, n] : cornerNormals) {
             if (n < 0 || size_t(n) >= normals.size())
                 fail(path, 0,
@@ -336,11 +336,11 @@ TriangleMesh readPly(std::istream& in, const std::string& path)
 
 /// Unit vertex normals, area-weighted from the triangles (outward for
 /// counter-clockwise triangles).
-std::vector<openvdb::Vec3s> vertexNormals(const TriangleMesh& m)
+std::vector<openvdb::math::Vec3s> vertexNormals(const TriangleMesh& m)
 {
-    std::vector<openvdb::Vec3s> n(m.points.size(), openvdb::Vec3s(0.0f));
+    std::vector<openvdb::math::Vec3s> n(m.points.size(), openvdb::math::Vec3s(0.0f));
     for (const auto& t : m.triangles) {
-        const openvdb::Vec3s c =
+        const openvdb::math::Vec3s c =
             (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
         for (uint32_t v : t)
             n[v] += c;

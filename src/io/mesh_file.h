@@ -2,7 +2,7 @@
 // written through the checked writer, OBJ and PLY (ascii or binary) read.
 #pragma once
 
-#include <openvdb/openvdb.h>
+#include <openvdb/math/Vec3.h>
 
 #include <array>
 #include <cstdint>
@@ -17,9 +17,11 @@ namespace cambium {
 /// surface, the faces of a file read): when set, the writers write them and
 /// `triangles` is their fan, which everything else reads.
 struct TriangleMesh {
-    std::vector<openvdb::Vec3s> points;
-    std::vector<openvdb::Vec3s> normals;  ///< unit, outward: the level set's gradient at each point
-    std::vector<openvdb::Vec3s> colors;   ///< from the Cd grid at each point; empty without one
+    std::vector<openvdb::math::Vec3s> points;
+    std::vector<openvdb::math::Vec3s>
+        normals;  ///< unit, outward: the level set's gradient at each point
+    std::vector<openvdb::math::Vec3s>
+        colors;                ///< from the Cd grid at each point; empty without one
     std::vector<float> alpha;  ///< a PLY's vertex "alpha" in [0, 1] (read only); empty without one
     std::vector<std::array<uint32_t, 3>> triangles;
     struct Polygons {

@@ -1,8 +1,10 @@
-// cambium — .vdb files: writing baked grids that other software opens,
-// checking a file's structure before anything reads it, reading level sets back.
+// cambium — .vdb files: writing baked grids that other software opens and
+// reading level sets back (the structure check every reader runs first, and
+// the metadata, are io/vdb_header.h).
 #pragma once
 
 #include "io/grids.h"
+#include "io/vdb_header.h"
 
 #include <cstdint>
 #include <map>
@@ -14,26 +16,6 @@
 #include <vector>
 
 namespace cambium {
-
-struct VdbFileInfo {
-    std::string scene;  ///< the source the grids were baked from
-    double threshold = 0.5;
-    double halfWidth = 3.0;
-    long long frame = 0;  ///< growth frame number (0 for a single bake)
-    double time = 0.0;    ///< model time of the frame
-    bool half = false;    ///< store floats as 16-bit halves
-    std::string
-        sequence;  ///< a sequence's key (file metadata `cambium_sequence`), empty for a single bake
-    /// Which of the sequence's or farm's files it is (file metadata
-    /// `cambium_part`: framePart, tilePart), empty for a single bake: a file
-    /// copied over another of the same sequence is told by it.
-    std::string part;
-};
-
-/// `cambium_part` of a sequence's frame: "frame 12".
-std::string framePart(long long frame);
-/// `cambium_part` of tile `k` (from 0) of `count`: "tile 3/8".
-std::string tilePart(int k, int count);
 
 /// Writes the grids (surface, Cd, density if present) with grid statistics
 /// metadata and cambium's own metadata, Blosc-compressed, through the checked
@@ -106,38 +88,6 @@ private:
     size_t total_ = 0;
 };
 
-/// What the structure of a .vdb file says, read without reading any grid.
-struct VdbSummary {
-    uint64_t bytes = 0;  ///< file size
-    uint32_t fileVersion = 0;
-    std::map<std::string, std::string> strings;  ///< the file's string metadata
-    uint64_t checksumEnd = 0;  ///< where the bytes `cambium_checksum` covers begin (0: none)
-    struct Grid {
-        std::string name, type;
-        std::string instanceOf;      ///< the grid whose tree this one shares (empty: none)
-        int64_t begin = 0, end = 0;  ///< byte range in the file
-        int64_t block = 0;           ///< where its leaves' values begin
-        /// Leaves, from OpenVDB's delayed-load metadata (-1 where the grid
-        /// has none: files written without compression or before OpenVDB 6).
-        int64_t leaves = -1;
-        /// Whether its floats are stored as halves (the type's _HalfFloat).
-        bool half() const;
-    };
-    std::vector<Grid> grids;
-};
-
-/// Checks that `path` is a whole .vdb file with grid offsets, in a few reads
-/// and bounded memory whatever the file holds: header, file metadata, every
-/// grid descriptor, and each grid's end within the file.  InputError naming
-/// the file and the first problem (not a regular file, not a .vdb, truncated,
-/// damaged) in one line.
-VdbSummary inspectVdb(const std::string& path);
-
-/// Checks the `cambium_checksum` a file written by cambium carries (inspectVdb
-/// first) by reading the bytes it covers; InputError when they changed.
-/// Returns false for a file without one (written by other software).
-bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
-
 /// How much of a file's colour grid `Cd` a reader loads.
 enum class ColourRead {
     None,   ///< none
@@ -181,40 +131,5 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
 /// each leaf's values after holds about one leaf's values (the file must
 /// stay as it is while the grids live).
 LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid = kSurfaceGrid);
-
-/// What `cambium info FILE.vdb` says of a file: its structure (inspectVdb)
-/// and each grid's metadata and transform as OpenVDB reads them, without
-/// its tree (a second or less for any size).
-struct VdbGridDescription {
-    std::string name, valueType, gridClass;
-    std::string compression;  ///< file_compression ("" when the writer gave none)
-    bool half = false;        ///< stored as halves
-    openvdb::Vec3d voxelSize{0.0};
-    bool bounded = false;                         ///< the statistics give bounds
-    openvdb::Coord indexMin, indexMax;            ///< active voxels' (inclusive)
-    openvdb::Vec3d worldMin{0.0}, worldMax{0.0};  ///< their voxel centres' in world space
-    int64_t activeVoxels = -1, leaves = -1, memoryBytes = -1;  ///< -1: not recorded
-    int64_t fileBytes = 0;
-    /// Every other metadata entry as text, by name (cambium_* among them).
-    std::map<std::string, std::string> metadata;
-};
-struct VdbDescription {
-    VdbSummary summary;
-    std::vector<VdbGridDescription> grids;
-};
-/// InputError naming the file when it is not a whole .vdb.
-VdbDescription describeVdb(const std::string& path);
-
-/// Whether `path` begins with OpenVDB's magic number (a .vdb file whatever
-/// its name); false for a file that cannot be read.
-bool looksLikeVdbFile(const std::string& path);
-
-/// What a sequence's or farm's file says it is: its key (`cambium_sequence`)
-/// and part (`cambium_part`; empty in files written before it).
-struct FileStamp {
-    std::string key, part;
-};
-/// The stamp of a .vdb (inspectVdb); InputError when the file is damaged.
-FileStamp readFileStamp(const std::string& path);
 
 }  // namespace cambium

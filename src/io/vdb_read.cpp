@@ -461,13 +461,6 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, Col
     return readGrids(path, grid, false, colour);
 }
 
-bool looksLikeVdbFile(const std::string& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    int64_t magic = 0;
-    return in.read(reinterpret_cast<char*>(&magic), sizeof magic) && magic == 0x56444220;
-}
-
 VdbDescription describeVdb(const std::string& path)
 {
     VdbDescription d;
@@ -497,7 +490,8 @@ VdbDescription describeVdb(const std::string& path)
         out.valueType = g.valueType();
         out.gridClass = openvdb::GridBase::gridClassToString(g.getGridClass());
         out.half = s.half();
-        out.voxelSize = g.voxelSize();
+        const openvdb::Vec3d voxel = g.voxelSize();
+        out.voxelSize = glm::dvec3(voxel.x(), voxel.y(), voxel.z());
         out.leaves = s.leaves;
         out.fileBytes = s.end - s.begin;
         using openvdb::GridBase;
@@ -521,15 +515,15 @@ VdbDescription describeVdb(const std::string& path)
                    hi = g.getMetadata<openvdb::Vec3IMetadata>(GridBase::META_FILE_BBOX_MAX);
         if (lo && hi && out.activeVoxels != 0) {
             out.bounded = true;
-            out.indexMin = openvdb::Coord(lo->value());
-            out.indexMax = openvdb::Coord(hi->value());
+            const openvdb::Vec3i a = lo->value(), b = hi->value();
+            out.indexMin = glm::ivec3(a.x(), a.y(), a.z());
+            out.indexMax = glm::ivec3(b.x(), b.y(), b.z());
             for (int c = 0; c < 8; ++c) {  // (a transform may turn the box)
-                const openvdb::Vec3d w =
-                    g.indexToWorld(openvdb::Vec3d(c & 1 ? out.indexMax[0] : out.indexMin[0],
-                                                  c & 2 ? out.indexMax[1] : out.indexMin[1],
-                                                  c & 4 ? out.indexMax[2] : out.indexMin[2]));
-                out.worldMin = c ? openvdb::math::minComponent(out.worldMin, w) : w;
-                out.worldMax = c ? openvdb::math::maxComponent(out.worldMax, w) : w;
+                const openvdb::Vec3d w = g.indexToWorld(openvdb::Vec3d(
+                    c & 1 ? b.x() : a.x(), c & 2 ? b.y() : a.y(), c & 4 ? b.z() : a.z()));
+                const glm::dvec3 v(w.x(), w.y(), w.z());
+                out.worldMin = c ? glm::min(out.worldMin, v) : v;
+                out.worldMax = c ? glm::max(out.worldMax, v) : v;
             }
         }
         d.grids.push_back(std::move(out));

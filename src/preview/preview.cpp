@@ -4,6 +4,7 @@
 
 #include "bake/bake.h"
 #include "bake/levelset.h"
+#include "use/render.h"
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/hash.h"

@@ -7,10 +7,9 @@
 // What watches the file and drives the session is preview/loop.h.
 #pragma once
 
-#include "bake/levelset.h"
+#include "bake/options.h"
 #include "core/system.h"
 #include "model/load_model.h"
-#include "use/render.h"
 
 #include <atomic>
 #include <memory>
@@ -19,6 +18,8 @@
 #include <vector>
 
 namespace cambium {
+
+struct BakedGrids;  // bake/levelset.h
 
 struct PreviewSettings {
     std::string input;   ///< a scene, L-system, skeleton or growth parameter file

@@ -2,7 +2,7 @@
 // written as a mesh, or baked into a level set.
 #pragma once
 
-#include "bake/levelset.h"
+#include "bake/options.h"
 #include "core/system.h"
 
 #include <functional>

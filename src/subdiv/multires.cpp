@@ -287,8 +287,9 @@ TriangleMesh levelMesh(const SubdivLevel& lv, const std::vector<glm::dvec3>* mov
     m.points.resize(p.size());
     m.normals.resize(p.size());
     for (size_t v = 0; v < p.size(); ++v) {
-        m.points[v] = openvdb::Vec3s(float(p[v].x), float(p[v].y), float(p[v].z));
-        m.normals[v] = openvdb::Vec3s(float(normal[v].x), float(normal[v].y), float(normal[v].z));
+        m.points[v] = openvdb::math::Vec3s(float(p[v].x), float(p[v].y), float(p[v].z));
+        m.normals[v] =
+            openvdb::math::Vec3s(float(normal[v].x), float(normal[v].y), float(normal[v].z));
     }
     m.triangles.reserve(2 * lv.faceCount());
     m.polygons.sizes.reserve(lv.faceCount());

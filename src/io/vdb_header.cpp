@@ -1,0 +1,278 @@
+// cambium — the structure check of .vdb input, and the metadata cambium
+// writes: plain reads of the file's framing, no OpenVDB.
+#include "io/vdb_header.h"
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/hash.h"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace cambium {
+
+namespace {
+
+/// The first eight bytes of every .vdb file.
+constexpr int64_t kMagic = 0x56444220;
+
+/// Bounded reads of a .vdb's framing: every length is checked against what
+/// is left of the file before anything is read or allocated.
+class VdbReader {
+public:
+    VdbReader(const std::string& path, uint64_t size)
+        : path_(path), size_(size), in_(path, std::ios::binary)
+    {
+        if (!in_)
+            throw InputError(
+                fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
+    }
+    uint64_t at() const { return at_; }
+    uint64_t left() const { return size_ - at_; }
+
+    template <class T>
+    T value(const char* what)
+    {
+        T v;
+        bytes(reinterpret_cast<char*>(&v), sizeof v, what);
+        return v;
+    }
+    void bytes(char* out, uint64_t n, const char* what)
+    {
+        need(n, what);
+        in_.read(out, std::streamsize(n));
+        if (!in_)
+            throw InputError(
+                fmt::format("{}: cannot read the .vdb file at byte {} ({})", path_, at_, what));
+        at_ += n;
+    }
+    /// A length-prefixed string of at most `limit` bytes.
+    std::string string(const char* what, uint32_t limit)
+    {
+        const uint32_t n = value<uint32_t>(what);
+        if (n > limit)
+            damaged(fmt::format("{} of {} bytes at byte {}", what, n, at_ - 4));
+        std::string s(n, '\0');
+        bytes(s.data(), n, what);
+        return s;
+    }
+    void skip(uint64_t n, const char* what)
+    {
+        need(n, what);
+        seek(at_ + n);
+    }
+    void seek(uint64_t to)
+    {
+        in_.seekg(std::streamoff(to));
+        at_ = to;
+    }
+    [[noreturn]] void damaged(const std::string& why) const
+    {
+        throw InputError(fmt::format("{}: a damaged .vdb file: {}", path_, why));
+    }
+
+private:
+    void need(uint64_t n, const char* what) const
+    {
+        if (n > left())
+            throw InputError(fmt::format(
+                "{}: a truncated .vdb file: {} at byte {} needs {} bytes, the file has {} "
+                "in all",
+                path_, what, at_, n, size_));
+    }
+
+    std::string path_;
+    uint64_t size_, at_ = 0;
+    std::ifstream in_;
+};
+
+}  // namespace
+
+VdbSummary inspectVdb(const std::string& path)
+{
+    VdbSummary s;
+    s.bytes = checkInputFile(path, ".vdb file");
+    VdbReader r(path, s.bytes);
+    if (s.bytes < 8 || r.value<int64_t>("magic number") != kMagic)
+        throw InputError(fmt::format(
+            "{}: not a .vdb file (it does not begin with OpenVDB's magic number)", path));
+    s.fileVersion = r.value<uint32_t>("file version");
+    if (s.fileVersion < 222 || s.fileVersion > 1000)
+        r.damaged(
+            fmt::format("file format version {} (cambium reads 222 and later)", s.fileVersion));
+    r.skip(8, "library version");
+    if (r.value<char>("grid offsets flag") != 1)
+        throw InputError(
+            fmt::format("{}: a .vdb stream without grid offsets: cambium reads .vdb files written "
+                        "to disk (with io::File)",
+                        path));
+    r.skip(36, "UUID");
+
+    constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
+    // A metadata block (the file's, or a grid's ending by `end`): every
+    // entry's name, type and value within it; string values kept.
+    auto metadata = [&](uint64_t end, std::map<std::string, std::string>* strings,
+                        int64_t* leaves) {
+        if (r.at() + 4 > end)
+            r.damaged(fmt::format("no room for metadata at byte {}", r.at()));
+        const int32_t metas = r.value<int32_t>("metadata count");
+        if (metas < 0 || uint64_t(metas) > (end - r.at()) / 12)
+            r.damaged(fmt::format("{} metadata entries at byte {}", metas, r.at() - 4));
+        for (int32_t i = 0; i < metas; ++i) {
+            const std::string name = r.string("metadata name", kNameLimit);
+            const std::string type = r.string("metadata type", kNameLimit);
+            const uint32_t n = r.value<uint32_t>("metadata size");
+            if (r.at() + n > end && end == s.bytes)
+                throw InputError(fmt::format(
+                    "{}: a truncated .vdb file: metadata '{}' at byte {} needs {} bytes, the "
+                    "file has {} in all",
+                    path, name, r.at(), n, s.bytes));
+            if (r.at() + n > end)
+                r.damaged(fmt::format("metadata '{}' of {} bytes at byte {} runs past its block",
+                                      name, n, r.at()));
+            // OpenVDB reads a value of a fixed-size type by its type, not by
+            // the size written before it: the two must agree.
+            static const std::map<std::string, uint32_t> fixed = {
+                {"bool", 1},   {"int32", 4},  {"int64", 8},  {"float", 4},
+                {"double", 8}, {"vec2i", 8},  {"vec2s", 8},  {"vec2d", 16},
+                {"vec3i", 12}, {"vec3s", 12}, {"vec3d", 24}, {"vec4i", 16},
+                {"vec4s", 16}, {"vec4d", 32}, {"mat4s", 64}, {"mat4d", 128}};
+            if (const auto f = fixed.find(type); f != fixed.end() && f->second != n)
+                r.damaged(fmt::format("metadata '{}' of type {} has {} bytes, not {}", name, type,
+                                      n, f->second));
+            if (type == "__delayedload" && n > 0) {
+                // OpenVDB sizes per-leaf arrays by the count it holds.
+                if (n < 8)
+                    r.damaged(fmt::format("metadata '{}' of {} bytes", name, n));
+                const uint32_t count = r.value<uint32_t>("delayed-load count");
+                const uint32_t packed = r.value<uint32_t>("delayed-load size");
+                if (count > s.bytes || packed > n - 8)
+                    r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count,
+                                          packed));
+                if (leaves)
+                    *leaves = count;
+                r.skip(n - 8, "metadata value");
+                continue;
+            }
+            if (strings && type == "string" && n <= kValueLimit) {
+                std::string v(n, '\0');
+                r.bytes(v.data(), n, "metadata value");
+                (*strings)[name] = v;
+                if (name == kChecksumKey)
+                    s.checksumEnd = r.at();
+            } else {
+                r.skip(n, "metadata value");
+            }
+        }
+    };
+    metadata(s.bytes, &s.strings, nullptr);
+    const int32_t grids = r.value<int32_t>("grid count");
+    if (grids < 0 || uint64_t(grids) > r.left() / 36)
+        r.damaged(fmt::format("{} grids", grids));
+    for (int32_t i = 0; i < grids; ++i) {
+        VdbSummary::Grid g;
+        g.name = r.string("grid name", kNameLimit);
+        g.type = r.string("grid type", kNameLimit);
+        g.instanceOf = r.string("instance parent", kNameLimit);
+        g.begin = r.value<int64_t>("grid offset");
+        g.block = r.value<int64_t>("grid block offset");
+        g.end = r.value<int64_t>("grid end offset");
+        // (An instance of another grid's tree has metadata and a transform,
+        // no tree: no block of its own.)
+        const bool instance = !g.instanceOf.empty() && g.block == 0;
+        const int64_t block = instance ? g.end : g.block;
+        if (g.begin != int64_t(r.at()) || block < g.begin || g.end < block)
+            r.damaged(fmt::format(
+                "grid '{}' has offsets {}, {}, {} that do not follow its descriptor at byte {}",
+                g.name, g.begin, block, g.end, r.at()));
+        if (uint64_t(g.end) > s.bytes)
+            throw InputError(
+                fmt::format("{}: a truncated .vdb file: grid '{}' ends at byte {}, the file has {} "
+                            "bytes",
+                            path, g.name, g.end, s.bytes));
+        // The grid's compression word, metadata and transform's map type,
+        // within its block.
+        r.skip(4, "grid compression flags");
+        metadata(uint64_t(block), nullptr, &g.leaves);
+        if (r.at() + 4 > uint64_t(block))
+            r.damaged(fmt::format("grid '{}' has no room for its transform", g.name));
+        r.string("transform type", kNameLimit);
+        r.seek(uint64_t(g.end));
+        s.grids.push_back(std::move(g));
+    }
+    return s;
+}
+
+bool VdbSummary::Grid::half() const
+{
+    // (io::GridDescriptor's suffix for grids stored as halves)
+    const std::string suffix = "_HalfFloat";
+    return type.size() > suffix.size() &&
+           type.compare(type.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
+{
+    const auto expected = s.strings.find(kChecksumKey);
+    if (expected == s.strings.end() || s.checksumEnd == 0)
+        return false;
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(std::streamoff(s.checksumEnd));
+    Checksum64 sum;
+    std::vector<char> chunk(size_t(1) << 20);
+    while (in) {
+        in.read(chunk.data(), std::streamsize(chunk.size()));
+        sum.update(chunk.data(), size_t(in.gcount()));
+    }
+    // The digest is compared as a number, not as text: a fuzzer learns the
+    // operands of byte-wise string compares and would write the computed
+    // digest into its input, making any altered tree "verified"; it cannot
+    // invert a 64-bit hash of the bytes it mutates (docs/errors.md).
+    const std::string& digits = expected->second;
+    uint64_t written = 0;
+    const auto parsed = std::from_chars(digits.data(), digits.data() + digits.size(), written, 16);
+    if (digits.size() != 16 || parsed.ec != std::errc() || parsed.ptr != digits.data() + 16 ||
+        written != sum.value())
+        throw InputError(fmt::format(
+            "{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
+            "into it (changed or corrupted since)",
+            path));
+    return true;
+}
+
+std::string framePart(long long frame)
+{
+    return fmt::format("frame {}", frame);
+}
+
+std::string tilePart(int k, int count)
+{
+    return fmt::format("tile {}/{}", k + 1, count);
+}
+
+FileStamp readFileStamp(const std::string& path)
+{
+    const VdbSummary s = inspectVdb(path);
+    FileStamp stamp;
+    if (const auto key = s.strings.find("cambium_sequence"); key != s.strings.end())
+        stamp.key = key->second;
+    if (const auto part = s.strings.find("cambium_part"); part != s.strings.end())
+        stamp.part = part->second;
+    return stamp;
+}
+
+bool looksLikeVdbFile(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    int64_t magic = 0;
+    return in.read(reinterpret_cast<char*>(&magic), sizeof magic) && magic == kMagic;
+}
+
+}  // namespace cambium
