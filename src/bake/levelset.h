@@ -5,8 +5,6 @@
 #include "field/program.h"
 #include "io/grids.h"
 
-#include <openvdb/openvdb.h>
-
 namespace cambium {
 
 /// Cd of grids made whole (a photo's colours, a mesh's) kept on the shell

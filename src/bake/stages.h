@@ -22,9 +22,8 @@
 #include "bake/sampler.h"
 #include "bake/topology.h"
 #include "core/memory.h"
+#include "io/grids.h"
 #include "io/vdb.h"
-
-#include <openvdb/openvdb.h>
 
 #include <array>
 #include <cstddef>

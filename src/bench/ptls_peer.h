@@ -5,9 +5,8 @@
 // the binary `cambium-ptls`, timed beside `cambium bake`).
 #pragma once
 
+#include "io/grids.h"
 #include "model/skeleton.h"
-
-#include <openvdb/openvdb.h>
 
 #include <vector>
 

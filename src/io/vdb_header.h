@@ -89,9 +89,9 @@ struct VdbGridDescription {
     std::string compression;  ///< file_compression ("" when the writer gave none)
     bool half = false;        ///< stored as halves
     glm::dvec3 voxelSize{0.0};
-    bool bounded = false;                         ///< the statistics give bounds
-    glm::ivec3 indexMin{0}, indexMax{0};          ///< active voxels' (inclusive)
-    glm::dvec3 worldMin{0.0}, worldMax{0.0};      ///< their voxel centres' in world space
+    bool bounded = false;                     ///< the statistics give bounds
+    glm::ivec3 indexMin{0}, indexMax{0};      ///< active voxels' (inclusive)
+    glm::dvec3 worldMin{0.0}, worldMax{0.0};  ///< their voxel centres' in world space
     int64_t activeVoxels = -1, leaves = -1, memoryBytes = -1;  ///< -1: not recorded
     int64_t fileBytes = 0;
     /// Every other metadata entry as text, by name (cambium_* among them).

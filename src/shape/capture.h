@@ -6,10 +6,9 @@
 #pragma once
 
 #include "core/system.h"
+#include "io/grids.h"
 #include "shape/base_shapes.h"
 #include "shape/shape.h"
-
-#include <openvdb/openvdb.h>
 
 namespace cambium {
 

@@ -4,8 +4,6 @@
 #include "io/grids.h"
 #include "io/mesh_file.h"
 
-#include <openvdb/openvdb.h>
-
 #include <array>
 #include <iosfwd>
 #include <string>

@@ -4,10 +4,9 @@
 #pragma once
 
 #include "core/box.h"
+#include "io/grids.h"
 #include "io/image_file.h"
 #include "use/mesh.h"
-
-#include <openvdb/openvdb.h>
 
 #include <glm/glm.hpp>
 

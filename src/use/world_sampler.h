@@ -1,7 +1,8 @@
 // cambium — trilinear lookups of a grid at world-space points.
 #pragma once
 
-#include <openvdb/openvdb.h>
+#include "io/grids.h"
+
 #include <openvdb/tools/Interpolation.h>
 
 namespace cambium {
