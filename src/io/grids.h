@@ -6,11 +6,11 @@
 
 #include <memory>
 
-// The two grid types cambium makes are compiled once, in io/grids.cpp.  A
-// source that creates a grid would otherwise compile every virtual member of
-// Grid and Tree for it at -O3 (src/bake/assembly.cpp: 33 s, 650 KB of code;
-// with these declarations 14 s, 114 KB).  Every source that includes OpenVDB
-// includes it through this header.
+// The two grid types cambium makes are compiled once, in io/grids.cpp and
+// io/grids_vec3f.cpp.  A source that creates a grid would otherwise compile
+// every virtual member of Grid and Tree for it at -O3 (src/bake/assembly.cpp:
+// 33 s, 650 KB of code; with these declarations 14 s, 114 KB).  Every source
+// that includes OpenVDB includes it through this header.
 extern template class openvdb::tree::Tree<openvdb::FloatTree::RootNodeType>;
 extern template class openvdb::tree::Tree<openvdb::Vec3fTree::RootNodeType>;
 extern template class openvdb::Grid<openvdb::FloatTree>;
