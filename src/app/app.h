@@ -92,10 +92,6 @@ TilePlan planTiles(const struct BakeRequest& request, int tiles, double maxMemor
 int runTileFarmCommand(const struct BakeRequest& request, const TilePlan& tiles,
                        const SlurmFlags& flags);
 
-/// A size in bytes as options take it: 2000000000, 512M, 8G, 1.5T (powers of
-/// 1024).  InputError naming `option` otherwise.
-double parseByteSize(const std::string& text, const char* option);
-
 /// The sequence's report of each frame and its summary (with `timings`, each
 /// baked frame's stage timings on stderr).
 int runSequenceCommand(const struct SequenceRequest& request, bool timings);

@@ -285,7 +285,8 @@ void addBakeCommand(CLI::App& app, Action& action)
             ->check(CLI::Range(1, 4096));
     auto* memoryOpt = cmd->add_option(
         "--max-memory", o->maxMemory,
-        "A tile's share of the frame's estimated memory at most this (8G, 512M): with --tiles "
+        "A tile's share of the frame's estimated memory at most this (8G = 8 GB = 8e9 bytes, "
+        "512M): with --tiles "
         "a check, alone as many tiles as that takes (one bake when the frame fits)");
     cmd->add_option("--tile", o->tile,
                     "K/N: bake tile K of N only (what --tiles runs; docs/farm.md)")

@@ -19,7 +19,6 @@
 #include <cstring>
 #include <cstdio>
 #include <filesystem>
-#include <regex>
 #include <fcntl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -67,25 +66,6 @@ std::pair<int, double> runChild(const std::vector<std::string>& argv)
 }
 
 }  // namespace
-
-double parseByteSize(const std::string& text, const char* option)
-{
-    static const std::regex form(R"(\s*([0-9]+(?:\.[0-9]*)?)\s*([kKmMgGtT]?)[bB]?\s*)");
-    std::smatch m;
-    if (!std::regex_match(text, m, form))
-        throw InputError(fmt::format("{} must be a size such as 8G, 512M or 2000000000 (got '{}')",
-                                     option, text));
-    const std::string unit = m[2].str();
-    const double scale = unit.empty()                   ? 1.0
-                         : (unit == "k" || unit == "K") ? 1024.0
-                         : (unit == "m" || unit == "M") ? 1024.0 * 1024.0
-                         : (unit == "g" || unit == "G") ? 1024.0 * 1024.0 * 1024.0
-                                                        : 1024.0 * 1024.0 * 1024.0 * 1024.0;
-    const double bytes = std::stod(m[1].str()) * scale;
-    if (!(bytes >= 1.0))
-        throw InputError(fmt::format("{} must be more than nothing (got '{}')", option, text));
-    return bytes;
-}
 
 TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool here)
 {

@@ -7,7 +7,10 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
+#include <cmath>
 #include <filesystem>
+#include <regex>
 #include <ctime>
 #include <fstream>
 #include <iterator>
@@ -64,17 +67,40 @@ std::string executableDirectory()
     return std::filesystem::read_symlink("/proc/self/exe", ec).parent_path().string();
 }
 
+namespace {
+
+/// The units of formatBytes and parseByteSize: each 1000 times the last.
+constexpr const char* kByteUnits[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
+
+}  // namespace
+
 std::string formatBytes(double b)
 {
     if (!(b >= 0.0) || b > 1e30)
         return "an unbounded amount";
-    const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
     int u = 0;
     while (b >= 1000.0 && u < 6) {
         b /= 1000.0;
         ++u;
     }
-    return fmt::format("{:.3g} {}", b, units[u]);
+    return fmt::format("{:.3g} {}", b, kByteUnits[u]);
+}
+
+double parseByteSize(const std::string& text, const char* option)
+{
+    static const std::regex form(R"(\s*([0-9]+(?:\.[0-9]*)?)\s*([kKmMgGtTpPeE]?)[bB]?\s*)");
+    std::smatch m;
+    if (!std::regex_match(text, m, form))
+        throw InputError(fmt::format("{} must be a size such as 8G, 512M or 2000000000 (got '{}')",
+                                     option, text));
+    int u = 0;  // the unit's power of 1000, from formatBytes' table
+    if (m[2].length())
+        while (kByteUnits[u][0] != std::toupper(static_cast<unsigned char>(m[2].str()[0])))
+            ++u;
+    const double bytes = std::stod(m[1].str()) * std::pow(1000.0, u);
+    if (!(bytes >= 1.0))
+        throw InputError(fmt::format("{} must be more than nothing (got '{}')", option, text));
+    return bytes;
 }
 
 ThreadLimit::ThreadLimit(int threads)

@@ -19,8 +19,12 @@ double processAgeSeconds();
 /// The directory of this process's executable (where the build puts
 /// cambium-ptls and the image codec beside cambium).
 std::string executableDirectory();
-/// "1.5 GB": bytes in decimal units, three significant digits.
+/// "1.5 GB": bytes in decimal units (kKmMgGtTpPeE: powers of 1000), three
+/// significant digits.
 std::string formatBytes(double bytes);
+/// A size in bytes as options take it, in formatBytes' units: 2000000000,
+/// 512M, 8G, 1.5 TB.  InputError naming `option` otherwise.
+double parseByteSize(const std::string& text, const char* option);
 /// "45 s", "12 min", "3.5 h", "4.2 days": a duration, two significant digits.
 std::string formatDuration(double seconds);
 /// "1,234,567": a count with thousands separated (rounded to a whole number).
