@@ -172,6 +172,11 @@ TEST(Files, StaleTemporariesAreThoseOfThePatternOnly)
     for (const std::string& f : staleTemporaries((dir / "one.vdb").string()))
         names.push_back(fs::path(f).filename().string());
     EXPECT_EQ(names, (std::vector<std::string>{"one.vdb.tmp-3", "one.vdb.tmp-99999998"}));
+    // Each names the file it stands for, as the writer names its temporary.
+    for (const std::string& f : found)
+        EXPECT_EQ(temporaryPathFor(temporaryTarget(f)).rfind(temporaryTarget(f) + ".tmp-", 0), 0u);
+    EXPECT_EQ(temporaryTarget("/d/tree.0012.vdb.tmp-4"), "/d/tree.0012.vdb");
+    EXPECT_EQ(temporaryTarget(temporaryPathFor("/d/a.tmp-1.vdb")), "/d/a.tmp-1.vdb");
 }
 
 TEST(Files, TheOutputLockKeepsASecondWriterOutAndNamesTheHolder)

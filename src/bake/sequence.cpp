@@ -216,7 +216,7 @@ SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<lon
         range.insert(std::filesystem::path(paths[i]).filename().string());
     for (const std::string& tmp : staleTemporaries(pattern)) {
         const std::string name = std::filesystem::path(tmp).filename().string();
-        if (range.count(name.substr(0, name.rfind(".tmp-"))) && std::filesystem::remove(tmp))
+        if (range.count(temporaryTarget(name)) && std::filesystem::remove(tmp))
             notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
     }
     // With --resume: a whole file with this sequence's key is finished; one

@@ -262,9 +262,21 @@ void RemoveOnSignal::release()
     slot_ = -1;
 }
 
+namespace {
+
+/// What a temporary's name adds to its file's: "PATH.tmp-PID".
+constexpr const char* kTemporaryMark = ".tmp-";
+
+}  // namespace
+
 std::string temporaryPathFor(const std::string& path)
 {
-    return fmt::format("{}.tmp-{}", path, ::getpid());
+    return fmt::format("{}{}{}", path, kTemporaryMark, ::getpid());
+}
+
+std::string temporaryTarget(const std::string& temporary)
+{
+    return temporary.substr(0, temporary.rfind(kTemporaryMark));
 }
 
 std::string filesContentKey(const std::vector<std::string>& paths)
@@ -526,7 +538,7 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
         frames ? frameRun(name) : std::pair<size_t, size_t>{name.size(), name.size()};
     const size_t hashes = last - first;
     const std::string prefix = name.substr(0, first),
-                      suffix = name.substr(first + hashes) + ".tmp-";
+                      suffix = name.substr(first + hashes) + kTemporaryMark;
     std::vector<std::string> found;
     DIR* d = ::opendir(dir.c_str());
     if (!d)

@@ -53,6 +53,8 @@ std::string filesContentKey(const std::vector<std::string>& paths);
 /// The temporary file the writer fills beside the real target `path`
 /// ("PATH.tmp-PID") before renaming it.
 std::string temporaryPathFor(const std::string& path);
+/// The target a temporary's name stands for: "a.vdb" of "a.vdb.tmp-123".
+std::string temporaryTarget(const std::string& temporary);
 
 /// The one writer of every output file.  `write` fills a seekable stream
 /// whose every write is checked; the data go to a temporary file beside the
