@@ -19,8 +19,11 @@ TEST(System, ByteSizesReadInTheUnitsTheyArePrintedIn)
     EXPECT_DOUBLE_EQ(parseByteSize("3k", "--max-memory"), 3e3);
     EXPECT_DOUBLE_EQ(parseByteSize("2E", "--max-memory"), 2e18);
     // What a command echoes of a size it was given is that size.
-    for (const auto& [given, echoed] : {std::pair{"8G", "8 GB"}, {"512M", "512 MB"},
-                                        {"1.5T", "1.5 TB"}, {"750k", "750 KB"}, {"2P", "2 PB"}})
+    for (const auto& [given, echoed] : {std::pair{"8G", "8 GB"},
+                                        {"512M", "512 MB"},
+                                        {"1.5T", "1.5 TB"},
+                                        {"750k", "750 KB"},
+                                        {"2P", "2 PB"}})
         EXPECT_EQ(formatBytes(parseByteSize(given, "--max-memory")), echoed) << given;
     EXPECT_EQ(formatBytes(parseByteSize("8G", "--max-memory")), "8 GB");
     for (const char* bad : {"", "G", "-8G", "8X", "8 GiB", "0", "0.5", "1e9", "8GG", "nan"})

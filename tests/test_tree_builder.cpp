@@ -12,12 +12,17 @@
 
 #include "blobtree/evaluator.h"
 #include "core/error.h"
+#include "temp_dir.h"
+#include "core/files.h"
+#include "model/load_model.h"
 #include "field/program.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <filesystem>
 #include <cstdio>
 
 namespace {
@@ -487,6 +492,26 @@ TEST(TreeBuilder, ShortInternodesLoseAtMostHalfAndDegenerateOnesAreNamed)
                   std::string::npos)
             << e.what();
     }
+}
+
+TEST(TreeBuilder, ModelFilesAreKnownByTheirExtensionInAnyCase)
+{
+    // A scene and an L-system named in capitals read as they do in lower case
+    // (before, TREE.JSON was read as a skeleton and refused line by line).
+    namespace fs = std::filesystem;
+    const fs::path dir = test::freshDir("cambium_model_case");
+    const fs::path examples = fs::path(CAMBIUM_SOURCE_DIR) / "examples";
+    for (const auto& [from, to] :
+         {std::pair{examples / "branch_junction.json", dir / "JUNCTION.JSON"},
+          {examples / "lsystems" / "bush.l", dir / "Bush.L"}}) {
+        fs::copy_file(from, to);
+        const BlobTree lower = loadModel(from.string(), {}), upper = loadModel(to.string(), {});
+        EXPECT_EQ(upper.size(), lower.size()) << to;
+        EXPECT_GT(upper.size(), 1u) << to;
+    }
+    EXPECT_EQ(fileExtension("trees/Poplar.JSON"), "json");
+    EXPECT_EQ(fileExtension("trees.d/poplar"), "");
+    EXPECT_EQ(fileExtension("a.tar.GZ"), "gz");
 }
 
 }  // namespace

@@ -704,8 +704,7 @@ OutputLock::~OutputLock()
     ::close(fd_);
 }
 
-std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,
-                       const char* kind)
+std::string fileExtension(const std::string& path)
 {
     const size_t dot = path.rfind('.'), slash = path.rfind('/');
     std::string ext = dot == std::string::npos || (slash != std::string::npos && dot < slash)
@@ -713,6 +712,13 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
                           : path.substr(dot + 1);
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char ch) { return char(std::tolower(ch)); });
+    return ext;
+}
+
+std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,
+                       const char* kind)
+{
+    const std::string ext = fileExtension(path);
     if (std::find(allowed.begin(), allowed.end(), ext) != allowed.end())
         return ext;
     std::string list;

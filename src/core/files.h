@@ -141,6 +141,9 @@ private:
     std::unique_ptr<RemoveOnSignal> guard_;
 };
 
+/// The lower-case extension of `path`'s file name, without the dot ("" for
+/// none): "json" of "trees/Poplar.JSON".
+std::string fileExtension(const std::string& path);
 /// The lower-case extension of `path` (without the dot) when it is one of
 /// `allowed`; else InputError "PATH: unknown KIND format '.EXT' (use .A or .B)".
 std::string fileFormat(const std::string& path, const std::vector<std::string>& allowed,

@@ -2,6 +2,7 @@
 #include "model/growth_params.h"
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/json.h"
 
 #include <fmt/format.h>
@@ -303,7 +304,7 @@ std::string withCurvePoints(const std::string& text, const std::string& source,
 
 bool isGrowthParameterFile(const std::string& path)
 {
-    if (path.size() < 5 || path.compare(path.size() - 5, 5, ".json") != 0)
+    if (fileExtension(path) != "json")
         return false;
     struct stat st;
     if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode))

@@ -3,6 +3,7 @@
 
 #include "blobtree/scene_io.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/math.h"
 #include "model/growth.h"
 #include "model/skeleton.h"
@@ -16,12 +17,6 @@
 namespace cambium {
 
 namespace {
-
-bool endsWith(const std::string& s, const std::string& suffix)
-{
-    return s.size() >= suffix.size() &&
-           s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 /// The tree builder's options for junction rules Pcm or Smooth.
 TreeBuildOptions treeOptions(const ModelOptions& o, ModelOptions::Junctions junctions)
@@ -108,10 +103,10 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
         checkGrowthOptions(path, o);
         return grownTree(GrowthModel(loadGrowthParameters(path)), path, o);
     }
-    if (endsWith(path, ".json"))
+    if (fileExtension(path) == "json")
         return loadScene(path);
     Skeleton sk;
-    const bool lsystem = endsWith(path, ".l");
+    const bool lsystem = fileExtension(path) == "l";
     if (lsystem) {
         const LSystem sys = loadLSystem(path);
         sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
