@@ -9,6 +9,7 @@
 #include "bench/tree_generator.h"
 #include "bench/use_bench.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "model/skeleton.h"
 #include "preview/preview_bench.h"
 
@@ -17,7 +18,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <stdlib.h>
 
 namespace cambium {
 
@@ -131,23 +131,6 @@ void printRenderTable(const RenderBenchResult& r)
         "intersector's "
         "set-up {:.3g} s, Embree's mesh {:.3g} s and its BVH {:.3g} s.)\n",
         r.gridBytes * 1e-6, r.openclSetup, r.marchSetup, r.meshSeconds, r.bvhSeconds);
-}
-
-/// Runs f in a fresh temporary directory, removed afterwards (also when f
-/// throws).  Returns 0.
-int withBenchDirectory(const std::function<void(const std::string&)>& f)
-{
-    char dir[] = "/tmp/cambium-bench-XXXXXX";
-    if (!::mkdtemp(dir))
-        throw std::runtime_error("cannot create a temporary directory");
-    try {
-        f(dir);
-    } catch (...) {
-        std::filesystem::remove_all(dir);
-        throw;
-    }
-    std::filesystem::remove_all(dir);
-    return 0;
 }
 
 void printShapeTable(const ShapeBenchResult& r)
@@ -311,7 +294,9 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
             100.0 * double(q.reusedLeaves) / double(std::max<size_t>(q.leaves, 1)), q.seconds,
             q.jobs, q.fileBytes / 1e6, q.peakBytes / 1e6);
     };
-    return withBenchDirectory([&](const std::string& dir) { runGrowthBench(req, dir, callbacks); });
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("bench_growth"));
+    runGrowthBench(req, scratch.path(), callbacks);
+    return 0;
 }
 
 /// What the bench subcommands' options set.

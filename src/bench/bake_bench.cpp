@@ -168,9 +168,7 @@ EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid)
 /// cambium) on the same file, voxel size and band.
 void benchProcesses(const BakeBenchCase& c, int repeats, BakeBenchResult& result)
 {
-    const ScratchDirectory scratch(
-        (std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}", ::getpid()))
-            .string());
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("bench"));
     const std::filesystem::path dir = scratch.path();
     const std::string tree = (dir / "tree.txt").string(), log = (dir / "log.txt").string();
     {

@@ -16,8 +16,7 @@ void runReadBench(const ReadBenchRequest& req,
                   const std::function<void(const ReadBenchFile&)>& done)
 {
     namespace fs = std::filesystem;
-    const ScratchDirectory scratch(
-        (fs::temp_directory_path() / fmt::format("cambium_read_bench_{}", ::getpid())).string());
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("read_bench"));
     const fs::path dir = scratch.path();
     const std::string exe = executableDirectory(), log = (dir / "log.txt").string();
     const std::string cambium = exe + "/cambium", peer = exe + "/cambium-vdbpeer";

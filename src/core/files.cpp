@@ -733,6 +733,12 @@ ScratchDirectory::ScratchDirectory(std::string path)
     std::filesystem::create_directories(path_);
 }
 
+std::string ScratchDirectory::temporaryPath(const std::string& name)
+{
+    return (std::filesystem::temp_directory_path() / fmt::format("cambium_{}_{}", name, ::getpid()))
+        .string();
+}
+
 ScratchDirectory::~ScratchDirectory()
 {
     std::error_code ec;

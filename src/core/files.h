@@ -156,6 +156,8 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
 class ScratchDirectory {
 public:
     explicit ScratchDirectory(std::string path);
+    /// TMPDIR/cambium_NAME_PID: a benchmark's or a test run's own.
+    static std::string temporaryPath(const std::string& name);
     ~ScratchDirectory();
     ScratchDirectory(const ScratchDirectory&) = delete;
     ScratchDirectory& operator=(const ScratchDirectory&) = delete;

@@ -197,8 +197,7 @@ void runPreviewBench(const PreviewBenchRequest& req,
         if (y < 0 || y > p.years)
             throw InputError(fmt::format("--years: {} is not a year of {} (0 to {})", y,
                                          req.parameters, p.years));
-    const ScratchDirectory scratch(
-        (fs::temp_directory_path() / fmt::format("cambium_bench_preview_{}", ::getpid())).string());
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("bench_preview"));
     const fs::path dir = scratch.path();
     // The kernel cache warmed, as after `cambium prepare` or an earlier run.
     runProcess({executableDirectory() + "/cambium", "prepare"}, (dir / "log.txt").string());
