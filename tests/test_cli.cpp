@@ -406,7 +406,7 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
         {kExamples + "sphere_and_cone.json -o /nonexistent/dir/out.vdb",
          "/nonexistent/dir/out.vdb: cannot write the output"},
         {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size 1e-4",
-         "a voxel size of 0.0001 would need about"},
+         "a voxel size of 0.0001 for a surface"},
         {kExamples + "sphere_and_cone.json -o " + out + " --voxel-size -2",
          "--voxel-size must be a number from 0.0001 to 1e9 (got -2)"},
         {empty.string() + " -o " + out, "the model has no surface"},

@@ -561,8 +561,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "--voxel-size must be a number from 0.0001"},
         {"bake " + S + " --voxel-size nan -o OUT/out.vdb",
          "--voxel-size must be a number from 0.0001"},
-        {"bake " + S + " --voxel-size 1e-4 -o OUT/out.vdb",
-         "a voxel size of 0.0001 would need about"},
+        {"bake " + S + " --voxel-size 1e-4 -o OUT/out.vdb", "a voxel size of 0.0001 for a surface"},
         {"bake " + S + " --half-width 0 -o OUT/out.vdb", "--half-width must be between 1 and 64"},
         {"bake " + S + " --device gpu -o OUT/out.vdb", "--device"},
         {"bake " + S + " --threads 0 -o OUT/out.vdb", "--threads: Value 0 not in range"},
@@ -622,7 +621,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
         // active tiles: a few bytes in the file, terabytes as voxels
         {"mesh IN/tiles.vdb -o OUT/out.ply",
-         "tiles.vdb: grid 'surface' has 3.52e+13 active voxels in tiles, 141 TB as voxels"},
+         "tiles.vdb: grid 'surface' has 3.52e+13 active voxels in tiles, which as voxels needs "
+         "about 141 TB"},
         {"render IN/tiles.vdb --via-mesh -o OUT/out.png", "not a narrow-band level set"},
         {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
         {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},

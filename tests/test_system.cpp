@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 #include <utility>
 
@@ -34,6 +35,24 @@ TEST(System, ByteSizesReadInTheUnitsTheyArePrintedIn)
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos);
         EXPECT_NE(std::string(e.what()).find("12X"), std::string::npos);
+    }
+}
+
+TEST(System, WorkThatWouldNotFitIsRefusedWithItsNumbers)
+{
+    EXPECT_NO_THROW(checkMemoryFits(1.0, "one byte"));
+    EXPECT_THROW(checkMemoryFits(std::nan(""), "an estimate that failed"), InputError);
+    try {
+        checkMemoryFits(2e18, "tree.json: a voxel size of 1e-9", "use a larger --voxel-size");
+        FAIL();
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        EXPECT_EQ(m.rfind("tree.json: a voxel size of 1e-9 needs about 2 EB of memory, and this "
+                          "machine has ",
+                          0),
+                  0u)
+            << m;
+        EXPECT_NE(m.find(" available: use a larger --voxel-size"), std::string::npos) << m;
     }
 }
 

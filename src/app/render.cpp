@@ -43,13 +43,9 @@ int runRenderCommand(RenderRequest req)
         throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
     // The picture's channels, the pixels converted for the file, and its
     // encoded bytes: about 128 bytes a pixel at most.
-    const double bytes = 128.0 * double(req.width) * double(req.height),
-                 have = availableMemoryBytes();
-    if (!(bytes <= have))
-        throw InputError(fmt::format(
-            "--width {} --height {}: a picture this large needs about {} of memory, and this "
-            "machine has {} available",
-            req.width, req.height, formatBytes(bytes), formatBytes(have)));
+    checkMemoryFits(
+        128.0 * double(req.width) * double(req.height),
+        fmt::format("--width {} --height {}: a picture this large", req.width, req.height));
     const Device device = parseDevice(req.device);
     parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)),
                 1.0);  // the spec, before any work

@@ -93,15 +93,13 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));
     plan.bandVoxels = estimateBandVoxels(program, h, req.halfWidth);
     plan.fileBytes = estimateFileBytes(program, h, req.halfWidth, req.colour, req.half, req.fog);
-    const double have = availableMemoryBytes();
-    if (!(plan.bytes * tileMemoryShare(req.tile.count) <= have))
-        throw InputError(fmt::format(
-            "a voxel size of {:g} would need about {} of memory for a surface {:.4g} across "
-            "({:.3g} "
-            "voxels), and this machine has {} available: use a larger --voxel-size{}",
-            h, formatBytes(plan.bytes), plan.extent, plan.extent / h, formatBytes(have),
-            req.tile.count > 0 ? fmt::format(" or more than {} --tiles", req.tile.count)
-                               : std::string(" or --tiles")));
+    checkMemoryFits(
+        plan.bytes * tileMemoryShare(req.tile.count),
+        fmt::format("a voxel size of {:g} for a surface {:.4g} across ({:.3g} voxels)", h,
+                    plan.extent, plan.extent / h),
+        "use a larger --voxel-size" + (req.tile.count > 0
+                                           ? fmt::format(" or more than {} --tiles", req.tile.count)
+                                           : std::string(" or --tiles")));
     return plan;
 }
 

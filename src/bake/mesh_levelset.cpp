@@ -588,13 +588,10 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     progress("binning", 1.0);
     // Each leaf's nearest triangles, then its grid leaf (values, and colours
     // with Cd): refuse what cannot fit before allocating it.
-    const double bytes = double(bins.size()) * kLeafVoxels * (4.0 + 4.0 + 12.0);
-    if (!(bytes <= availableMemoryBytes()))
-        throw InputError(fmt::format(
-            "{}: the band at voxel size {:g} spans {} leaves, about {} "
-            "of memory, and this machine has {} available: use a "
-            "larger voxel size",
-            what, h, bins.size(), formatBytes(bytes), formatBytes(availableMemoryBytes())));
+    checkMemoryFits(
+        double(bins.size()) * kLeafVoxels * (4.0 + 4.0 + 12.0),
+        fmt::format("{}: the band at voxel size {:g} ({} leaves)", what, h, bins.size()),
+        "use a larger voxel size");
 
     Nearest nearest(bins.size() * kLeafVoxels);
     exactPass(T.tris, bins, W, nearest);

@@ -74,6 +74,15 @@ constexpr const char* kByteUnits[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
 
 }  // namespace
 
+void checkMemoryFits(double bytes, const std::string& what, const std::string& remedy)
+{
+    const double have = availableMemoryBytes();
+    if (!(bytes <= have))
+        throw InputError(fmt::format(
+            "{} needs about {} of memory, and this machine has {} available{}", what,
+            formatBytes(bytes), formatBytes(have), remedy.empty() ? "" : ": " + remedy));
+}
+
 std::string formatBytes(double b)
 {
     if (!(b >= 0.0) || b > 1e30)

@@ -11,6 +11,10 @@ namespace cambium {
 
 /// Bytes of memory available to this process (MemAvailable).
 double availableMemoryBytes();
+/// InputError "WHAT needs about BYTES of memory, and this machine has
+/// AVAILABLE available[: REMEDY]" unless `bytes` (an estimate; NaN fails)
+/// fits in availableMemoryBytes(): the one check before work that would not fit.
+void checkMemoryFits(double bytes, const std::string& what, const std::string& remedy = "");
 /// Peak resident memory of this process so far.
 double peakMemoryBytes();
 /// Seconds since this process started (the kernel's start time, to its

@@ -396,12 +396,10 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                             path, grid.getName(), coordText(tile.getCoord()), *tile));
         voxels += double(tile.getVoxelCount());
     }
-    const double bytes = voxels * sizeof(float), have = availableMemoryBytes();
-    if (bytes > have)
-        throw InputError(fmt::format(
-            "{}: grid '{}' has {:.3g} active voxels in tiles, {} as voxels (this machine has "
-            "{} available): not a narrow-band level set",
-            path, grid.getName(), voxels, formatBytes(bytes), formatBytes(have)));
+    checkMemoryFits(voxels * sizeof(float),
+                    fmt::format("{}: grid '{}' has {:.3g} active voxels in tiles, which as voxels",
+                                path, grid.getName(), voxels),
+                    "not a narrow-band level set");
 }
 
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,

@@ -31,12 +31,9 @@ constexpr double kMeshBakeBytesPerVoxel = 48.0;
 void checkBakeMemory(double area, double voxelSize, double halfWidth, const std::string& what)
 {
     const double voxels = area / (voxelSize * voxelSize) * 2.0 * halfWidth;
-    const double available = availableMemoryBytes();
-    if (voxels * kMeshBakeBytesPerVoxel > available)
-        throw InputError(fmt::format(
-            "{}: voxel size {} would need about {} of memory for the level set ({} available): "
-            "use a larger voxel size",
-            what, voxelSize, formatBytes(voxels * kMeshBakeBytesPerVoxel), formatBytes(available)));
+    checkMemoryFits(voxels * kMeshBakeBytesPerVoxel,
+                    fmt::format("{}: the level set at voxel size {}", what, voxelSize),
+                    "use a larger voxel size");
 }
 
 /// The request's own checks (before the shape file is read).

@@ -27,13 +27,10 @@ double estimateSynthesisBytes(size_t baseCorners, int levels)
 
 void checkSynthesisMemory(const ControlMesh& base, int levels, const std::string& what)
 {
-    const double bytes = estimateSynthesisBytes(base.faceVerts.size(), levels);
-    const double available = availableMemoryBytes();
-    if (bytes > available)
-        throw InputError(fmt::format(
-            "{}: {} levels of a base of {} faces need about {} of "
-            "memory ({} available): use fewer levels",
-            what, levels, base.faceCount(), formatBytes(bytes), formatBytes(available)));
+    checkMemoryFits(
+        estimateSynthesisBytes(base.faceVerts.size(), levels),
+        fmt::format("{}: {} levels of a base of {} faces", what, levels, base.faceCount()),
+        "use fewer levels");
 }
 
 BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
