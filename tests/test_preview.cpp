@@ -17,6 +17,7 @@
 #include <fstream>
 #include <mutex>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -259,7 +260,8 @@ TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
         // The band's limits as bake's (bake/bake.h: checkVoxelSize).
         {(dir / "tree.json").string() + common + " --voxel-size 1e-5",
          "--voxel-size must be a number from 0.0001 to 1e9 (got 1e-05)"},
-        {(dir / "tree.json").string() + common + " --width 0", "pixels a side"},
+        {(dir / "tree.json").string() + common + " --width 0",
+         "--width and --height must be between 1 and 16384"},
         {(dir / "tree.json").string() + common + " --camera sideways", "sideways"},
         {(dir / "tree.json").string() + " --once -o " + (dir / "p.txt").string(), "p.txt"},
     };
@@ -346,6 +348,21 @@ TEST(PreviewSession, FramesBakedInTheBackgroundAreShownAtOnceAndFollowTheFile)
     PreviewSettings late = settingsFor(dir);
     late.frames = {28.0};
     EXPECT_THROW(PreviewSession{late}, InputError);
+    // The picture's limits are render's, named by its options.
+    for (const auto& [w, spp, option] : {std::tuple{0, 1, "--width"},
+                                         {16385, 1, "--width"},
+                                         {64, 0, "--spp"},
+                                         {64, 4097, "--spp"}}) {
+        PreviewSettings bad = settingsFor(dir);
+        bad.width = w;
+        bad.spp = spp;
+        try {
+            PreviewSession{bad};
+            ADD_FAILURE() << w << " " << spp;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(option), std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST(PreviewSession, AShapeFileIsSynthesisedBakedAndPictured)

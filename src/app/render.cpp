@@ -35,17 +35,7 @@ struct RenderRequest {
 int runRenderCommand(RenderRequest req)
 {
     req.timings = timingsAsked(req.timings);
-    if (req.width < 1 || req.height < 1 || req.width > 16384 || req.height > 16384)
-        throw InputError(
-            fmt::format("--width and --height must be between 1 and 16384 (got {} x {})", req.width,
-                        req.height));
-    if (req.spp < 1 || req.spp > 4096)
-        throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", req.spp));
-    // The picture's channels, the pixels converted for the file, and its
-    // encoded bytes: about 128 bytes a pixel at most.
-    checkMemoryFits(
-        128.0 * double(req.width) * double(req.height),
-        fmt::format("--width {} --height {}: a picture this large", req.width, req.height));
+    checkPicture(req.width, req.height, req.spp);
     const Device device = parseDevice(req.device);
     parseCamera(req.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)),
                 1.0);  // the spec, before any work

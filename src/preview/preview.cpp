@@ -72,12 +72,7 @@ PreviewSession::PreviewSession(PreviewSettings settings)
     checkModelOptions(settings_.model);
     if (settings_.voxelSize)
         checkVoxelSize(*settings_.voxelSize);
-    if (settings_.width < 1 || settings_.height < 1 || settings_.width > 8192 ||
-        settings_.height > 8192 || settings_.spp < 1 || settings_.spp > 1024)
-        throw InputError(fmt::format(
-            "the picture must be 1 to 8192 pixels a side with 1 to 1024 samples a pixel (got {} x "
-            "{}, {})",
-            settings_.width, settings_.height, settings_.spp));
+    checkPicture(settings_.width, settings_.height, settings_.spp);
     checkImageOutput(settings_.output);
     // The camera's spec, before any work.
     parseCamera(settings_.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);

@@ -337,6 +337,17 @@ BatchTracer CpuMarcher::tracer() const
     };
 }
 
+void checkPicture(int width, int height, int spp)
+{
+    if (width < 1 || height < 1 || width > 16384 || height > 16384)
+        throw InputError(fmt::format(
+            "--width and --height must be between 1 and 16384 (got {} x {})", width, height));
+    if (spp < 1 || spp > 4096)
+        throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", spp));
+    checkMemoryFits(128.0 * double(width) * double(height),
+                    fmt::format("--width {} --height {}: a picture this large", width, height));
+}
+
 RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)
 {
     const size_t n = size_t(width) * size_t(height);

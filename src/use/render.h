@@ -101,6 +101,13 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+/// InputError, before any work, unless a picture of `width` x `height` at
+/// `spp` samples a pixel is one the renderers make: 1 to 16384 pixels a side
+/// (--width, --height), 1 to 4096 samples (--spp), and memory for it (about
+/// 128 bytes a pixel: its channels, the pixels converted for the file and the
+/// encoded bytes).  What render and preview both check.
+void checkPicture(int width, int height, int spp);
+
 /// Where each pixel's rays may meet a level set: within the bounding
 /// spheres of the active leaves and tiles (two voxels wider each way) whose
 /// projections cover the pixel, from the nearest to the farthest (world
