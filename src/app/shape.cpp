@@ -29,7 +29,7 @@ int runShapeCommand(ShapeFlags& f)
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
     cb.notice = [&](const std::string& line) {
         bar.clear();
-        fmt::print(stderr, "cambium: {}\n", line);
+        printNotice(line);
     };
     cb.frameDone = [&](const ShapeFrame& fr) {
         bar.clear();
