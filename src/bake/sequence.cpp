@@ -80,6 +80,27 @@ double sumOverFrames(const std::vector<size_t>& at, const std::vector<double>& v
 
 }  // namespace
 
+std::vector<std::string> sequencePaths(const std::string& pattern,
+                                       const std::vector<long long>& frames, const char* example)
+{
+    if (!isFramePattern(pattern))
+        throw InputError(
+            fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. {}",
+                        pattern, example));
+    std::vector<std::string> paths;
+    for (long long f : frames) {
+        paths.push_back(framePath(pattern, f));
+        checkOutputPath(paths.back(), paths.size() == 1);
+    }
+    return paths;
+}
+
+std::string sequenceKeyOf(const std::string& text, const std::string& options,
+                          const std::vector<std::string>& files)
+{
+    return fmt::format("{:016x}", fnv1a64(filesContentKey(files), fnv1a64(options, fnv1a64(text))));
+}
+
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
     const std::string options = fmt::format(
@@ -88,9 +109,8 @@ std::string sequenceKey(const SequenceRequest& req, const std::string& text, dou
         req.bake.half, req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1,
         colourExtentName(req.bake.colour));
     // (the photos' bytes too: a repainted photo makes other frames)
-    const std::string files =
-        filesContentKey({req.bake.barkPhoto, loadGrowthParameters(req.bake.input).barkPhoto});
-    return fmt::format("{:016x}", fnv1a64(files, fnv1a64(options, fnv1a64(text))));
+    return sequenceKeyOf(text, options,
+                         {req.bake.barkPhoto, loadGrowthParameters(req.bake.input).barkPhoto});
 }
 
 SequencePlan planSequence(const SequenceRequest& request)
@@ -110,12 +130,8 @@ SequencePlan planSequence(const SequenceRequest& request)
           request.fpsPerYear <= 1e6))
         throw InputError(
             fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
-    if (!isFramePattern(req.output))
-        throw InputError(
-            fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
-                        "out/tree.####.vdb",
-                        req.output));
     plan.frames = parseFrames(request.frames);
+    plan.paths = sequencePaths(req.output, plan.frames, "out/tree.####.vdb");
     const std::string text = readTextFile(req.input, "growth parameter file");
     plan.model = std::make_shared<const GrowthModel>(parseGrowthParameters(text, req.input));
     const GrowthModel& model = *plan.model;
@@ -128,8 +144,6 @@ SequencePlan planSequence(const SequenceRequest& request)
                 "years ({})",
                 f, t, request.fpsPerYear, years, req.input));
         plan.times.push_back(t);
-        plan.paths.push_back(framePath(req.output, f));
-        checkOutputPath(plan.paths.back(), plan.paths.size() == 1);
     }
 
     // The last frame's tree (the largest) sets the voxel size, the same for

@@ -90,6 +90,20 @@ struct SequenceCallbacks {
     std::function<void(const FrameReport&)> done;
 };
 
+/// The files of a sequence's `frames` written to `pattern`, each checked as an
+/// output before any work: InputError unless the pattern has a run of '#'
+/// for the frame number (`example` shows one: "out/tree.####.vdb").  What
+/// every sequence writer (growth and shape) names its frames by.
+std::vector<std::string> sequencePaths(const std::string& pattern,
+                                       const std::vector<long long>& frames, const char* example);
+
+/// The key a sequence's files carry (file metadata `cambium_sequence`, what
+/// --resume matches): a hash of its main input's `text`, the `options` that
+/// change its frames and the bytes of every other file it reads (`files`,
+/// filesContentKey).  Growth and shape sequences alike.
+std::string sequenceKeyOf(const std::string& text, const std::string& options,
+                          const std::vector<std::string>& files);
+
 /// The outputs of frames [first, last) of a sequence (`paths`, matching the
 /// output `pattern`), made ready for writing: one run at a time writes a
 /// range (a lock file: PATTERN.frames-A-B.lock for frames A to B; a run

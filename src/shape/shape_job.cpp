@@ -8,7 +8,6 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/frames.h"
-#include "core/hash.h"
 #include "core/system.h"
 #include "io/vdb.h"
 #include "shape/synthesis.h"
@@ -157,22 +156,14 @@ void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeRep
 
 ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
 {
-    if (!isFramePattern(req.output))
-        throw InputError(
-            fmt::format("-o {}: a sequence needs a run of '#' for the frame number, e.g. "
-                        "out/shape.####.vdb",
-                        req.output));
     const std::vector<long long> frames = parseFrames(req.frames);
+    const std::vector<std::string> paths = sequencePaths(req.output, frames, "out/shape.####.vdb");
     // Every frame's file read (and so checked) before any work.
     const std::string text = readTextFile(req.input, "shape file");
     const std::string directory = std::filesystem::path(req.input).parent_path().string();
     std::vector<ShapeSpec> specs;
-    std::vector<std::string> paths;
-    for (long long f : frames) {
+    for (long long f : frames)
         specs.push_back(parseShape(text, req.input, directory, double(f)));
-        paths.push_back(framePath(req.output, f));
-        checkOutputPath(paths.back(), paths.size() == 1);
-    }
     const int levels = req.levels >= 0 ? req.levels : specs.front().levels;
     for (const ShapeSpec& s : specs)
         checkShapeLevels(s, levels);
@@ -198,8 +189,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     // PLY makes other frames)
     std::vector<std::string> files = {specs.front().base.file, specs.front().base.control};
     paintedFiles(specs.front().blend.alpha, files);
-    const std::string key =
-        fmt::format("{:016x}", fnv1a64(filesContentKey(files), fnv1a64(options, fnv1a64(text))));
+    const std::string key = sequenceKeyOf(text, options, files);
     auto notice = [&](const std::string& line) {
         if (cb.notice)
             cb.notice(line);
