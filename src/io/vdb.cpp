@@ -5,6 +5,7 @@
 #include "core/files.h"
 #include "core/hash.h"
 #include "core/versions.h"
+#include "io/leaf_layout.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/Archive.h>
@@ -245,34 +246,17 @@ private:
         gd.seekToEnd(os);
     }
 
-    /// A packed leaf's mask-compression byte and where its compressed values
-    /// begin (writeCompressedValues: value mask, that byte, up to two
-    /// inactive values, a selection mask, the values).
+    /// A packed leaf's inactive-value code and where its compressed values
+    /// begin (io/leaf_layout.h).
     template <class ValueT, class MaskT>
     static std::pair<int8_t, size_t> packedLeafLayout(std::string_view b, const MaskT& mask)
     {
-        namespace io = openvdb::io;
-        const size_t maskBytes = MaskT::WORD_COUNT * sizeof(typename MaskT::Word);
-        bool same = b.size() > maskBytes;
-        for (openvdb::Index w = 0; same && w < MaskT::WORD_COUNT; ++w) {
-            typename MaskT::Word word;
-            std::memcpy(&word, b.data() + w * sizeof(word), sizeof(word));
-            same = word == mask.template getWord<typename MaskT::Word>(w);
-        }
-        if (!same)
+        const LeafHeader h = readLeafHeader<ValueT>(b.data(), b.size(), mask);
+        if (h.fault == LeafHeader::Fault::MaskDiffers)
             throw std::logic_error("writePacked: a leaf whose packed bytes are not its own");
-        const int8_t m = int8_t(b[maskBytes]);
-        size_t at = maskBytes + 1;
-        if (m == io::NO_MASK_AND_ONE_INACTIVE_VAL || m == io::MASK_AND_ONE_INACTIVE_VAL)
-            at += sizeof(ValueT);
-        if (m == io::MASK_AND_TWO_INACTIVE_VALS)
-            at += 2 * sizeof(ValueT);
-        if (m == io::MASK_AND_NO_INACTIVE_VALS || m == io::MASK_AND_ONE_INACTIVE_VAL ||
-            m == io::MASK_AND_TWO_INACTIVE_VALS)
-            at += maskBytes;
-        if (at > b.size())
+        if (h.fault != LeafHeader::Fault::None || h.length > b.size())
             throw std::logic_error("writePacked: a packed leaf shorter than its header");
-        return {m, at};
+        return {h.code, h.length};
     }
 };
 

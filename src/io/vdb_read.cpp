@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/system.h"
+#include "io/leaf_layout.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
@@ -165,26 +166,15 @@ private:
     {
         namespace io = openvdb::io;
         const MaskT& mask = leaves_[i]->getValueMask();
-        constexpr size_t maskBytes = sizeof(typename MaskT::Word) * MaskT::WORD_COUNT;
-        size_t at = maskBytes + 1;
-        if (left < at)
+        const LeafHeader h = readLeafHeader<ValueT>(p, left, mask);
+        if (h.fault == LeafHeader::Fault::Short)
             return 0;
-        for (openvdb::Index w = 0; w < MaskT::WORD_COUNT; ++w) {
-            typename MaskT::Word word;
-            std::memcpy(&word, p + w * sizeof word, sizeof word);
-            if (word != mask.template getWord<typename MaskT::Word>(w))
-                damaged(i, "its value mask is not the topology's");
-        }
-        const int8_t flag = int8_t(p[maskBytes]);
-        if (flag < io::NO_MASK_OR_INACTIVE_VALS || flag > io::NO_MASK_AND_ALL_VALS)
+        if (h.fault == LeafHeader::Fault::MaskDiffers)
+            damaged(i, "its value mask is not the topology's");
+        if (h.fault == LeafHeader::Fault::UnknownCode)
             damaged(i, "an unknown inactive-value code");
-        if (flag == io::NO_MASK_AND_ONE_INACTIVE_VAL || flag == io::MASK_AND_ONE_INACTIVE_VAL)
-            at += sizeof(ValueT);
-        if (flag == io::MASK_AND_TWO_INACTIVE_VALS)
-            at += 2 * sizeof(ValueT);
-        if (flag == io::MASK_AND_NO_INACTIVE_VALS || flag == io::MASK_AND_ONE_INACTIVE_VAL ||
-            flag == io::MASK_AND_TWO_INACTIVE_VALS)
-            at += maskBytes;
+        const int8_t flag = h.code;
+        size_t at = h.length;
         const bool maskCompressed = compression_ & io::COMPRESS_ACTIVE_MASK;
         const size_t count =
             maskCompressed && flag != io::NO_MASK_AND_ALL_VALS ? mask.countOn() : LeafT::SIZE;
