@@ -98,9 +98,7 @@ double naiveDenseSeconds(const Skeleton& s, const Box& box, double h, double& vo
 /// The writers of BakeBenchResult, in turn, `repeats` rounds, medians.
 void benchWriters(const BakedGrids& g, int repeats, BakeBenchResult& result)
 {
-    const std::string path =
-        (std::filesystem::temp_directory_path() / fmt::format("cambium_bench_{}.vdb", ::getpid()))
-            .string();
+    const std::string path = ScratchDirectory::temporaryPath("bench") + ".vdb";
     VdbFileInfo info;
     info.scene = "bench";
     std::vector<double> parallel, serial, whole, file;
