@@ -1,12 +1,23 @@
-// Tests of core/system: sizes read in the units they are printed in.
+// Tests of core/system (sizes read in the units they are printed in) and
+// core/process (a command run, its status, output and own peak memory).
 #include "core/error.h"
+#include "core/files.h"
+#include "core/process.h"
 #include "core/system.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
+
+#include <unistd.h>
 
 namespace cambium {
 namespace {
@@ -54,6 +65,55 @@ TEST(System, WorkThatWouldNotFitIsRefusedWithItsNumbers)
             << m;
         EXPECT_NE(m.find(" available: use a larger --voxel-size"), std::string::npos) << m;
     }
+}
+
+std::string readAll(const std::string& path)
+{
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+TEST(Process, ACommandsStatusAndOutput)
+{
+    const std::string dir = ScratchDirectory::temporaryPath("test_process");
+    std::filesystem::create_directories(dir);
+    const std::string log = dir + "/log.txt", peak = dir + "/peak";
+    const ChildRun run = runChild({"/bin/sh", "-c", "echo out; echo err >&2; exit 3"}, {log, peak});
+    EXPECT_EQ(run.status, 3);
+    EXPECT_EQ(readAll(log), "out\nerr\n");  // (GNU time's own line goes to its file)
+    EXPECT_FALSE(std::filesystem::exists(peak));
+    EXPECT_GT(run.seconds, 0.0);
+    // Ended by a signal: 128 + the signal.
+    EXPECT_EQ(runChild({"/bin/sh", "-c", "kill -9 $$"}, {log, peak}).status, 128 + 9);
+    // No log: its output discarded (this process's own is untouched).
+    EXPECT_EQ(runChild({"/bin/sh", "-c", "echo lost"}, {"", peak}).status, 0);
+    EXPECT_THROW(runChild({dir + "/no-such-program"}, {"", ""}), std::runtime_error);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Process, APeakIsTheCommandsOwnNotThisProcesss)
+{
+    ASSERT_EQ(::access("/usr/bin/time", X_OK), 0)
+        << "GNU time is missing: bash tools/setup.sh packages installs it";
+    // This process reaches 600 MB (touched); the command, dd with a 96 MB
+    // buffer, stays near 100 MB.  A child of this process would start
+    // from 600 MB.
+    std::vector<char> big(size_t(600) << 20);
+    volatile char* touch = big.data();
+    for (size_t i = 0; i < big.size(); i += 4096)
+        touch[i] = 1;
+    const std::string dir = ScratchDirectory::temporaryPath("test_process_peak");
+    std::filesystem::create_directories(dir);
+    const ChildRun run = runChild({"/bin/dd", "if=/dev/zero", "of=/dev/null", "bs=96M", "count=2"},
+                                  {"", dir + "/peak"});
+    EXPECT_EQ(run.status, 0);
+    EXPECT_TRUE(run.peakExact);
+    EXPECT_GT(run.peakBytes, 96e6);
+    EXPECT_LT(run.peakBytes, 200e6) << "not the command's own peak";
+    EXPECT_GT(peakMemoryBytes(), 600e6);
+    std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "bake/tiles.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/process.h"
 #include "core/clock.h"
 #include "farm/slurm.h"
 #include "field/program.h"
@@ -16,56 +17,13 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <cstring>
 #include <cstdio>
 #include <filesystem>
-#include <fcntl.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 namespace cambium {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-/// Runs `argv` with its standard output discarded; its exit status and peak
-/// resident memory (bytes).
-std::pair<int, double> runChild(const std::vector<std::string>& argv)
-{
-    std::vector<char*> args;
-    for (const std::string& a : argv)
-        args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    std::fflush(stdout);
-    const pid_t pid = ::fork();
-    if (pid < 0)
-        throw std::runtime_error(
-            fmt::format("cannot start a tile's bake: {}", std::strerror(errno)));
-    if (pid == 0) {
-        const int devnull = ::open("/dev/null", O_WRONLY);
-        if (devnull >= 0) {
-            ::dup2(devnull, STDOUT_FILENO);
-            ::close(devnull);
-        }
-        ::execv(args[0], args.data());
-        ::_exit(127);
-    }
-    // A signal that ends this process ends the tile's bake first (it removes
-    // its temporary), then the tiles' directory goes.
-    RemoveOnSignal child(pid);
-    int status = 0;
-    struct rusage usage {};
-    while (::wait4(pid, &status, 0, &usage) < 0)
-        if (errno != EINTR)
-            throw std::runtime_error(
-                fmt::format("waiting for a tile's bake failed: {}", std::strerror(errno)));
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, double(usage.ru_maxrss) * 1024.0};
-}
-
-}  // namespace
 
 TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool here)
 {
@@ -160,17 +118,20 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
         for (const std::string& a : bakeArguments(one, plan.voxelSize))
             argv.push_back(a);
         argv.insert(argv.end(), {"--tile", fmt::format("{}/{}", k + 1, tiles)});
-        const auto t = Clock::now();
-        const auto [status, peak] = runChild(argv);
+        const ChildRun run =
+            runChild(argv, {"", (dir / fmt::format("tile-{}.peak", k + 1)).string()});
+        const int status = run.status;
         if (status == 2)
             throw InputError(
                 fmt::format("tile {}/{}: its bake refused its input (above)", k + 1, tiles));
         if (status != 0)
             throw std::runtime_error(
                 fmt::format("tile {}/{}: its bake failed (exit {})", k + 1, tiles, status));
-        largest = std::max(largest, peak);
-        fmt::print("tile {}/{}: peak memory {:.0f} MB, {:.2f} s\n", k + 1, tiles, peak / 1e6,
-                   secondsSince(t));
+        largest = std::max(largest, run.peakBytes);
+        fmt::print("tile {}/{}: peak memory {:.0f} MB{}, {:.2f} s\n", k + 1, tiles,
+                   run.peakBytes / 1e6,
+                   run.peakExact ? "" : " at most (GNU time, /usr/bin/time, measures it exactly)",
+                   run.seconds);
         std::fflush(stdout);
         files.push_back(one.output);
     }

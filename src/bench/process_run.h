@@ -20,10 +20,9 @@ struct ProcessSummary {
 };
 ProcessSummary summariseRuns(const std::vector<ProcessRun>& runs);
 
-/// Runs `argv` (argv[0] a path) under GNU time (/usr/bin/time, for the peak
-/// memory) with standard output and error going to `logPath` (appended; the
-/// peak in `logPath`.rss) and waits for it.  Throws std::runtime_error when it cannot
-/// be started or does not exit with status 0 (naming the log).
+/// runChild (core/process.h) with standard output and errors appended to
+/// `logPath`; throws std::runtime_error when the command does not exit 0
+/// (naming the log) or its own peak memory cannot be measured (no GNU time).
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath);
 
 }  // namespace cambium

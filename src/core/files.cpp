@@ -90,10 +90,13 @@ extern "C" void removeOnSignal(int sig)
             if (s.kind != kind || !s.state.compare_exchange_strong(live, Taken))
                 continue;
             if (kind == RemoveOnSignal::Kind::Child) {
-                ::kill(s.pid, sig);
-                ::kill(s.pid, SIGCONT);  // (a stopped child must run to end)
+                // Its whole process group (a command and GNU time above it,
+                // core/process.h), every member waited for: the command is
+                // this process's child once GNU time is gone (subreaper).
+                ::kill(-s.pid, sig);
+                ::kill(-s.pid, SIGCONT);  // (a stopped child must run to end)
                 int status;
-                while (::waitpid(s.pid, &status, 0) < 0 && errno == EINTR) {
+                while (::waitpid(-s.pid, &status, 0) > 0 || errno == EINTR) {
                 }
             } else if (kind == RemoveOnSignal::Kind::File) {
                 ::unlink(s.path);

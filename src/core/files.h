@@ -104,10 +104,11 @@ std::vector<std::string> staleTemporaries(const std::string& pattern);
 class RemoveOnSignal {
 public:
     /// What the handler does: removes a file; removes a directory and the
-    /// files in it; sends a child process the signal (and SIGCONT) and
-    /// waits for it to end, before any file is removed.
+    /// files in it; sends a child's process group the signal (and SIGCONT)
+    /// and waits for every child in it to end, before any file is removed.
     enum class Kind { File, Directory, Child };
     explicit RemoveOnSignal(const std::string& path, Kind kind = Kind::File);
+    /// (`child`: a child that leads its own process group, runChild's.)
     explicit RemoveOnSignal(pid_t child);
     ~RemoveOnSignal() { release(); }
     RemoveOnSignal(const RemoveOnSignal&) = delete;
