@@ -1,8 +1,9 @@
 // cambium — the ParticlesToLevelSet peer of `cambium bench bake`.
 #include "bench/ptls_peer.h"
 
+#include "bench/ptls_passes.h"
+
 #include <glm/glm.hpp>
-#include <openvdb/tools/ParticlesToLevelSet.h>
 
 #include <algorithm>
 #include <cmath>
@@ -30,10 +31,10 @@ openvdb::FloatGrid::Ptr ptlsLevelSet(const PeerSpheres& spheres, double voxelSiz
     auto grid = openvdb::FloatGrid::create(float(halfWidth * voxelSize));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    openvdb::tools::ParticlesToLevelSet<openvdb::FloatGrid> raster(*grid);
+    PeerRaster raster(*grid);
     raster.setRmin(1.0);
-    raster.rasterizeSpheres(spheres);
-    raster.finalize(true);
+    rasterizePeerSpheres(raster, spheres);
+    finalizePeerRaster(raster);
     return grid;
 }
 
