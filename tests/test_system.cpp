@@ -17,8 +17,6 @@
 #include <utility>
 #include <vector>
 
-#include <unistd.h>
-
 namespace cambium {
 namespace {
 
@@ -77,8 +75,8 @@ std::string readAll(const std::string& path)
 
 TEST(Process, ACommandsStatusAndOutput)
 {
-    const std::string dir = ScratchDirectory::temporaryPath("test_process");
-    std::filesystem::create_directories(dir);
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("test_process"));
+    const std::string dir = scratch.path();
     const std::string log = dir + "/log.txt", peak = dir + "/peak";
     const ChildRun run = runChild({"/bin/sh", "-c", "echo out; echo err >&2; exit 3"}, {log, peak});
     EXPECT_EQ(run.status, 3);
@@ -90,12 +88,11 @@ TEST(Process, ACommandsStatusAndOutput)
     // No log: its output discarded (this process's own is untouched).
     EXPECT_EQ(runChild({"/bin/sh", "-c", "echo lost"}, {"", peak}).status, 0);
     EXPECT_THROW(runChild({dir + "/no-such-program"}, {"", ""}), std::runtime_error);
-    std::filesystem::remove_all(dir);
 }
 
 TEST(Process, APeakIsTheCommandsOwnNotThisProcesss)
 {
-    ASSERT_EQ(::access("/usr/bin/time", X_OK), 0)
+    ASSERT_TRUE(measuresOwnPeak())
         << "GNU time is missing: bash tools/setup.sh packages installs it";
     // This process reaches 600 MB (touched); the command, dd with a 96 MB
     // buffer, stays near 100 MB.  A child of this process would start
@@ -104,16 +101,14 @@ TEST(Process, APeakIsTheCommandsOwnNotThisProcesss)
     volatile char* touch = big.data();
     for (size_t i = 0; i < big.size(); i += 4096)
         touch[i] = 1;
-    const std::string dir = ScratchDirectory::temporaryPath("test_process_peak");
-    std::filesystem::create_directories(dir);
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("test_process_peak"));
     const ChildRun run = runChild({"/bin/dd", "if=/dev/zero", "of=/dev/null", "bs=96M", "count=2"},
-                                  {"", dir + "/peak"});
+                                  {"", scratch.path() + "/peak"});
     EXPECT_EQ(run.status, 0);
     EXPECT_TRUE(run.peakExact);
     EXPECT_GT(run.peakBytes, 96e6);
     EXPECT_LT(run.peakBytes, 200e6) << "not the command's own peak";
     EXPECT_GT(peakMemoryBytes(), 600e6);
-    std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -28,14 +28,16 @@ ProcessSummary summariseRuns(const std::vector<ProcessRun>& runs)
 
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath)
 {
+    if (!measuresOwnPeak())
+        throw std::runtime_error(
+            "the whole-process benchmark needs GNU time (/usr/bin/time) for a command's own peak "
+            "memory: bash tools/setup.sh packages installs it");
     const ChildRun run = runChild(argv, {logPath, logPath + ".rss"});
     if (run.status != 0)
         throw std::runtime_error(fmt::format("{} failed (exit {}); its output is in {}", argv.at(0),
                                              run.status, logPath));
     if (!run.peakExact)
-        throw std::runtime_error(
-            "the whole-process benchmark needs GNU time (/usr/bin/time) for a command's own peak "
-            "memory: bash tools/setup.sh packages installs it");
+        throw std::runtime_error(fmt::format("GNU time wrote no peak memory for {}", argv.at(0)));
     return {run.seconds, run.peakBytes};
 }
 

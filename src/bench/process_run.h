@@ -22,7 +22,8 @@ ProcessSummary summariseRuns(const std::vector<ProcessRun>& runs);
 
 /// runChild (core/process.h) with standard output and errors appended to
 /// `logPath`; throws std::runtime_error when the command does not exit 0
-/// (naming the log) or its own peak memory cannot be measured (no GNU time).
+/// (naming the log) or its own peak memory cannot be measured (no GNU time:
+/// refused before it runs).
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath);
 
 }  // namespace cambium

@@ -44,11 +44,16 @@ double readGnuTimePeak(const std::string& path)
 
 }  // namespace
 
+bool measuresOwnPeak()
+{
+    return ::access(kGnuTime, X_OK) == 0;
+}
+
 ChildRun runChild(const std::vector<std::string>& argv, const ChildOutput& output)
 {
     // The command's own peak needs a small process between: a child of
     // this one starts from this process's peak.
-    const bool timed = !output.peakFile.empty() && ::access(kGnuTime, X_OK) == 0;
+    const bool timed = !output.peakFile.empty() && measuresOwnPeak();
     std::vector<std::string> full;
     if (timed)
         full = {kGnuTime, "-f", "%M", "-o", output.peakFile};

@@ -28,6 +28,10 @@ struct ChildOutput {
     std::string peakFile;
 };
 
+/// Whether a command's own peak can be measured: GNU time (/usr/bin/time)
+/// is installed.
+bool measuresOwnPeak();
+
 /// Runs `argv` (argv[0] a path) and waits for it.  It runs in a process
 /// group of its own, under GNU time (/usr/bin/time) where that is
 /// installed; a signal that ends this process reaches the whole group first
