@@ -167,6 +167,9 @@ public:
     int taper(const glm::dvec3& origin, const glm::dvec3& axis, double length, double scale0,
               double scale1, int child);
 
+    /// Room for `n` nodes, so that building a large tree moves none.
+    void reserve(size_t n) { nodes_.reserve(n); }
+
     void setColor(int node, const glm::dvec3& rgb);
     void setRoot(int node);
     int root() const { return root_; }

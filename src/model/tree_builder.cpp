@@ -519,6 +519,9 @@ BlobTree buildTree(const Skeleton& sk, const TreeBuildOptions& o)
 
     Assembly out;
     out.groups.resize(n);
+    // Most internodes are a cone, a parent's junction adds two, and a scar or
+    // a leaf two: room for all of them, so that no node moves while building.
+    out.tree.reserve(2 * (n + sk.scars.size() + sk.organs.size()) + 1);
     addInternodes(sk, o, g, s, out);
     addScars(sk, o, out);
     for (const Organ& organ : sk.organs) {
