@@ -120,6 +120,15 @@ TEST(BarkPhoto, EveryFormatGivesTheSameHistogram)
     std::ofstream(dir + "/text.png") << "not an image";
     expectInputError([&] { ColourHistogram::fromPhoto(dir + "/text.png"); }, "text.png",
                      "unreadable");
+    // A 536-byte PNG whose tEXt chunk says 2 GB (a fuzzer's find: libpng
+    // allocated and cleared all of it before reading) is refused by the
+    // chunk's name and place, before the decoder sees it.
+    const std::string bomb =
+        CAMBIUM_SOURCE_DIR "/tests/fuzz/regressions/photo/png-text-chunk-of-2gb";
+    expectInputError([&] { ColourHistogram::fromPhoto(bomb); },
+                     "a truncated or damaged PNG: its chunk tEXt at byte 159 says 2113929327 "
+                     "bytes of data, and the file ends 369 bytes after",
+                     "a chunk longer than the file");
 }
 
 TEST(BarkPhoto, TheBarksColoursFollowThePhotosHistogram)
