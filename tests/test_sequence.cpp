@@ -285,6 +285,11 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     TempDir dir;
     SequenceRequest req = sequence(dir / "v.####.vdb", "81-130", 10.0, 0.03);
     req.bake.model.leaves = false;
+    // Nor bark: its furrows change no volume, and were half of the time.
+    std::string text = readTextFile(kPopulus, "test");
+    text.replace(text.find("\"depth\": 0.12"), 13, "\"depth\": 0.0");
+    req.bake.input = dir / "smooth.json";
+    std::ofstream(req.bake.input) << text;
     const SequenceReport r = bakeSequence(req);
     // Volumes of the level sets' meshes (OpenVDB's levelSetVolume, a band
     // integral, jumps by several times the change between frames here, on
@@ -307,20 +312,24 @@ TEST(Sequence, VolumeChangesSmoothlyFromFrameToFrame)
     std::nth_element(growing.begin(), growing.begin() + long(growing.size() / 2), growing.end());
     const double median = growing[growing.size() / 2];
     const double largest = *std::max_element(change.begin(), change.end());
+    report("largest change of volume {:.2f} times the median of {} growing frames",
+           largest / median, growing.size());
     EXPECT_LT(largest, 4.0 * median)
-        << "largest change " << largest << ", median " << median;  // measured 2.9
+        << "largest change " << largest << ", median " << median;  // measured 3.5
     // And it grows overall.
     EXPECT_GT(volume.back(), 1.3 * volume.front());
 }
 
 TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
 {
-    // 135 frames (more than the 64 the plan estimates, linear between
-    // them): within 10 % of the sum of every frame's estimate (the leaves'
-    // seasons fall between samples); 27 frames (all estimated): equal.
+    // 100 frames over ten years (more than the 64 the plan estimates, linear
+    // between them): within 10 % of the sum of every frame's estimate (the
+    // leaves' seasons fall between samples); 40 frames (all estimated):
+    // equal.  (Ten years, not 27: the trees of the last years are the largest,
+    // and the property the same.)
     TempDir dir;
     for (const auto& [frames, fps, tolerance] :
-         {std::tuple{"1-135", 5.0, 0.1}, std::tuple{"1-27", 1.0, 1e-12}}) {
+         {std::tuple{"1-100", 10.0, 0.1}, std::tuple{"1-40", 4.0, 1e-12}}) {
         const SequencePlan plan = planSequence(sequence(dir / "a.####.vdb", frames, fps));
         const BakeRequest& req = plan.request.bake;
         const TreeBuildOptions build = plan.model->buildOptions();
@@ -334,6 +343,8 @@ TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
                                         req.halfWidth, req.colour, req.half, req.fog);
         }
         EXPECT_NEAR(plan.fileBytes, sum, tolerance * sum) << frames;
+        report("{} frames: the plan's estimate is {:+.2f} % of the frames' sum", frames,
+               100.0 * (plan.fileBytes / sum - 1.0));
         EXPECT_GT(plan.bandVoxels, 0.0);
     }
     EXPECT_TRUE(fs::is_empty(dir.path));
