@@ -19,7 +19,9 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
     -DCMAKE_C_FLAGS="-O1 -gline-tables-only" -DCMAKE_CXX_FLAGS="-O1 -gline-tables-only" \
     -DCAMBIUM_SANITIZE=ON -DCAMBIUM_FUZZ=ON
 fi
-cmake --build "$build" -j"$(nproc)"
+# Only what the tests below and tools/fuzz.sh run: not the kernel tests nor
+# the benchmarks' peer programs.
+cmake --build "$build" -j"$(nproc)" --target unit_and_integration_tests fuzzers
 [ "${1:-test}" = build ] && exit 0
 
 # Every report is fatal; leaks are not checked (OpenCL drivers keep theirs
