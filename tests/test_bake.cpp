@@ -482,8 +482,8 @@ TEST(BakeCompleteness, NoBandVoxelMissingAndNoneOutside)
                                 cz > hi.z)
                                 continue;
                             // Nor a cell whose box is farther than the nearest yet.
-                            auto gap = [h](double v, int c) {
-                                return std::max({c * h - v, v - (c + 1) * h, 0.0});
+                            auto gap = [h](double u, int c) {
+                                return std::max({c * h - u, u - (c + 1) * h, 0.0});
                             };
                             const double gx = gap(v.x, cx), gy = gap(v.y, cy), gz = gap(v.z, cz);
                             if (gx * gx + gy * gy + gz * gz >= best)

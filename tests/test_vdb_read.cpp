@@ -125,7 +125,7 @@ TEST(VdbRead, FilesOpenVdbWroteReadAsOpenVdbReadsThem)
     // a grid instancing another's tree.
     openvdb::initialize();
     openvdb::FloatGrid::Ptr sphere =
-        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.1f), 0.02f);
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.1f), 0.04f);
     sphere->setName("surface");
     openvdb::Vec3fGrid::Ptr colour = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
     colour->setName("Cd");
