@@ -473,6 +473,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         const std::string png = fileContents(CAMBIUM_SOURCE_DIR "/docs/images/bush.png");
         writeText(in / "cut.png", png.substr(0, png.size() * 7 / 10));
     }
+    // A name OpenImageIO's "null" reader makes a picture of.
+    writeText(in / "empty.null", "");
     // Outputs that are inputs under other names: a link, a second hard link.
     fs::create_symlink("trunc90.vdb", in / "alias.ply");
     fs::create_symlink("flipped.vdb", in / "alias.png");
@@ -643,6 +645,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "cut.png: a truncated or damaged PNG: its chunk IDAT at byte"},
         {"bake 'IN/a\x1b[31mred\nx.json' -o OUT/out.vdb",
          "a\\x1b[31mred\\x0ax.json: cannot read the scene file"},
+        // (a volume's slices were all written into one slice's room: a crash)
+        {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo VDB -o OUT/out.vdb",
+         ": a volume image of "},
+        {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/empty.null -o OUT/out.vdb",
+         "empty.null: not an image file (OpenImageIO would invent one)"},
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/liar.png -o OUT/out.vdb",
          "liar.png: its header says 11000 x 11000 pixels, more than the 50 million pixels read"},
         // shapes

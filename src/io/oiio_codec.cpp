@@ -39,9 +39,15 @@ try {
     if (!in)
         return fmt::format("{}: not an image OpenImageIO can read ({})", path,
                            oneLine(OIIO::geterror()));
+    // OpenImageIO's "null" reader invents a picture for any name it is given.
+    if (std::string(in->format_name()) == "null")
+        return fmt::format("{}: not an image file (OpenImageIO would invent one)", path);
     const OIIO::ImageSpec& spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);
+    // A volume (a .vdb, a DDS volume texture) reads every slice: one is read.
+    if (spec.depth > 1)
+        return fmt::format("{}: a volume image of {} slices, not a photo", path, spec.depth);
     if (double(spec.width) * spec.height > double(maxPixels))
         return fmt::format(
             "{}: its header says {} x {} pixels, more than the {:g} million pixels read: scale "
