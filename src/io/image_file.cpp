@@ -15,7 +15,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <dlfcn.h>
-#include <filesystem>
 #include <fstream>
 #include <future>
 #include <mutex>
@@ -40,27 +39,20 @@ float fromSrgb(float v)
 /// clears a chunk's declared length before it reads the chunk (2 GB, for
 /// seconds, from a 600-byte file whose tEXt length was changed), so a chunk
 /// longer than the rest of the file is refused here, by name and place.
-/// Other files pass untouched.
-void checkPngChunks(const std::string& path)
+/// Other files pass untouched.  `size`: the file's, as checkInputFile found it.
+void checkPngChunks(const std::string& path, uint64_t size)
 {
     std::ifstream in(path, std::ios::binary);
     char head[8];
     if (!in.read(head, 8) || std::memcmp(head, "\x89PNG\r\n\x1a\n", 8) != 0)
         return;
-    std::error_code ec;
-    const uint64_t size = std::filesystem::file_size(path, ec);
-    if (ec)
-        return;  // the decoder names what is wrong
     for (uint64_t at = 8; at + 8 <= size;) {
         unsigned char h[8];
         if (!in.seekg(std::streamoff(at)) || !in.read(reinterpret_cast<char*>(h), 8))
             return;
         const uint64_t length =
             uint64_t(h[0]) << 24 | uint64_t(h[1]) << 16 | uint64_t(h[2]) << 8 | h[3];
-        std::string type(reinterpret_cast<const char*>(h + 4), 4);
-        if (!std::all_of(type.begin(), type.end(),
-                         [](char c) { return std::isalpha(static_cast<unsigned char>(c)); }))
-            type = "(not a chunk name)";
+        const std::string type = printable(std::string(reinterpret_cast<const char*>(h + 4), 4));
         // Its type, data and CRC.
         if (at + 12 + length > size)
             throw InputError(fmt::format(
@@ -124,8 +116,7 @@ void preloadImageCodec()
 
 Photo readPhoto(const std::string& path, size_t maxPixels)
 {
-    checkInputFile(path, "photo");
-    checkPngChunks(path);
+    checkPngChunks(path, checkInputFile(path, "photo"));
     CodecImage img;
     const std::string error = imageCodec().decode(path, maxPixels, img);
     if (!error.empty())
