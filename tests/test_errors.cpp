@@ -398,6 +398,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "zeros.vdb", std::string(4096, '\0'));
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
     writeText(in / "noface.obj", "v 0 0 0\n");
+    writeText(in / "far.obj", "v 0 0 0\nv 1e38 0 1\nv 0 1 0\nf 1 2 3\n");
     writeText(in / "back.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -9\n");
     writeText(in / "index.ply",
               "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float "
@@ -612,6 +613,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render -o OUT/out.png", "nothing to render"},
         {"render --mesh IN/index.obj -o OUT/out.png", "index.obj:4: vertex index 9 out of range"},
         {"render --mesh IN/noface.obj -o OUT/out.png", "noface.obj: the mesh has no faces"},
+        // (Embree's build aborted the program on it)
+        {"render --mesh IN/far.obj -o OUT/out.png",
+         "far.obj:2: vertex 2 lies 1e+38 from the origin, beyond the 1e+15 cambium reads"},
         {"render --mesh IN/back.obj -o OUT/out.png",
          "back.obj:4: vertex index -9 out of range (the file has 3 vertices before it)"},
         {"render --mesh IN/index.ply -o OUT/out.png",

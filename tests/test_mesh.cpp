@@ -11,6 +11,8 @@
 #include <openvdb/tools/Interpolation.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -367,6 +369,40 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
                   "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n",
                   "the vertex element has no x, y, z");
     expectRefused("k.stl", "solid\n", "unknown mesh format '.stl'");
+    // Points no tool can draw (Embree's build overflowed on 1e38 and aborted).
+    expectRefused("l.obj", "v 0 0 0\nv 1e38 0 1\nv 0 1 0\nf 1 2 3\n",
+                  "l.obj:2: vertex 2 lies 1e+38 from the origin, beyond the 1e+15");
+    // Lists whose counts or indices are not whole numbers, as written.
+    const std::string plyFloatList =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list float float vertex_indices\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n";
+    expectRefused("n.ply", plyFloatList + "2.5 0 1 2\n",
+                  "element 'face' 0: a list of 2.5 items");
+    expectRefused("o.ply", plyFloatList + "3 0 1.5 2\n",
+                  "element 'face' 0: vertex index 1.5 is not a whole number");
+    expectRefused("q.ply",
+                  "ply\nformat ascii 1.0\nelement vertex -1\nproperty float x\nend_header\n",
+                  "q.ply:3: element 'vertex' has count '-1' (not a whole number of items)");
+    // A binary element of no properties takes no bytes, whatever its count:
+    // read past at once (it looped over 2^64 items).
+    const std::string junk =
+        "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\n"
+        "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string body = junk;
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+        body.append(reinterpret_cast<const char*>(&v), 4);
+    body.push_back(char(3));
+    for (int32_t i : {0, 1, 2})
+        body.append(reinterpret_cast<const char*>(&i), 4);
+    EXPECT_EQ(readText("r.ply", body).triangles.size(), 1u);
+    const float inf = std::numeric_limits<float>::infinity();
+    std::memcpy(body.data() + junk.size() + 4 * 5, &inf, 4);  // vertex 1's z
+    expectRefused("m.ply", body, "m.ply: vertex 1 ('z') has a value inf (not a finite number)");
+    expectRefused("s.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 18446744073709551616\nend_header\n",
+                  "element 'vertex' has count '18446744073709551616'");
     EXPECT_THROW(readMesh("/nonexistent/m.obj"), InputError);
 }
 

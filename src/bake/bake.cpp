@@ -62,7 +62,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     const double far =
         std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
                   std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
-    if (!std::isfinite(plan.extent) || !std::isfinite(far) || far > 1e15)
+    if (!std::isfinite(plan.extent) || !std::isfinite(far) || far > kFarthestCoordinate)
         throw InputError(fmt::format(
             "{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
             "cannot be baked",

@@ -12,6 +12,10 @@ namespace cambium {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegree = kPi / 180.0;  ///< radians per degree
+/// The farthest any coordinate cambium reads, synthesises or bakes may lie
+/// from the origin: beyond it a float keeps no sub-unit detail and bounds,
+/// index spaces and Embree's builds overflow.
+constexpr double kFarthestCoordinate = 1e15;
 
 /// 0 below e0, 1 above e1, the cubic 3u^2 - 2u^3 of u = (x - e0) / (e1 - e0)
 /// between (C1, flat at both ends); a step at e1 when e1 <= e0.

@@ -3,13 +3,16 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -32,6 +35,20 @@ namespace {
 {
     throw InputError(line ? fmt::format("{}:{}: {}", path, line, what)
                           : fmt::format("{}: {}", path, what));
+}
+
+/// Refuses a vertex value that is not finite, or a coordinate beyond
+/// kFarthestCoordinate (no tool here draws, meshes or bakes one; Embree's
+/// builds overflow on them).  `vertex` names it as the file counts.
+void checkVertexValue(double v, bool coordinate, const std::string& path, size_t line,
+                      const std::string& vertex)
+{
+    if (!std::isfinite(v))
+        fail(path, line, fmt::format("{} has a value {} (not a finite number)", vertex, v));
+    if (coordinate && std::abs(v) > kFarthestCoordinate)
+        fail(path, line,
+             fmt::format("{} lies {:g} from the origin, beyond the {:g} cambium reads", vertex,
+                         std::abs(v), kFarthestCoordinate));
 }
 
 /// Fans a polygon (indices into the points, checked) into triangles.  A
@@ -76,6 +93,10 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                 fail(path, line,
                      fmt::format("'{}' expects 3 numbers{}", tag,
                                  tag == "v" ? " (or 6 with a colour)" : ""));
+            for (int k = 0; k < n; ++k)
+                checkVertexValue(x[k], tag == "v" && k < 3, path, line,
+                                 tag == "v" ? fmt::format("vertex {}", m.points.size() + 1)
+                                            : fmt::format("normal {}", normals.size() + 1));
             if (tag == "vn") {
                 normals.emplace_back(x[0], x[1], x[2]);
                 continue;
@@ -207,8 +228,17 @@ PlyHeader readPlyHeader(std::istream& in, const std::string& path)
                                  h.format));
         } else if (tag == "element") {
             PlyElement e;
-            if (!(s >> e.name >> e.count))
+            std::string count;
+            if (!(s >> e.name >> count))
                 fail(path, line, "expected 'element NAME COUNT'");
+            errno = 0;
+            char* end = nullptr;
+            e.count = std::strtoull(count.c_str(), &end, 10);
+            if (!std::isdigit(static_cast<unsigned char>(count[0])) || *end != '\0' ||
+                errno == ERANGE)
+                fail(path, line,
+                     fmt::format("element '{}' has count '{}' (not a whole number of items)",
+                                 printable(e.name), printable(count)));
             h.elements.push_back(e);
         } else if (tag == "property") {
             if (h.elements.empty())
@@ -265,6 +295,10 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
         a < 0 || e.properties[size_t(a)].type.real
             ? 1.0
             : 1.0 / (std::ldexp(1.0, 8 * e.properties[size_t(a)].type.size) - 1.0);
+    // A binary item of no properties takes no bytes: its count, however
+    // large, reads nothing (and must not loop over 2^64 items).
+    if (!ascii && e.properties.empty())
+        return;
     for (size_t item = 0; item < e.count; ++item) {
         values.assign(e.properties.size(), 0.0);
         poly.clear();
@@ -298,15 +332,26 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
                 continue;
             }
             const double n = one(p.countType);
-            if (!(n >= 0.0 && n < 1e6))
-                fail(path, 0, fmt::format("element '{}' {}: a list of {} items", e.name, item, n));
+            if (!(n >= 0.0 && n < 1e6) || n != std::trunc(n))
+                fail(path, 0,
+                     fmt::format("element '{}' {}: a list of {} items (a count is a whole "
+                                 "number below a million)",
+                                 e.name, item, n));
             for (int i = 0; i < int(n); ++i) {
                 const double v = one(p.type);
-                if (int(k) == list)
-                    poly.push_back(int64_t(v));
+                if (int(k) != list)
+                    continue;
+                if (!(std::abs(v) < 1e18) || v != std::trunc(v))
+                    fail(path, 0,
+                         fmt::format("element '{}' {}: vertex index {} is not a whole number",
+                                     e.name, item, v));
+                poly.push_back(int64_t(v));
             }
         }
         if (e.name == "vertex") {
+            for (size_t k = 0; k < values.size(); ++k)
+                checkVertexValue(values[k], int(k) == x || int(k) == y || int(k) == z, path, 0,
+                                 fmt::format("vertex {} ('{}')", item, e.properties[k].name));
             m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]),
                                   float(values[size_t(z)]));
             if (nx >= 0 && ny >= 0 && nz >= 0)

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/frames.h"
+#include "core/math.h"
 #include "core/system.h"
 #include "io/vdb.h"
 #include "shape/synthesis.h"
@@ -71,8 +72,8 @@ void paintedFiles(const AlphaSpec& alpha, std::vector<std::string>& files)
         paintedFiles(a, files);
 }
 
-/// InputError when a synthesised point is not finite or lies beyond 1e15
-/// (as scenes' coordinates may not): details and edits whose gains, radii
+/// InputError when a synthesised point is not finite or lies beyond
+/// kFarthestCoordinate (as read and baked ones may not): details and edits whose gains, radii
 /// and amplitudes multiply past any size, named.
 void checkSynthesised(const TriangleMesh& mesh, const ShapeSpec& spec)
 {
@@ -80,7 +81,7 @@ void checkSynthesised(const TriangleMesh& mesh, const ShapeSpec& spec)
         const openvdb::Vec3s& p = mesh.points[i];
         bool fine = true;
         for (int k = 0; k < 3; ++k)
-            fine = fine && std::isfinite(p[k]) && std::abs(p[k]) <= 1e15f;
+            fine = fine && std::isfinite(p[k]) && std::abs(p[k]) <= kFarthestCoordinate;
         if (fine)
             continue;
         std::string causes;
