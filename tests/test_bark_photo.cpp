@@ -222,6 +222,87 @@ TEST(BarkPhoto, TheBarksColoursFollowThePhotosHistogram)
     }
 }
 
+/// The bytes of `hex` (pairs of hex digits, spaces ignored).
+std::string fromHex(const std::string& hex)
+{
+    std::string bytes, digits;
+    for (char c : hex)
+        if (c != ' ')
+            digits += c;
+    for (size_t i = 0; i + 1 < digits.size(); i += 2)
+        bytes.push_back(char(std::stoi(digits.substr(i, 2), nullptr, 16)));
+    return bytes;
+}
+
+TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
+{
+    const std::string dir = tempDir();
+    auto write = [&](const std::string& name, const std::string& bytes) {
+        std::ofstream(dir + "/" + name, std::ios::binary) << bytes;
+        return dir + "/" + name;
+    };
+    auto refused = [&](const std::string& name, const std::string& bytes,
+                       const std::string& message) {
+        const std::string path = write(name, bytes);
+        expectInputError([&] { readPhoto(path); }, path + ": " + message, name);
+    };
+    // A 29-byte GIF claiming a 23170-pixel screen: OpenImageIO's search for
+    // a reader cost 2.2 GB on it.  Only a photo's formats are handed over.
+    refused("screen.gif",
+            fromHex("474946383961 825a 825a 000000 2c 0000 0000 0100 0100 00 02024401 00 3b"),
+            "not a PNG, JPEG, TIFF, OpenEXR, Radiance HDR, BMP or WebP image (its first bytes "
+            "are 47 49 46 38 39 61 82 5a)");
+    refused("empty.png", "",
+            "not a PNG, JPEG, TIFF, OpenEXR, Radiance HDR, BMP or WebP image (its first bytes are "
+            "none: it is empty)");
+    // A 150-byte 16 x 16 grey TIFF of 65536 x 65536 tiles (8.9 GB decoded).
+    refused(
+        "tiles.tif",
+        fromHex("49492a00080000000a00000104000100000010000000010104000100000010000000020103000100"
+                "00000800000003010300010000000100000006010300010000000100000015010300010000000100"
+                "00004201040001000000000001004301040001000000000001004401040001000000860000004501"
+                "0400010000001000000000000000") +
+            std::string(16, '\0'),
+        "its header says tiles of 65536 x 65536 pixels for a picture of 16 x 16");
+    // 501 scans (each a pass over the picture; thousands are minutes).
+    std::string scans = fromHex("ffd8");
+    for (int i = 0; i < 501; ++i)
+        scans += fromHex("ffda 0008 01 0100 003f00 1234");
+    refused("scans.jpg", scans + fromHex("ffd9"), "a JPEG of more than 500 scans");
+    // A real JPEG's scans pass the walk and are read.
+    {
+        const std::string path = dir + "/real.jpg";
+        auto out = OIIO::ImageOutput::create(path);
+        OIIO::ImageSpec spec(40, 30, 3, OIIO::TypeDesc::UINT8);
+        spec.attribute("jpeg:progressive", 1);
+        std::vector<float> px(40 * 30 * 3, 0.5f);
+        ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        out->close();
+        const Photo p = readPhoto(path);
+        EXPECT_EQ(p.width, 40);
+        EXPECT_NEAR(p.rgb[0], 0.214, 0.01);  // sRGB 0.5, linear
+    }
+    // A TIFF cut inside its strips: its reader reports the damage and still
+    // said success, and the histogram came from zeros.
+    const std::string tif = writePhoto(dir, "uint16");
+    std::ifstream in(tif, std::ios::binary);
+    const std::string whole((std::istreambuf_iterator<char>(in)), {});
+    refused("cut.tif", whole.substr(0, whole.size() * 6 / 10), "cannot read the tiff image: ");
+    // A linear pixel beyond a half float's range (baked with --half: inf).
+    {
+        const std::string path = dir + "/bright.exr";
+        auto out = OIIO::ImageOutput::create(path);
+        OIIO::ImageSpec spec(4, 2, 3, OIIO::TypeDesc::FLOAT);
+        std::vector<float> px(4 * 2 * 3, 0.5f);
+        px[3 * 6 + 1] = 3e38f;
+        ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        out->close();
+        expectInputError([&] { readPhoto(path); },
+                         "bright.exr: pixel 6 (row 1, column 2) has the value 3e+38, not a colour",
+                         "a pixel beyond half");
+    }
+}
+
 TEST(BarkPhoto, ABakeRefusesAMissingPhotoBeforeWork)
 {
     const std::string dir = tempDir();

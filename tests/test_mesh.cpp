@@ -377,8 +377,7 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
         "property float z\nelement face 1\nproperty list float float vertex_indices\n"
         "end_header\n0 0 0\n1 0 0\n0 1 0\n";
-    expectRefused("n.ply", plyFloatList + "2.5 0 1 2\n",
-                  "element 'face' 0: a list of 2.5 items");
+    expectRefused("n.ply", plyFloatList + "2.5 0 1 2\n", "element 'face' 0: a list of 2.5 items");
     expectRefused("o.ply", plyFloatList + "3 0 1.5 2\n",
                   "element 'face' 0: vertex index 1.5 is not a whole number");
     expectRefused("q.ply",

@@ -31,16 +31,18 @@ struct CodecImage {
 /// not cross the plugin's boundary): an empty string is success.
 struct ImageCodecApi {
     int abi;
-    /// Reads `path`; refuses, from its header, before any pixel is read or
-    /// held, an image of more than `maxPixels` pixels.  The message names
-    /// the file.
-    std::string (*decode)(const std::string& path, size_t maxPixels, CodecImage& out);
+    /// Reads `path` with OpenImageIO's reader of `format` (its name: "png",
+    /// "jpeg", ...) and no other; refuses, from its header, before any pixel
+    /// is read or held, an image of more than `maxPixels` pixels or of tiles
+    /// far larger than it.  The message names the file.
+    std::string (*decode)(const std::string& path, const std::string& format, size_t maxPixels,
+                          CodecImage& out);
     /// Encodes `image` into `bytes` in the format of `path`'s extension.
     std::string (*encode)(const std::string& path, const CodecImage& image,
                           std::vector<unsigned char>& bytes);
 };
 
-constexpr int kImageCodecAbi = 2;
+constexpr int kImageCodecAbi = 3;
 
 /// The plugin, loaded on the first call: from $CAMBIUM_IMAGE_CODEC, else
 /// beside the executable, else where the build put it.  std::runtime_error

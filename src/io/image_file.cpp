@@ -39,13 +39,10 @@ float fromSrgb(float v)
 /// clears a chunk's declared length before it reads the chunk (2 GB, for
 /// seconds, from a 600-byte file whose tEXt length was changed), so a chunk
 /// longer than the rest of the file is refused here, by name and place.
-/// Other files pass untouched.  `size`: the file's, as checkInputFile found it.
+/// `size`: the file's, as checkInputFile found it.
 void checkPngChunks(const std::string& path, uint64_t size)
 {
     std::ifstream in(path, std::ios::binary);
-    char head[8];
-    if (!in.read(head, 8) || std::memcmp(head, "\x89PNG\r\n\x1a\n", 8) != 0)
-        return;
     for (uint64_t at = 8; at + 8 <= size;) {
         unsigned char h[8];
         if (!in.seekg(std::streamoff(at)) || !in.read(reinterpret_cast<char*>(h), 8))
@@ -63,6 +60,95 @@ void checkPngChunks(const std::string& path, uint64_t size)
             return;
         at += 12 + length;
     }
+}
+
+/// A JPEG's scans counted by walking its markers before libjpeg reads it: a
+/// progressive file may hold any number, and each costs a pass over every
+/// coefficient of the picture (a few KB of file in 2000 scans is minutes of
+/// decoding).  More than libjpeg-turbo's own tools allow (500) is refused.
+/// A damaged walk stops quietly: libjpeg then names the damage.
+void checkJpegScans(const std::string& path)
+{
+    constexpr int kMaxScans = 500;
+    std::ifstream in(path, std::ios::binary);
+    std::streambuf& b = *in.rdbuf();
+    const auto eof = std::char_traits<char>::eof();
+    auto next = [&] { return b.sbumpc(); };
+    if (next() != 0xFF || next() != 0xD8)
+        return;
+    int scans = 0;
+    int c = next();
+    while (c != eof) {
+        if (c != 0xFF) {  // inside a scan's entropy-coded data
+            c = next();
+            continue;
+        }
+        int m = next();
+        while (m == 0xFF)  // fill bytes
+            m = next();
+        if (m == eof || m == 0xD9)  // the end
+            return;
+        if (m == 0x00 || (m >= 0xD0 && m <= 0xD7) || m == 0x01) {  // stuffed byte, restart
+            c = next();
+            continue;
+        }
+        const int hi = next(), lo = next();
+        if (hi == eof || lo == eof)
+            return;
+        const long length = hi << 8 | lo;
+        if (length < 2)
+            return;
+        if (m == 0xDA && ++scans > kMaxScans)
+            throw InputError(fmt::format(
+                "{}: a JPEG of more than {} scans (each a pass over the whole picture): "
+                "damaged or hostile; re-save it",
+                path, kMaxScans));
+        if (b.pubseekoff(length - 2, std::ios::cur, std::ios::in) < 0)
+            return;
+        c = next();
+    }
+}
+
+/// The format of a photo, from its first bytes, among those a photo comes
+/// in; InputError for any other.  OpenImageIO is then given only that
+/// format's reader: its search for a reader tries every format on a file it
+/// does not recognise, and some allocate what the file claims before any
+/// check of ours can run (a 29-byte GIF claiming a 23170-pixel screen cost
+/// 2.2 GB in that search alone).
+std::string photoFormat(const std::string& path, uint64_t size)
+{
+    std::ifstream in(path, std::ios::binary);
+    char head[12] = {};
+    in.read(head, sizeof head);
+    const std::string h(head, size_t(in.gcount()));
+    auto starts = [&](const char* magic, size_t n, size_t at = 0) {
+        return h.size() >= at + n && h.compare(at, n, magic, n) == 0;
+    };
+    if (starts("\x89PNG\r\n\x1a\n", 8)) {
+        checkPngChunks(path, size);
+        return "png";
+    }
+    if (starts("\xFF\xD8\xFF", 3)) {
+        checkJpegScans(path);
+        return "jpeg";
+    }
+    if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4))
+        return "tiff";
+    if (starts("\x76\x2f\x31\x01", 4))
+        return "openexr";
+    if (starts("#?RADIANCE", 10) || starts("#?RGBE", 6))
+        return "hdr";
+    if (starts("BM", 2))
+        return "bmp";
+    if (starts("RIFF", 4) && starts("WEBP", 4, 8))
+        return "webp";
+    std::string bytes;
+    for (unsigned char ch : h.substr(0, 8))
+        bytes += fmt::format("{}{:02x}", bytes.empty() ? "" : " ", ch);
+    throw InputError(fmt::format(
+        "{}: not a PNG, JPEG, TIFF, OpenEXR, Radiance HDR, BMP or WebP image (its first bytes "
+        "are {}), the formats a photo is read from",
+        path, bytes.empty() ? "none: it is empty" : bytes));
 }
 
 const ImageCodecApi* loadImageCodec()
@@ -116,9 +202,9 @@ void preloadImageCodec()
 
 Photo readPhoto(const std::string& path, size_t maxPixels)
 {
-    checkPngChunks(path, checkInputFile(path, "photo"));
+    const std::string format = photoFormat(path, checkInputFile(path, "photo"));
     CodecImage img;
-    const std::string error = imageCodec().decode(path, maxPixels, img);
+    const std::string error = imageCodec().decode(path, format, maxPixels, img);
     if (!error.empty())
         throw InputError(error);
     // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones
@@ -139,8 +225,12 @@ Photo readPhoto(const std::string& path, size_t maxPixels)
         for (size_t k = 0; k < 3; ++k) {
             const float v =
                 img.pixels[c * i + (c >= 3 ? k : 0)];  // grey (and grey with alpha) made RGB
-            if (!std::isfinite(v))
-                throw InputError(fmt::format("{}: pixel {} is not finite", path, i));
+            // (beyond a half float's range a colour baked with --half is infinite)
+            if (!(std::abs(v) <= 65504.0f))
+                throw InputError(fmt::format(
+                    "{}: pixel {} (row {}, column {}) has the value {:g}, not a colour (a finite "
+                    "number of magnitude at most 65504)",
+                    path, i, i / size_t(img.width), i % size_t(img.width), v));
             out.rgb[3 * i + k] = linear ? std::max(v, 0.0f) : fromSrgb(std::clamp(v, 0.0f, 1.0f));
         }
     return out;

@@ -33,7 +33,8 @@ struct Photo {
     std::vector<float> rgb;  ///< 3 per pixel, linear
 };
 
-/// Reads any image OpenImageIO reads (PNG, JPEG, TIFF, EXR, ...; 8, 16 or
+/// Reads a photo in the formats photos come in (PNG, JPEG, TIFF, OpenEXR,
+/// Radiance HDR, BMP, WebP: known by their first bytes; 8, 16 or
 /// 32 bits, grey or colour, with or without alpha: alpha ignored, grey made
 /// RGB), as linear colour: files that store sRGB-encoded values (what
 /// OpenImageIO's colour space or the format says) are decoded.  InputError

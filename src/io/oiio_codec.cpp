@@ -33,16 +33,19 @@ std::string oneLine(const std::string& text)
     return out;
 }
 
-std::string decode(const std::string& path, size_t maxPixels, cambium::CodecImage& out)
+std::string decode(const std::string& path, const std::string& format, size_t maxPixels,
+                   cambium::CodecImage& out)
 try {
-    auto in = OIIO::ImageInput::open(path);
+    // The format's reader alone (a name without an extension names the
+    // format): OpenImageIO's search over every reader is never run.
+    auto in = OIIO::ImageInput::create(format, false);
     if (!in)
-        return fmt::format("{}: not an image OpenImageIO can read ({})", path,
+        return fmt::format("{}: OpenImageIO has no {} reader ({})", path, format,
                            oneLine(OIIO::geterror()));
-    // OpenImageIO's "null" reader invents a picture for any name it is given.
-    if (std::string(in->format_name()) == "null")
-        return fmt::format("{}: not an image file (OpenImageIO would invent one)", path);
-    const OIIO::ImageSpec& spec = in->spec();
+    OIIO::ImageSpec spec;
+    if (!in->open(path, spec))
+        return fmt::format("{}: not a {} image OpenImageIO can read ({})", path, format,
+                           oneLine(in->geterror()));
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);
     // A volume (a .vdb, a DDS volume texture) reads every slice: one is read.
@@ -53,14 +56,30 @@ try {
             "{}: its header says {} x {} pixels, more than the {:g} million pixels read: scale "
             "it down",
             path, spec.width, spec.height, double(maxPixels) / 1e6);
+    // A tile is decoded whole, every channel, whatever part of it the image
+    // covers: a 402-byte 16 x 16 TIFF of 65536 x 65536 tiles cost 8.9 GB.
+    const double tile = double(std::max(spec.tile_width, 1)) * std::max(spec.tile_height, 1) *
+                        std::max(spec.tile_depth, 1);
+    const double pixels = double(spec.width) * spec.height;
+    if (spec.tile_width > 0 && (tile > double(maxPixels) || tile > 4.0 * std::max(pixels, 65536.0)))
+        return fmt::format(
+            "{}: its header says tiles of {} x {} pixels for a picture of {} x {}: damaged or "
+            "hostile",
+            path, spec.tile_width, spec.tile_height, spec.width, spec.height);
     out.width = spec.width;
     out.height = spec.height;
     // At most four channels read (grey, grey and alpha, RGB, RGBA): a header
     // claiming a thousand channels is no bomb.
     out.channels = std::min(spec.nchannels, 4);
     out.pixels.resize(size_t(spec.width) * size_t(spec.height) * size_t(out.channels));
-    if (!in->read_image(0, 0, 0, out.channels, OIIO::TypeDesc::FLOAT, out.pixels.data()))
-        return fmt::format("{}: cannot read the image: {}", path, oneLine(in->geterror()));
+    // Some readers report damage (a TIFF's strip cut short, read as zeros)
+    // and still return success: any error they leave is a failure.
+    const bool read =
+        in->read_image(0, 0, 0, out.channels, OIIO::TypeDesc::FLOAT, out.pixels.data());
+    const std::string error = oneLine(in->geterror());
+    if (!read || !error.empty())
+        return fmt::format("{}: cannot read the {} image: {}", path, format,
+                           error.empty() ? "its reader gives no reason" : error);
     out.colourSpace = spec.get_string_attribute("oiio:ColorSpace");
     out.floatFormat = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
                       spec.format.basetype == OIIO::TypeDesc::HALF ||
