@@ -673,6 +673,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"", "A subcommand is required"},
         {"bogus", "unknown command 'bogus' (the commands: info, eval, bake"},
         {"bench", "A subcommand is required"},
+        // (CLI11's own message came as two lines, without cambium's prefix)
+        {"bake IN/dup.json --voxel-size x -o OUT/out.vdb",
+         "cambium: error: Could not convert: --voxel-size = x (cambium bake --help lists the "
+         "options)\n"},
     };
     ASSERT_GE(cases.size(), 60u);
     for (const BadInput& c : cases) {

@@ -113,6 +113,11 @@ TEST(ShapeFile, BadInputIsNamed)
            "3 0 3 2\n";
     says(R"({"base": {"type": "mesh", "file": ")" + dir + R"(/spare.ply"}})",
          "spare.ply: point 4 is used by no face");
+    // A model base that is the shape file itself (read as a scene, it was
+    // told "base: unknown field").
+    std::ofstream(dir + "/self.json") << R"({"base": {"type": "model", "file": "self.json"}})";
+    test::expectInputError([&] { readShapeFile(dir + "/self.json"); },
+                           "self.json: base.file: is this shape file itself", "self base");
 }
 
 TEST(ShapeDetails, RockIsOneOverFAndTheSameForTheSameSeed)

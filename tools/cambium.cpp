@@ -10,6 +10,7 @@
 
 #include <cstdio>
 #include <new>
+#include <stdexcept>
 #include <string>
 
 namespace {
@@ -49,12 +50,6 @@ int main(int argc, char** argv)
                      cambium::printable(argv[1]).c_str(), names.c_str());
         return 2;
     }
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-        return app.exit(e) == 0 ? 0 : 2;  // --help and --version are not errors
-    }
-    openvdb::initialize();
     // A message is one line, its control characters (a newline or an
     // escape sequence in a file name) shown escaped, not sent to the
     // terminal.  (std::fprintf: never throws, whatever stderr is.)
@@ -68,12 +63,30 @@ int main(int argc, char** argv)
         std::fprintf(stderr, "cambium: %s: %s\n", how, line.c_str());
     };
     try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0)  // --help and --version are not errors
+            return app.exit(e);
+        // One line, as every other error (CLI11's own adds a second).
+        const std::string where = argc >= 2 && known ? std::string(" ") + argv[1] : "";
+        say("error",
+            (e.what() + std::string(" (cambium") + where + " --help lists the options)").c_str());
+        return 2;
+    }
+    openvdb::initialize();
+    try {
         return action ? action() : 0;
     } catch (const cambium::InputError& e) {
         say("error", e.what());
         return 2;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "cambium: failed: out of memory\n");
+        return 1;
+    } catch (const std::length_error& e) {  // a container asked for more than memory holds
+        say("failed",
+            (std::string("out of memory: a buffer larger than any memory was asked for (") +
+             e.what() + ")")
+                .c_str());
         return 1;
     } catch (const std::exception& e) {
         say("failed", e.what());

@@ -328,15 +328,18 @@ void checkDiskSpace(const std::string& output, double bytes, const std::string& 
             what, formatBytes(bytes), outputDirectory(output).string(), formatBytes(free)));
 }
 
+bool sameFile(const std::string& a, const std::string& b)
+{
+    struct stat sa {
+    }, sb{};
+    return !a.empty() && !b.empty() && ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 &&
+           sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
 {
-    struct stat out {};
-    if (output.empty() || ::stat(output.c_str(), &out) != 0)
-        return;  // (nothing there yet: nothing to replace)
     for (const std::string& input : inputs) {
-        struct stat in {};
-        if (!input.empty() && ::stat(input.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
-            in.st_ino == out.st_ino)
+        if (sameFile(input, output))
             throw InputError(
                 fmt::format("{}: is the input {} (the output would replace it)", output, input));
     }

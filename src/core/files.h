@@ -39,6 +39,10 @@ double freeDiskBytes(const std::string& output);
 /// to be written on (the estimate and the free space named).
 void checkDiskSpace(const std::string& output, double bytes, const std::string& what);
 
+/// Whether `a` and `b` name one existing file (one inode: through links,
+/// other spellings and hard links too).
+bool sameFile(const std::string& a, const std::string& b);
+
 /// InputError "OUTPUT: is the input INPUT (the output would replace it)"
 /// when `output` names, through links or other names, the same file as one
 /// of `inputs` (empty names skipped); a command checks it before any work.

@@ -266,6 +266,10 @@ private:
                 if (j.contains("control"))
                     b.control = file(j, path, "control");
                 b.file = file(j, path);
+                if (sameFile(b.file, source()))
+                    fail(jsonPath(path, "file"),
+                         "is this shape file itself: a model base is a scene, L-system or "
+                         "growth file");
                 b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
                 b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);
                 b.year = numberOr(j, "year", path, 0.0, 0.0, 1000.0);
