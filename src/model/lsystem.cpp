@@ -731,10 +731,12 @@ private:
 
 // --- derivation ------------------------------------------------------------------
 
-/// For each '[' the index of its ']' and the other way round (-1 elsewhere).
-std::vector<long> matchBrackets(const ModuleString& s)
+/// For each '[' the index of its ']' and the other way round (-1 elsewhere), into
+/// `match` (`stack`: its scratch; both reused from step to step).
+void matchBrackets(const ModuleString& s, std::vector<long>& match, std::vector<long>& stack)
 {
-    std::vector<long> match(s.size(), -1), stack;
+    match.assign(s.size(), -1);
+    stack.clear();
     for (size_t i = 0; i < s.size(); ++i) {
         if (s[i].name == '[')
             stack.push_back(long(i));
@@ -744,7 +746,6 @@ std::vector<long> matchBrackets(const ModuleString& s)
             stack.pop_back();
         }
     }
-    return match;
 }
 
 bool matches(const Module& m, const ModulePattern& p)
@@ -807,12 +808,20 @@ public:
         return true;
     }
 
-    ModuleString step(const ModuleString& s, int stepNo, size_t maxModules)
+    /// The next string; `s` is consumed (its unrewritten modules are moved,
+    /// not copied: a long string of which a few modules change costs what
+    /// those do, not a copy of every module's parameters).
+    ModuleString step(ModuleString&& s, int stepNo, size_t maxModules)
     {
-        const std::vector<long> match = matchBrackets(s);
+        matchBrackets(s, match_, stack_);
+        const std::vector<long>& match = match_;
         // Choose every module's production first: the limit is checked before
-        // the new string is made.
-        std::vector<std::pair<const Production*, std::vector<double>>> chosen(s.size());
+        // the new string is made.  (The buffers live from step to step: made
+        // anew, each step's were fresh pages, faulted in, and a long string's
+        // steps went to the kernel.)
+        auto& chosen = chosen_;
+        chosen.clear();
+        chosen.resize(s.size());
         size_t total = 0;
         std::vector<const Production*> applicable;
         std::vector<std::vector<double>> bindings;
@@ -863,12 +872,15 @@ public:
                 "{}: derivation step {} would make {} modules, more than the limit of {} "
                 "(--max-modules; fewer --steps?)",
                 sys_.source, stepNo, total, maxModules));
-        ModuleString out;
-        out.reserve(total);
+        ModuleString out = std::move(spare_);
+        out.clear();
+        if (out.capacity() < total)  // (grown by doubling: a string growing a module a step
+                                     // must not be moved every step)
+            out.reserve(std::max(total, 2 * out.capacity()));
         for (size_t i = 0; i < s.size(); ++i) {
             const Production* p = chosen[i].first;
             if (!p) {
-                out.push_back(s[i]);
+                out.push_back(std::move(s[i]));
                 continue;
             }
             for (const ModuleTemplate& t : p->successor) {
@@ -885,18 +897,21 @@ public:
                 out.push_back(std::move(m));
             }
         }
-        return cut(out);
+        spare_ = std::move(s);
+        return cut(std::move(out));
     }
 
     /// Removes the rest of each '%''s branch (up to the branch's ']'); the
     /// '%' stays, the mark of the cut for the turtle.
-    static ModuleString cut(const ModuleString& s)
+    static ModuleString cut(ModuleString&& s)
     {
+        if (std::none_of(s.begin(), s.end(), [](const Module& m) { return m.name == '%'; }))
+            return std::move(s);
         ModuleString out;
         out.reserve(s.size());
         for (size_t i = 0; i < s.size(); ++i) {
-            out.push_back(s[i]);
-            if (s[i].name == '%')
+            out.push_back(std::move(s[i]));
+            if (out.back().name == '%')
                 i = branchEnd(s, i) - 1;  // the branch's ']' comes next
         }
         return out;
@@ -905,6 +920,9 @@ public:
 private:
     const LSystem& sys_;
     Rng rng_;
+    std::vector<std::pair<const Production*, std::vector<double>>> chosen_;
+    ModuleString spare_;  ///< the string before last, its room for the next
+    std::vector<long> match_, stack_;
 };
 
 }  // namespace
@@ -933,16 +951,16 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
         throw InputError(fmt::format("{}: the axiom has {} modules, more than the limit of {}",
                                      system.source, system.axiom.size(), maxModules));
     Deriver d(system, seed);
-    ModuleString s = Deriver::cut(system.axiom);
+    ModuleString s = Deriver::cut(ModuleString(system.axiom));
     double rewrites = 0.0;
     for (int i = 1; i <= steps; ++i) {
         rewrites += double(s.size());
         if (rewrites > kMaxRewrites)
             throw InputError(
-                fmt::format("{}: {} steps would rewrite more than {:g} modules in all (hours of "
+                fmt::format("{}: {} steps would rewrite more than {:g} modules in all (minutes of "
                             "work): fewer --steps",
                             system.source, steps, kMaxRewrites));
-        s = d.step(s, i, maxModules);
+        s = d.step(std::move(s), i, maxModules);
     }
     return s;
 }

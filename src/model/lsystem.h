@@ -83,7 +83,7 @@ LSystem loadLSystem(const std::string& path);
 constexpr size_t kDefaultMaxModules = 2'000'000;
 constexpr size_t kMaxModulesLimit = 50'000'000;
 constexpr int kMaxSteps = 100'000;
-constexpr double kMaxRewrites = 2e10;
+constexpr double kMaxRewrites = 2e9;
 
 /// Derives `steps` steps from the axiom: every module rewritten in parallel
 /// by the first production (in file order) whose predecessor, contexts and
