@@ -386,7 +386,11 @@ TEST(Growth, BadParametersAreNamedBeforeAnyWork)
     p.Gbs = Curve::constant(1.0);
     p.minScale = 0.1;
     p.maxInternodes = 20000;
-    expectInputError([&] { GrowthModel m(p); }, "max_internodes", "exploding parameters");
+    // Named by the file read (it named the species), then the limit.
+    expectInputError([&] { GrowthModel m(p); },
+                     "populus/populus.json: the parameters grow more than 20000 internodes "
+                     "(max_internodes)",
+                     "exploding parameters");
     const std::string base =
         readTextFile(CAMBIUM_SOURCE_DIR "/examples/populus/populus.json", "test");
     auto replaced = [&](const std::string& from, const std::string& to) {

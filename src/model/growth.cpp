@@ -163,7 +163,9 @@ void GrowthModel::grow()
                                     "(max_internodes) — reached at a "
                                     "branch of order {} in year {}: raise min_scale, lower Gss or "
                                     "Gm, or raise max_internodes",
-                                    p_.name.empty() ? "growth parameters" : p_.name,
+                                    !p_.source.empty() ? p_.source
+                                    : p_.name.empty()  ? "growth parameters"
+                                                       : p_.name,
                                     p_.maxInternodes, b.order, y));
                 b.shoots.push_back(s);
             }

@@ -224,7 +224,9 @@ private:
 
 GrowthParameters parseGrowthParameters(const std::string& text, const std::string& source)
 {
-    return Reader(source).read(text);
+    GrowthParameters p = Reader(source).read(text);
+    p.source = source;
+    return p;
 }
 
 GrowthParameters loadGrowthParameters(const std::string& path)
