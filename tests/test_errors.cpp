@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
@@ -470,6 +471,26 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         writeText(in / "liar.png", bytes);
     }
     {
+        // A PNG whose compressed data is damaged (its chunk's CRC made right):
+        // libpng printed its own line ahead of cambium's.
+        std::string png = fileContents(CAMBIUM_SOURCE_DIR "/docs/images/bush.png");
+        const size_t idat = png.find("IDAT");
+        const uint32_t length = uint32_t(uint8_t(png[idat - 4])) << 24 |
+                                uint32_t(uint8_t(png[idat - 3])) << 16 |
+                                uint32_t(uint8_t(png[idat - 2])) << 8 | uint8_t(png[idat - 1]);
+        png[idat + 200] = char(png[idat + 200] ^ 0xff);
+        uint32_t crc = 0xffffffffu;  // CRC-32 of the chunk's type and data
+        for (size_t i = idat; i < idat + 4 + length; ++i) {
+            crc ^= uint8_t(png[i]);
+            for (int k = 0; k < 8; ++k)
+                crc = crc & 1 ? (crc >> 1) ^ 0xedb88320u : crc >> 1;
+        }
+        crc ^= 0xffffffffu;
+        for (int k = 0; k < 4; ++k)
+            png[idat + 4 + length + size_t(k)] = char(crc >> (24 - 8 * k));
+        writeText(in / "zlib.png", png);
+    }
+    {
         // A PNG cut at 70 %, within a chunk.
         const std::string png = fileContents(CAMBIUM_SOURCE_DIR "/docs/images/bush.png");
         writeText(in / "cut.png", png.substr(0, png.size() * 7 / 10));
@@ -647,6 +668,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // photos that lie
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/cut.png -o OUT/out.vdb",
          "cut.png: a truncated or damaged PNG: its chunk IDAT at byte"},
+        {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/zlib.png -o OUT/out.vdb",
+         "zlib.png: cannot read the png image: PNG read error: IDAT: incorrect data check"},
         {"bake 'IN/a\x1b[31mred\nx.json' -o OUT/out.vdb",
          "a\\x1b[31mred\\x0ax.json: cannot read the scene file"},
         // (a volume's slices were all written into one slice's room: a crash)
@@ -688,6 +711,16 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         EXPECT_NE(r.err.find(substitute(c.expected, vars)), std::string::npos) << args << "\n"
                                                                                << r.err;
         EXPECT_LT(r.err.size(), 600u) << args << ": one short message";
+        // One error line; the only other lines are progress notes of long
+        // plans (nothing a library prints on its own).
+        std::istringstream lines(r.err);
+        int errors = 0;
+        for (std::string line; std::getline(lines, line);) {
+            errors += line.rfind("cambium: error: ", 0) == 0;
+            EXPECT_TRUE(line.rfind("cambium: error: ", 0) == 0 || line.rfind("planning ", 0) == 0)
+                << args << ": a line not cambium's: " << line;
+        }
+        EXPECT_EQ(errors, 1) << args << "\n" << r.err;
         EXPECT_EQ(r.out, "") << args << ": refused before any work";
         EXPECT_EQ(snapshot(out), before) << args;
     }

@@ -7,8 +7,14 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdio>
 #include <exception>
+#include <mutex>
+#include <string>
 
 namespace {
 
@@ -33,9 +39,66 @@ std::string oneLine(const std::string& text)
     return out;
 }
 
+/// While alive, what the image libraries write to stderr themselves (libpng's
+/// default handler prints "libpng error: ..." before OpenImageIO hears of
+/// it, an unprefixed line ahead of cambium's one) goes to a memory file;
+/// afterwards their own lines are dropped (OpenImageIO's error carries
+/// them) and anything else, from other threads, is written on.
+class LibraryChatter {
+public:
+    LibraryChatter()
+    {
+        lock_ = std::unique_lock<std::mutex>(mutex());
+        std::fflush(stderr);
+        memory_ = ::memfd_create("cambium-image-stderr", MFD_CLOEXEC);
+        saved_ = memory_ >= 0 ? ::dup(2) : -1;
+        if (saved_ < 0 || ::dup2(memory_, 2) < 0) {
+            if (saved_ >= 0)
+                ::close(saved_);
+            saved_ = -1;
+        }
+    }
+    ~LibraryChatter()
+    {
+        if (saved_ >= 0) {
+            std::fflush(stderr);
+            ::dup2(saved_, 2);
+            ::close(saved_);
+            std::string text;
+            char buf[4096];
+            ssize_t n;
+            for (off_t at = 0; (n = ::pread(memory_, buf, sizeof buf, at)) > 0; at += n)
+                text.append(buf, size_t(n));
+            size_t start = 0;
+            while (start < text.size()) {
+                size_t end = text.find('\n', start);
+                end = end == std::string::npos ? text.size() : end + 1;
+                const std::string line = text.substr(start, end - start);
+                if (line.rfind("libpng ", 0) != 0 && line.rfind("libtiff ", 0) != 0)
+                    std::fputs(line.c_str(), stderr);
+                start = end;
+            }
+        }
+        if (memory_ >= 0)
+            ::close(memory_);
+    }
+    LibraryChatter(const LibraryChatter&) = delete;
+    LibraryChatter& operator=(const LibraryChatter&) = delete;
+
+private:
+    static std::mutex& mutex()
+    {
+        static std::mutex m;
+        return m;
+    }
+    std::unique_lock<std::mutex> lock_;
+    int memory_ = -1, saved_ = -1;
+};
+
 std::string decode(const std::string& path, const std::string& format, size_t maxPixels,
                    cambium::CodecImage& out)
 try {
+    const LibraryChatter quiet;
     // The format's reader alone (a name without an extension names the
     // format): OpenImageIO's search over every reader is never run.
     auto in = OIIO::ImageInput::create(format, false);
