@@ -41,9 +41,9 @@ std::string oneLine(const std::string& text)
 
 /// While alive, what the image libraries write to stderr themselves (libpng's
 /// default handler prints "libpng error: ..." before OpenImageIO hears of
-/// it, an unprefixed line ahead of cambium's one) goes to a memory file;
-/// afterwards their own lines are dropped (OpenImageIO's error carries
-/// them) and anything else, from other threads, is written on.
+/// it, an unprefixed line ahead of cambium's one) goes to a memory file,
+/// dropped: OpenImageIO's error carries it.  Nothing of cambium's is lost:
+/// only src/app writes to stderr, and only its last word on exit.
 class LibraryChatter {
 public:
     LibraryChatter()
@@ -52,9 +52,8 @@ public:
         std::fflush(stderr);
         memory_ = ::memfd_create("cambium-image-stderr", MFD_CLOEXEC);
         saved_ = memory_ >= 0 ? ::dup(2) : -1;
-        if (saved_ < 0 || ::dup2(memory_, 2) < 0) {
-            if (saved_ >= 0)
-                ::close(saved_);
+        if (saved_ >= 0 && ::dup2(memory_, 2) < 0) {
+            ::close(saved_);
             saved_ = -1;
         }
     }
@@ -64,20 +63,6 @@ public:
             std::fflush(stderr);
             ::dup2(saved_, 2);
             ::close(saved_);
-            std::string text;
-            char buf[4096];
-            ssize_t n;
-            for (off_t at = 0; (n = ::pread(memory_, buf, sizeof buf, at)) > 0; at += n)
-                text.append(buf, size_t(n));
-            size_t start = 0;
-            while (start < text.size()) {
-                size_t end = text.find('\n', start);
-                end = end == std::string::npos ? text.size() : end + 1;
-                const std::string line = text.substr(start, end - start);
-                if (line.rfind("libpng ", 0) != 0 && line.rfind("libtiff ", 0) != 0)
-                    std::fputs(line.c_str(), stderr);
-                start = end;
-            }
         }
         if (memory_ >= 0)
             ::close(memory_);
