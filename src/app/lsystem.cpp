@@ -29,8 +29,11 @@ int runLSystemCommand(const LSystemRequest& req)
 {
     const LSystem sys = loadLSystem(req.input);
     const int steps = req.steps >= 0 ? req.steps : sys.derivationLength;
+    ProgressBar bar;
     const ModuleString s =
-        derive(sys, steps, req.seed >= 0 ? uint64_t(req.seed) : sys.seed, req.maxModules);
+        derive(sys, steps, req.seed >= 0 ? uint64_t(req.seed) : sys.seed, req.maxModules,
+               [&](const char* stage, double f) { bar(stage, f); });
+    bar.clear();
     const Skeleton sk = interpretTurtle(sys, s);
     if (req.printString)
         fmt::print("{}\n", formatModules(s));

@@ -185,8 +185,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     // PoCL's first call sets up per-thread state (an alternate signal stack)
     // that must not go away with a short-lived thread.  A bad model is
     // reported before a missing device.
+    ModelOptions model = req.model;
+    model.progress = callbacks.progress;
     std::future<BlobTree> loading =
-        std::async(std::launch::async, [&req] { return loadModel(req.input, req.model); });
+        std::async(std::launch::async, [&req, &model] { return loadModel(req.input, model); });
     std::unique_ptr<FieldSampler> sampler;
     std::exception_ptr deviceError;
     try {

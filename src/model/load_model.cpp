@@ -109,7 +109,8 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     const bool lsystem = fileExtension(path) == "l";
     if (lsystem) {
         const LSystem sys = loadLSystem(path);
-        sk = interpretTurtle(sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules));
+        sk = interpretTurtle(
+            sys, derive(sys, sys.derivationLength, sys.seed, kDefaultMaxModules, o.progress));
         if (sk.internodes.empty())
             throw InputError(
                 fmt::format("{}: after {} derivation steps the string draws no internode (no F): "

@@ -5,6 +5,7 @@
 #include "blobtree/blobtree.h"
 #include "model/tree_builder.h"
 
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -31,6 +32,9 @@ struct ModelOptions {
     /// and whether to grow leaves.
     std::optional<double> time;
     bool leaves = true;
+    /// Told of long phases while a model is made (an L-system's derivation:
+    /// its stage name and the fraction done); may be empty.
+    std::function<void(const char* stage, double fraction)> progress;
 };
 /// InputError unless the options are valid (before any work).
 void checkModelOptions(const ModelOptions& options);

@@ -937,7 +937,8 @@ LSystem loadLSystem(const std::string& path)
     return parseLSystem(readTextFile(path, "L-system file"), path);
 }
 
-ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules)
+ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules,
+                    const std::function<void(const char*, double)>& progress)
 {
     if (steps < 0 || steps > kMaxSteps)
         throw InputError(fmt::format(
@@ -961,6 +962,8 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
                             "work): fewer --steps",
                             system.source, steps, kMaxRewrites));
         s = d.step(std::move(s), i, maxModules);
+        if (progress)
+            progress("deriving", double(i) / steps);
     }
     return s;
 }

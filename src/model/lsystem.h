@@ -6,6 +6,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -91,7 +92,8 @@ constexpr double kMaxRewrites = 2e9;
 /// by `seed`) when the matching productions are stochastic; modules without
 /// a production stay.  After each step `%` removes the rest of its branch
 /// (and stays, marking the cut).  InputError before a step would exceed `maxModules` modules.
-ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules);
+ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules,
+                    const std::function<void(const char*, double)>& progress = {});
 
 /// The index of the ']' that closes the branch holding module `from` (the
 /// string's size at the top level): where a cut at `from` ends.
