@@ -4,6 +4,7 @@
 #include "blobtree/stats.h"
 #include "core/error.h"
 #include "core/random.h"
+#include "core/system.h"
 #include "core/math.h"
 
 #include <fmt/format.h>
@@ -126,6 +127,12 @@ void GrowthModel::grow()
                                         trunk.length.back() + p_.minShootLength));
     branches_.push_back(std::move(trunk));
 
+    // What the growth holds per internode, measured (about 190 bytes at 10
+    // million internodes), and as much again for what is made of it: the
+    // growth stops, with the numbers, before it would need more memory than
+    // the machine has, whatever max_internodes (up to 10^9) allows.
+    constexpr double kBytesPerInternode = 400.0;
+    const double memoryInternodes = availableMemoryBytes() / kBytesPerInternode;
     long long internodes = 0;
     for (size_t bi = 0; bi < branches_.size(); ++bi) {
         {
@@ -167,6 +174,14 @@ void GrowthModel::grow()
                                     : p_.name.empty()  ? "growth parameters"
                                                        : p_.name,
                                     p_.maxInternodes, b.order, y));
+                if (double(internodes) > memoryInternodes)
+                    checkMemoryFits(
+                        double(internodes) * kBytesPerInternode,
+                        fmt::format("{}: growing more than {} internodes (reached at a branch "
+                                    "of order {} in year {})",
+                                    p_.source.empty() ? "the growth" : p_.source,
+                                    formatCount(double(internodes)), b.order, y),
+                        "raise min_scale, lower Gss or Gm, or lower max_internodes");
                 b.shoots.push_back(s);
             }
         }
