@@ -64,7 +64,12 @@ fuzz_one() {
 
 # The harnesses run one per core at a time (each is one thread): 9 of them
 # for 30 s take 2.5 min of CI on two cores, not 4.5.
-harnesses=(scene lsystem skeleton growth shape mesh vdb photo request)
+# (The harnesses are those tests/fuzz/CMakeLists.txt builds: one list.)
+harnesses=()
+for f in "$build"/tests/fuzz/fuzz_*; do
+  [ -f "$f" ] && [ -x "$f" ] && harnesses+=("${f##*/fuzz_}")
+done
+[ ${#harnesses[@]} -gt 0 ] || { echo "no fuzz harnesses in $build/tests/fuzz" >&2; exit 1; }
 for h in "${harnesses[@]}"; do
   rm -f "$build/fuzz-$h.result"
   while [ "$(jobs -rp | wc -l)" -ge "$(nproc)" ]; do wait -n || true; done
