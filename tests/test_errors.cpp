@@ -371,6 +371,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "neg.json",
               R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
+    writeText(in / "nul.json",
+              R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
               R"({"root": {"type": "sphere", "center": [1e300,0,0], "radius": 1}})");
     writeText(in / "tiny.json",
@@ -454,6 +456,20 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         openvdb::FloatGrid::Ptr flat = sphere->deepCopy();
         flat->transform().preScale(openvdb::Vec3d(1.0, 1.0, 0.5));
         openvdb::io::File((in / "flat.vdb").string()).write({flat});
+        // voxels too large to mesh (volumeToMesh wrote infinities), mirrored
+        // ones (a mesh inside out), and a float tree relabelled as vectors
+        // (decoded as vectors, then the tools spun forever)
+        openvdb::FloatGrid::Ptr huge = sphere->deepCopy();
+        huge->setTransform(openvdb::math::Transform::createLinearTransform(1e300));
+        openvdb::io::File((in / "huge.vdb").string()).write({huge});
+        openvdb::FloatGrid::Ptr mirror = sphere->deepCopy();
+        mirror->transform().preScale(openvdb::Vec3d(-1.0, 1.0, 1.0));
+        openvdb::io::File((in / "mirror.vdb").string()).write({mirror});
+        openvdb::io::File((in / "one.vdb").string()).write({sphere});
+        std::string relabelled = fileContents(in / "one.vdb");
+        for (size_t at; (at = relabelled.find("Tree_float_5_4_3")) != std::string::npos;)
+            relabelled.replace(at, 16, "Tree_vec3s_5_4_3");
+        writeText(in / "relabelled.vdb", relabelled);
         openvdb::FloatGrid::Ptr fog = openvdb::FloatGrid::create(0.0f);
         fog->setName("surface");
         fog->setGridClass(openvdb::GRID_LEVEL_SET);
@@ -518,6 +534,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/neg.json -o OUT/out.vdb", "neg.json: root.r0: must be greater than 0"},
         {"bake IN/type.json -o OUT/out.vdb",
          "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
+        // (the message ended at the NUL, its quote unclosed)
+        {"bake IN/nul.json -o OUT/out.vdb", "nul.json: root.type: unknown node type 'sph\\x00ere'"},
         {"bake IN/far.json -o OUT/out.vdb", "far.json: the model reaches 1e+300 from the origin"},
         {"bake IN/tiny.json -o OUT/out.vdb", "tiny.json: the surface is only 4e-06 across"},
         {"bake IN/empty.json -o OUT/out.vdb", "empty.json: JSON syntax error"},
@@ -663,6 +681,15 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/nan.vdb -o OUT/out.png", "nan.vdb: grid 'surface' has a voxel at (3, 4, 5)"},
         {"mesh IN/flat.vdb -o OUT/out.ply",
          "flat.vdb: grid 'surface' has voxels of 0.1 x 0.1 x 0.05: a level set's are cubes"},
+        {"mesh IN/huge.vdb -o OUT/out.ply",
+         "huge.vdb: grid 'surface' has voxels of 1e+300 x 1e+300 x 1e+300 (the transform's "
+         "determinant inf): not a usable level set"},
+        {"render IN/mirror.vdb -o OUT/out.png",
+         "mirror.vdb: grid 'surface' has voxels of 0.1 x 0.1 x 0.1 (the transform's determinant "
+         "-0.001)"},
+        {"mesh IN/relabelled.vdb -o OUT/out.ply",
+         "relabelled.vdb: grid 'surface' has the tree type Tree_vec3s_5_4_3, not a float level "
+         "set's Tree_float_5_4_3"},
         {"mesh IN/fog.vdb -o OUT/out.ply",
          "fog.vdb: grid 'surface' has the background 0, not a level set's positive half-width"},
         // photos that lie

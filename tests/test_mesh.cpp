@@ -372,6 +372,12 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
     // Points no tool can draw (Embree's build overflowed on 1e38 and aborted).
     expectRefused("l.obj", "v 0 0 0\nv 1e38 0 1\nv 0 1 0\nf 1 2 3\n",
                   "l.obj:2: vertex 2 lies 1e+38 from the origin, beyond the 1e+15");
+    // Numbers beyond a float or not numbers are named as such (they were
+    // "'v' expects 3 numbers").
+    expectRefused("l2.obj", "v 1e300 1 1\n", "l2.obj:1: vertex 1 lies 1e+300 from the origin");
+    expectRefused("l3.obj", "v 0 0 0\nv nan 0 0\n", "l3.obj:2: vertex 2 has a value nan");
+    expectRefused("l4.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
+                  "l4.obj:4: bad face corner '99999999999999999999'");
     // Lists whose counts or indices are not whole numbers, as written.
     const std::string plyFloatList =
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"

@@ -486,6 +486,14 @@ TEST(ShapeDetails, RockAmplitudesThatWouldFoldAPlaneAreRefused)
         const double safe = std::stod(e.substr(at + 14));
         EXPECT_GT(safe, 0.0);
         EXPECT_LT(safe, 0.5);
+        // Any amplitude that folds is told about the same largest one (1000
+        // was told "at most about 0").
+        const std::string huge = refusal(
+            plane + R"("details": [{"type": "rock", "amplitude": 1000, "frequency": 4, "form": ")" +
+            form + "\"}]}");
+        const size_t hugeAt = huge.find("at most about ");
+        ASSERT_NE(hugeAt, std::string::npos) << huge;
+        EXPECT_NEAR(std::stod(huge.substr(hugeAt + 14)), safe, 0.1 * safe) << huge;
         ShapeSurface s(shape(plane + R"("details": [{"type": "rock", "amplitude": )" +
                              std::to_string(0.7 * safe) + R"(, "frequency": 4, "form": ")" + form +
                              "\"}]}"));

@@ -95,8 +95,8 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     plan.fileBytes = estimateFileBytes(program, h, req.halfWidth, req.colour, req.half, req.fog);
     checkMemoryFits(
         plan.bytes * tileMemoryShare(req.tile.count),
-        fmt::format("a voxel size of {:g} for a surface {:.4g} across ({:.3g} voxels)", h,
-                    plan.extent, plan.extent / h),
+        fmt::format("{}: a voxel size of {:g} for a surface {:.4g} across ({:.3g} voxels)",
+                    req.input, h, plan.extent, plan.extent / h),
         "use a larger --voxel-size" + (req.tile.count > 0
                                            ? fmt::format(" or more than {} --tiles", req.tile.count)
                                            : std::string(" or --tiles")));

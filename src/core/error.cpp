@@ -22,6 +22,16 @@ size_t optionChoice(const std::string& value, const std::vector<std::string>& na
     throw InputError(fmt::format("{} must be {} (got '{}')", option, list, value));
 }
 
+std::string InputError::withoutNul(const std::string& text)
+{
+    if (text.find('\0') == std::string::npos)
+        return text;
+    std::string out;
+    for (const char c : text)
+        out += c == '\0' ? std::string("\\x00") : std::string(1, c);
+    return out;
+}
+
 std::string printable(const std::string& text)
 {
     std::string out;

@@ -13,7 +13,13 @@ namespace cambium {
 /// with status 2 before touching any output.
 class InputError : public std::runtime_error {
 public:
-    using std::runtime_error::runtime_error;
+    /// (A NUL the message quotes from a file is written \x00: what() is a C
+    /// string, and the rest of the line would be lost after it.)
+    explicit InputError(const std::string& what) : std::runtime_error(withoutNul(what)) {}
+    explicit InputError(const char* what) : std::runtime_error(what) {}
+
+private:
+    static std::string withoutNul(const std::string& text);
 };
 
 /// A parameter of a node that is out of its domain, raised by the BlobTree

@@ -51,6 +51,19 @@ void checkVertexValue(double v, bool coordinate, const std::string& path, size_t
                          std::abs(v), kFarthestCoordinate));
 }
 
+/// The next whitespace-separated token of `s` as a number (strtod's: "inf",
+/// "nan" and 1e300 are numbers, for the checks after to name); false when
+/// there is none or it is not a number.
+bool readNumber(std::istream& s, double& v)
+{
+    std::string token;
+    if (!(s >> token))
+        return false;
+    char* end = nullptr;
+    v = std::strtod(token.c_str(), &end);
+    return end != token.c_str() && *end == '\0';
+}
+
 /// Fans a polygon (indices into the points, checked) into triangles.  A
 /// bad one is named as the file wrote it: `written` (its indices as
 /// written), `where` (" (face 3)" for a PLY face; OBJ names the line).
@@ -85,9 +98,9 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
         if (!(s >> tag) || tag[0] == '#')
             continue;
         if (tag == "v" || tag == "vn") {
-            float x[6];
+            double x[6];
             int n = 0;
-            while (n < 6 && s >> x[n])
+            while (n < 6 && readNumber(s, x[n]))
                 ++n;
             if (n < 3 || (tag == "v" && n != 3 && n != 6) || (tag == "vn" && n != 3))
                 fail(path, line,
@@ -98,14 +111,14 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                                  tag == "v" ? fmt::format("vertex {}", m.points.size() + 1)
                                             : fmt::format("normal {}", normals.size() + 1));
             if (tag == "vn") {
-                normals.emplace_back(x[0], x[1], x[2]);
+                normals.emplace_back(float(x[0]), float(x[1]), float(x[2]));
                 continue;
             }
-            m.points.emplace_back(x[0], x[1], x[2]);
+            m.points.emplace_back(float(x[0]), float(x[1]), float(x[2]));
             if (n == 6) {
                 if (m.colors.size() + 1 != m.points.size())
                     fail(path, line, "some vertices have colours and others not");
-                m.colors.emplace_back(x[3], x[4], x[5]);
+                m.colors.emplace_back(float(x[3]), float(x[4]), float(x[5]));
             }
         } else if (tag == "f") {
             poly.clear();
@@ -114,8 +127,10 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
             while (s >> corner) {
                 // v, v/vt, v/vt/vn or v//vn; negative indices count from the end.
                 char* end = nullptr;
+                errno = 0;
                 const long v = std::strtol(corner.c_str(), &end, 10);
-                if (end == corner.c_str() || v == 0 || (*end != '\0' && *end != '/'))
+                if (end == corner.c_str() || v == 0 || errno == ERANGE ||
+                    (*end != '\0' && *end != '/'))
                     fail(path, line, fmt::format("bad face corner '{}'", corner));
                 const int64_t vi = v > 0 ? v - 1 : int64_t(m.points.size()) + v;
                 poly.push_back(vi);
@@ -315,8 +330,10 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
             auto one = [&](const PlyType& t) {
                 double v = 0.0;
                 if (ascii) {
-                    if (!(s >> v))
-                        fail(path, 0, fmt::format("element '{}' {}: too few values", e.name, item));
+                    if (!readNumber(s, v))
+                        fail(path, 0,
+                             fmt::format("element '{}' {}: too few values, or one not a number",
+                                         e.name, item));
                 } else {
                     char buf[8];
                     if (!in.read(buf, t.size))

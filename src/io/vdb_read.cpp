@@ -364,6 +364,15 @@ namespace {
 void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
 {
     const openvdb::Vec3d v = grid.voxelSize();
+    // A voxel of no size, a mirrored or a sheared one, or one beyond what
+    // --voxel-size allows (volumeToMesh crashed on a voxel size of 0 and
+    // wrote infinities for 1e300; a mirrored grid meshed inside out).
+    const double det = grid.transform().baseMap()->determinant();
+    if (!(v[0] >= 1e-9 && v[0] <= 1e9) || !std::isfinite(det) || !(det > 0.0))
+        throw InputError(fmt::format(
+            "{}: grid '{}' has voxels of {:g} x {:g} x {:g} (the transform's determinant "
+            "{:g}): not a usable level set (voxels from 1e-09 to 1e+09, not mirrored)",
+            path, grid.getName(), v[0], v[1], v[2], det));
     if (!(v[0] == v[1] && v[1] == v[2]))
         throw InputError(
             fmt::format("{}: grid '{}' has voxels of {:g} x {:g} x {:g}: a level set's "
@@ -422,6 +431,17 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
         if (checksum.valid())
             checksum.get();
     };
+    // The trees' types from the file's descriptors, before any is decoded
+    // (a surface grid relabelled Tree_vec3s was decoded as vectors from a
+    // float tree's bytes, and the tools after that spun forever).
+    for (const VdbSummary::Grid& g : summary.grids) {
+        const bool surface = g.name == grid, cd = g.name == kColorGrid && grid != kColorGrid;
+        const char* want = surface ? "Tree_float_5_4_3" : cd ? "Tree_vec3s_5_4_3" : nullptr;
+        if (want && g.type.rfind(want, 0) != 0)
+            throw InputError(fmt::format("{}: grid '{}' has the tree type {}, not a {}'s {}", path,
+                                         printable(g.name), printable(g.type),
+                                         surface ? "float level set" : "colour grid", want));
+    }
     LevelSetGrids out;
     openvdb::GridBase::Ptr g;
     try {
@@ -439,6 +459,11 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
+    if (out.color && out.color->transform() != out.surface->transform())
+        throw InputError(fmt::format(
+            "{}: grid '{}' has another transform than grid '{}' (voxels of {:g}, not {:g}): "
+            "its colours are not at the surface's voxels",
+            path, kColorGrid, grid, out.color->voxelSize()[0], out.surface->voxelSize()[0]));
     return out;
 }
 

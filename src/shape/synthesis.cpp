@@ -100,9 +100,18 @@ void checkShapeDetails(const ShapeSpec& spec, const ControlMesh& base)
     for (const DetailSpec& d : allDetails(spec)) {
         if (d.type != DetailType::Rock || d.amplitude == 0.0 || !rockFoldsOnAPlane(d, e0))
             continue;
-        // The largest amplitude that does not fold, to a few percent.
-        double lo = 0.0, hi = d.amplitude;
+        // The largest amplitude that does not fold, to a few percent: halved
+        // until it does not (an amplitude of 1000 was bisected from 0 and
+        // told "at most about 0"), then bisected.
+        double hi = d.amplitude;
         DetailSpec probe = d;
+        for (int k = 0; k < 64; ++k) {
+            probe.amplitude = 0.5 * hi;
+            if (!rockFoldsOnAPlane(probe, e0))
+                break;
+            hi = probe.amplitude;
+        }
+        double lo = 0.5 * hi;
         for (int step = 0; step < 6; ++step) {
             probe.amplitude = 0.5 * (lo + hi);
             (rockFoldsOnAPlane(probe, e0) ? hi : lo) = probe.amplitude;
