@@ -383,6 +383,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "bad.l", "Axiom: A\nA --> B(\n");
     writeText(in / "explode.l", "derivation length: 60\nAxiom: A\nA --> AA\n");
     writeText(in / "unbalanced.l", "Axiom: F[F\n");
+    writeText(in / "turnnan.l", "Axiom: F+(0/0)F\n");
+    writeText(in / "far.l", "Axiom: f(1e300)F\n");
     writeText(in / "cycle.txt", "1 2 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0 2 0 0.1 0.1\n");
     writeText(in / "self.txt", "1 1 0 0 0 0 1 0 0.1 0.1\n");
     writeText(in / "nine.txt", "1 -1 0 0 0 0 1 0 0.1\n");
@@ -549,6 +551,13 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"eval " + S + " -- nan 0 0", "eval: the point (nan, 0, 0) must have finite coordinates"},
         {"eval " + S + " -- 0 0", "point"},
         // L-systems
+        // (NaN coordinates were printed with exit 0, and the bake told
+        // "internode 0: its two ends coincide", naming no file)
+        {"lsystem IN/turnnan.l --print-skeleton",
+         "turnnan.l:1:11: '0/0' is -nan: a module's parameter must be a finite number"},
+        {"bake IN/far.l -o OUT/out.vdb",
+         "far.l: module 0 of the derived string (f(1e+300)): the turtle reaches 1e+300 from the "
+         "origin"},
         {"bake IN/bad.l -o OUT/out.vdb", "bad.l:2"},
         {"bake IN/explode.l -o OUT/out.vdb", "explode.l: derivation step"},
         {"bake IN/unbalanced.l -o OUT/out.vdb", "unbalanced.l"},

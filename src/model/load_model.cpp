@@ -121,7 +121,12 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     }
     using J = ModelOptions::Junctions;
     const J junctions = o.junctions.value_or(lsystem ? J::Pcm : J::Blend);
-    return junctions == J::Blend ? skeletonToBlend(sk) : buildTree(sk, treeOptions(o, junctions));
+    try {
+        return junctions == J::Blend ? skeletonToBlend(sk)
+                                     : buildTree(sk, treeOptions(o, junctions));
+    } catch (const InputError& e) {  // (the skeleton's own problems, named by internode)
+        throw InputError(fmt::format("{}: {}", path, e.what()));
+    }
 }
 
 }  // namespace cambium

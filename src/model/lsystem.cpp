@@ -624,8 +624,15 @@ private:
                 arity(c, args.size(), at, offset);
                 Module m;
                 m.name = c;
-                for (const auto& [a, o] : args)
-                    m.params.push_back(constant(a, at.shifted(o)));
+                for (const auto& [a, o] : args) {
+                    const double v = constant(a, at.shifted(o));
+                    if (!std::isfinite(v))  // (the derivation checks what productions make)
+                        fail(at.shifted(o), 0,
+                             fmt::format("'{}' is {}: a module's parameter must be a finite "
+                                         "number",
+                                         trim(a), v));
+                    m.params.push_back(v);
+                }
                 out.push_back(m);
             });
         return out;

@@ -230,6 +230,11 @@ private:
         if (l == 0.0)
             return;
         const glm::dvec3 p1 = t_.pos + l * t_.H;
+        const double far = std::max({std::abs(p1.x), std::abs(p1.y), std::abs(p1.z)});
+        if (!(far <= kFarthestCoordinate))  // (NaN too: a heading turned by a NaN angle)
+            throw bad(i, fmt::format("the turtle reaches {:g} from the origin, beyond the {:g} "
+                                     "cambium draws",
+                                     far, kFarthestCoordinate));
         if (!polygons_.empty()) {
             // In a polygon F and f move and record a vertex; G and g only move.
             t_.pos = p1;
