@@ -753,7 +753,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         int errors = 0;
         for (std::string line; std::getline(lines, line);) {
             errors += line.rfind("cambium: error: ", 0) == 0;
-            EXPECT_TRUE(line.rfind("cambium: error: ", 0) == 0 || line.rfind("planning ", 0) == 0)
+            EXPECT_TRUE(line.rfind("cambium: error: ", 0) == 0 || line.rfind("cambium: planning ", 0) == 0)
                 << args << ": a line not cambium's: " << line;
         }
         EXPECT_EQ(errors, 1) << args << "\n" << r.err;

@@ -144,6 +144,29 @@ TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
     }
 }
 
+TEST(LSystem, TheWorkOfContextSearchesCountsAgainstTheBound)
+{
+    // Every A looks left past every earlier [A] branch for its B: the
+    // searches grow as the square of the string, the derivation as the cube
+    // of its steps.  Counted with the rewrites, they stop at the bound.
+    const LSystem sys = parseLSystem("Axiom: BX\nX --> [A]X\nB < A --> A\n", "quad.l");
+    const ModuleString s = derive(sys, 100, 1, kDefaultMaxModules, {}, 1e6);
+    EXPECT_EQ(s.size(), 2u + 3u * 100u);  // B, the hundred [A], X
+    // Rewrites alone: 2 + 5 + ... + 302, about 15,000 over 100 steps; the
+    // searches pass about 100^3 / 6 = 170,000 modules more, and over 200
+    // steps 1.3 million: past the bound, with the rewrites (60,000) far below.
+    test::expectInputError([&] { derive(sys, 200, 1, kDefaultMaxModules, {}, 1e6); },
+                           "quad.l: derivation step ", "cubic context searches");
+    try {
+        derive(sys, 200, 1, kDefaultMaxModules, {}, 1e6);
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(": its context searches pass more than 1e+06 "
+                                             "modules in all"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(LSystem, ExpressionsNestedBeyondTheBoundAreRefusedWithTheirLine)
 {
     // Sums of 200,000 terms, 10,000 nested parentheses, 200,000 unary

@@ -150,9 +150,10 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
     const bool sequence = !request.frames.empty();
     const size_t frames = sequence ? parseFrames(request.frames).size() : 0;
     if (frames >= 100000)
-        // (A second or more: each frame's path is checked.  On
-        // stderr, with the progress bars: stdout is the report.)
-        fmt::print(stderr, "planning {} frames\n", formatCount(double(frames)));
+        // (Seconds: each frame's path is checked, and up to 64 of the
+        // frames' trees are built for the disk estimate.  On stderr, with
+        // the progress bars, as cambium's: stdout is the report.)
+        fmt::print(stderr, "cambium: planning {} frames\n", formatCount(double(frames)));
     const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
     if (o->slurm.slurm && !sequence && !tiled)
         throw InputError(

@@ -773,6 +773,7 @@ public:
             for (;;) {
                 if (k < 0)
                     return false;
+                spend();
                 const char c = s[size_t(k)].name;
                 if (c == ']' && match[size_t(k)] >= 0)
                     k = match[size_t(k)] - 1;  // a whole branch to the left: not an ancestor
@@ -797,6 +798,7 @@ public:
             for (;;) {
                 if (k >= s.size())
                     return false;
+                spend();
                 const char c = s[k].name;
                 if (c == '[' && match[k] >= 0)
                     k = size_t(match[k]) + 1;  // a lateral branch: skipped
@@ -814,6 +816,18 @@ public:
         }
         return true;
     }
+
+    /// The context searches' budget: each module a search passes counts as
+    /// a rewrite, against what kMaxRewrites leaves (`B < A` over a string of
+    /// many `[A]` branches skips them all for every A: cubic in the steps,
+    /// hours from 56 bytes).
+    void setBudget(double modules, int stepNo, double limit)
+    {
+        budget_ = modules;
+        stepNo_ = stepNo;
+        limit_ = limit;
+    }
+    double budgetLeft() const { return budget_; }
 
     /// The next string; `s` is consumed (its unrewritten modules are moved,
     /// not copied: a long string of which a few modules change costs what
@@ -925,8 +939,21 @@ public:
     }
 
 private:
+    void spend() const
+    {
+        if (--budget_ < 0.0)
+            throw InputError(fmt::format(
+                "{}: derivation step {}: its context searches pass more than {:g} modules in "
+                "all, with the rewrites (minutes of work): fewer --steps, or contexts that skip "
+                "fewer branches",
+                sys_.source, stepNo_, limit_));
+    }
+
     const LSystem& sys_;
     Rng rng_;
+    mutable double budget_ = kMaxRewrites;
+    int stepNo_ = 0;
+    double limit_ = kMaxRewrites;
     std::vector<std::pair<const Production*, std::vector<double>>> chosen_;
     ModuleString spare_;  ///< the string before last, its room for the next
     std::vector<long> match_, stack_;
@@ -945,7 +972,7 @@ LSystem loadLSystem(const std::string& path)
 }
 
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules,
-                    const std::function<void(const char*, double)>& progress)
+                    const std::function<void(const char*, double)>& progress, double maxRewrites)
 {
     if (steps < 0 || steps > kMaxSteps)
         throw InputError(fmt::format(
@@ -963,12 +990,14 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
     double rewrites = 0.0;
     for (int i = 1; i <= steps; ++i) {
         rewrites += double(s.size());
-        if (rewrites > kMaxRewrites)
+        if (rewrites > maxRewrites)
             throw InputError(
                 fmt::format("{}: {} steps would rewrite more than {:g} modules in all (minutes of "
                             "work): fewer --steps",
-                            system.source, steps, kMaxRewrites));
+                            system.source, steps, maxRewrites));
+        d.setBudget(maxRewrites - rewrites, i, maxRewrites);
         s = d.step(std::move(s), i, maxModules);
+        rewrites = maxRewrites - d.budgetLeft();  // (with the context searches)
         if (progress)
             progress("deriving", double(i) / steps);
     }

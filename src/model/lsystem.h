@@ -92,8 +92,11 @@ constexpr double kMaxRewrites = 2e9;
 /// by `seed`) when the matching productions are stochastic; modules without
 /// a production stay.  After each step `%` removes the rest of its branch
 /// (and stays, marking the cut).  InputError before a step would exceed `maxModules` modules.
+/// `progress` is told of each step; `maxRewrites` bounds the work (module
+/// rewrites and the modules context searches pass) of the whole derivation.
 ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxModules,
-                    const std::function<void(const char*, double)>& progress = {});
+                    const std::function<void(const char*, double)>& progress = {},
+                    double maxRewrites = kMaxRewrites);
 
 /// The index of the ']' that closes the branch holding module `from` (the
 /// string's size at the top level): where a cut at `from` ends.
