@@ -626,7 +626,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake " + S + " -o /dev/null", "/dev/null: is a character device"},
         {"bake IN/bad.l -o IN/bad.l", "bad.l: unknown output format '.l' (use .vdb)"},
         {"bake " + S + " -o OUT/x.png", "x.png: unknown output format '.png' (use .vdb)"},
-        {"bake " + S + " -o OUT/noext", "noext: unknown output format '.' (use .vdb)"},
+        {"bake " + S + " -o OUT/noext",
+         "noext: the name has no extension to tell the output format (use .vdb)"},
+        {"info IN/index.obj", "index.obj: a mesh file, not a model"},
         {"bake IN/model.json -o IN/model.vdb", "model.vdb: is the input"},
         {"mesh IN/trunc90.vdb -o IN/alias.ply", "alias.ply: is the input"},
         {"render IN/flipped.vdb -o IN/alias.png", "alias.png: is the input"},
@@ -753,7 +755,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         int errors = 0;
         for (std::string line; std::getline(lines, line);) {
             errors += line.rfind("cambium: error: ", 0) == 0;
-            EXPECT_TRUE(line.rfind("cambium: error: ", 0) == 0 || line.rfind("cambium: planning ", 0) == 0)
+            EXPECT_TRUE(line.rfind("cambium: error: ", 0) == 0 ||
+                        line.rfind("cambium: planning ", 0) == 0)
                 << args << ": a line not cambium's: " << line;
         }
         EXPECT_EQ(errors, 1) << args << "\n" << r.err;

@@ -730,6 +730,9 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
     std::string list;
     for (size_t i = 0; i < allowed.size(); ++i)
         list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
+    if (ext.empty())
+        throw InputError(fmt::format("{}: the name has no extension to tell the {} format (use {})",
+                                     path, kind, list));
     throw InputError(fmt::format("{}: unknown {} format '.{}' (use {})", path, kind, ext, list));
 }
 

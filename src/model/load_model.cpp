@@ -105,6 +105,11 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     }
     if (fileExtension(path) == "json")
         return loadScene(path);
+    if (fileExtension(path) == "obj" || fileExtension(path) == "ply")
+        throw InputError(fmt::format(
+            "{}: a mesh file, not a model (scene .json, L-system .l, skeleton or growth file): "
+            "`cambium render --mesh` draws it, a shape's \"mesh\" base bakes it",
+            path));
     Skeleton sk;
     const bool lsystem = fileExtension(path) == "l";
     if (lsystem) {
