@@ -375,6 +375,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
               R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
               R"({"root": {"type": "sphere", "center": [1e300,0,0], "radius": 1}})");
+    writeText(in / "vast.json",
+              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e14}})");
     writeText(in / "tiny.json",
               R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1e-6}})");
     writeText(in / "empty.json", "");
@@ -539,6 +541,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // (the message ended at the NUL, its quote unclosed)
         {"bake IN/nul.json -o OUT/out.vdb", "nul.json: root.type: unknown node type 'sph\\x00ere'"},
         {"bake IN/far.json -o OUT/out.vdb", "far.json: the model reaches 1e+300 from the origin"},
+        {"bake IN/vast.json -o OUT/out.vdb",
+         "vast.json: the surface is 4e+14 across: 512 voxels across it would be larger than 1e+09"},
         {"bake IN/tiny.json -o OUT/out.vdb", "tiny.json: the surface is only 4e-06 across"},
         {"bake IN/empty.json -o OUT/out.vdb", "empty.json: JSON syntax error"},
         {"bake IN/binary.json -o OUT/out.vdb", "binary.json: a binary file, not a scene file"},

@@ -78,6 +78,11 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                 fmt::format("{}: the surface is only {:.3g} across: 512 voxels across it would be "
                             "smaller than {:g}; scale the model up",
                             req.input, plan.extent, kMinVoxelSize));
+        if (!(plan.voxelSize <= kMaxVoxelSize))
+            throw InputError(
+                fmt::format("{}: the surface is {:.3g} across: 512 voxels across it would be "
+                            "larger than {:g}; scale the model down",
+                            req.input, plan.extent, kMaxVoxelSize));
     }
     const double h = plan.voxelSize;
     // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
