@@ -6,6 +6,9 @@
 #include "core/system.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
+#include <sys/wait.h>
+#include <sys/resource.h>
 
 #include <cmath>
 #include <cstdio>
@@ -45,6 +48,40 @@ TEST(System, ByteSizesReadInTheUnitsTheyArePrintedIn)
         EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos);
         EXPECT_NE(std::string(e.what()).find("12X"), std::string::npos);
     }
+}
+
+TEST(System, TheRoomLeftIsTheLeastOfTheMachineUlimitAndCgroup)
+{
+    MemoryLimits m;
+    m.available = 8e9;
+    EXPECT_EQ(m.room(), 8e9);  // no limits set
+    m.addressSpaceLimit = 6e9;
+    m.addressSpaceUsed = 1e9;
+    EXPECT_EQ(m.room(), 5e9);  // ulimit -v 6 GB, 1 GB mapped
+    m.cgroupMax = 4e9;
+    m.cgroupCurrent = 3e9;
+    EXPECT_EQ(m.room(), 1e9);  // a job's allocation of 4 GB, 3 GB in use
+    m.cgroupCurrent = 5e9;
+    EXPECT_EQ(m.room(), 0.0);
+    // This process under an address-space limit 1 GB above what it maps:
+    // about 1 GB of room, whatever the machine has (a shape past `ulimit -v`
+    // was accepted, then ran out of memory after 27 s).
+    const pid_t child = ::fork();
+    if (child == 0) {
+        const MemoryLimits now = memoryLimits();
+        const rlimit limit{rlim_t(now.addressSpaceUsed + 64e6 + 1e9),
+                           rlim_t(now.addressSpaceUsed + 64e6 + 1e9)};
+        if (now.addressSpaceLimit < HUGE_VAL || ::setrlimit(RLIMIT_AS, &limit) != 0)
+            ::_exit(3);
+        const double room = availableMemoryBytes();
+        ::_exit(room > 0.7e9 && room < 1.3e9 ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status));
+    if (WEXITSTATUS(status) == 3)
+        GTEST_SKIP() << "an address-space limit is set already";
+    EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
 TEST(System, WorkThatWouldNotFitIsRefusedWithItsNumbers)

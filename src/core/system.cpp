@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -20,16 +21,63 @@
 
 namespace cambium {
 
+double MemoryLimits::room() const
+{
+    return std::max(0.0, std::min({available, addressSpaceLimit - addressSpaceUsed,
+                                   cgroupMax - cgroupCurrent}));
+}
+
+namespace {
+
+/// The number a one-line file holds ("max" or unreadable: +infinity).
+double numberInFile(const std::string& path)
+{
+    std::ifstream in(path);
+    double v;
+    return in >> v ? v : HUGE_VAL;
+}
+
+}  // namespace
+
+MemoryLimits memoryLimits()
+{
+    MemoryLimits m;
+    m.available = double(::sysconf(_SC_AVPHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+    {
+        std::ifstream in("/proc/meminfo");
+        std::string key, unit;
+        double kb;
+        while (in >> key >> kb >> unit)
+            if (key == "MemAvailable:") {
+                m.available = kb * 1024.0;
+                break;
+            }
+    }
+    rlimit as{};
+    if (::getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY) {
+        m.addressSpaceLimit = double(as.rlim_cur);
+        std::ifstream statm("/proc/self/statm");
+        double pages = 0.0;
+        if (statm >> pages)
+            m.addressSpaceUsed = pages * double(::sysconf(_SC_PAGESIZE));
+    }
+    // cgroup v2: "0::/PATH" names this process's group under /sys/fs/cgroup.
+    std::ifstream groups("/proc/self/cgroup");
+    for (std::string line; std::getline(groups, line);)
+        if (line.rfind("0::", 0) == 0) {
+            const std::string dir = "/sys/fs/cgroup" + line.substr(3);
+            m.cgroupMax = numberInFile(dir + "/memory.max");
+            if (std::isfinite(m.cgroupMax)) {
+                const double current = numberInFile(dir + "/memory.current");
+                m.cgroupCurrent = std::isfinite(current) ? current : 0.0;
+            }
+        }
+    return m;
+}
+
 double availableMemoryBytes()
 {
-    std::ifstream in("/proc/meminfo");
-    std::string key;
-    double kb;
-    std::string unit;
-    while (in >> key >> kb >> unit)
-        if (key == "MemAvailable:")
-            return kb * 1024.0;
-    return double(::sysconf(_SC_AVPHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+    return memoryLimits().room();
 }
 
 double peakMemoryBytes()

@@ -7,9 +7,23 @@
 
 #include <tbb/global_control.h>
 
+#include <cmath>
+
 namespace cambium {
 
-/// Bytes of memory available to this process (MemAvailable).
+/// What limits a process's memory: the machine's MemAvailable, the address
+/// space left under `ulimit -v` (its limit less what is mapped already),
+/// and its cgroup's room (memory.max less memory.current: a Slurm job's
+/// allocation).  A limit that is not set is +infinity.
+struct MemoryLimits {
+    double available = 0.0;
+    double addressSpaceLimit = HUGE_VAL, addressSpaceUsed = 0.0;
+    double cgroupMax = HUGE_VAL, cgroupCurrent = 0.0;
+    /// The least of them: the bytes this process may still take.
+    double room() const;
+};
+MemoryLimits memoryLimits();
+/// Bytes of memory available to this process: memoryLimits().room().
 double availableMemoryBytes();
 /// InputError "WHAT needs about BYTES of memory, and this machine has
 /// AVAILABLE available[: REMEDY]" unless `bytes` (an estimate; NaN fails)
