@@ -166,7 +166,7 @@ TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
         {"mesh " + vdb + " -o " + (dir / "d.ply").string(), "d.ply: is a directory"},
         {"bake " + kScene + " -o " + dir.string(), ": is a directory"},
         {"bake " + kScene + " -o ''", "-o: the output path is empty"},
-        {"mesh " + vdb + " -o ''", "unknown mesh format"},
+        {"mesh " + vdb + " -o ''", "the mesh file's path is empty (use .obj or .ply)"},
     };
     const auto before = snapshot(dir);
     for (const auto& [args, expected] : cases) {

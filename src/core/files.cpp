@@ -730,6 +730,8 @@ std::string fileFormat(const std::string& path, const std::vector<std::string>& 
     std::string list;
     for (size_t i = 0; i < allowed.size(); ++i)
         list += (i == 0 ? "." : (i + 1 == allowed.size() ? " or ." : ", .")) + allowed[i];
+    if (path.empty())
+        throw InputError(fmt::format("the {} file's path is empty (use {})", kind, list));
     if (ext.empty())
         throw InputError(fmt::format("{}: the name has no extension to tell the {} format (use {})",
                                      path, kind, list));
