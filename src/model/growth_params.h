@@ -16,7 +16,7 @@ namespace cambium {
 
 struct GrowthParameters {
     std::string name;
-    std::string source;  ///< the file (or text) read, for messages
+    std::string source;             ///< the file (or text) read, for messages
     int years = 27;                 ///< y_max: the tree's last year
     uint64_t seed = 1;              ///< stochastic orientation
     double trunkLength = 20.0;      ///< the trunk's length at y_max: l_y = trunkLength * Gh(t_y)
