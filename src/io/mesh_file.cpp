@@ -39,10 +39,15 @@ namespace {
 
 /// Refuses a vertex value that is not finite, or a coordinate beyond
 /// kFarthestCoordinate (no tool here draws, meshes or bakes one; Embree's
-/// builds overflow on them).  `vertex` names it as the file counts.
+/// builds overflow on them).  `name()` names the vertex as the file counts
+/// (made only for a message: this runs for every value of a mesh).
+template <class Name>
 void checkVertexValue(double v, bool coordinate, const std::string& path, size_t line,
-                      const std::string& vertex)
+                      const Name& name)
 {
+    if (std::isfinite(v) && (!coordinate || std::abs(v) <= kFarthestCoordinate))
+        return;
+    const std::string vertex = name();
     if (!std::isfinite(v))
         fail(path, line, fmt::format("{} has a value {} (not a finite number)", vertex, v));
     if (coordinate && std::abs(v) > kFarthestCoordinate)
@@ -107,9 +112,10 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
                      fmt::format("'{}' expects 3 numbers{}", tag,
                                  tag == "v" ? " (or 6 with a colour)" : ""));
             for (int k = 0; k < n; ++k)
-                checkVertexValue(x[k], tag == "v" && k < 3, path, line,
-                                 tag == "v" ? fmt::format("vertex {}", m.points.size() + 1)
-                                            : fmt::format("normal {}", normals.size() + 1));
+                checkVertexValue(x[k], tag == "v" && k < 3, path, line, [&] {
+                    return tag == "v" ? fmt::format("vertex {}", m.points.size() + 1)
+                                      : fmt::format("normal {}", normals.size() + 1);
+                });
             if (tag == "vn") {
                 normals.emplace_back(float(x[0]), float(x[1]), float(x[2]));
                 continue;
@@ -367,8 +373,9 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
         }
         if (e.name == "vertex") {
             for (size_t k = 0; k < values.size(); ++k)
-                checkVertexValue(values[k], int(k) == x || int(k) == y || int(k) == z, path, 0,
-                                 fmt::format("vertex {} ('{}')", item, e.properties[k].name));
+                checkVertexValue(
+                    values[k], int(k) == x || int(k) == y || int(k) == z, path, 0,
+                    [&] { return fmt::format("vertex {} ('{}')", item, e.properties[k].name); });
             m.points.emplace_back(float(values[size_t(x)]), float(values[size_t(y)]),
                                   float(values[size_t(z)]));
             if (nx >= 0 && ny >= 0 && nz >= 0)
