@@ -409,6 +409,46 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
                   "ply\nformat ascii 1.0\nelement vertex 18446744073709551616\nend_header\n",
                   "element 'vertex' has count '18446744073709551616'");
     EXPECT_THROW(readMesh("/nonexistent/m.obj"), InputError);
+    // A NUL byte ended the corner for strtol, which took "2\0junk" as 2.
+    static const char nul[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\0junk 3\n";
+    expectRefused("t.obj", std::string(nul, sizeof nul - 1),
+                  "t.obj:4: the line holds a NUL byte");
+    // PLY versions other than 1.0, and a property or mesh element twice
+    // (which x is the vertex's?), are refused by their header line.
+    expectRefused("u.ply", "ply\nformat ascii 2.0\nend_header\n",
+                  "u.ply:2: PLY version '2.0' is not read (1.0 is)");
+    expectRefused("v.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float "
+                  "y\nproperty double x\nend_header\n",
+                  "v.ply:6: element 'vertex' has a second property 'x'");
+    expectRefused("w.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 0\nelement vertex 0\nend_header\n",
+                  "w.ply:4: a second 'vertex' element");
+    expectRefused("x.ply", "ply\rformat ascii 1.0\r", "x.ply:1: the line ends with a lone carriage");
+}
+
+TEST(Mesh, ObjLinesEndAsAnyEditorEndsThem)
+{
+    // LF, CRLF and old Mac CR files, and a UTF-8 byte-order mark (Windows
+    // editors write one), all read as the same cube; the bare CR file was
+    // read as one line, a mesh of one vertex and no faces.
+    std::string crlf, cr;
+    for (const char* c = kCubeObj; *c; ++c) {
+        crlf += *c == '\n' ? std::string("\r\n") : std::string(1, *c);
+        cr += *c == '\n' ? '\r' : *c;
+    }
+    for (const auto& [name, text] : {std::pair<std::string, std::string>{"lf.obj", kCubeObj},
+                                     {"crlf.obj", crlf},
+                                     {"cr.obj", cr},
+                                     {"bom.obj", "\xEF\xBB\xBF" + std::string(kCubeObj)}}) {
+        const TriangleMesh m = readText(name, text);
+        EXPECT_EQ(m.points.size(), 8u) << name;
+        EXPECT_EQ(m.triangles.size(), 12u) << name;
+        EXPECT_NEAR(meshVolume(m), 1.0, 1e-9) << name;
+    }
+    // Lines are counted across bare CRs as an editor shows them.
+    std::string bad = "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 4\r";
+    test::expectInputError([&] { readText("y.obj", bad); }, "y.obj:4: vertex index 4", "y.obj");
 }
 
 }  // namespace

@@ -69,6 +69,54 @@ bool readNumber(std::istream& s, double& v)
     return end != token.c_str() && *end == '\0';
 }
 
+/// The lines of a text file (an OBJ, a PLY header or ASCII body), counted
+/// from 1: a line ends at LF, CRLF or, where `bareCr`, a lone CR (old Mac
+/// files); a UTF-8 byte-order mark before the first line is read past.  A
+/// NUL byte is refused with its line: a text line holds none, and strtol
+/// and strtod would stop at it and take what went before as the value.
+class TextLines {
+public:
+    TextLines(std::istream& in, const std::string& path, bool bareCr)
+        : in_(in), path_(path), bareCr_(bareCr)
+    {}
+    bool next(std::string& text)
+    {
+        if (!more_) {
+            if (!std::getline(in_, chunk_))
+                return false;
+            if (!chunk_.empty() && chunk_.back() == '\r')
+                chunk_.pop_back();
+            if (line_ == 0 && chunk_.rfind("\xEF\xBB\xBF", 0) == 0)
+                chunk_.erase(0, 3);
+            pos_ = 0;
+            more_ = true;
+        }
+        ++line_;
+        const size_t cr = chunk_.find('\r', pos_);
+        if (cr == std::string::npos) {
+            text.assign(chunk_, pos_, std::string::npos);
+            more_ = false;
+        } else {
+            if (!bareCr_)
+                fail(path_, line_, "the line ends with a lone carriage return (lines end with LF)");
+            text.assign(chunk_, pos_, cr - pos_);
+            pos_ = cr + 1;
+        }
+        if (text.find('\0') != std::string::npos)
+            fail(path_, line_, "the line holds a NUL byte (a text file has none)");
+        return true;
+    }
+    size_t line() const { return line_; }
+
+private:
+    std::istream& in_;
+    const std::string& path_;
+    bool bareCr_;
+    std::string chunk_;
+    size_t pos_ = 0, line_ = 0;
+    bool more_ = false;
+};
+
 /// Fans a polygon (indices into the points, checked) into triangles.  A
 /// bad one is named as the file wrote it: `written` (its indices as
 /// written), `where` (" (face 3)" for a PLY face; OBJ names the line).
@@ -94,10 +142,10 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
     std::vector<openvdb::math::Vec3s> normals;
     std::vector<std::pair<size_t, int64_t>> cornerNormals;  // (point, normal) pairs from the faces
     std::string text;
-    size_t line = 0;
+    TextLines lines(in, path, true);
     std::vector<int64_t> poly, written;
-    while (std::getline(in, text)) {
-        ++line;
+    while (lines.next(text)) {
+        const size_t line = lines.line();
         std::istringstream s(text);
         std::string tag;
         if (!(s >> tag) || tag[0] == '#')
@@ -222,31 +270,31 @@ struct PlyHeader {
     std::vector<PlyElement> elements;
 };
 
-PlyHeader readPlyHeader(std::istream& in, const std::string& path)
+PlyHeader readPlyHeader(TextLines& lines, const std::string& path)
 {
     PlyHeader h;
     std::string text;
-    size_t line = 0;
-    if (!std::getline(in, text) || text.rfind("ply", 0) != 0)
-        fail(path, 1, "not a PLY file (it does not start with 'ply')");
-    ++line;
+    if (!lines.next(text) || text != "ply")
+        fail(path, 1, "not a PLY file (its first line is not 'ply')");
     while (true) {
-        if (!std::getline(in, text))
-            fail(path, line, "the header has no end_header");
-        ++line;
-        if (!text.empty() && text.back() == '\r')
-            text.pop_back();
+        if (!lines.next(text))
+            fail(path, lines.line(), "the header has no end_header");
+        const size_t line = lines.line();
         std::istringstream s(text);
         std::string tag;
         s >> tag;
         if (tag == "end_header")
             break;
         if (tag == "format") {
-            s >> h.format;
+            std::string version;
+            s >> h.format >> version;
             if (h.format != "ascii" && h.format != "binary_little_endian")
                 fail(path, line,
                      fmt::format("PLY format '{}' is not read (ascii and binary_little_endian are)",
-                                 h.format));
+                                 printable(h.format)));
+            if (version != "1.0")
+                fail(path, line,
+                     fmt::format("PLY version '{}' is not read (1.0 is)", printable(version)));
         } else if (tag == "element") {
             PlyElement e;
             std::string count;
@@ -260,6 +308,10 @@ PlyHeader readPlyHeader(std::istream& in, const std::string& path)
                 fail(path, line,
                      fmt::format("element '{}' has count '{}' (not a whole number of items)",
                                  printable(e.name), printable(count)));
+            for (const PlyElement& before : h.elements)
+                if (before.name == e.name && (e.name == "vertex" || e.name == "face"))
+                    fail(path, line,
+                         fmt::format("a second '{}' element (a mesh has one)", e.name));
             h.elements.push_back(e);
         } else if (tag == "property") {
             if (h.elements.empty())
@@ -276,20 +328,26 @@ PlyHeader readPlyHeader(std::istream& in, const std::string& path)
                 p.type = plyType(type, path, line);
             if (!(s >> p.name))
                 fail(path, line, "a property without a name");
-            h.elements.back().properties.push_back(p);
+            PlyElement& e = h.elements.back();
+            for (const PlyProperty& before : e.properties)
+                if (before.name == p.name)
+                    fail(path, line,
+                         fmt::format("element '{}' has a second property '{}'", printable(e.name),
+                                     printable(p.name)));
+            e.properties.push_back(p);
         }
         // comment, obj_info: nothing to do.
     }
     if (h.format.empty())
-        fail(path, line, "the header has no format line");
+        fail(path, lines.line(), "the header has no format line");
     return h;
 }
 
 /// Reads the items of element `e` (ASCII lines or binary records) into `m`:
 /// the vertices' positions, normals and colours, the faces' polygons; the
 /// values of other elements are read past.
-void readPlyElement(std::istream& in, const std::string& path, const PlyElement& e, bool ascii,
-                    TriangleMesh& m)
+void readPlyElement(std::istream& in, TextLines& lines, const std::string& path,
+                    const PlyElement& e, bool ascii, TriangleMesh& m)
 {
     std::string text;
     std::vector<double> values;
@@ -325,7 +383,7 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
         poly.clear();
         std::istringstream s;
         if (ascii) {
-            if (!std::getline(in, text))
+            if (!lines.next(text))
                 fail(path, 0,
                      fmt::format("the file ends inside element '{}' ({} of {})", e.name, item,
                                  e.count));
@@ -395,11 +453,12 @@ void readPlyElement(std::istream& in, const std::string& path, const PlyElement&
 
 TriangleMesh readPly(std::istream& in, const std::string& path)
 {
-    const PlyHeader h = readPlyHeader(in, path);
+    TextLines lines(in, path, false);
+    const PlyHeader h = readPlyHeader(lines, path);
     TriangleMesh m;
     const bool ascii = h.format == "ascii";
     for (const PlyElement& e : h.elements)
-        readPlyElement(in, path, e, ascii, m);
+        readPlyElement(in, lines, path, e, ascii, m);
     return m;
 }
 
