@@ -411,8 +411,7 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
     EXPECT_THROW(readMesh("/nonexistent/m.obj"), InputError);
     // A NUL byte ended the corner for strtol, which took "2\0junk" as 2.
     static const char nul[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\0junk 3\n";
-    expectRefused("t.obj", std::string(nul, sizeof nul - 1),
-                  "t.obj:4: the line holds a NUL byte");
+    expectRefused("t.obj", std::string(nul, sizeof nul - 1), "t.obj:4: the line holds a NUL byte");
     // PLY versions other than 1.0, and a property or mesh element twice
     // (which x is the vertex's?), are refused by their header line.
     expectRefused("u.ply", "ply\nformat ascii 2.0\nend_header\n",
@@ -424,7 +423,8 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
     expectRefused("w.ply",
                   "ply\nformat ascii 1.0\nelement vertex 0\nelement vertex 0\nend_header\n",
                   "w.ply:4: a second 'vertex' element");
-    expectRefused("x.ply", "ply\rformat ascii 1.0\r", "x.ply:1: the line ends with a lone carriage");
+    expectRefused("x.ply", "ply\rformat ascii 1.0\r",
+                  "x.ply:1: the line ends with a lone carriage");
 }
 
 TEST(Mesh, ObjLinesEndAsAnyEditorEndsThem)

@@ -78,7 +78,8 @@ class TextLines {
 public:
     TextLines(std::istream& in, const std::string& path, bool bareCr)
         : in_(in), path_(path), bareCr_(bareCr)
-    {}
+    {
+    }
     bool next(std::string& text)
     {
         if (!more_) {
@@ -310,8 +311,7 @@ PlyHeader readPlyHeader(TextLines& lines, const std::string& path)
                                  printable(e.name), printable(count)));
             for (const PlyElement& before : h.elements)
                 if (before.name == e.name && (e.name == "vertex" || e.name == "face"))
-                    fail(path, line,
-                         fmt::format("a second '{}' element (a mesh has one)", e.name));
+                    fail(path, line, fmt::format("a second '{}' element (a mesh has one)", e.name));
             h.elements.push_back(e);
         } else if (tag == "property") {
             if (h.elements.empty())
