@@ -393,6 +393,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "nanr.txt", "1 -1 0 0 0 0 1 0 nan 0.1\n");
     writeText(in / "negr.txt", "1 -1 0 0 0 0 1 0 -0.1 0.1\n");
     writeText(in / "twice.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n1 -1 0 0 0 0 1 0 0.1 0.1\n");
+    writeText(in / "point.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0 1 0 0.1 0.05\n");
     writeText(in / "orphan.txt", "1 7 0 0 0 0 1 0 0.1 0.1\n");
     std::string growth = fileContents(kPopulus);
     writeText(in / "growth_dup.json", "{\"years\": 3, " + growth.substr(growth.find('{') + 1));
@@ -579,6 +580,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/nanr.txt -o OUT/out.vdb", "nanr.txt:1: r0 is not a finite number"},
         {"bake IN/negr.txt -o OUT/out.vdb", "negr.txt:1: r0 must be greater than 0"},
         {"bake IN/twice.txt -o OUT/out.vdb", "twice.txt:2: id 1 appears twice"},
+        {"bake IN/point.txt -o OUT/out.vdb",
+         "point.txt:2: internode 2 has no length (its two points are the same)"},
         {"bake IN/orphan.txt -o OUT/out.vdb",
          "orphan.txt:1: internode 1 has parent 7, which is not in the file"},
         // growth parameter files and their options

@@ -136,6 +136,18 @@ INSTANTIATE_TEST_SUITE_P(
             R"({"root": {"type": "transform", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,0,0],[0,0,0,1]], "children": [)" CONE(
                 "") "]}}",
             "root.matrix: is singular"},
+        // A scale whose determinant overflows is named as the scale it is
+        // (it was "root.matrix: is singular").
+        BadCase{R"({"root": {"type": "transform", "scale": 1e300, "children": [)" CONE("") "]}}",
+                "root.scale: 1e+300 is beyond the scales cambium bakes (1e-15 to 1e+15)"},
+        BadCase{
+            R"({"root": {"type": "transform", "matrix": [[1,0,0,1e20],[0,1,0,0],[0,0,1,0],[0,0,0,1]], "children": [)" CONE(
+                "") "]}}",
+            "root.matrix: has an entry 1e+20, beyond the 1e+15 cambium bakes"},
+        // A cone of no length has no axis, and no one radius: refused (a
+        // capsule of no length is a sphere and stays).
+        BadCase{R"({"root": {"type": "cone", "p0": [1,2,3], "p1": [1,2,3], "r0": 0.3, "r1": 0.1}})",
+                "root.p1: is equal to p0: a cone needs a length"},
         BadCase{
             R"({"root": {"type": "convolution_segment", "p0": [0,0,0], "p1": [0,0,0], "r0": 0.1, "r1": 0.1}})",
             "root.p1: is equal to p0"},

@@ -2,6 +2,7 @@
 #include "blobtree/blobtree.h"
 
 #include "core/error.h"
+#include "core/math.h"
 
 #include "cb_primitives.h"
 
@@ -334,6 +335,12 @@ int BlobTree::transform(const glm::dmat4& m, int child)
         for (int r = 0; r < 4; ++r)
             if (!std::isfinite(m[c][r]))
                 throw ParameterError("matrix", "must have finite entries");
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 3; ++r)
+            if (std::abs(m[c][r]) > kFarthestCoordinate)
+                throw ParameterError("matrix",
+                                     fmt::format("has an entry {:g}, beyond the {:g} cambium bakes",
+                                                 m[c][r], kFarthestCoordinate));
     if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
         throw ParameterError("matrix", "must be affine (last row 0 0 0 1)");
     const glm::dmat3 a(m);

@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "core/json.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 
@@ -245,6 +246,11 @@ private:
             const glm::dvec3 v = s.is_number() ? glm::dvec3(number(s, spath)) : vec3(s, spath);
             if (v.x == 0.0 || v.y == 0.0 || v.z == 0.0)
                 fail(spath, "must not be 0: a transform must be invertible");
+            for (double f : {v.x, v.y, v.z})
+                if (!(std::abs(f) >= 1.0 / kFarthestCoordinate &&
+                      std::abs(f) <= kFarthestCoordinate))
+                    fail(spath, fmt::format("{:g} is beyond the scales cambium bakes ({:g} to {:g})",
+                                            f, 1.0 / kFarthestCoordinate, kFarthestCoordinate));
             m = glm::scale(m, v);
         }
         return m;
@@ -280,6 +286,9 @@ private:
                     o.weight = optNumber(j, "weight", path).value_or(1.0);
                     o.support = optNumber(j, "support", path);
                     const glm::dvec3 p0 = reqVec3(j, "p0", path), p1 = reqVec3(j, "p1", path);
+                    if (t == NodeType::CONE && p0 == p1)
+                        fail(jsonPath(path, "p1"), "is equal to p0: a cone needs a length (a "
+                                                   "point's field is the 'sphere' type)");
                     index = t == NodeType::SEGMENT
                                 ? tree_.segment(p0, p1, reqNumber(j, "radius", path), o)
                                 : tree_.cone(p0, p1, reqNumber(j, "r0", path),

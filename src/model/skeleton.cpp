@@ -70,6 +70,10 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
             if (!(v[k] > 0.0))
                 throw InputError(fmt::format("{}:{}: {} must be greater than 0 (got {})", source,
                                              lineNo, fields[k], v[k]));
+        if (n.p0 == n.p1)
+            throw InputError(fmt::format(
+                "{}:{}: internode {} has no length (its two points are the same)", source, lineNo,
+                n.id));
         s.internodes.push_back(n);
         lines.push_back(lineNo);
     }
