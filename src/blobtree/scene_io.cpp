@@ -249,8 +249,9 @@ private:
             for (double f : {v.x, v.y, v.z})
                 if (!(std::abs(f) >= 1.0 / kFarthestCoordinate &&
                       std::abs(f) <= kFarthestCoordinate))
-                    fail(spath, fmt::format("{:g} is beyond the scales cambium bakes ({:g} to {:g})",
-                                            f, 1.0 / kFarthestCoordinate, kFarthestCoordinate));
+                    fail(spath,
+                         fmt::format("{:g} is beyond the scales cambium bakes ({:g} to {:g})", f,
+                                     1.0 / kFarthestCoordinate, kFarthestCoordinate));
             m = glm::scale(m, v);
         }
         return m;
@@ -287,8 +288,9 @@ private:
                     o.support = optNumber(j, "support", path);
                     const glm::dvec3 p0 = reqVec3(j, "p0", path), p1 = reqVec3(j, "p1", path);
                     if (t == NodeType::CONE && p0 == p1)
-                        fail(jsonPath(path, "p1"), "is equal to p0: a cone needs a length (a "
-                                                   "point's field is the 'sphere' type)");
+                        fail(jsonPath(path, "p1"),
+                             "is equal to p0: a cone needs a length (a "
+                             "point's field is the 'sphere' type)");
                     index = t == NodeType::SEGMENT
                                 ? tree_.segment(p0, p1, reqNumber(j, "radius", path), o)
                                 : tree_.cone(p0, p1, reqNumber(j, "r0", path),

@@ -71,9 +71,9 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
                 throw InputError(fmt::format("{}:{}: {} must be greater than 0 (got {})", source,
                                              lineNo, fields[k], v[k]));
         if (n.p0 == n.p1)
-            throw InputError(fmt::format(
-                "{}:{}: internode {} has no length (its two points are the same)", source, lineNo,
-                n.id));
+            throw InputError(
+                fmt::format("{}:{}: internode {} has no length (its two points are the same)",
+                            source, lineNo, n.id));
         s.internodes.push_back(n);
         lines.push_back(lineNo);
     }
