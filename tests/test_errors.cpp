@@ -682,6 +682,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render --mesh IN/bad.ply -o OUT/out.png",
          "bad.ply:2: PLY format 'binary_big_endian' is not read"},
         {"render --mesh IN/dir.json -o OUT/out.png", "dir.json: unknown mesh format '.json'"},
+        // Options for grids mean nothing to a mesh (they were ignored).
+        {"render --mesh IN/index.obj --grid density -o OUT/out.png", "--mesh excludes --grid"},
+        {"render --mesh IN/index.obj --device opencl -o OUT/out.png", "--mesh excludes --device"},
         // active tiles: a few bytes in the file, terabytes as voxels
         {"mesh IN/tiles.vdb -o OUT/out.ply",
          "tiles.vdb: grid 'surface' has 3.52e+13 active voxels in tiles, which as voxels needs "

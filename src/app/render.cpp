@@ -142,7 +142,7 @@ void addRenderCommand(CLI::App& app, Action& action)
                                    "Ray-march a baked level set into a picture (.png) or "
                                    "channels for tools (.exr)");
     cmd->add_option("input", req->input, "Input .vdb file");
-    cmd->add_option("--mesh", req->mesh,
+    auto* mesh = cmd->add_option("--mesh", req->mesh,
                     "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
     cmd->add_option("-o,--output", req->output, "Output image (.png or .exr)")->required();
     cmd->add_option("--width", req->width, "Image width in pixels")->capture_default_str();
@@ -151,11 +151,15 @@ void addRenderCommand(CLI::App& app, Action& action)
     cmd->add_option("--camera", req->camera,
                     "auto (a three-quarter view), turntable:ANGLE or look:EX,EY,EZ:TX,TY,TZ[:FOV]")
         ->capture_default_str();
+    // A mesh is traced by Embree and has no grids: these would be ignored.
     cmd->add_option("--device", req->device,
                     "cpu (OpenVDB's level-set ray intersector; the faster here, measured: "
                     "docs/rendering.md) or opencl (NanoVDB's HDDA in an OpenCL kernel)")
-        ->capture_default_str();
-    cmd->add_option("--grid", req->grid, "Name of the level-set grid")->capture_default_str();
+        ->capture_default_str()
+        ->excludes(mesh);
+    cmd->add_option("--grid", req->grid, "Name of the level-set grid")
+        ->capture_default_str()
+        ->excludes(mesh);
     cmd->add_flag("--timings", req->timings,
                   "Print the time of each stage on stderr (also with CAMBIUM_TIMING set)");
     cmd->add_flag("--via-mesh", req->viaMesh,
