@@ -142,8 +142,8 @@ void addRenderCommand(CLI::App& app, Action& action)
                                    "Ray-march a baked level set into a picture (.png) or "
                                    "channels for tools (.exr)");
     cmd->add_option("input", req->input, "Input .vdb file");
-    auto* mesh = cmd->add_option("--mesh", req->mesh,
-                    "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
+    auto* mesh = cmd->add_option(
+        "--mesh", req->mesh, "Render this mesh (.obj or .ply) with Embree instead of a .vdb file");
     cmd->add_option("-o,--output", req->output, "Output image (.png or .exr)")->required();
     cmd->add_option("--width", req->width, "Image width in pixels")->capture_default_str();
     cmd->add_option("--height", req->height, "Image height in pixels")->capture_default_str();
