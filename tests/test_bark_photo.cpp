@@ -288,19 +288,27 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
     std::ifstream in(tif, std::ios::binary);
     const std::string whole((std::istreambuf_iterator<char>(in)), {});
     refused("cut.tif", whole.substr(0, whole.size() * 6 / 10), "cannot read the tiff image: ");
-    // A linear pixel beyond a half float's range (baked with --half: inf).
-    {
-        const std::string path = dir + "/bright.exr";
+    // A linear pixel beyond a half float's range (baked with --half: inf),
+    // and one far below black (a normal map: it was taken as black); a
+    // transform's ringing just below 0 is black.
+    auto exr = [&](const char* name, float value) {
+        const std::string path = dir + "/" + name;
         auto out = OIIO::ImageOutput::create(path);
         OIIO::ImageSpec spec(4, 2, 3, OIIO::TypeDesc::FLOAT);
         std::vector<float> px(4 * 2 * 3, 0.5f);
-        px[3 * 6 + 1] = 3e38f;
-        ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        px[3 * 6 + 1] = value;
+        EXPECT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
         out->close();
-        expectInputError([&] { readPhoto(path); },
-                         "bright.exr: pixel 6 (row 1, column 2) has the value 3e+38, not a colour",
-                         "a pixel beyond half");
-    }
+        return path;
+    };
+    expectInputError([&] { readPhoto(exr("bright.exr", 3e38f)); },
+                     "bright.exr: pixel 6 (row 1, column 2) has the value 3e+38, not a colour",
+                     "a pixel beyond half");
+    expectInputError([&] { readPhoto(exr("normals.exr", -0.7f)); },
+                     "normals.exr: pixel 6 (row 1, column 2) has the value -0.7, not a colour (a "
+                     "linear photo's values are at least -0.01",
+                     "a pixel far below black");
+    EXPECT_EQ(readPhoto(exr("ringing.exr", -0.004f)).rgb[3 * 6 + 1], 0.0f);
 }
 
 TEST(BarkPhoto, ABakeRefusesAMissingPhotoBeforeWork)

@@ -23,6 +23,10 @@ namespace cambium {
 
 namespace {
 
+/// The darkest value a linear photo may hold: ringing of a colour transform
+/// just below 0 is black; below this a file holds data, not colour.
+constexpr float kDarkestLinearPixel = -0.01f;
+
 float toSrgb(float v)
 {
     v = std::clamp(v, 0.0f, 1.0f);
@@ -230,6 +234,14 @@ Photo readPhoto(const std::string& path, size_t maxPixels)
                     "{}: pixel {} (row {}, column {}) has the value {:g}, not a colour (a finite "
                     "number of magnitude at most 65504)",
                     path, i, i / size_t(img.width), i % size_t(img.width), v));
+            // A linear pixel a little below 0 is a colour transform's ringing,
+            // taken as black; one far below is no colour (a normal or
+            // displacement map given as a photo).
+            if (linear && v < kDarkestLinearPixel)
+                throw InputError(fmt::format(
+                    "{}: pixel {} (row {}, column {}) has the value {:g}, not a colour (a linear "
+                    "photo's values are at least {:g}: is it a normal or displacement map?)",
+                    path, i, i / size_t(img.width), i % size_t(img.width), v, kDarkestLinearPixel));
             out.rgb[3 * i + k] = linear ? std::max(v, 0.0f) : fromSrgb(std::clamp(v, 0.0f, 1.0f));
         }
     return out;
