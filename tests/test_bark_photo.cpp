@@ -311,6 +311,31 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
     EXPECT_EQ(readPhoto(exr("ringing.exr", -0.004f)).rgb[3 * 6 + 1], 0.0f);
 }
 
+TEST(BarkPhoto, APhotoThatWouldNotFitInMemoryIsRefusedFromItsHeader)
+{
+    // A 3000 x 3000 grey PNG (9 M pixels, under the 50 M cap, a few KB)
+    // decodes into about 290 MB: with 100 MB of room (the room itself is
+    // System's test) it is refused from its header with the numbers.  It
+    // was decoded: a 36 M pixel one ran out of memory or into swap.
+    const std::string dir = ::testing::TempDir() + "/cambium_photo_room";
+    std::filesystem::create_directories(dir);
+    const std::string path = dir + "/big.png";
+    {
+        auto out = OIIO::ImageOutput::create(path);
+        OIIO::ImageSpec spec(3000, 3000, 1, OIIO::TypeDesc::UINT8);
+        std::vector<uint8_t> px(3000u * 3000u, 128);
+        ASSERT_TRUE(out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+        out->close();
+    }
+    expectInputError([&] { readPhoto(path, kMaxPhotoPixels, 100e6); },
+                     "big.png: a photo of 3000 x 3000 pixels needs about 288 MB of memory to "
+                     "decode, and this process has 100 MB available",
+                     "a photo beyond the room");
+    // With the room it needs, it is read.
+    EXPECT_EQ(readPhoto(path, kMaxPhotoPixels, 300e6).width, 3000);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(BarkPhoto, ABakeRefusesAMissingPhotoBeforeWork)
 {
     const std::string dir = tempDir();

@@ -34,7 +34,8 @@ struct ImageCodecApi {
     /// Reads `path` with OpenImageIO's reader of `format` (its name: "png",
     /// "jpeg", ...) and no other; refuses, from its header, before any pixel
     /// is read or held, an image of more than `maxPixels` pixels or of tiles
-    /// far larger than it.  The message names the file.
+    /// far larger than it.  The message names the file; `out`'s width and
+    /// height are the header's once it was read, refused or not.
     std::string (*decode)(const std::string& path, const std::string& format, size_t maxPixels,
                           CodecImage& out);
     /// Encodes `image` into `bytes` in the format of `path`'s extension.

@@ -203,13 +203,26 @@ void preloadImageCodec()
     codecLoad();
 }
 
-Photo readPhoto(const std::string& path, size_t maxPixels)
+Photo readPhoto(const std::string& path, size_t maxPixels, double room)
 {
     const std::string format = photoFormat(path, checkInputFile(path, "photo"));
+    // What the decode holds at its peak must fit in this process's room,
+    // checked from the header before a pixel is held.
+    if (room < 0.0)
+        room = availableMemoryBytes();
+    const size_t fit = size_t(std::min(double(maxPixels), room / kPhotoBytesPerPixel));
     CodecImage img;
-    const std::string error = imageCodec().decode(path, format, maxPixels, img);
-    if (!error.empty())
+    const std::string error = imageCodec().decode(path, format, fit, img);
+    if (!error.empty()) {
+        const double pixels = double(img.width) * double(img.height);
+        if (pixels > double(fit) && pixels <= double(maxPixels))
+            throw InputError(fmt::format(
+                "{}: a photo of {} x {} pixels needs about {} of memory to decode, and this "
+                "process has {} available: scale it down",
+                path, img.width, img.height, formatBytes(pixels * kPhotoBytesPerPixel),
+                formatBytes(room)));
         throw InputError(error);
+    }
     // Float formats (EXR, HDR) hold linear values; the 8- and 16-bit ones
     // are sRGB-encoded unless they say they are linear.
     const std::string& space = img.colourSpace;

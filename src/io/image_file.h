@@ -43,6 +43,12 @@ struct Photo {
 /// pixel held (at most 4 decoded channels, then RGB): 1.4 GB.  Counted in
 /// pixels from the header, so a grey or a lying file is no bomb.
 constexpr size_t kMaxPhotoPixels = 50'000'000;
-Photo readPhoto(const std::string& path, size_t maxPixels = kMaxPhotoPixels);
+/// A photo's bytes a pixel at the decode's peak: 4 decoded float channels,
+/// 3 linear ones and the reader's native row buffers.  A photo whose header
+/// needs more than this process has room for is refused before decoding.
+constexpr double kPhotoBytesPerPixel = 32.0;
+/// `room`: the bytes the decode may take (negative: this process's room,
+/// availableMemoryBytes()).
+Photo readPhoto(const std::string& path, size_t maxPixels = kMaxPhotoPixels, double room = -1.0);
 
 }  // namespace cambium

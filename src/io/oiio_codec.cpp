@@ -96,6 +96,8 @@ try {
                            oneLine(in->geterror()));
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         return fmt::format("{}: the image is empty", path);
+    out.width = spec.width;  // for the caller's message when it is refused
+    out.height = spec.height;
     // A volume (a .vdb, a DDS volume texture) reads every slice: one is read.
     if (spec.depth > 1)
         return fmt::format("{}: a volume image of {} slices, not a photo", path, spec.depth);
