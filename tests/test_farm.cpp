@@ -306,10 +306,17 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     EXPECT_TRUE(fileContents(dir / "auto.vdb").substr(kUuidEnd) == a.substr(kUuidEnd));
     ASSERT_EQ(run(fmt::format("--max-memory {}", (long long)(estimate * 2)), "fits.vdb"), 0);
     EXPECT_NE(fileContents(dir / "fits.vdb.txt").find("one bake"), std::string::npos);
-    // More tiles than 128-voxel layers (the tree spans 4): empty tiles,
-    // the same file.
+    // More tiles than 128-voxel layers (the tree spans 5): a tile for each
+    // layer, said (the others would be empty, a process each for nothing:
+    // --tiles 4096 on a small frame ran 4096), the same file.
     ASSERT_EQ(run("--tiles 8", "many.vdb"), 0) << fileContents(dir / "many.vdb.txt");
     EXPECT_TRUE(fileContents(dir / "many.vdb").substr(kUuidEnd) == a.substr(kUuidEnd));
+    EXPECT_NE(fileContents(dir / "many.vdb.txt")
+                  .find("note: 8 tiles: the frame spans 5 layers of 128 voxels across its longest "
+                        "side, and a tile is a run of them: 5 tiles"),
+              std::string::npos)
+        << fileContents(dir / "many.vdb.txt");
+    EXPECT_EQ(fileContents(dir / "many.vdb.txt").find("tile 6/"), std::string::npos);
     for (const char* bad : {"--tile 0/3", "--tile 4/3", "--tile 1/0", "--tile 2", "--tiles 2 --fog",
                             "--tile +1/3", "--tile 1/99999999999", "--max-memory 12X",
                             "--tiles 2 --max-memory 1K", "--max-memory 1"}) {

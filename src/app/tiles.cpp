@@ -6,6 +6,7 @@
 
 #include "bake/bake.h"
 #include "bake/tiles.h"
+#include "bake/topology.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/process.h"
@@ -63,6 +64,23 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
                         "--max-memory {}: use more tiles",
                         tiles, formatBytes(whole.bytes),
                         formatBytes(whole.bytes * tileMemoryShare(tiles)), formatBytes(maxMemory)));
+    }
+    // A tile is a run of 128-voxel layers: tiles beyond the layers would be
+    // empty, each a process for nothing (4096 of them on a small frame).
+    const long long layers = bandLayers(program, whole.voxelSize, req.halfWidth);
+    if (tiles > layers) {
+        if (maxMemory > 0.0 && whole.bytes * tileMemoryShare(int(layers)) > maxMemory)
+            throw InputError(fmt::format(
+                "--max-memory {}: the frame's estimate is {}, and its {} tiles (one for each "
+                "128-voxel layer across it) would still need about {} each; use a larger "
+                "--voxel-size or --max-memory",
+                formatBytes(maxMemory), formatBytes(whole.bytes), layers,
+                formatBytes(whole.bytes * tileMemoryShare(int(layers)))));
+        printNotice(
+            fmt::format("{} tiles: the frame spans {} layers of 128 voxels across its "
+                        "longest side, and a tile is a run of them: {} tiles",
+                        tiles, layers, layers));
+        tiles = int(layers);
     }
     if (here) {
         BakeRequest tiled = req;

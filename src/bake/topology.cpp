@@ -73,6 +73,31 @@ long long floorDiv(long long a, long long b)
 
 }  // namespace
 
+namespace {
+
+/// The 128-voxel layers (first, count) of the band's box on each axis.
+void layersOf(const FieldProgram& program, double h, double halfWidth, long long t0[3],
+              long long nt[3])
+{
+    long long lo[3], hi[3];
+    bandIndexBounds(program, h, halfWidth, lo, hi);
+    for (int k = 0; k < 3; ++k) {
+        t0[k] = floorDiv(lo[k], kTile);
+        nt[k] = floorDiv(hi[k], kTile) - t0[k] + 1;
+    }
+}
+
+}  // namespace
+
+long long bandLayers(const FieldProgram& program, double voxelSize, double halfWidth)
+{
+    if (program.positiveBounds().empty())
+        return 0;
+    long long t0[3], nt[3];
+    layersOf(program, voxelSize, halfWidth, t0, nt);
+    return std::max({nt[0], nt[1], nt[2]});
+}
+
 void bandIndexBounds(const FieldProgram& program, double h, double halfWidth, long long lo[3],
                      long long hi[3])
 {
@@ -149,10 +174,7 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
     // level, so that a tile starts from the few primitives near it rather
     // than from all of them (20,000 cones: a third of the search's time).
     long long t0[3], nt[3];
-    for (int k = 0; k < 3; ++k) {
-        t0[k] = floorDiv(lo[k], kTile);
-        nt[k] = floorDiv(hi[k], kTile) - t0[k] + 1;
-    }
+    layersOf(program, h, halfWidth, t0, nt);
     int span = 1;  // tiles per side of the root cube
     while (span < nt[0] || span < nt[1] || span < nt[2])
         span *= 2;

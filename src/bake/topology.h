@@ -59,5 +59,8 @@ BandTopology findBandLeaves(const FieldProgram& program, double voxelSize, doubl
 /// field's positive support grown by the band.
 void bandIndexBounds(const FieldProgram& program, double voxelSize, double halfWidth,
                      long long lo[3], long long hi[3]);
+/// The 128-voxel layers across the slab axis (the box's longest): at most
+/// this many BandTiles hold leaves, the others are empty.
+long long bandLayers(const FieldProgram& program, double voxelSize, double halfWidth);
 
 }  // namespace cambium
