@@ -537,6 +537,19 @@ TEST(ShapeCapture, AFineMeshAnalysedOntoAGivenControlMesh)
     const std::string e = refusal(R"({"base": {"type": "mesh", "file": ")" + dir +
                                   R"(/fine.obj", "voxel_size": 0.1}})");
     EXPECT_NE(e.find("add \"analyse\": true"), std::string::npos) << e;
+    // A base voxel size of a few voxels across meshes a blob that no level
+    // brings back (a unit cube at 0.6 kept a hundredth of its volume).
+    test::expectInputError(
+        [&] {
+            ShapeSurface coarse(
+                parseShape(R"({"base": {"type": "mesh", "file": "fine.obj", "analyse": true,
+                "voxel_size": 0.5, "fine_voxel_size": 0.05}, "levels": 2})",
+                           "blob.json", dir),
+                -1, Device::Cpu);
+        },
+        "the base voxel_size 0.5 spans 4 voxels across the surface's extent 2: at most 0.25 (8 "
+        "voxels across) captures its shape",
+        "a base of 4 voxels across");
     test::report(
         "a level-5 sphere mesh analysed onto its level 1: level 3 within {:.2g} of the sphere",
         worst);

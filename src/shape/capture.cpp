@@ -220,6 +220,16 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         return s;
     }
     const double coarse = b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : extent / 48.0;
+    // A base meshed at fewer voxels across is a blob of a few faces, which
+    // the levels cannot bring back: a unit cube at 0.6 was captured with a
+    // hundredth of its volume.
+    constexpr double kFewestVoxelsAcross = 8.0;
+    if (coarse * kFewestVoxelsAcross > extent)
+        throw InputError(fmt::format(
+            "{}: the base voxel_size {:g} spans {:.3g} voxels across the surface's extent {:g}: "
+            "at most {:g} ({:g} voxels across) captures its shape",
+            what, coarse, extent / coarse, extent, extent / kFewestVoxelsAcross,
+            kFewestVoxelsAcross));
     if (!(coarse > fine->voxelSize()[0]))
         throw InputError(
             fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
