@@ -10,6 +10,7 @@
 #include "test_util.h"
 
 #include "core/math.h"
+#include "core/random.h"
 
 #include <openvdb/tools/Diagnostics.h>
 #include <openvdb/tools/Interpolation.h>
@@ -197,6 +198,49 @@ TEST(ShapeDetails, BerryDomesHaveHeightRAtTheSeedAndNoneBeyondR)
         const double r = glm::length(lv.subdivided[v] - lv.subdivided[size_t(seed)]);
         ASSERT_DOUBLE_EQ(lv.detail[v].z, domeHeight(r, 0.4));
     }
+}
+
+TEST(ShapeDetails, APointTreeFindsTheNearestPointAScanFinds)
+{
+    // Points on a sphere, some repeated (ties: the lowest index), queried
+    // on it, off it by far more than their spacing (a berry's children, a
+    // dome's radius out) and from afar; `within` finds none beyond it.
+    std::vector<glm::dvec3> pts;
+    uint64_t stream = 11;
+    for (int i = 0; i < 4000; ++i) {
+        const double z = 2.0 * splitMix01(stream) - 1.0, a = 2.0 * kPi * splitMix01(stream);
+        const double r = std::sqrt(1.0 - z * z);
+        pts.emplace_back(r * std::cos(a), r * std::sin(a), z);
+    }
+    for (int i = 0; i < 200; ++i)
+        pts.push_back(pts[size_t(17 * i)]);
+    const PointTree tree(pts);
+    for (int i = 0; i < 3000; ++i) {
+        const glm::dvec3 p =
+            pts[size_t(i)] * (i % 3 == 0   ? 1.0
+                              : i % 3 == 1 ? 1.3
+                                           : 40.0) +
+            glm::dvec3(splitMix01(stream), splitMix01(stream), splitMix01(stream)) * 1e-3;
+        const int scan = nearestVertex(pts, p);
+        ASSERT_EQ(tree.nearest(p), scan) << i;
+        const double d = glm::length(pts[size_t(scan)] - p);
+        ASSERT_EQ(tree.nearest(p, d * 1.0001), scan) << i;
+        ASSERT_EQ(tree.nearest(p, d * 0.9999), -1) << i;
+    }
+    EXPECT_EQ(PointTree({}).nearest({0, 0, 0}), -1);
+}
+
+TEST(ShapeDetails, BerryGenerationsBeyondTheirBoundAreRefusedByPath)
+{
+    // Every vertex of level 5 a seed (a spacing far below the edges), 64
+    // children each over three levels: 25 million domes at the third.
+    ShapeSurface s(shape(R"({"base": {"type": "sphere", "radius": 1}, "levels": 7,
+        "details": [{"type": "berry", "radius": 0.2, "spacing": 0.0001, "children": 64,
+                     "levels": [5, 6, 7]}]})"));
+    test::expectInputError([&] { s.synthesize(); },
+                           "test.json: details[0]: 393344 seeds of 64 children each make 2.52e+07 "
+                           "domes at the berry's level 3, more than the 1e+07",
+                           "a berry of 25 million domes");
 }
 
 TEST(ShapeDetails, TentacleFollowsThePseudoCode)

@@ -1,11 +1,14 @@
 // cambium — procedural multi-scale details and local edits.
 #include "shape/details.h"
 
+#include "core/box.h"
+#include "core/error.h"
 #include "core/parallel.h"
 #include "core/hash.h"
 #include "core/math.h"
 #include "core/random.h"
 
+#include <fmt/format.h>
 #include <glm/gtc/noise.hpp>
 #include <tbb/parallel_for.h>
 
@@ -93,6 +96,9 @@ private:
 
 // --- berry -----------------------------------------------------------------------
 
+/// The domes a berry's generation may hold (40 bytes each: 400 MB).
+constexpr double kMaxBerryDomes = 1e7;
+
 struct Dome {
     glm::dvec3 centre;
     double radius;
@@ -107,27 +113,28 @@ public:
         const int k = levelIndex(d_, l);
         if (k < 0)
             return;
-        std::vector<Dome>& domes = generation(k, level);
-        double largest = 0.0;
-        PointGrid grid(2.0 * d_.radius * std::ldexp(1.0, -k));
-        for (size_t i = 0; i < domes.size(); ++i) {
-            grid.insert(int(i), domes[i].centre);
-            largest = std::max(largest, domes[i].radius);
-        }
+        const std::vector<Dome>& domes = generation(k, level);
+        // A generation's domes share one radius, and each is centred on a
+        // vertex: the seeds on one vertex are one dome (children collect on
+        // a few vertices by the thousand).
+        const double radius = d_.radius * std::ldexp(1.0, -k);
+        std::vector<char> seeded(level.vertexCount(), 0);
+        std::vector<glm::dvec3> centres;
+        for (const Dome& d : domes)
+            if (!seeded[size_t(d.vertex)]) {
+                seeded[size_t(d.vertex)] = 1;
+                centres.push_back(d.centre);
+            }
+        const PointTree seeds(centres);
         forEachIndex(level.vertexCount(), [&](size_t v) {
             if (!wanted(mask, v))
                 return;
             // The nearest seed (section 4.2.2: each point belongs to one).
             const glm::dvec3 q = level.subdivided[v];
-            double best = kInf;
-            int which = -1;
-            grid.near(q, largest, [&](int id, const glm::dvec3& c) {
-                const double r = glm::length(q - c);
-                if (r < best)
-                    best = r, which = id;
-            });
+            const int which = seeds.nearest(q, radius);
             if (which >= 0)
-                addNormal(level, v, domeHeight(best, domes[size_t(which)].radius), d_);
+                addNormal(level, v, domeHeight(glm::length(q - centres[size_t(which)]), radius),
+                          d_);
         });
     }
 
@@ -145,9 +152,17 @@ private:
                 out.push_back({level.subdivided[size_t(v)], d_.radius, v});
             return out;
         }
+        const std::vector<Dome>& parents = gens_[size_t(k) - 1];
+        if (double(parents.size()) * d_.children > kMaxBerryDomes)
+            throw InputError(fmt::format(
+                "{}: {} seeds of {} children each make {:.3g} domes at the berry's level {}, "
+                "more than the {:g} a shape holds: a larger spacing or fewer children",
+                d_.path, parents.size(), d_.children, double(parents.size()) * d_.children, k + 1,
+                kMaxBerryDomes));
         uint64_t stream = mix64(uint64_t(d_.seed) * 7919u + uint64_t(k));
-        for (const Dome& parent : gens_[size_t(k) - 1]) {
-            const int pv = nearestVertex(level.subdivided, parent.centre);
+        const PointTree vertices(level.subdivided);
+        for (const Dome& parent : parents) {
+            const int pv = vertices.nearest(parent.centre);
             const Frame& f = level.frames[size_t(pv)];
             for (int c = 0; c < d_.children; ++c) {
                 const double a = 2.0 * kPi * splitMix01(stream);
@@ -155,7 +170,7 @@ private:
                 const glm::dvec3 p = level.subdivided[size_t(pv)] +
                                      r * (std::cos(a) * f.t + std::sin(a) * f.b) +
                                      f.n * (parent.radius * 0.5);
-                const int v = nearestVertex(level.subdivided, p);
+                const int v = vertices.nearest(p);
                 out.push_back({level.subdivided[size_t(v)], parent.radius * 0.5, v});
             }
         }
@@ -377,6 +392,68 @@ std::vector<double> surfaceDistances(const SubdivLevel& level, const Adjacency& 
         }
     }
     return dist;
+}
+
+PointTree::PointTree(std::vector<glm::dvec3> points)
+    : points_(std::move(points)), order_(points_.size()), axis_(points_.size(), 0)
+{
+    std::iota(order_.begin(), order_.end(), 0);
+    build(0, order_.size());
+}
+
+void PointTree::build(size_t lo, size_t hi)
+{
+    if (hi - lo < 2)
+        return;
+    Box box;
+    for (size_t i = lo; i < hi; ++i)
+        box.expand(points_[size_t(order_[i])]);
+    const glm::dvec3 size = box.size();
+    const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+    const size_t mid = lo + (hi - lo) / 2;
+    std::nth_element(order_.begin() + std::ptrdiff_t(lo), order_.begin() + std::ptrdiff_t(mid),
+                     order_.begin() + std::ptrdiff_t(hi), [&](int a, int b) {
+                         return points_[size_t(a)][axis] < points_[size_t(b)][axis];
+                     });
+    axis_[mid] = static_cast<unsigned char>(axis);
+    build(lo, mid);
+    build(mid + 1, hi);
+}
+
+void PointTree::search(size_t lo, size_t hi, const glm::dvec3& p, int& best, double& bestD2) const
+{
+    if (lo >= hi)
+        return;
+    const size_t mid = lo + (hi - lo) / 2;
+    const int id = order_[mid];
+    const glm::dvec3& q = points_[size_t(id)];
+    const glm::dvec3 e = q - p;
+    const double d2 = glm::dot(e, e);
+    if (d2 < bestD2 || (d2 == bestD2 && (best < 0 || id < best)))
+        best = id, bestD2 = d2;
+    if (hi - lo == 1)
+        return;
+    const int axis = axis_[mid];
+    const double along = p[axis] - q[axis];
+    // The near side first; the far one while it may hold a point as near
+    // (equal too: a tie with a lower index).
+    if (along < 0.0) {
+        search(lo, mid, p, best, bestD2);
+        if (along * along <= bestD2)
+            search(mid + 1, hi, p, best, bestD2);
+    } else {
+        search(mid + 1, hi, p, best, bestD2);
+        if (along * along <= bestD2)
+            search(lo, mid, p, best, bestD2);
+    }
+}
+
+int PointTree::nearest(const glm::dvec3& p, double within) const
+{
+    int best = -1;
+    double bestD2 = within * within;
+    search(0, order_.size(), p, best, bestD2);
+    return best;
 }
 
 int nearestVertex(const std::vector<glm::dvec3>& points, const glm::dvec3& p)

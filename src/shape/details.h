@@ -84,6 +84,26 @@ private:
     std::unordered_map<uint64_t, std::vector<std::pair<int, glm::dvec3>>> cells_;
 };
 
+/// Points in a k-d tree (median splits on the widest axis, built once) for
+/// nearest-point queries in about log n steps wherever the query lies: the
+/// point a scan of every one finds (ties: the lowest index).  A grid's
+/// shells cost the cube of the distance in cells: a berry's children, a
+/// dome's radius off the surface, took minutes that way.
+class PointTree {
+public:
+    explicit PointTree(std::vector<glm::dvec3> points);
+    /// The index of the point nearest to p no farther than `within` (-1:
+    /// none).
+    int nearest(const glm::dvec3& p, double within = HUGE_VAL) const;
+
+private:
+    void build(size_t lo, size_t hi);
+    void search(size_t lo, size_t hi, const glm::dvec3& p, int& best, double& bestD2) const;
+    std::vector<glm::dvec3> points_;
+    std::vector<int> order_;           ///< the tree: the node of [lo, hi) at its middle
+    std::vector<unsigned char> axis_;  ///< each node's split axis
+};
+
 /// A level's vertex neighbours (compressed rows from its edges).
 struct Adjacency {
     std::vector<int> start, neighbour;

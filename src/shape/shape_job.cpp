@@ -101,10 +101,13 @@ void checkSynthesised(const TriangleMesh& mesh, const ShapeSpec& spec)
     }
 }
 
-TriangleMesh synthesise(ShapeSurface& shape, ShapeReport& r)
+TriangleMesh synthesise(ShapeSurface& shape, ShapeReport& r, const ShapeCallbacks& cb)
 {
     const auto t = Clock::now();
-    shape.synthesize();
+    shape.synthesize([&](double f) {
+        if (cb.progress)
+            cb.progress("synthesis", f);
+    });
     TriangleMesh mesh = shape.mesh();
     checkSynthesised(mesh, shape.spec());
     r.synthesisSeconds += secondsSince(t);
@@ -181,7 +184,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     for (const ShapeSpec& s : specs)                  // every frame's details checked
         checkShapeDetails(s, base.mesh);
     // The first frame sizes the voxels of every frame (one transform).
-    TriangleMesh first = synthesise(shape, r);
+    TriangleMesh first = synthesise(shape, r, cb);
     chooseVoxelSize(req, first, r);
     const std::string options =
         fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={}", r.voxelSize,
@@ -209,7 +212,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
                 mesh = std::move(first);
             } else {
                 shape.setSpec(specs[i], true);  // checked above
-                mesh = synthesise(shape, r);
+                mesh = synthesise(shape, r, cb);
             }
             VdbFileInfo info = fileInfo(req);
             info.frame = frames[i];
@@ -258,7 +261,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     r.levelSet = levelSet;
     r.animated = spec.animated;
     ShapeSurface shape(spec, levels, base);
-    const TriangleMesh mesh = synthesise(shape, r);
+    const TriangleMesh mesh = synthesise(shape, r, cb);
     if (cb.progress)
         cb.progress("synthesis", 1.0);
     if (!levelSet) {

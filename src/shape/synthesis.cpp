@@ -266,14 +266,25 @@ std::vector<double> ShapeSurface::blendParameter() const
     return beta;
 }
 
-void ShapeSurface::synthesize()
+void ShapeSurface::synthesize(const std::function<void(double)>& progress)
 {
-    synthesizeFrom(0);
+    synthesizeFrom(0, progress);
 }
 
-void ShapeSurface::synthesizeFrom(int l)
+void ShapeSurface::synthesizeFrom(int l, const std::function<void(double)>& progress)
 {
-    surface_->synthesizeFrom(l, [this](int lv, SubdivLevel& level) { hook(lv, level); });
+    // Each level has about 4 times the vertices of the one before.
+    const int last = surface_->levels();
+    const double total = std::pow(4.0, last + 1) - std::pow(4.0, l);
+    try {
+        surface_->synthesizeFrom(l, [&](int lv, SubdivLevel& level) {
+            hook(lv, level);
+            if (progress)
+                progress((std::pow(4.0, lv + 1) - std::pow(4.0, l)) / total);
+        });
+    } catch (const InputError& e) {  // a detail's, named by its path: the file too
+        throw InputError(fmt::format("{}: {}", spec_.source, e.what()));
+    }
 }
 
 glm::dvec3 shapeColor(const ColorSpec& c, double s, double beta)

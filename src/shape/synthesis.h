@@ -53,11 +53,12 @@ public:
     /// checkShapeDetails on it).  Synthesise again after.
     void setSpec(const ShapeSpec& spec, bool checked = false);
 
-    /// Synthesis of every level.
-    void synthesize();
+    /// Synthesis of every level; `progress` is told the fraction done (by
+    /// vertices) after each level.
+    void synthesize(const std::function<void(double)>& progress = {});
     /// Synthesis from level l on (after an edit of level l's details or
     /// parameters: the coarser levels stay).
-    void synthesizeFrom(int l);
+    void synthesizeFrom(int l, const std::function<void(double)>& progress = {});
 
     const ShapeSpec& spec() const { return spec_; }
     int levels() const { return surface_->levels(); }
