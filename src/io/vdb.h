@@ -117,13 +117,10 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy);
 /// values read from the file a few megabytes at a time and decoded on all
 /// cores (OpenVDB's own decoder, io::readCompressedValues).  Float and Vec3f
 /// grids; other types and instanced grids through io::File.  `lazy`: the
-/// leaves left to OpenVDB's delayed loading instead.  `beforeValues`, when
-/// given, runs once the topology is read and before any leaf's values are
-/// (readLevelSet: waits there for the checksum it computes meanwhile).
-/// InputError naming the file for damage.
+/// leaves left to OpenVDB's delayed loading instead.  InputError naming the
+/// file for damage.
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
-                                   const std::string& grid, bool lazy = false,
-                                   const std::function<void()>& beforeValues = {});
+                                   const std::string& grid, bool lazy = false);
 
 /// readLevelSet with OpenVDB's delayed loading (and no private copy of the
 /// file): the grids' topology now, each leaf's values from the file when it
