@@ -665,6 +665,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "a picture this large needs about"},
         {"render VDB -o OUT/out.png --spp 0", "--spp must be between 1 and 4096"},
         {"render VDB -o OUT/out.png --camera sideways", "--camera sideways: expected auto"},
+        // A view narrower than float rays resolve (1e-9 degrees: every ray
+        // missed, an empty picture with exit 0).
+        {"render VDB -o OUT/out.png --camera look:5,5,5:0,0,0:1e-9",
+         "--camera look:5,5,5:0,0,0:1e-9: the eye must differ from the target, the view must not "
+         "be vertical, and the field of view must be from 0.0001 to below 180 degrees"},
         {"render VDB -o OUT/out.png --device gpu", "--device"},
         {"render VDB -o OUT/out.tif", "out.tif: unknown image format '.tif'"},
         {"render -o OUT/out.png", "nothing to render"},

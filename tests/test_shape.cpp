@@ -8,6 +8,7 @@
 #include "shape/shape.h"
 #include "shape/synthesis.h"
 #include "test_util.h"
+#include "use/mesh.h"
 
 #include "core/math.h"
 #include "core/random.h"
@@ -594,6 +595,25 @@ TEST(ShapeCapture, AFineMeshAnalysedOntoAGivenControlMesh)
         "the base voxel_size 0.5 spans 4 voxels across the surface's extent 2: at most 0.25 (8 "
         "voxels across) captures its shape",
         "a base of 4 voxels across");
+    // A fine surface coarser than the default base's 48th: the base takes
+    // twice its voxels (it was refused for a voxel_size the file never set),
+    // and one too coarse for 8 of those across is named as the surface's.
+    ShapeSurface twice(parseShape(R"({"base": {"type": "mesh", "file": "fine.obj", "analyse": true,
+        "fine_voxel_size": 0.1}, "levels": 2})",
+                                  "twice.json", dir),
+                       -1, Device::Cpu);
+    twice.synthesize();
+    EXPECT_NEAR(meshArea(twice.mesh()), 4.0 * kPi, 0.1);
+    test::expectInputError(
+        [&] {
+            ShapeSurface coarse(
+                parseShape(R"({"base": {"type": "mesh", "file": "fine.obj", "analyse": true,
+                "fine_voxel_size": 0.2}, "levels": 2})",
+                           "coarse.json", dir),
+                -1, Device::Cpu);
+        },
+        "the surface's voxels (0.2) are too coarse for its extent 2",
+        "a fine surface too coarse for a base");
     test::report(
         "a level-5 sphere mesh analysed onto its level 1: level 3 within {:.2g} of the sphere",
         worst);

@@ -219,22 +219,31 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         s.target = projectionOnto(fine);
         return s;
     }
-    const double coarse = b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : extent / 48.0;
+    // By default 48 voxels across, each at least twice the fine surface's
+    // (a level set's own voxels may be coarser than the 48th).
+    const double fineVoxel = fine->voxelSize()[0];
+    const double coarse =
+        b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : std::max(extent / 48.0, 2.0 * fineVoxel);
     // A base meshed at fewer voxels across is a blob of a few faces, which
     // the levels cannot bring back: a unit cube at 0.6 was captured with a
     // hundredth of its volume.
     constexpr double kFewestVoxelsAcross = 8.0;
+    if (b.coarseVoxelSize <= 0.0 && coarse * kFewestVoxelsAcross > extent)
+        throw InputError(fmt::format(
+            "{}: the surface's voxels ({:g}) are too coarse for its extent {:g}: a base of {:g} "
+            "voxels across, each twice the surface's, needs them at most {:g}",
+            what, fineVoxel, extent, kFewestVoxelsAcross, extent / (2.0 * kFewestVoxelsAcross)));
     if (coarse * kFewestVoxelsAcross > extent)
         throw InputError(fmt::format(
             "{}: the base voxel_size {:g} spans {:.3g} voxels across the surface's extent {:g}: "
             "at most {:g} ({:g} voxels across) captures its shape",
             what, coarse, extent / coarse, extent, extent / kFewestVoxelsAcross,
             kFewestVoxelsAcross));
-    if (!(coarse > fine->voxelSize()[0]))
+    if (!(coarse > fineVoxel))
         throw InputError(
             fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
                         "surface's {:g}",
-                        what, coarse, fine->voxelSize()[0]));
+                        what, coarse, fineVoxel));
     return captureLevelSet(fine, coarse, what);
 }
 

@@ -100,13 +100,16 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
             if (v.size() == 7)
                 cam.fovY = v[6];
             const glm::dvec3 w = cam.target - cam.eye;
+            // (Below 1e-4 degrees a pixel's rays differ by less than a float
+            // resolves: at 1e-9 every ray missed, an empty picture.)
+            constexpr double kNarrowestView = 1e-4;
             if (glm::length(w) > 0.0 && glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6 &&
-                cam.fovY > 0.0 && cam.fovY < 180.0)
+                cam.fovY >= kNarrowestView && cam.fovY < 180.0)
                 return cam;
             throw InputError(fmt::format(
                 "--camera {}: the eye must differ from the target, the view must not be "
-                "vertical, and the field of view must be between 0 and 180 degrees",
-                spec));
+                "vertical, and the field of view must be from {:g} to below 180 degrees",
+                spec, kNarrowestView));
         }
     }
     throw InputError(
