@@ -583,6 +583,37 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
         if (opt.progress)
             opt.progress(stage, f);
     };
+    // The binning's (triangle, leaf) pairs, 20 bytes each: a triangle claims
+    // the leaves of its band box within reach of its plane, about its box's
+    // footprint across its normal's largest axis times the band's thickness
+    // along it (a sliver's box, not its area).  Refused before binning when
+    // they alone would not fit (a tentacle of length 1000 ran silently past
+    // a minute, its memory growing).
+    double pairs = 0.0;
+    const double leaf = 8.0 * h, reach = (W + 3.5 * std::sqrt(3.0)) * h;
+    for (const auto& t : mesh.triangles) {
+        const openvdb::Vec3d p0 = mesh.points[t[0]], p1 = mesh.points[t[1]], p2 = mesh.points[t[2]];
+        const openvdb::Vec3d n = (p1 - p0).cross(p2 - p0);
+        if (!(n.length() > 0.0))
+            continue;
+        double extent[3], normal[3];
+        for (int k = 0; k < 3; ++k) {
+            const double lo = std::min({p0[k], p1[k], p2[k]}) - W * h,
+                         hi = std::max({p0[k], p1[k], p2[k]}) + W * h;
+            extent[k] = std::floor(hi / leaf) - std::floor(lo / leaf) + 1.0;
+            normal[k] = std::abs(n[k]) / n.length();
+        }
+        const int w = normal[0] >= normal[1] && normal[0] >= normal[2] ? 0
+                      : normal[1] >= normal[2]                         ? 1
+                                                                       : 2;
+        pairs += extent[(w + 1) % 3] * extent[(w + 2) % 3] *
+                 std::min(extent[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
+    }
+    checkMemoryFits(pairs * 20.0,
+                    fmt::format("{}: the band at voxel size {:g} (about {:.3g} triangle-leaf "
+                                "pairs to bin)",
+                                what, h, pairs),
+                    "use a larger voxel size");
     const Triangles T = prepareTriangles(mesh, h, W, what);
     const LeafBins bins(T.tris, W);
     progress("binning", 1.0);
