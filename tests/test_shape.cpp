@@ -582,6 +582,24 @@ TEST(ShapeCapture, AFineMeshAnalysedOntoAGivenControlMesh)
     const std::string e = refusal(R"({"base": {"type": "mesh", "file": ")" + dir +
                                   R"(/fine.obj", "voxel_size": 0.1}})");
     EXPECT_NE(e.find("add \"analyse\": true"), std::string::npos) << e;
+    // A control mesh nowhere near the surface (moved 100 away: it was
+    // synthesised there as it was, exit 0) is refused.
+    {
+        TriangleMesh moved = readMesh(dir + "/control.obj");
+        for (auto& p : moved.points)
+            p += openvdb::Vec3s(100.0f, 0.0f, 0.0f);
+        writeMesh(moved, dir + "/far.obj");
+    }
+    test::expectInputError(
+        [&] {
+            ShapeSurface away(
+                parseShape(R"({"base": {"type": "mesh", "file": "fine.obj", "analyse": true,
+                "control": "far.obj", "fine_voxel_size": 0.02}, "levels": 2})",
+                           "away.json", dir),
+                -1, Device::Cpu);
+        },
+        "far.obj has no point within the band of the surface it is analysed onto",
+        "a control mesh 100 away");
     // A base voxel size of a few voxels across meshes a blob that no level
     // brings back (a unit cube at 0.6 kept a hundredth of its volume).
     test::expectInputError(

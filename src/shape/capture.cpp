@@ -214,6 +214,28 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         fine = bakeModel(program, plan.voxelSize, device);
     }
     if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
+        // Points are projected where they lie in the fine surface's band:
+        // a control mesh with none there is another shape, used as it was
+        // (one moved 100 away was synthesised there, exit 0).
+        const auto acc = fine->getConstAccessor();
+        const float outside = fine->background();
+        bool near = false;
+        for (const auto& p : control.points) {
+            const openvdb::Coord ijk =
+                openvdb::Coord::round(fine->worldToIndex(openvdb::Vec3d(p.x, p.y, p.z)));
+            const float d = acc.getValue(ijk);
+            near = near || std::abs(d) < outside;
+        }
+        if (!near) {
+            const openvdb::CoordBBox box = fine->evalActiveVoxelBoundingBox();
+            const openvdb::Vec3d lo = fine->indexToWorld(box.min()),
+                                 hi = fine->indexToWorld(box.max());
+            throw InputError(fmt::format(
+                "{}: its control mesh {} has no point within the band of the surface it is "
+                "analysed onto (the surface lies in ({:g}, {:g}, {:g}) to ({:g}, {:g}, {:g})): "
+                "it must be a coarse version of that surface, in its place",
+                what, b.control, lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()));
+        }
         BaseShape s;
         s.mesh = std::move(control);
         s.target = projectionOnto(fine);
