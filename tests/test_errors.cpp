@@ -386,6 +386,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "explode.l", "derivation length: 60\nAxiom: A\nA --> AA\n");
     writeText(in / "unbalanced.l", "Axiom: F[F\n");
     writeText(in / "turnnan.l", "Axiom: F+(0/0)F\n");
+    writeText(in / "hex.l", "Axiom: F(0x10)\n");
+    writeText(in / "hex.txt", "1 -1 0 0 0 0 0x10 0 0.1 0.1\n");
     writeText(in / "far.l", "Axiom: f(1e300)F\n");
     writeText(in / "cycle.txt", "1 2 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0 2 0 0.1 0.1\n");
     writeText(in / "self.txt", "1 1 0 0 0 0 1 0 0.1 0.1\n");
@@ -578,6 +580,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "self.txt:1: internode 1 is its own ancestor (parents in a cycle: 1 -> 1)"},
         {"bake IN/nine.txt -o OUT/out.vdb", "nine.txt:1: expected 10 fields"},
         {"bake IN/nanr.txt -o OUT/out.vdb", "nanr.txt:1: r0 is not a finite number"},
+        // Hexadecimal numbers in decimal formats (read as 16 without a word).
+        {"bake IN/hex.txt -o OUT/out.vdb", "hex.txt:1: y1 is not a finite number ('0x10')"},
+        {"lsystem IN/hex.l", "bad number in '0x10' (numbers are decimal"},
         {"bake IN/negr.txt -o OUT/out.vdb", "negr.txt:1: r0 must be greater than 0"},
         {"bake IN/twice.txt -o OUT/out.vdb", "twice.txt:2: id 1 appears twice"},
         {"bake IN/point.txt -o OUT/out.vdb",

@@ -355,6 +355,9 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
                   "c.obj:3: a face needs at least 3 vertices");
     expectRefused("d.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 x 3\n", "d.obj:4: bad face corner 'x'");
     expectRefused("e.obj", "# nothing\n", "the mesh has no faces");
+    expectRefused("e2.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\nf 3 2 1\n",
+                  "e2.obj: the mesh has no area: every face's corners lie on one line or at one "
+                  "point");
     expectRefused("f.ply", "ply\nformat binary_big_endian 1.0\nend_header\n",
                   "binary_big_endian' is not read");
     expectRefused("g.ply", "PLY\n", "not a PLY file");

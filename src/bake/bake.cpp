@@ -219,11 +219,16 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
             thinnest = std::min(thinnest, r);
             thin += 2.0 * r < plan.voxelSize;
         }
+    // (The advice only where it is a voxel size a bake takes.)
     if (thin && callbacks.notice)
         callbacks.notice(fmt::format(
             "{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
-            "they bake as voxel-sized blocks or not at all; --voxel-size {:.3g} resolves them",
-            thin, solid, plan.voxelSize, thinnest, thinnest / 2.0));
+            "they bake as voxel-sized blocks or not at all{}",
+            thin, solid, plan.voxelSize, thinnest,
+            thinnest / 2.0 >= kMinVoxelSize
+                ? fmt::format("; --voxel-size {:.3g} resolves them", thinnest / 2.0)
+                : fmt::format(" (no voxel size resolves them: the smallest baked is {:g})",
+                              kMinVoxelSize)));
 
     if (deviceError)
         std::rethrow_exception(deviceError);

@@ -17,6 +17,14 @@ constexpr double kDegree = kPi / 180.0;  ///< radians per degree
 /// index spaces and Embree's builds overflow.
 constexpr double kFarthestCoordinate = 1e15;
 
+/// Whether strtod's number [begin, end) was written in hexadecimal (0x10):
+/// the text formats here are decimal, and a hex number in them is a typo
+/// or another format's, read as 16 without a word.
+inline bool writtenInHex(const char* begin, const char* end)
+{
+    return std::find_if(begin, end, [](char c) { return c == 'x' || c == 'X'; }) != end;
+}
+
 /// 0 below e0, 1 above e1, the cubic 3u^2 - 2u^3 of u = (x - e0) / (e1 - e0)
 /// between (C1, flat at both ends); a step at e1 when e1 <= e0.
 inline double smoothstep(double e0, double e1, double x)

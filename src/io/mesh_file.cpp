@@ -485,6 +485,13 @@ TriangleMesh parseMesh(std::istream& in, const std::string& name, const std::str
     TriangleMesh m = format == "obj" ? readObj(in, name) : readPly(in, name);
     if (m.triangles.empty())
         fail(name, 0, "the mesh has no faces");
+    // (A mesh of no area draws, frames and bakes as nothing, with exit 0.)
+    const bool flat = std::none_of(m.triangles.begin(), m.triangles.end(), [&](const auto& t) {
+        const auto c = (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
+        return c.lengthSqr() > 0.0f;
+    });
+    if (flat)
+        fail(name, 0, "the mesh has no area: every face's corners lie on one line or at one point");
     if (m.normals.size() != m.points.size())
         m.normals = vertexNormals(m);
     return m;

@@ -298,8 +298,9 @@ private:
         if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') {
             char* end = nullptr;
             const double v = std::strtod(s_.c_str() + pos_, &end);
-            if (end == s_.c_str() + pos_)
-                fail(at_, pos_, fmt::format("bad number in '{}'", s_));
+            if (end == s_.c_str() + pos_ || writtenInHex(s_.c_str() + pos_, end))
+                fail(at_, pos_,
+                     fmt::format("bad number in '{}' (numbers are decimal: 16, 1.5, 2e-3)", s_));
             pos_ = size_t(end - s_.c_str());
             return constant(v);
         }

@@ -2,6 +2,7 @@
 #include "model/skeleton.h"
 
 #include "core/error.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 
@@ -49,7 +50,8 @@ Skeleton parseSkeleton(const std::string& text, const std::string& source)
             char* end = nullptr;
             errno = 0;
             v[k] = std::strtod(tok[k].c_str(), &end);
-            if (end == tok[k].c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v[k]))
+            if (end == tok[k].c_str() || *end != '\0' || errno == ERANGE || !std::isfinite(v[k]) ||
+                writtenInHex(tok[k].c_str(), end))
                 throw InputError(fmt::format("{}:{}: {} is not a finite number ('{}')", source,
                                              lineNo, fields[k], tok[k]));
         }
