@@ -66,9 +66,13 @@ std::string writePhoto(const std::string& dir, const std::string& format)
     return path;
 }
 
+/// A directory of the running test's own: ctest runs the tests as processes
+/// side by side, and two writing photo_float.exr in one directory read each
+/// other's half-written file ("not an OpenEXR file", once in CI).
 std::string tempDir()
 {
-    const std::string dir = ::testing::TempDir() + "/bark_photo";
+    const std::string dir = ::testing::TempDir() + "/bark_photo_" +
+                            ::testing::UnitTest::GetInstance()->current_test_info()->name();
     std::filesystem::create_directories(dir);
     return dir;
 }
