@@ -141,7 +141,7 @@ TEST(MeshLevelSet, OpenOrNonManifoldMeshesAreRefused)
 TEST(MeshLevelSet, FarApartPartsBinSparselyAndAgreeWithOnePart)
 {
     // Two boxes 50 apart at voxel size 0.02: the band's bounds would hold
-    // about 2e8 leaves, so the triangles are binned by sorting, not in a
+    // about 2e8 leaves, so the triangles are binned by a hash of leaves, not in a
     // dense grid; near each box the values are those of that box alone.
     auto box = [](TriangleMesh& m, const openvdb::Vec3s& at) {
         const BaseShape cube = cubeBase(0.5);
@@ -206,4 +206,31 @@ TEST(MeshLevelSet, InwardFacesBakeTheSameAndBadPointsAreRefused)
     EXPECT_THROW(bakeMeshLevelSet(bad, opt, "bad"), InputError);
     bad.points[3].y() = 1e30f;
     EXPECT_THROW(bakeMeshLevelSet(bad, opt, "far"), InputError);
+}
+
+TEST(MeshLevelSet, ABandOfMoreLeavesThanFitIsRefusedWhileBinning)
+{
+    // A thin slanted tetrahedron 10^5 voxels across: its band crosses some
+    // 10^8 leaves (a petabyte of leaves), refused as soon as the leaves met
+    // pass what fits, within the first triangle, not after binning them all
+    // (a tentacle 1000 long at voxel 0.5 took 25 s and 2.4 GB to refuse).
+    TriangleMesh m;
+    const float s = 100.0f;
+    m.points = {openvdb::Vec3s(0.0f), openvdb::Vec3s(s, 0.0f, s), openvdb::Vec3s(0.0f, s, s),
+                openvdb::Vec3s(0.01f, 0.01f, 0.03f)};
+    const uint32_t f[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3}};
+    for (const auto& t : f)
+        m.addPolygon(t, 3);
+    MeshBakeOptions opt;
+    opt.voxelSize = 1e-3;
+    try {
+        bakeMeshLevelSet(m, opt, "sheet.obj");
+        ADD_FAILURE() << "a band of a petabyte was baked";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("sheet.obj: the band at voxel size 0.001 has at least"),
+                  std::string::npos)
+            << what;
+        EXPECT_NE(what.find("use a larger voxel size"), std::string::npos) << what;
+    }
 }

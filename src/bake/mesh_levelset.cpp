@@ -26,6 +26,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 namespace cambium {
 
@@ -272,10 +273,12 @@ void voxelRange(const Tri& t, double r, openvdb::Coord& lo, openvdb::Coord& hi)
 /// The leaves a band of half-width W around the triangles touches, and the
 /// triangles of each: leaf l's are tri[first[l] .. first[l + 1]).  Counted
 /// into a dense grid of leaves over the triangles' bounds (or, where that
-/// grid would be large, sorted by leaf), so the bins are 4 bytes each.
+/// grid would be large, a hash of the leaves), so the bins are 4 bytes each.
 class LeafBins {
 public:
-    LeafBins(const Scratch<Tri>& tris, double W)
+    /// Where the leaves would pass maxLeaves, binning stops there: size()
+    /// is then more than maxLeaves and the bins are empty.
+    LeafBins(const Scratch<Tri>& tris, double W, size_t maxLeaves)
     {
         // The bounds in leaves.
         struct Bounds {
@@ -303,9 +306,9 @@ public:
         dim_ = b.hi - b.lo + openvdb::Coord(1);
         const double cells = double(dim_.x()) * dim_.y() * dim_.z();
         if (cells <= double(kDenseCells))
-            binDense(tris, W, size_t(cells));
+            binDense(tris, W, size_t(cells), maxLeaves);
         else
-            binSparse(tris, W);
+            binSparse(tris, W, maxLeaves);
     }
 
     size_t size() const { return origin_.size(); }
@@ -333,7 +336,11 @@ private:
     }
     /// f(leaf) for each leaf of the triangle's band box that its plane's
     /// band reaches (within W of the plane, plus the leaf's half-diagonal:
-    /// a large slanted triangle does not claim its whole box).
+    /// a large slanted triangle does not claim its whole box).  The leaves
+    /// are walked as columns along the normal's largest axis, each column
+    /// only across the plane's slab (a few leaves), so the work is the
+    /// leaves claimed, not the box's: a slanted sliver 250 leaves long
+    /// visited 250^3 leaves to claim 250^2.
     template <class F>
     static void forEachLeaf(const Tri& t, double W, const F& f)
     {
@@ -343,21 +350,44 @@ private:
         hi = hi >> 3;
         const double reach = W + 3.5 * std::sqrt(3.0) + 1e-3;
         const dvec3 a(t.a), n(t.n);
-        for (int x = lo.x(); x <= hi.x(); ++x)
-            for (int y = lo.y(); y <= hi.y(); ++y)
-                for (int z = lo.z(); z <= hi.z(); ++z) {
-                    const dvec3 centre(8.0 * x + 3.5, 8.0 * y + 3.5, 8.0 * z + 3.5);
-                    if (std::fabs(glm::dot(centre - a, n)) <= reach)
-                        f(openvdb::Coord(x, y, z));
+        const int w = std::fabs(n.x) >= std::fabs(n.y) && std::fabs(n.x) >= std::fabs(n.z) ? 0
+                      : std::fabs(n.y) >= std::fabs(n.z)                                   ? 1
+                                                                                           : 2;
+        const int u = (w + 1) % 3, v = (w + 2) % 3;
+        auto centre = [](int c) { return 8.0 * c + 3.5; };
+        openvdb::Coord c;
+        for (c[u] = lo[u]; c[u] <= hi[u]; ++c[u])
+            for (c[v] = lo[v]; c[v] <= hi[v]; ++c[v]) {
+                // dot(centre - a, n) = d + n[w] * centre(c[w]): the column's
+                // leaves within reach, widened by one each way and then
+                // tested exactly as a leaf is.
+                const double d =
+                    n[u] * (centre(c[u]) - a[u]) + n[v] * (centre(c[v]) - a[v]) - n[w] * a[w];
+                const double x0 = (-reach - d) / n[w], x1 = (reach - d) / n[w];
+                const int first =
+                    std::max(lo[w], int(std::floor((std::min(x0, x1) - 3.5) / 8.0)) - 1);
+                const int last =
+                    std::min(hi[w], int(std::ceil((std::max(x0, x1) - 3.5) / 8.0)) + 1);
+                for (c[w] = first; c[w] <= last; ++c[w]) {
+                    const dvec3 p(centre(c.x()), centre(c.y()), centre(c.z()));
+                    if (std::fabs(glm::dot(p - a, n)) <= reach)
+                        f(c);
                 }
+            }
     }
 
-    void binDense(const Scratch<Tri>& tris, double W, size_t cells)
+    void binDense(const Scratch<Tri>& tris, double W, size_t cells, size_t maxLeaves)
     {
         std::vector<uint32_t> count(cells, 0);
         for (const Tri& t : tris)
             if (t.n != glm::vec3(0.0f))
                 forEachLeaf(t, W, [&](const openvdb::Coord& c) { ++count[cell(c - lo_)]; });
+        const size_t leaves =
+            size_t(std::count_if(count.begin(), count.end(), [](uint32_t n) { return n; }));
+        if (leaves > maxLeaves) {
+            origin_.resize(leaves);
+            return;
+        }
         std::vector<int32_t> leaf(cells, -1);  // the leaf of each cell, or -1
         first_.push_back(0);
         for (size_t c = 0; c < cells; ++c)
@@ -378,26 +408,69 @@ private:
                 });
     }
 
-    void binSparse(const Scratch<Tri>& tris, double W)
+    /// The leaves by a hash of their coordinates, numbered as first met;
+    /// counted, then ordered as the dense bins are, then filled.  Stops
+    /// when the leaves pass maxLeaves (a frame that cannot fit is refused
+    /// without binning it: the pairs of a tentacle 1000 long at voxel 0.5
+    /// took 25 s and 2.4 GB to sort before their 49 M leaves were refused).
+    void binSparse(const Scratch<Tri>& tris, double W, size_t maxLeaves)
     {
-        std::vector<std::pair<openvdb::Coord, uint32_t>> pairs;
+        std::vector<int32_t> slot(size_t(1) << 16, -1);  // leaf numbers, -1 empty
+        std::vector<openvdb::Coord> met;
+        std::vector<uint32_t> count;
+        auto find = [&](const openvdb::Coord& c) -> int32_t& {
+            const size_t mask = slot.size() - 1;
+            size_t h = (size_t(uint32_t(c.x())) * 73856093u) ^
+                       (size_t(uint32_t(c.y())) * 19349663u) ^
+                       (size_t(uint32_t(c.z())) * 83492791u);
+            for (h &= mask;; h = (h + 1) & mask)
+                if (slot[h] < 0 || met[size_t(slot[h])] == c)
+                    return slot[h];
+        };
+        struct Full {};
+        try {
+            for (const Tri& t : tris) {
+                if (t.n == glm::vec3(0.0f))
+                    continue;
+                forEachLeaf(t, W, [&](const openvdb::Coord& c) {
+                    int32_t& s = find(c);
+                    const int32_t l = s < 0 ? int32_t(met.size()) : s;
+                    if (s < 0) {
+                        s = l;
+                        met.push_back(c);
+                        count.push_back(0);
+                        if (2 * met.size() > slot.size()) {  // grow, keeping half empty
+                            std::vector<int32_t>(slot.size() * 2, -1).swap(slot);
+                            for (size_t k = 0; k < met.size(); ++k)
+                                find(met[k]) = int32_t(k);
+                        }
+                    }
+                    ++count[size_t(l)];
+                    if (met.size() > maxLeaves)
+                        throw Full();
+                });
+            }
+        } catch (const Full&) {
+            origin_.resize(met.size());
+            return;
+        }
+        std::vector<uint32_t> order(met.size()), rank(met.size());
+        std::iota(order.begin(), order.end(), 0u);
+        tbb::parallel_sort(order.begin(), order.end(),
+                           [&](uint32_t x, uint32_t y) { return less(met[x], met[y]); });
+        first_.push_back(0);
+        for (size_t r = 0; r < order.size(); ++r) {
+            rank[order[r]] = uint32_t(r);
+            origin_.push_back(leafOrigin(met[order[r]]));
+            first_.push_back(first_.back() + count[order[r]]);
+        }
+        tri_ = Scratch<uint32_t>(first_.back());
+        std::vector<size_t> fill(first_.begin(), first_.end() - 1);
         for (size_t i = 0; i < tris.size(); ++i)
             if (tris[i].n != glm::vec3(0.0f))
                 forEachLeaf(tris[i], W, [&](const openvdb::Coord& c) {
-                    pairs.push_back({leafOrigin(c), uint32_t(i)});
+                    tri_[fill[rank[size_t(find(c))]]++] = uint32_t(i);
                 });
-        tbb::parallel_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
-            return less(a.first, b.first) || (a.first == b.first && a.second < b.second);
-        });
-        tri_ = Scratch<uint32_t>(pairs.size());
-        for (size_t i = 0; i < pairs.size(); ++i) {
-            if (i == 0 || pairs[i].first != pairs[i - 1].first) {
-                origin_.push_back(pairs[i].first);
-                first_.push_back(i);
-            }
-            tri_[i] = pairs[i].second;
-        }
-        first_.push_back(pairs.size());
     }
 
     openvdb::Coord lo_, dim_;
@@ -583,7 +656,7 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
         if (opt.progress)
             opt.progress(stage, f);
     };
-    // The binning's (triangle, leaf) pairs, 20 bytes each: a triangle claims
+    // The binning's (triangle, leaf) pairs, 4 bytes each: a triangle claims
     // the leaves of its band box within reach of its plane, about its box's
     // footprint across its normal's largest axis times the band's thickness
     // along it (a sliver's box, not its area).  Refused before binning when
@@ -609,20 +682,22 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
         pairs += extent[(w + 1) % 3] * extent[(w + 2) % 3] *
                  std::min(extent[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
     }
-    checkMemoryFits(pairs * 20.0,
+    checkMemoryFits(pairs * 4.0,
                     fmt::format("{}: the band at voxel size {:g} (about {:.3g} triangle-leaf "
                                 "pairs to bin)",
                                 what, h, pairs),
                     "use a larger voxel size");
     const Triangles T = prepareTriangles(mesh, h, W, what);
-    const LeafBins bins(T.tris, W);
-    progress("binning", 1.0);
     // Each leaf's nearest triangles, then its grid leaf (values, and colours
-    // with Cd): refuse what cannot fit before allocating it.
-    checkMemoryFits(
-        double(bins.size()) * kLeafVoxels * (4.0 + 4.0 + 12.0),
-        fmt::format("{}: the band at voxel size {:g} ({} leaves)", what, h, bins.size()),
-        "use a larger voxel size");
+    // with Cd): refused, while binning, as soon as the leaves cannot fit.
+    const double perLeaf = kLeafVoxels * (4.0 + 4.0 + 12.0), have = availableMemoryBytes();
+    const LeafBins bins(T.tris, W, size_t(std::min(have / perLeaf, 1e15)));
+    if (double(bins.size()) * perLeaf > have)
+        throw InputError(fmt::format(
+            "{}: the band at voxel size {:g} has at least {} leaves, which need at least {} of "
+            "memory, and this machine has {} available: use a larger voxel size",
+            what, h, bins.size(), formatBytes(double(bins.size()) * perLeaf), formatBytes(have)));
+    progress("binning", 1.0);
 
     Nearest nearest(bins.size() * kLeafVoxels);
     exactPass(T.tris, bins, W, nearest);
