@@ -428,6 +428,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         writeText(in / "liar.ply", ply);
     }
     writeText(in / "bad.ply", "ply\nformat binary_big_endian 1.0\nend_header\n");
+    writeText(in / "growing.json",
+              R"({"base": {"type": "sphere", "radius": 1, "cells": 2}, "levels": 4,
+                  "details": [{"type": "tentacle", "spacing": 0.8, "seed": 2, "levels": [1, 2],
+                               "length": {"keys": [[1, 0.01], [3, 1000]]}}]})");
     {
         std::string edits;  // twenty edits each allowed alone, together past any size
         for (int i = 0; i < 20; ++i)
@@ -744,6 +748,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"shape IN/far_edits.json -o OUT/out.ply",
          "details and edits edits[0] (radius 100, gain 100), edits[1] (radius 100, gain 100)"},
         {"shape IN/far_edits.json -o OUT/out.vdb", "and 17 more push it beyond any size"},
+        // (frame 1 fits; its voxel size makes frame 2's tentacles, 500 long,
+        // too many voxels: refused before frame 1 is written)
+        {"shape IN/growing.json --frames 1-3 -o OUT/g.####.vdb",
+         "growing.json: the band at voxel size 0.0039"},
+        {"shape IN/growing.json --frames 1-3 -o OUT/g.####.vdb",
+         "use a larger voxel size (frame 2)"},
         // farms and the preview server
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
          "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},

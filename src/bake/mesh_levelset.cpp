@@ -158,28 +158,9 @@ dvec3 barycentric(const dvec3& q, const dvec3& a, const dvec3& b, const dvec3& c
 /// point; every edge's neighbour (InputError unless each edge a -> b has
 /// exactly one triangle running b -> a beside it: open, not a 2-manifold,
 /// or not consistently oriented); the corners' pseudo-normals.
-Triangles prepareTriangles(const TriangleMesh& mesh, double h, double W, const std::string& what)
+Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string& what)
 {
     const size_t nt = mesh.triangles.size(), np = mesh.points.size();
-    for (size_t i = 0; i < nt; ++i)
-        for (uint32_t v : mesh.triangles[i])
-            if (v >= np)
-                throw InputError(
-                    fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
-    // Index coordinates must stay well inside int (and OpenVDB's index space).
-    const double far = double(1 << 30);
-    for (size_t v = 0; v < np; ++v) {
-        const openvdb::Vec3s& p = mesh.points[v];
-        if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
-            throw InputError(fmt::format("{}: point {} is not finite", what, v));
-        const double r = double(std::max({std::fabs(p.x()), std::fabs(p.y()), std::fabs(p.z())}));
-        if (!(r / h + W + 16.0 < far))
-            throw InputError(
-                fmt::format("{}: point {} lies {:.3g} from the origin, {:.3g} voxels of "
-                            "{:g}: beyond OpenVDB's index space; move the mesh nearer "
-                            "the origin or use a larger voxel size",
-                            what, v, r, r / h, h));
-    }
     Triangles T;
     T.mesh = &mesh;
     T.tris = Scratch<Tri>(nt);
@@ -643,19 +624,33 @@ double meshExtent(const TriangleMesh& mesh)
     return double(std::max({s.x(), s.y(), s.z()}));
 }
 
-BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt,
-                            const std::string& what)
+void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const std::string& what)
 {
-    const auto start = Clock::now();
     const double h = opt.voxelSize, W = opt.halfWidth;
     checkVoxelSize(h, what + ": the voxel size");
     checkHalfWidth(W, what + ": the half-width");
     if (mesh.triangles.empty())
         throw InputError(fmt::format("{}: the mesh has no triangles", what));
-    auto progress = [&](const char* stage, double f) {
-        if (opt.progress)
-            opt.progress(stage, f);
-    };
+    const size_t nt = mesh.triangles.size(), np = mesh.points.size();
+    for (size_t i = 0; i < nt; ++i)
+        for (uint32_t v : mesh.triangles[i])
+            if (v >= np)
+                throw InputError(
+                    fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
+    // Index coordinates must stay well inside int (and OpenVDB's index space).
+    const double far = double(1 << 30);
+    for (size_t v = 0; v < np; ++v) {
+        const openvdb::Vec3s& p = mesh.points[v];
+        if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
+            throw InputError(fmt::format("{}: point {} is not finite", what, v));
+        const double r = double(std::max({std::fabs(p.x()), std::fabs(p.y()), std::fabs(p.z())}));
+        if (!(r / h + W + 16.0 < far))
+            throw InputError(
+                fmt::format("{}: point {} lies {:.3g} from the origin, {:.3g} voxels of "
+                            "{:g}: beyond OpenVDB's index space; move the mesh nearer "
+                            "the origin or use a larger voxel size",
+                            what, v, r, r / h, h));
+    }
     // The binning's (triangle, leaf) pairs, 4 bytes each: a triangle claims
     // the leaves of its band box within reach of its plane, about its box's
     // footprint across its normal's largest axis times the band's thickness
@@ -687,7 +682,19 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
                                 "pairs to bin)",
                                 what, h, pairs),
                     "use a larger voxel size");
-    const Triangles T = prepareTriangles(mesh, h, W, what);
+}
+
+BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt,
+                            const std::string& what)
+{
+    const auto start = Clock::now();
+    checkMeshBake(mesh, opt, what);
+    const double h = opt.voxelSize, W = opt.halfWidth;
+    auto progress = [&](const char* stage, double f) {
+        if (opt.progress)
+            opt.progress(stage, f);
+    };
+    const Triangles T = prepareTriangles(mesh, h, what);
     // Each leaf's nearest triangles, then its grid leaf (values, and colours
     // with Cd): refused, while binning, as soon as the leaves cannot fit.
     const double perLeaf = kLeafVoxels * (4.0 + 4.0 + 12.0), have = availableMemoryBytes();

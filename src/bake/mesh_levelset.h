@@ -30,6 +30,13 @@ struct MeshBakeOptions {
 BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& options,
                             const std::string& what);
 
+/// What bakeMeshLevelSet refuses before it bins a triangle (InputError naming
+/// `what`): the options, an empty mesh, points missing, not finite or beyond
+/// OpenVDB's index space, and a binning that would not fit in memory.  For a
+/// sequence, every frame's mesh is checked so before any frame is written.
+void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& options,
+                   const std::string& what);
+
 /// The largest extent of the mesh's points' bounding box.
 double meshExtent(const TriangleMesh& mesh);
 

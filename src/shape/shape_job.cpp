@@ -118,9 +118,8 @@ TriangleMesh synthesise(ShapeSurface& shape, ShapeReport& r, const ShapeCallback
     return mesh;
 }
 
-/// The mesh baked into a level set (the report's voxel size) and written.
-void bakeAndWrite(const TriangleMesh& mesh, const ShapeRequest& req, const ShapeCallbacks& cb,
-                  const VdbFileInfo& info, const std::string& path, ShapeReport& r)
+MeshBakeOptions meshBakeOptions(const ShapeRequest& req, const ShapeCallbacks& cb,
+                                const ShapeReport& r)
 {
     MeshBakeOptions opt;
     opt.voxelSize = r.voxelSize;
@@ -128,8 +127,15 @@ void bakeAndWrite(const TriangleMesh& mesh, const ShapeRequest& req, const Shape
     opt.fog = req.fog;
     opt.colour = req.colour;
     opt.progress = cb.progress;
+    return opt;
+}
+
+/// The mesh baked into a level set (the report's voxel size) and written.
+void bakeAndWrite(const TriangleMesh& mesh, const ShapeRequest& req, const ShapeCallbacks& cb,
+                  const VdbFileInfo& info, const std::string& path, ShapeReport& r)
+{
     auto t = Clock::now();
-    BakedGrids grids = bakeMeshLevelSet(mesh, opt, req.input);
+    BakedGrids grids = bakeMeshLevelSet(mesh, meshBakeOptions(req, cb, r), req.input);
     r.bakeSeconds += secondsSince(t);
     r.stats = grids.stats;
     t = Clock::now();
@@ -186,6 +192,24 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     // The first frame sizes the voxels of every frame (one transform).
     TriangleMesh first = synthesise(shape, r, cb);
     chooseVoxelSize(req, first, r);
+    // Every frame synthesised and checked as its bake will check it before
+    // any file is touched: keyframes can grow a later frame past what fits
+    // or past any size, and frame 1 was written before frame 2 was refused.
+    // (Synthesis is a twentieth of a frame's time; each is made again below.)
+    for (size_t i = 0; i < frames.size(); ++i) {
+        try {
+            if (i > 0)
+                shape.setSpec(specs[i], true);
+            const TriangleMesh mesh = i > 0 ? synthesise(shape, r, cb) : TriangleMesh();
+            const TriangleMesh& m = i > 0 ? mesh : first;
+            checkMeshBake(m, meshBakeOptions(req, {}, r), req.input);
+            checkBakeMemory(meshArea(m), r.voxelSize, req.halfWidth, req.input);
+        } catch (const InputError& e) {
+            throw InputError(fmt::format("{} (frame {})", e.what(), frames[i]));
+        }
+        if (cb.progress)
+            cb.progress("frames checked", double(i + 1) / double(frames.size()));
+    }
     const std::string options =
         fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={}", r.voxelSize,
                     req.halfWidth, levels, req.fog, req.half, deviceName(req.device));
