@@ -529,9 +529,28 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     fs::create_symlink("flipped.vdb", in / "alias.png");
     writeText(in / "model.json", fileContents(kScene));
     fs::create_hard_link(in / "model.json", in / "model.vdb");
+    // ... and inputs a model or shape names inside it: a growth file's bark
+    // photo, a strokes file; a frame that is the input, two frames one file.
+    {
+        std::string grow = fileContents(kPopulus);
+        const std::string bark = R"("bark": {)";
+        grow.replace(grow.find(bark), bark.size(), bark + R"("photo": "bark.png", )");
+        writeText(in / "grow.json", grow);
+        writeText(in / "bark.png", fileContents(CAMBIUM_SOURCE_DIR "/docs/images/bush.png"));
+    }
+    fs::create_symlink("bark.png", in / "photo.vdb");
+    fs::create_symlink("grow.json", in / "grown.0002.vdb");
+    writeText(in / "strokes.json", R"([{"at": [0, 0, 1], "radius": 0.5, "value": 1}])");
+    writeText(in / "stroked.json",
+              R"({"base": {"type": "cube"}, "levels": 2, "blend": {"a": {"details": []},
+                  "b": {"details": [{"type": "rock", "amplitude": 0.05}]},
+                  "alpha": {"type": "strokes", "file": "strokes.json"}}})");
+    fs::create_symlink("strokes.json", in / "strokes.obj");
     // Outputs that must survive every refusal.
     for (const char* name : {"out.vdb", "out.ply", "out.obj", "out.png", "out.exr", "seq.0001.vdb"})
         writeText(out / name, std::string("a good ") + name);
+    writeText(out / "twin.0001.vdb", "a good twin.0001.vdb");
+    fs::create_symlink("twin.0001.vdb", out / "twin.0002.vdb");
     const auto before = snapshot(out);
     const auto inputsBefore = snapshot(in);
 
@@ -648,6 +667,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/model.json -o IN/model.vdb", "model.vdb: is the input"},
         {"mesh IN/trunc90.vdb -o IN/alias.ply", "alias.ply: is the input"},
         {"render IN/flipped.vdb -o IN/alias.png", "alias.png: is the input"},
+        {"bake IN/grow.json --year 2 --voxel-size 0.3 -o IN/photo.vdb",
+         "photo.vdb: is the input IN/bark.png"},
+        {"bake IN/grow.json --frames 1-2 --voxel-size 0.3 -o IN/grown.####.vdb",
+         "grown.0002.vdb: is the input IN/grow.json"},
+        {"bake " + P + " --frames 1-2 --voxel-size 0.3 -o OUT/twin.####.vdb",
+         "twin.0002.vdb: is the same file as OUT/twin.0001.vdb (two outputs would write one "
+         "file)"},
+        {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
         {"bake " + S + " -o OUT/no/such/dir/out.vdb",
          "out.vdb: cannot write the output: No such file"},
         {"bake " + S, "--output is required"},

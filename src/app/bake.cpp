@@ -175,7 +175,7 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
     if (!sequence)
         checkOutputPath(req.output);
     fileFormat(req.output, {"vdb"}, "output");
-    checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
+    checkOutputIsNoInput(req.output, bakeInputFiles(req));
     req.model = o->model.options();
     const bool timings = timingsAsked(o->timings);
     if (req.tile.count > 0)  // (what a farm's final job checks the tile by)

@@ -476,6 +476,12 @@ void addFarmCommand(CLI::App& app, Action& action)
                 std::vector<std::string> files;
                 for (size_t k = 0; k < plan.chunks.size(); ++k)
                     files.push_back(tilePath(plan.dir, k));
+                // (the output may have become a link to the input, or a tile,
+                // since the plan was made)
+                checkOutputPath(plan.output);
+                std::vector<std::string> inputs = files;
+                inputs.push_back(plan.merged.scene);
+                checkOutputIsNoInput(plan.output, inputs);
                 const BakedGrids grids = mergeTiles(files, plan.merged.half);
                 BakeRequest described;
                 described.input = plan.merged.scene;

@@ -30,7 +30,7 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
 {
     checkBakeOptions(req);
     checkOutputPath(req.output);
-    checkOutputIsNoInput(req.output, {req.input, req.barkPhoto});
+    checkOutputIsNoInput(req.output, bakeInputFiles(req));
     if (req.fog)
         throw InputError(
             "--tiles: a fog volume (--fog) is made from the whole grid's values; "

@@ -48,6 +48,13 @@ void checkBakeOptions(const BakeRequest& req)
     checkHalfWidth(req.halfWidth);
 }
 
+std::vector<std::string> bakeInputFiles(const BakeRequest& req)
+{
+    std::vector<std::string> files = modelFiles(req.input);
+    files.push_back(req.barkPhoto);
+    return files;
+}
+
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
 {
     VoxelPlan plan;
@@ -115,6 +122,7 @@ BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
     p.photo = req.barkPhoto.empty() ? look.photo : req.barkPhoto;
     p.coherent = req.barkCoherent.value_or(look.coherent);
     p.color = look.color;
+    checkOutputIsNoInput(req.output, {p.photo});  // (a scene's or growth file's photo)
     if (!p.photo.empty())
         p.histogram = std::make_shared<const ColourHistogram>(ColourHistogram::fromPhoto(p.photo));
     return p;

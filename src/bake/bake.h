@@ -87,6 +87,10 @@ struct BakeCallbacks {
 /// InputError unless the half-width is valid.
 void checkBakeOptions(const BakeRequest& request);
 
+/// The files a bake reads (the model's, modelFiles, and --bark-photo): what
+/// no output of it may replace.
+std::vector<std::string> bakeInputFiles(const BakeRequest& request);
+
 /// The voxel size of a bake: `request.voxelSize` or 512 voxels across the
 /// program's surface bounds.  InputError when the model has no surface, or
 /// when the bake would need more memory than the machine has or coordinates

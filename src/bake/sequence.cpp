@@ -81,7 +81,8 @@ double sumOverFrames(const std::vector<size_t>& at, const std::vector<double>& v
 }  // namespace
 
 std::vector<std::string> sequencePaths(const std::string& pattern,
-                                       const std::vector<long long>& frames, const char* example)
+                                       const std::vector<long long>& frames, const char* example,
+                                       const std::vector<std::string>& inputs)
 {
     if (!isFramePattern(pattern))
         throw InputError(
@@ -92,6 +93,7 @@ std::vector<std::string> sequencePaths(const std::string& pattern,
         paths.push_back(framePath(pattern, f));
         checkOutputPath(paths.back(), paths.size() == 1);
     }
+    checkNoOutputIsAnInput(paths, inputs);
     return paths;
 }
 
@@ -131,7 +133,7 @@ SequencePlan planSequence(const SequenceRequest& request)
         throw InputError(
             fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
     plan.frames = parseFrames(request.frames);
-    plan.paths = sequencePaths(req.output, plan.frames, "out/tree.####.vdb");
+    plan.paths = sequencePaths(req.output, plan.frames, "out/tree.####.vdb", bakeInputFiles(req));
     const std::string text = readTextFile(req.input, "growth parameter file");
     plan.model = std::make_shared<const GrowthModel>(parseGrowthParameters(text, req.input));
     const GrowthModel& model = *plan.model;

@@ -92,10 +92,12 @@ struct SequenceCallbacks {
 
 /// The files of a sequence's `frames` written to `pattern`, each checked as an
 /// output before any work: InputError unless the pattern has a run of '#'
-/// for the frame number (`example` shows one: "out/tree.####.vdb").  What
-/// every sequence writer (growth and shape) names its frames by.
+/// for the frame number (`example` shows one: "out/tree.####.vdb"), where a
+/// frame is one of the `inputs` (through a link) or two frames are one file.
+/// What every sequence writer (growth and shape) names its frames by.
 std::vector<std::string> sequencePaths(const std::string& pattern,
-                                       const std::vector<long long>& frames, const char* example);
+                                       const std::vector<long long>& frames, const char* example,
+                                       const std::vector<std::string>& inputs);
 
 /// The key a sequence's files carry (file metadata `cambium_sequence`, what
 /// --resume matches): a hash of its main input's `text`, the `options` that

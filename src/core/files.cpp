@@ -24,6 +24,7 @@
 #include <fcntl.h>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <ostream>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -338,10 +339,36 @@ bool sameFile(const std::string& a, const std::string& b)
 
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
 {
-    for (const std::string& input : inputs) {
-        if (sameFile(input, output))
+    checkNoOutputIsAnInput({output}, inputs);
+}
+
+void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
+                            const std::vector<std::string>& inputs)
+{
+    // Each existing file by its device and inode: through links, other
+    // spellings and hard links, one file is one key.
+    auto fileOf = [](const std::string& path, std::pair<dev_t, ino_t>& id) {
+        struct stat st {};
+        if (path.empty() || ::stat(path.c_str(), &st) != 0)
+            return false;
+        id = {st.st_dev, st.st_ino};
+        return true;
+    };
+    std::map<std::pair<dev_t, ino_t>, const std::string*> read, written;
+    std::pair<dev_t, ino_t> id;
+    for (const std::string& input : inputs)
+        if (fileOf(input, id))
+            read.emplace(id, &input);
+    for (const std::string& output : outputs) {
+        if (!fileOf(output, id))
+            continue;
+        if (const auto in = read.find(id); in != read.end())
+            throw InputError(fmt::format("{}: is the input {} (the output would replace it)",
+                                         output, *in->second));
+        if (const auto out = written.emplace(id, &output); !out.second)
             throw InputError(
-                fmt::format("{}: is the input {} (the output would replace it)", output, input));
+                fmt::format("{}: is the same file as {} (two outputs would write one file)", output,
+                            *out.first->second));
     }
 }
 

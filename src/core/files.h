@@ -48,6 +48,12 @@ bool sameFile(const std::string& a, const std::string& b);
 /// of `inputs` (empty names skipped); a command checks it before any work.
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs);
 
+/// The same for every output of a sequence, and InputError "OUTPUT: is the
+/// same file as OTHER (two outputs would write one file)" where two outputs
+/// name one existing file (a frame linked to another frame).
+void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
+                            const std::vector<std::string>& inputs);
+
 /// A key of the bytes of the files `paths` (each name with a 64-bit
 /// checksum of its contents; an empty name or a file that cannot be read
 /// counts as none): what a sequence's frames depend on besides its main

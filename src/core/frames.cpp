@@ -90,8 +90,12 @@ void forEachFile(const std::string& input, const std::string& output, const std:
                 fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
     }
     checkOutput(framePath(output, list.front()));
-    for (long long f : list)
-        checkOutputIsNoInput(framePath(output, f), {framePath(input, f)});
+    std::vector<std::string> ins, outs;
+    for (long long f : list) {
+        ins.push_back(framePath(input, f));
+        outs.push_back(framePath(output, f));
+    }
+    checkNoOutputIsAnInput(outs, ins);
     for (long long f : list)
         one(framePath(input, f), framePath(output, f));
 }

@@ -96,6 +96,14 @@ BlobTree grownTree(const GrowthModel& model, const std::string& path, const Mode
     return tree;
 }
 
+std::vector<std::string> modelFiles(const std::string& path)
+{
+    std::vector<std::string> files = {path};
+    if (isGrowthParameterFile(path))
+        files.push_back(loadGrowthParameters(path).barkPhoto);
+    return files;
+}
+
 BlobTree loadModel(const std::string& path, const ModelOptions& o)
 {
     checkModelOptions(o);

@@ -8,6 +8,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace cambium {
 
@@ -56,5 +57,9 @@ BlobTree grownTree(const GrowthModel& model, const std::string& path, const Mode
 /// Also reads growth parameter files (a .json with "curves",
 /// docs/growth-format.md): the tree grown to `options.time`.
 BlobTree loadModel(const std::string& path, const ModelOptions& options = {});
+
+/// The files a model at `path` reads: the file and, for a growth parameter
+/// file, the bark photo it names (what no output may replace).
+std::vector<std::string> modelFiles(const std::string& path);
 
 }  // namespace cambium

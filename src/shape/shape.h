@@ -117,8 +117,8 @@ struct AlphaSpec {
     uint32_t seed = 0;                             ///< noise
     std::vector<Stroke> strokes;                   ///< strokes, composited in order
     double background = 0.0;                       ///< strokes: the weight where none reaches
-    std::string file;                              ///< painted: a PLY with a vertex alpha
-    std::vector<AlphaSpec> of;                     ///< compositing operators' operands
+    std::string file;  ///< painted: a PLY with a vertex alpha; strokes: their JSON file, if any
+    std::vector<AlphaSpec> of;  ///< compositing operators' operands
 };
 
 /// One side of a blend: the details and edits of one multi-scale shape on

@@ -560,6 +560,7 @@ private:
                     const std::string f = file(j, path, "file", "strokes file");
                     strokes = parseJson(readTextFile(f, "strokes file"), f);
                     where = f;
+                    a.file = f;
                 } else {
                     strokes = j["strokes"];
                 }

@@ -72,6 +72,20 @@ void paintedFiles(const AlphaSpec& alpha, std::vector<std::string>& files)
         paintedFiles(a, files);
 }
 
+/// The files a shape reads besides its shape file: its base's file and
+/// control mesh, painted PLYs and strokes, and a model base's own (its bark
+/// photo): what an output may not replace and a sequence's key depends on.
+std::vector<std::string> shapeFiles(const ShapeSpec& spec)
+{
+    std::vector<std::string> files = {spec.base.file, spec.base.control};
+    paintedFiles(spec.blend.alpha, files);
+    if (spec.base.type == BaseType::Model)
+        for (const std::string& f : modelFiles(spec.base.file))
+            if (f != spec.base.file)
+                files.push_back(f);
+    return files;
+}
+
 /// InputError when a synthesised point is not finite or lies beyond
 /// kFarthestCoordinate (as read and baked ones may not): details and edits whose gains, radii
 /// and amplitudes multiply past any size, named.
@@ -167,13 +181,17 @@ void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeRep
 ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
 {
     const std::vector<long long> frames = parseFrames(req.frames);
-    const std::vector<std::string> paths = sequencePaths(req.output, frames, "out/shape.####.vdb");
     // Every frame's file read (and so checked) before any work.
     const std::string text = readTextFile(req.input, "shape file");
     const std::string directory = std::filesystem::path(req.input).parent_path().string();
     std::vector<ShapeSpec> specs;
     for (long long f : frames)
         specs.push_back(parseShape(text, req.input, directory, double(f)));
+    std::vector<std::string> files = shapeFiles(specs.front());
+    files.push_back(req.input);
+    const std::vector<std::string> paths =
+        sequencePaths(req.output, frames, "out/shape.####.vdb", files);
+    files.pop_back();
     const int levels = req.levels >= 0 ? req.levels : specs.front().levels;
     for (const ShapeSpec& s : specs)
         checkShapeLevels(s, levels);
@@ -215,8 +233,6 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
                     req.halfWidth, levels, req.fog, req.half, deviceName(req.device));
     // (the files the shape reads too: an edited control mesh or painted
     // PLY makes other frames)
-    std::vector<std::string> files = {specs.front().base.file, specs.front().base.control};
-    paintedFiles(specs.front().blend.alpha, files);
     const std::string key = sequenceKeyOf(text, options, files);
     auto notice = [&](const std::string& line) {
         if (cb.notice)
@@ -269,7 +285,9 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     const int levels = req.levels >= 0 ? req.levels : spec.levels;
     checkShapeLevels(spec, levels);
     checkOutputPath(req.output);
-    checkOutputIsNoInput(req.output, {req.input, spec.base.file, spec.base.control});
+    std::vector<std::string> files = shapeFiles(spec);
+    files.push_back(req.input);
+    checkOutputIsNoInput(req.output, files);
 
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
