@@ -546,6 +546,23 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
                   "b": {"details": [{"type": "rock", "amplitude": 0.05}]},
                   "alpha": {"type": "strokes", "file": "strokes.json"}}})");
     fs::create_symlink("strokes.json", in / "strokes.obj");
+    // Numbers read past their meaning: a seed of 1.5, keys a span of 2e308
+    // apart, 0x10 in an OBJ, a growth file's year 0 (not its last); a tile
+    // of a frame as a whole surface.
+    writeText(in / "seed.json", R"({"base": {"type": "sphere"}, "levels": 2,
+                                     "details": [{"type": "rock", "seed": 1.5}]})");
+    writeText(in / "span.json", R"({"base": {"type": "sphere"}, "levels": 2, "details":
+        [{"type": "rock", "amplitude": {"keys": [[-1e308, 0.01], [1e308, 0.05]]}}]})");
+    writeText(in / "hex.obj",
+              "v 0x10 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\n"
+              "f 2 4 3\n");
+    writeText(in / "year0.json", R"({"base": {"type": "model", "file": ")" + kPopulus +
+                                     R"(", "year": 0, "voxel_size": 0.5}, "levels": 1})");
+    ASSERT_EQ(run("bake " + kScene + " --tile 1/2 --voxel-size 0.05 --device cpu -o " +
+                  (in / "tile.vdb").string())
+                  .status,
+              0);
+    writeText(in / "tiled.json", R"({"base": {"type": "vdb", "file": "tile.vdb"}, "levels": 1})");
     // Outputs that must survive every refusal.
     for (const char* name : {"out.vdb", "out.ply", "out.obj", "out.png", "out.exr", "seq.0001.vdb"})
         writeText(out / name, std::string("a good ") + name);
@@ -675,6 +692,16 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "twin.0002.vdb: is the same file as OUT/twin.0001.vdb (two outputs would write one "
          "file)"},
         {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
+        {"shape IN/seed.json -o OUT/out.obj", "details[0].seed: must be a whole number (got 1.5)"},
+        {"shape IN/span.json -o OUT/out.obj", "amplitude.keys[0][0]: must be between"},
+        {"render --mesh IN/hex.obj -o OUT/out.png", "hex.obj:1: 'v' expects 3 numbers"},
+        {"shape IN/year0.json -o OUT/out.obj", "at year 0 the tree has not begun to grow"},
+        {"shape IN/tiled.json -o OUT/out.obj",
+         "tile.vdb: is tile 1/2 of a frame baked in tiles, a part of its surface"},
+        {"bake " + S + " --tile 4096/4096 --voxel-size 0.05 -o OUT/out.vdb",
+         "--tile 4096/4096: the frame spans 2 layers of 128 voxels"},
+        {"growth " + P + " --seed 18446744073709551616",
+         "--seed: Value 18446744073709551616 not in range 0 to 9000000000000000"},
         {"bake " + S + " -o OUT/no/such/dir/out.vdb",
          "out.vdb: cannot write the output: No such file"},
         {"bake " + S, "--output is required"},

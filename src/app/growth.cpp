@@ -2,6 +2,7 @@
 #include "app/app.h"
 
 #include "blobtree/stats.h"
+#include "core/math.h"
 #include "model/growth.h"
 #include "model/growth_params.h"
 #include "model/skeleton.h"
@@ -92,7 +93,7 @@ void addGrowthCommand(CLI::App& app, Action& action)
         cmd->add_option("--time", o->time, "Any time in years, e.g. 3.5 (mid-season of year 4)")
             ->excludes(yearOpt);
     cmd->add_option("--seed", req.seed, "Seed of the stochastic orientation (default: the file's)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(CLI::Range(0LL, kMaxSeed));
     cmd->add_flag("--no-leaves", o->noLeaves, "Leave the leaves out");
     cmd->add_flag("--print-stats", req.printStats,
                   "Branches and internodes by order, organs, BlobTree primitives and operators");

@@ -1,6 +1,7 @@
 // cambium lsystem — an L-system derived: its string, skeleton or a summary.
 #include "app/app.h"
 
+#include "core/math.h"
 #include "model/lsystem.h"
 #include "model/skeleton.h"
 #include "model/turtle.h"
@@ -69,7 +70,7 @@ void addLSystemCommand(CLI::App& app, Action& action)
         ->check(CLI::Range(0, kMaxSteps));
     cmd->add_option("--seed", req->seed,
                     "Seed of stochastic productions (default: the file's seed:)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(CLI::Range(0LL, kMaxSeed));
     cmd->add_option("--max-modules", req->maxModules, "Refuse a derivation that makes more modules")
         ->capture_default_str()
         ->check(CLI::Range(size_t(1), kMaxModulesLimit));

@@ -213,6 +213,14 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     const BarkPaint paint = barkPaint(req, tree);
     const FieldProgram program = FieldProgram::compile(tree);
     const VoxelPlan plan = planVoxelSize(program, req);
+    // (--tiles bakes one tile a layer at most; a tile beyond that would be
+    // empty, written with exit 0)
+    if (const long long layers = bandLayers(program, plan.voxelSize, req.halfWidth);
+        req.tile.count > layers)
+        throw InputError(fmt::format(
+            "--tile {}/{}: the frame spans {} layers of 128 voxels across its longest side, and "
+            "a tile is a run of them: at most {} tiles",
+            req.tile.index + 1, req.tile.count, layers, layers));
     checkDiskSpace(req.output, plan.fileBytes, req.output);
     report.extent = plan.extent;
     report.autoVoxelSize = plan.automatic;

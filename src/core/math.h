@@ -17,6 +17,10 @@ constexpr double kDegree = kPi / 180.0;  ///< radians per degree
 /// index spaces and Embree's builds overflow.
 constexpr double kFarthestCoordinate = 1e15;
 
+/// The largest seed a file or an option takes (whole numbers from 0: a
+/// double holds each exactly).
+constexpr long long kMaxSeed = 9000000000000000LL;
+
 /// Whether strtod's number [begin, end) was written in hexadecimal (0x10):
 /// the text formats here are decimal, and a hex number in them is a typo
 /// or another format's, read as 16 without a word.

@@ -58,7 +58,7 @@ void checkVertexValue(double v, bool coordinate, const std::string& path, size_t
 
 /// The next whitespace-separated token of `s` as a number (strtod's: "inf",
 /// "nan" and 1e300 are numbers, for the checks after to name); false when
-/// there is none or it is not a number.
+/// there is none or it is not a number (0x10 is not: strtod reads it as 16).
 bool readNumber(std::istream& s, double& v)
 {
     std::string token;
@@ -66,7 +66,7 @@ bool readNumber(std::istream& s, double& v)
         return false;
     char* end = nullptr;
     v = std::strtod(token.c_str(), &end);
-    return end != token.c_str() && *end == '\0';
+    return end != token.c_str() && *end == '\0' && !writtenInHex(token.c_str(), end);
 }
 
 /// The lines of a text file (an OBJ, a PLY header or ASCII body), counted

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/json.h"
+#include "core/math.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -120,7 +121,10 @@ private:
         if (years != std::floor(years))
             fail("years", fmt::format("must be a whole number (got {})", years));
         p.years = int(years);
-        p.seed = uint64_t(numberOr(root, "seed", double(p.seed), 0, 9e15));
+        const double seed = numberOr(root, "seed", double(p.seed), 0, double(kMaxSeed));
+        if (seed != std::floor(seed))
+            fail("seed", fmt::format("must be a whole number (got {})", seed));
+        p.seed = uint64_t(seed);
         p.trunkLength = numberOr(root, "trunk_length", p.trunkLength, 1e-6, 1e6);
         p.minShootLength = numberOr(root, "min_shoot_length", p.minShootLength, 0, 1e6);
         p.maxBranchLength = numberOr(root, "max_branch_length", p.maxBranchLength, 1e-6, 1e6);
@@ -177,7 +181,10 @@ private:
         if (b.around != std::floor(b.around))
             fail("bark.around", fmt::format("must be a whole number (got {})", b.around));
         b.along = numberOr(j, "along", b.along, 0.0, 1e4, "bark");
-        b.seed = uint64_t(numberOr(j, "seed", double(b.seed), 0.0, 9e15, "bark"));
+        const double seed = numberOr(j, "seed", double(b.seed), 0.0, double(kMaxSeed), "bark");
+        if (seed != std::floor(seed))
+            fail("bark.seed", fmt::format("must be a whole number (got {})", seed));
+        b.seed = uint64_t(seed);
     }
 
     /// The graphically defined functions: every one, and no other.

@@ -514,7 +514,10 @@ public:
                          "color: expected an index from 0 to 255 and red, green, blue from 0 to 1");
                 system_.colours[int(index)] = c;
             } else if (key == "seed") {
-                system_.seed = uint64_t(number(value, vat, 0, 9e15));
+                const double seed = number(value, vat, 0, double(kMaxSeed));
+                if (seed != std::floor(seed))
+                    fail(vat, 0, fmt::format("seed: must be a whole number (got {})", seed));
+                system_.seed = uint64_t(seed);
             } else if (key == "tropism") {
                 std::istringstream v(value);
                 for (double& x : system_.tropism)

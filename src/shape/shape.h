@@ -27,7 +27,7 @@ struct BaseSpec {
     std::string file;                     ///< mesh, vdb or model file (absolute or as given)
     double coarseVoxelSize = 0.0;         ///< vdb, model: the base's voxel size (0: automatic)
     double fineVoxelSize = 0.0;           ///< model: the analysed bake's voxel size (0: automatic)
-    double year = 0.0;                    ///< model: a growth file's year (0: its last)
+    double year = -1.0;                   ///< model: a growth file's year (< 0: its last)
     bool analyse = false;                 ///< mesh: the file is a fine surface to analyse
     std::string control;  ///< mesh, vdb, model: the coarse control mesh to analyse onto
 };

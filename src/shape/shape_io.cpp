@@ -114,7 +114,10 @@ private:
         for (size_t i = 0; i < keys.size(); ++i) {
             const std::string p = fmt::format("{}[{}]", kp, i);
             const json& key = array(keys[i], p, 2, "must be a key [time, value]");
-            points.emplace_back(number(key[0], p + "[0]"), number(key[1], p + "[1]"));
+            // (times within kFarthestCoordinate: their span stays finite)
+            points.emplace_back(
+                number(key[0], p + "[0]", -kFarthestCoordinate, kFarthestCoordinate),
+                number(key[1], p + "[1]"));
             if (i > 0 && !(points[i].first > points[i - 1].first))
                 fail(p + "[0]", "the keys' times must increase");
         }
@@ -135,6 +138,16 @@ private:
         points.back().first = 1.0;
         const Curve curve(points, interpolation, source() + ": " + kp);
         return curve(std::clamp((time - t0) / span, 0.0, 1.0));
+    }
+
+    /// A "seed": a whole number from 0 to 2^32 - 1 (0 where absent; 1.5 was
+    /// read as 1 without a word).
+    uint32_t seedOf(const json& j, const std::string& path) const
+    {
+        const double v = numberOr(j, "seed", path, 0, 0, 4294967295.0);
+        if (v != std::floor(v))
+            fail(jsonPath(path, "seed"), fmt::format("must be a whole number (got {})", v));
+        return uint32_t(v);
     }
 
     int wholeNumber(const json& obj, const char* key, const std::string& path, int value, int lo,
@@ -272,7 +285,7 @@ private:
                          "growth file");
                 b.coarseVoxelSize = numberOr(j, "voxel_size", path, 0.0, 1e-4, big);
                 b.fineVoxelSize = numberOr(j, "fine_voxel_size", path, 0.0, 1e-4, big);
-                b.year = numberOr(j, "year", path, 0.0, 0.0, 1000.0);
+                b.year = numberOr(j, "year", path, -1.0, 0.0, 1000.0);  // (absent: the last)
                 break;
         }
         return b;
@@ -341,7 +354,7 @@ private:
         const int L = shapeLevels;
         if (L < 1)
             fail(path, "details need at least one subdivision level (\"levels\" is 0)");
-        d.seed = uint32_t(numberOr(j, "seed", path, 0, 0, 4294967295.0));
+        d.seed = seedOf(j, path);
         d.scalar = numberOr(j, "scalar", path, d.scalar, -1e6, 1e6);
         d.displace = numberOr(j, "displace", path, d.displace, -1e6, 1e6);
         const double big = 1e6;
@@ -545,7 +558,7 @@ private:
                 checkKeys(j, path, {"type", "frequency", "threshold", "seed"});
                 a.frequency = numberOr(j, "frequency", path, a.frequency, 1e-6, 1e6);
                 a.threshold = numberOr(j, "threshold", path, 0.0, -1.0, 1.0);
-                a.seed = uint32_t(numberOr(j, "seed", path, 0, 0, 4294967295.0));
+                a.seed = seedOf(j, path);
                 break;
             case AlphaType::Strokes: {
                 checkKeys(j, path, {"type", "strokes", "file", "background"});
