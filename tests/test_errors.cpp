@@ -549,6 +549,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     // Numbers read past their meaning: a seed of 1.5, keys a span of 2e308
     // apart, 0x10 in an OBJ, a growth file's year 0 (not its last); a tile
     // of a frame as a whole surface.
+    writeText(
+        in / "near1.json",
+        R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
+    writeText(in / "afar.json",
+              R"({"root": {"type": "sphere", "center": [100000,0,0], "radius": 0.01}})");
     writeText(in / "seed.json", R"({"base": {"type": "sphere"}, "levels": 2,
                                      "details": [{"type": "rock", "seed": 1.5}]})");
     writeText(in / "span.json", R"({"base": {"type": "sphere"}, "levels": 2, "details":
@@ -692,6 +697,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "twin.0002.vdb: is the same file as OUT/twin.0001.vdb (two outputs would write one "
          "file)"},
         {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
+        {"bake IN/near1.json -o OUT/out.vdb", "threshold: must be at most 0.99 (got 0.999999)"},
+        {"bake IN/afar.json --voxel-size 0.0002 -o OUT/out.vdb",
+         "afar.json: the surface reaches 1e+05 from the origin, 5e+08 voxels of 0.0002: beyond "
+         "1048576 voxels, where single-precision positions"},
         {"shape IN/seed.json -o OUT/out.obj", "details[0].seed: must be a whole number (got 1.5)"},
         {"shape IN/span.json -o OUT/out.obj", "amplitude.keys[0][0]: must be between"},
         {"render --mesh IN/hex.obj -o OUT/out.png", "hex.obj:1: 'v' expects 3 numbers"},

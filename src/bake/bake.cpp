@@ -92,14 +92,14 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                             req.input, plan.extent, kMaxVoxelSize));
     }
     const double h = plan.voxelSize;
-    // Coordinates must fit OpenVDB's 32-bit index space, with room to spare.
+    // Positions in single precision a fraction of a voxel apart (and well
+    // inside OpenVDB's 32-bit index space).
     const double span = (far + req.halfWidth * h) / h;
-    if (!(span < 1e9))
-        throw InputError(fmt::format(
-            "{}: the surface reaches {:.4g} from the origin, {:.3g} voxels of {:g}: beyond "
-            "OpenVDB's index space (about 2e9 voxels each way); move the model nearer the "
-            "origin or use a larger --voxel-size",
-            req.input, far, span, h));
+    if (!(span < kMaxVoxelsFromOrigin))
+        throw InputError(
+            fmt::format("{}: the surface reaches {:.4g} from the origin, {:.3g} "
+                        "voxels of {:g}: beyond {:.0f} voxels, {}",
+                        req.input, far, span, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
     // (A species file's bark photo, which the program does not tell, stops
     // the packing too: its frames need about 8 bytes a band voxel more.)
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));

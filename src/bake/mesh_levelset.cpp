@@ -12,6 +12,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/half_edges.h"
+#include "core/math.h"
 #include "core/memory.h"
 #include "core/system.h"
 
@@ -637,8 +638,9 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
             if (v >= np)
                 throw InputError(
                     fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
-    // Index coordinates must stay well inside int (and OpenVDB's index space).
-    const double far = double(1 << 30);
+    // Positions in single precision a fraction of a voxel apart (and index
+    // coordinates well inside int and OpenVDB's index space).
+    const double far = kMaxVoxelsFromOrigin;
     for (size_t v = 0; v < np; ++v) {
         const openvdb::Vec3s& p = mesh.points[v];
         if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
@@ -647,9 +649,8 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
         if (!(r / h + W + 16.0 < far))
             throw InputError(
                 fmt::format("{}: point {} lies {:.3g} from the origin, {:.3g} voxels of "
-                            "{:g}: beyond OpenVDB's index space; move the mesh nearer "
-                            "the origin or use a larger voxel size",
-                            what, v, r, r / h, h));
+                            "{:g}: beyond {:.0f} voxels, {}",
+                            what, v, r, r / h, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
     }
     // The binning's (triangle, leaf) pairs, 4 bytes each: a triangle claims
     // the leaves of its band box within reach of its plane, about its box's

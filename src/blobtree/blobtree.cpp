@@ -125,6 +125,16 @@ BlobTree::BlobTree(double threshold)
     if (!std::isfinite(threshold) || !(threshold > 0.0 && threshold < 1.0))
         throw ParameterError("threshold",
                              fmt::format("must be between 0 and 1, exclusive (got {})", threshold));
+    // Nearer 1 a primitive's surface sits deep inside its support (17 times
+    // its radius out at 0.99, 1563 at 0.999999), and the bounds, the
+    // automatic voxel size and the band's search all start from supports: a
+    // sphere at 0.999999 baked as 140 voxels and rendered empty, exit 0.
+    if (threshold > kMaxThreshold)
+        throw ParameterError(
+            "threshold", fmt::format("must be at most {} (got {}): nearer 1 a primitive's surface "
+                                     "lies deep inside its support, 17 times its radius out at "
+                                     "0.99, where bounds and voxel sizes come from",
+                                     kMaxThreshold, threshold));
     T_ = threshold;
     xT_ = cb_wyvill_inverse(threshold);
 }

@@ -124,6 +124,9 @@ struct ConvolutionOptions {
     std::optional<double> support;      ///< window radius; default 3 max(r0, r1)
 };
 
+/// The largest iso-value a BlobTree takes (BlobTree's constructor says why).
+constexpr double kMaxThreshold = 0.99;
+
 class BlobTree {
 public:
     /// threshold T in (0, 1): the surface is F = T, inside F > T.

@@ -17,6 +17,17 @@ constexpr double kDegree = kPi / 180.0;  ///< radians per degree
 /// index spaces and Embree's builds overflow.
 constexpr double kFarthestCoordinate = 1e15;
 
+/// The farthest a surface may lie from the origin, in voxels: positions
+/// there are single-precision floats in meshes, renders and the kernels, and
+/// at 2^20 voxels out neighbouring floats are an eighth of a voxel apart (a
+/// sphere 5e8 voxels out meshed as two planes of vertices, exit 0).
+constexpr double kMaxVoxelsFromOrigin = double(1 << 20);
+
+/// The words that say why (the end of a message naming the distance).
+constexpr const char* kFloatPrecisionReason =
+    "where single-precision positions (meshes, renders, the kernels) are more than an eighth "
+    "of a voxel apart; move the model nearer the origin or use a larger voxel size";
+
 /// The largest seed a file or an option takes (whole numbers from 0: a
 /// double holds each exactly).
 constexpr long long kMaxSeed = 9000000000000000LL;

@@ -550,10 +550,10 @@ void writeObj(const TriangleMesh& m, std::ostream& out)
     for (size_t i = 0; i < m.points.size(); ++i) {
         const auto& p = m.points[i];
         if (m.colors.empty())
-            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g}\n", p[0], p[1], p[2]);
+            fmt::format_to(std::back_inserter(buf), "v {} {} {}\n", p[0], p[1], p[2]);
         else
-            fmt::format_to(std::back_inserter(buf), "v {:.7g} {:.7g} {:.7g} {:.4g} {:.4g} {:.4g}\n",
-                           p[0], p[1], p[2], m.colors[i][0], m.colors[i][1], m.colors[i][2]);
+            fmt::format_to(std::back_inserter(buf), "v {} {} {} {:.4g} {:.4g} {:.4g}\n", p[0], p[1],
+                           p[2], m.colors[i][0], m.colors[i][1], m.colors[i][2]);
         drain(false);
     }
     for (const auto& nrm : m.normals) {
