@@ -598,6 +598,43 @@ TEST(Cli, GrowthPrintsStatsAndBakesASequence)
     std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, ASequencesEmptyFrameIsMeshedAndRenderedAsNothing)
+{
+    // Frame 0 of a growth is empty on purpose (nothing a voxel thick yet):
+    // a sequence's mesh and picture of it are an empty mesh and the sky (the
+    // whole sequence was refused for it); the lone file is still refused.
+    const std::string populus = kExamples + "populus/populus.json";
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_empty_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string pattern = (dir / "p.#.vdb").string();
+    const Result b =
+        run("bake " + populus + " --frames 0-1 --voxel-size 0.05 --device cpu -o " + pattern);
+    ASSERT_EQ(b.status, 0) << b.err;
+    EXPECT_NE(b.out.find("1 empty"), std::string::npos) << b.out;
+    const Result m = run("mesh " + pattern + " --frames 0-1 -o " + (dir / "p.#.obj").string());
+    ASSERT_EQ(m.status, 0) << m.err;
+    EXPECT_NE(m.out.find("p.0.obj: 0 vertices, 0 triangles"), std::string::npos) << m.out;
+    EXPECT_EQ(m.out.find("p.1.obj: 0 vertices"), std::string::npos) << m.out;
+    for (const char* device : {"cpu", "opencl"}) {
+        const Result r = run("render " + pattern + " --frames 0-1 --width 32 --height 24 -o " +
+                             (dir / "p.#.png").string() + " --device " + device);
+        ASSERT_EQ(r.status, 0) << r.err;
+        const size_t zero = r.out.find("p.0.png: 32 x 24, 1 sample per pixel, 0.0 % of pixels"),
+                     one = r.out.find("p.1.png: 32 x 24");
+        ASSERT_NE(zero, std::string::npos) << r.out;
+        ASSERT_NE(one, std::string::npos) << r.out;
+        const std::string sky = "an empty frame: the background";
+        EXPECT_NE(r.out.substr(zero, one - zero).find(sky), std::string::npos) << r.out;
+        EXPECT_EQ(r.out.substr(one).find(sky), std::string::npos) << r.out;
+    }
+    expectRefused("mesh", {{(dir / "p.0.vdb").string() + " -o " + (dir / "lone.obj").string(),
+                            "no active voxels: nothing to mesh"}});
+    expectRefused("render", {{(dir / "p.0.vdb").string() + " -o " + (dir / "lone.png").string(),
+                              "no active voxels: nothing to see"}});
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, UnknownCommandIsAUsageError)
 {
     const Result r = run("frobnicate");

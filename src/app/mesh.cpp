@@ -42,7 +42,9 @@ int runMeshCommand(const MeshRequest& req)
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             LevelSetGrids f = readLevelSet(in, req.grid);
-            if (f.surface->activeVoxelCount() == 0)
+            // (a sequence's empty frame, a tree before its first year, is an
+            // empty mesh; a lone empty file is refused)
+            if (f.surface->activeVoxelCount() == 0 && req.frames.empty())
                 throw InputError(
                     fmt::format("{}: the level set has no active voxels: nothing to mesh", in));
             const double read = secondsSince(start);

@@ -75,13 +75,18 @@ int runRenderCommand(RenderRequest req)
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
-                if (bounds.empty())
+                // (a sequence's empty frame, a tree before its first year,
+                // is its camera's empty picture; a lone empty file is refused)
+                const bool inSequence = sequenceBounds && !sequenceBounds->empty();
+                if (bounds.empty() && !inSequence)
                     throw InputError(
                         fmt::format("{}: the level set has no active voxels: nothing to see", in));
-                const Camera cam = parseCamera(
-                    req.camera,
-                    sequenceBounds && !sequenceBounds->empty() ? *sequenceBounds : bounds, aspect);
-                if (req.viaMesh) {
+                const Camera cam =
+                    parseCamera(req.camera, inSequence ? *sequenceBounds : bounds, aspect);
+                if (bounds.empty()) {
+                    img = renderBackground(cam, req.width, req.height, req.spp);
+                    how = "an empty frame: the background";
+                } else if (req.viaMesh) {
                     img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width,
                                            req.height, req.spp);
                     how = "Embree on the volumeToMesh triangles, meshing included";

@@ -437,6 +437,15 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
     return CpuMarcher(surface, color).render(camera, width, height, spp);
 }
 
+RenderImage renderBackground(const Camera& camera, int width, int height, int spp)
+{
+    return renderRows(camera, width, height, spp, [] {
+        return [](const std::vector<TraceRay>&, std::vector<TraceHit>& hits) {
+            std::fill(hits.begin(), hits.end(), TraceHit());
+        };
+    });
+}
+
 RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
                               const std::function<openvdb::Vec3fGrid::Ptr()>& colour,
                               const Camera& camera, int width, int height, int spp)

@@ -124,6 +124,10 @@ RayRanges rayRanges(const openvdb::FloatGrid& surface, const Camera& camera, int
 RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::Vec3fGrid* color,
                               const Camera& camera, int width, int height, int spp);
 
+/// The picture of nothing: every ray misses (the sky), as the renderers
+/// draw it where they miss (an empty frame of a sequence).
+RenderImage renderBackground(const Camera& camera, int width, int height, int spp);
+
 /// The same picture holding one grid at a time: every ray traced against
 /// `surface` (its hits kept, a few bytes each), the level set then dropped
 /// and its memory given back, then `colour()` asked for the grid the hits'
