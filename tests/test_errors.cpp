@@ -818,6 +818,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"shape IN/growing.json --frames 1-3 -o OUT/g.####.vdb",
          "use a larger voxel size (frame 2)"},
         // farms and the preview server
+        {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg=--array=0-99 -o OUT/s.####.vdb",
+         "--slurm-arg '--array=0-99': --array is set by cambium's job scripts"},
+        {"bake " + S + " --year 5 -o OUT/out.vdb",
+         "a time (--year, --time, a shape base's \"year\") is for growth parameter files"},
+        {"bake " + S + " --resume -o OUT/out.vdb", "--resume requires --frames"},
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
          "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},
         {"preview " + S + " --once --port 99999 -o OUT/p.png",

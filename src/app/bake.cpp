@@ -237,18 +237,23 @@ void addBakeCommand(CLI::App& app, Action& action)
         "--timings", o->timings,
         "Print the time of each stage of the bake on stderr (also with CAMBIUM_TIMING set)");
     SequenceRequest& seq = o->sequence;
-    cmd->add_option(
-           "--frames", seq.frames,
-           "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
-           "(out/populus.####.vdb), frame f at year f / fps-per-year")
-        ->excludes(o->model.timeOption);
+    auto* framesOpt =
+        cmd->add_option(
+               "--frames", seq.frames,
+               "Growth parameter files: bake frames FIRST-LAST[:STEP] into -o with a run of '#' "
+               "(out/populus.####.vdb), frame f at year f / fps-per-year")
+            ->excludes(o->model.timeOption);
+    // (each for sequences only: given to a single bake they were ignored)
     cmd->add_option("--fps-per-year", seq.fpsPerYear, "Frames per year of growth")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->needs(framesOpt);
     cmd->add_flag("--resume", seq.resume,
-                  "Keep the frames an interrupted run of the same bake finished");
+                  "Keep the frames an interrupted run of the same bake finished")
+        ->needs(framesOpt);
     cmd->add_option("--jobs", seq.jobs,
                     "Frames baked at once (default: as many as cores and memory allow)")
-        ->check(CLI::Range(1, 4096));
+        ->check(CLI::Range(1, 4096))
+        ->needs(framesOpt);
     auto* slurmOpt = cmd->add_flag(
         "--slurm", o->slurm.slurm,
         "With --frames: bake the sequence as a Slurm job array (docs/farm.md), one task per "

@@ -209,6 +209,38 @@ SlurmOptions slurmOptions(const SlurmFlags& flags)
                 throw InputError(fmt::format(
                     "--slurm-arg '{}': a control character (code {}) in an sbatch option",
                     printable(arg), int(static_cast<unsigned char>(c))));
+    // The options the scripts set themselves: one given again would take
+    // the farm's own place (--array=0-99 made the final job an array of 100;
+    // --output and --chdir moved its logs and status away from the farm).
+    static const std::vector<std::string> own = {"--job-name",
+                                                 "--array",
+                                                 "--cpus-per-task",
+                                                 "--mem",
+                                                 "--mem-per-cpu",
+                                                 "--mem-per-gpu",
+                                                 "--output",
+                                                 "--error",
+                                                 "--open-mode",
+                                                 "--chdir",
+                                                 "--dependency",
+                                                 "--wrap",
+                                                 "-J",
+                                                 "-a",
+                                                 "-c",
+                                                 "-o",
+                                                 "-e",
+                                                 "-D",
+                                                 "-d"};
+    for (const std::string& arg : flags.sbatchArgs)
+        for (const std::string& name : own) {
+            const bool longName = name.size() > 2;
+            if (arg == name || arg.rfind(name + "=", 0) == 0 ||
+                (!longName && arg.rfind(name, 0) == 0))
+                throw InputError(fmt::format(
+                    "--slurm-arg '{}': {} is set by cambium's job scripts (the farm's array, "
+                    "resources, logs and directory); give other sbatch options",
+                    printable(arg), name));
+        }
     o.sbatchArgs = flags.sbatchArgs;
     o.exe = (fs::path(executableDirectory()) / "cambium").string();
     const Output nodes = capture("sinfo -h -o '%c %m'");

@@ -111,6 +111,12 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
         checkGrowthOptions(path, o);
         return grownTree(GrowthModel(loadGrowthParameters(path)), path, o);
     }
+    // (a time given for a model that does not grow was ignored)
+    if (o.time)
+        throw InputError(fmt::format(
+            "{}: a time (--year, --time, a shape base's \"year\") is for growth parameter files "
+            "(a .json with \"curves\"); this model does not grow",
+            path));
     if (fileExtension(path) == "json")
         return loadScene(path);
     if (fileExtension(path) == "obj" || fileExtension(path) == "ply")
