@@ -549,6 +549,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     // Numbers read past their meaning: a seed of 1.5, keys a span of 2e308
     // apart, 0x10 in an OBJ, a growth file's year 0 (not its last); a tile
     // of a frame as a whole surface.
+    writeText(in / "zero.vdb", "");
     writeText(
         in / "near1.json",
         R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
@@ -823,6 +824,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake " + S + " --year 5 -o OUT/out.vdb",
          "a time (--year, --time, a shape base's \"year\") is for growth parameter files"},
         {"bake " + S + " --resume -o OUT/out.vdb", "--resume requires --frames"},
+        {"bake IN/seed.json -o OUT/out.vdb",
+         "seed.json: a shape file (docs/shape-format.md), not a model: `cambium shape`"},
+        {"info IN/zero.vdb", "zero.vdb: not a .vdb file"},
+        {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",
+         "--fps-per-year must be a positive number of at most 1e6 (got 10000000)"},
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
          "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},
         {"preview " + S + " --once --port 99999 -o OUT/p.png",

@@ -157,3 +157,35 @@ TEST(Process, APeakIsTheCommandsOwnNotThisProcesss)
 
 }  // namespace
 }  // namespace cambium
+
+TEST(Messages, PrintableEscapesControlsAndBidiOverridesAndShortenedKeepsBothEnds)
+{
+    using cambium::printable;
+    using cambium::shortened;
+    EXPECT_EQ(printable("a\nb\x1b[31m"), "a\\x0ab\\x1b[31m");
+    // U+202E (right-to-left override) and U+2066 (left-to-right isolate)
+    // escaped; other multi-byte characters (an e acute, U+2014) kept.
+    EXPECT_EQ(printable("x\xe2\x80\xaey\xe2\x81\xa6z"), "x\\u{202e}y\\u{2066}z");
+    EXPECT_EQ(printable("caf\xc3\xa9 \xe2\x80\x94 ok"), "caf\xc3\xa9 \xe2\x80\x94 ok");
+    EXPECT_EQ(shortened("short", 10), "short");
+    const std::string key = "file.json: root." + std::string(100000, 'k') + ": unknown field";
+    const std::string s = shortened(key, 300);
+    EXPECT_LT(s.size(), 400u);
+    EXPECT_EQ(s.rfind("file.json: root.kkk", 0), 0u) << s;
+    EXPECT_NE(s.find("characters left out"), std::string::npos) << s;
+    EXPECT_EQ(s.substr(s.size() - 15), ": unknown field") << s;
+    // A cut never splits a UTF-8 character.
+    const std::string accents = std::string(50, 'a') + [] {
+        std::string e;
+        for (int i = 0; i < 200; ++i)
+            e += "\xc3\xa9";
+        return e;
+    }();
+    const std::string t = shortened(accents, 101);
+    for (size_t i = 0; i + 1 < t.size(); ++i) {
+        if (static_cast<unsigned char>(t[i]) == 0xc3) {
+            EXPECT_EQ(static_cast<unsigned char>(t[i + 1]), 0xa9) << i;
+        }
+    }
+    EXPECT_NE(static_cast<unsigned char>(t.back()), 0xc3);
+}

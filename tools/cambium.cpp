@@ -56,7 +56,7 @@ int main(int argc, char** argv)
     auto say = [](const char* how, const char* what) {
         std::string line;
         try {
-            line = cambium::printable(what);
+            line = cambium::printable(cambium::shortened(what, 1000));
         } catch (...) {
             line = what;
         }

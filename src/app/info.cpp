@@ -5,6 +5,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/system.h"
+#include "core/files.h"
 #include "io/vdb_header.h"
 #include "model/load_model.h"
 #include "shape/synthesis.h"
@@ -104,7 +105,9 @@ int runVdbInfo(const std::string& path, bool check)
 
 int runInfo(const std::string& scenePath, const ModelOptions& model, bool check)
 {
-    if (looksLikeVdbFile(scenePath))
+    // (a .vdb too short for its magic number is named as one, damaged: it
+    // was read as a skeleton file, "no internodes")
+    if (looksLikeVdbFile(scenePath) || fileExtension(scenePath) == "vdb")
         return runVdbInfo(scenePath, check);
     if (check)
         throw InputError("--check verifies a .vdb file's checksum: give a .vdb file");

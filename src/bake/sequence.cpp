@@ -131,7 +131,8 @@ SequencePlan planSequence(const SequenceRequest& request)
     if (!(std::isfinite(request.fpsPerYear) && request.fpsPerYear > 0.0 &&
           request.fpsPerYear <= 1e6))
         throw InputError(
-            fmt::format("--fps-per-year must be a positive number (got {})", request.fpsPerYear));
+            fmt::format("--fps-per-year must be a positive number of at most 1e6 (got {})",
+                        request.fpsPerYear));
     plan.frames = parseFrames(request.frames);
     plan.paths = sequencePaths(req.output, plan.frames, "out/tree.####.vdb", bakeInputFiles(req));
     const std::string text = readTextFile(req.input, "growth parameter file");

@@ -72,6 +72,12 @@ public:
     BlobTree read(const json& doc)
     {
         object(doc, "(top level)", "must be an object with a \"root\"");
+        // (a shape file was named by its first key: "base: unknown field")
+        if (doc.contains("base") && !doc.contains("root"))
+            throw InputError(
+                fmt::format("{}: a shape file (docs/shape-format.md), not a model: "
+                            "`cambium shape` synthesises it",
+                            source()));
         checkKeys(doc, "", {"threshold", "root", "name", "description", "comment", "bark"});
         double threshold = 0.5;
         if (doc.contains("threshold"))

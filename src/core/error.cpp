@@ -36,11 +36,38 @@ std::string printable(const std::string& text)
 {
     std::string out;
     out.reserve(text.size());
-    for (const char c : text) {
-        const auto u = static_cast<unsigned char>(c);
-        out += u < 0x20 || u == 0x7f ? fmt::format("\\x{:02x}", u) : std::string(1, c);
+    for (size_t i = 0; i < text.size(); ++i) {
+        const auto u = static_cast<unsigned char>(text[i]);
+        // Unicode's bidirectional controls (U+202A-202E, U+2066-2069, in
+        // UTF-8 E2 80 AA-AE and E2 81 A6-A9) turn the rest of a terminal's
+        // line around: written as \u{...} too.
+        if (u == 0xE2 && i + 2 < text.size()) {
+            const auto b = static_cast<unsigned char>(text[i + 1]),
+                       c = static_cast<unsigned char>(text[i + 2]);
+            if ((b == 0x80 && c >= 0xAA && c <= 0xAE) || (b == 0x81 && c >= 0xA6 && c <= 0xA9)) {
+                out += fmt::format("\\u{{{:04x}}}", 0x2000 + ((b & 0x3F) << 6) + (c & 0x3F));
+                i += 2;
+                continue;
+            }
+        }
+        out += u < 0x20 || u == 0x7f ? fmt::format("\\x{:02x}", u) : std::string(1, text[i]);
     }
     return out;
+}
+
+std::string shortened(const std::string& text, size_t most)
+{
+    if (text.size() <= most)
+        return text;
+    // (whole UTF-8 characters: a cut does not split one)
+    auto back = [&](size_t i) {
+        while (i > 0 && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80)
+            --i;
+        return i;
+    };
+    const size_t head = back(most * 2 / 3), tail = back(text.size() - most / 3);
+    return fmt::format("{} ... ({} characters left out) ... {}", text.substr(0, head), tail - head,
+                       text.substr(tail));
 }
 
 uint64_t checkInputFile(const std::string& path, const char* what)

@@ -44,8 +44,15 @@ size_t optionChoice(const std::string& value, const std::vector<std::string>& na
                     const char* option);
 
 /// `text` as a message may show it: each control character (a newline, an
-/// escape) written as \xHH, so that a line of output stays one line.
+/// escape) written as \xHH, so that a line of output stays one line, and
+/// each bidirectional control as \u{HHHH}, so that it reads as written.
 std::string printable(const std::string& text);
+
+/// `text` whole when it has at most `most` bytes, else its first two thirds
+/// and last third of that with how much was left out between: an error that
+/// quotes a 5 MB key stays a line (the file, the place and the problem are
+/// at its ends).
+std::string shortened(const std::string& text, size_t most);
 
 /// Checks that `path` names a regular file that can be read, and returns its
 /// size: InputError "PATH: cannot read the WHAT: REASON", "PATH: is a

@@ -252,6 +252,8 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
     // By default 48 voxels across, each at least twice the fine surface's
     // (a level set's own voxels may be coarser than the 48th).
     const double fineVoxel = fine->voxelSize()[0];
+    if (!(extent > 0.0))
+        throw InputError(fmt::format("{}: the surface is empty (no active voxels)", what));
     const double coarse =
         b.coarseVoxelSize > 0.0 ? b.coarseVoxelSize : std::max(extent / 48.0, 2.0 * fineVoxel);
     // A base meshed at fewer voxels across is a blob of a few faces, which
