@@ -65,6 +65,25 @@ TEST(ShapeFile, AcceptsTheIssueExamples)
         ASSERT_NEAR(glm::length(p), 1.0, 0.17);
 }
 
+TEST(ShapeFile, LevelsGivenApartAreReadAsTheFilesOwn)
+{
+    // --levels N reads the file as if it said "levels": N: the details'
+    // default levels follow it (a rock at every level from 1).
+    const std::string three = R"({"base": {"type": "sphere"}, "levels": 3,
+                                  "details": [{"type": "rock", "amplitude": 0.03}]})";
+    std::string five = three;
+    five.replace(five.find("\"levels\": 3"), 11, "\"levels\": 5");
+    for (int levels : {2, 5}) {
+        const ShapeSpec given = parseShape(three, "three.json", "", 0.0, levels);
+        const ShapeSpec own = parseShape(levels == 5 ? five : three, "own.json", "", 0.0, -1);
+        EXPECT_EQ(given.levels, levels);
+        if (levels == 5) {
+            EXPECT_EQ(given.details.at(0).levels, own.details.at(0).levels);
+        }
+        EXPECT_EQ(given.details.at(0).levels.back(), levels);
+    }
+}
+
 TEST(ShapeFile, BadInputIsNamed)
 {
     auto says = [](const std::string& text, const std::string& words) {

@@ -175,10 +175,12 @@ struct ShapeSpec {
 /// be keyframed, {"keys": [[t, v], ...], "interpolation": "linear" |
 /// "smooth"}: its value at `time` (held before the first key and after the
 /// last; smooth: monotone cubic Hermite, no overshoot).
-ShapeSpec readShapeFile(const std::string& path, double time = 0.0);
+/// `levels` >= 0 replaces the file's "levels" (--levels) before the details,
+/// edits and blend are read, so that their default levels follow it.
+ShapeSpec readShapeFile(const std::string& path, double time = 0.0, int levels = -1);
 /// The same from text; relative base files are taken from `directory`.
 ShapeSpec parseShape(const std::string& text, const std::string& source,
-                     const std::string& directory = "", double time = 0.0);
+                     const std::string& directory = "", double time = 0.0, int levels = -1);
 
 /// Whether a .json file's top level is a shape (it has "base").
 bool looksLikeShapeFile(const std::string& path);

@@ -48,7 +48,7 @@ public:
     {
     }
 
-    ShapeSpec read(const std::string& text, double time) const
+    ShapeSpec read(const std::string& text, double time, int levels) const
     {
         bool animated = false;
         const json root = atTime(parseJson(text, source()), "", time, animated);
@@ -64,6 +64,11 @@ public:
             string(root["name"], "name");
         s.levels = wholeNumber(root, "levels", "", s.levels, 0, kMaxSubdivisionLevels,
                                " (OpenSubdiv's uniform refinement stops at 15)");
+        // (--levels: the details' default levels follow it, as they follow
+        // the file's; they kept the file's, and a coarser --levels was
+        // refused over a key the file does not have)
+        if (levels >= 0)
+            s.levels = levels;
         s.base = readBase(root["base"], "base");
         s.details = details(root, "", s.levels);
         s.edits = edits(root, "", s.levels);
@@ -692,15 +697,15 @@ private:
 }  // namespace
 
 ShapeSpec parseShape(const std::string& text, const std::string& source,
-                     const std::string& directory, double time)
+                     const std::string& directory, double time, int levels)
 {
-    return Reader(source, directory).read(text, time);
+    return Reader(source, directory).read(text, time, levels);
 }
 
-ShapeSpec readShapeFile(const std::string& path, double time)
+ShapeSpec readShapeFile(const std::string& path, double time, int levels)
 {
     const std::string text = readTextFile(path, "shape file");
-    return parseShape(text, path, std::filesystem::path(path).parent_path().string(), time);
+    return parseShape(text, path, std::filesystem::path(path).parent_path().string(), time, levels);
 }
 
 bool looksLikeShapeFile(const std::string& path)

@@ -186,7 +186,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     const std::string directory = std::filesystem::path(req.input).parent_path().string();
     std::vector<ShapeSpec> specs;
     for (long long f : frames)
-        specs.push_back(parseShape(text, req.input, directory, double(f)));
+        specs.push_back(parseShape(text, req.input, directory, double(f), req.levels));
     std::vector<std::string> files = shapeFiles(specs.front());
     files.push_back(req.input);
     const std::vector<std::string> paths =
@@ -281,7 +281,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     checkRequest(req, levelSet);
     if (!req.frames.empty())
         return runSequence(req, cb);
-    const ShapeSpec spec = readShapeFile(req.input, req.time);
+    const ShapeSpec spec = readShapeFile(req.input, req.time, req.levels);
     const int levels = req.levels >= 0 ? req.levels : spec.levels;
     checkShapeLevels(spec, levels);
     checkOutputPath(req.output);
