@@ -550,6 +550,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     // apart, 0x10 in an OBJ, a growth file's year 0 (not its last); a tile
     // of a frame as a whole surface.
     writeText(in / "zero.vdb", "");
+    writeText(in / "flat.obj",
+              "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n");
+    writeText(in / "flat.json", R"({"base": {"type": "mesh", "file": "flat.obj"}, "levels": 1})");
     writeText(
         in / "near1.json",
         R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
@@ -827,6 +830,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/seed.json -o OUT/out.vdb",
          "seed.json: a shape file (docs/shape-format.md), not a model: `cambium shape`"},
         {"info IN/zero.vdb", "zero.vdb: not a .vdb file"},
+        {"shape IN/flat.json --voxel-size 0.05 -o OUT/out.vdb",
+         "flat.json: the closed mesh encloses no volume"},
         {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",
          "--fps-per-year must be a positive number of at most 1e6 (got 10000000)"},
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",

@@ -239,6 +239,26 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
         },
         std::plus<double>());
     T.inward = volume < 0.0;
+    // A closed mesh around no volume (its faces folded onto one another: a
+    // base with a point given twice) has no inside to bake: it made a level
+    // set of zero thickness, exit 0.  (A millionth of the isoperimetric
+    // scale A^1.5: a sheet a millionth as thick as it is wide.)
+    const double area = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, nt, 8192), 0.0,
+        [&](const tbb::blocked_range<size_t>& r, double s) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const Tri& t = T.tris[i];
+                s +=
+                    0.5 * glm::length(glm::cross(dvec3(t.b) - dvec3(t.a), dvec3(t.c) - dvec3(t.a)));
+            }
+            return s;
+        },
+        std::plus<double>());
+    if (!(std::fabs(volume) / 6.0 > 1e-6 * std::pow(area, 1.5)))
+        throw InputError(fmt::format(
+            "{}: the closed mesh encloses no volume ({:.3g} inside {:.3g} of surface): its faces "
+            "fold onto one another (a point given twice?)",
+            what, std::fabs(volume) / 6.0 * h * h * h, area * h * h));
     return T;
 }
 
