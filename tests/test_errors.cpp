@@ -401,6 +401,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "growth_dup.json", "{\"years\": 3, " + growth.substr(growth.find('{') + 1));
     writeText(in / "trunc100.vdb", good.substr(0, 100));
     writeText(in / "trunc90.vdb", good.substr(0, good.size() * 9 / 10));
+    // A sequence whose second frame is cut short: refused before the first
+    // frame's mesh or picture is written.
+    writeText(in / "part.1.vdb", good);
+    writeText(in / "part.2.vdb", good.substr(0, good.size() * 9 / 10));
     std::string flipped = good;
     flipped[flipped.size() * 2 / 3] ^= 0x10;  // a bit changed inside a grid's compressed data
     writeText(in / "flipped.vdb", flipped);
@@ -605,6 +609,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "missing.json: cannot read the scene file: No such file"},
         {"eval IN/dup.json -- 0 0 0", "duplicate key 'radius'"},
         {"eval " + S + " -- nan 0 0", "eval: the point (nan, 0, 0) must have finite coordinates"},
+        {"eval " + S + " 1e160 0 0",
+         "eval: the point (1e+160, 0, 0) must have finite coordinates within 1e+15"},
         {"eval " + S + " -- 0 0", "point"},
         // L-systems
         // (NaN coordinates were printed with exit 0, and the bake told
@@ -830,6 +836,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/seed.json -o OUT/out.vdb",
          "seed.json: a shape file (docs/shape-format.md), not a model: `cambium shape`"},
         {"info IN/zero.vdb", "zero.vdb: not a .vdb file"},
+        {"mesh IN/part.#.vdb --frames 1-2 -o OUT/part.#.obj", "part.2.vdb: a truncated .vdb file"},
+        {"render IN/part.#.vdb --frames 1-2 -o OUT/part.#.png",
+         "part.2.vdb: a truncated .vdb file"},
         {"shape IN/flat.json --voxel-size 0.05 -o OUT/out.vdb",
          "flat.json: the closed mesh encloses no volume"},
         {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",

@@ -264,12 +264,19 @@ TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
          "--width and --height must be between 1 and 16384"},
         {(dir / "tree.json").string() + common + " --camera sideways", "sideways"},
         {(dir / "tree.json").string() + " --once -o " + (dir / "p.txt").string(), "p.txt"},
+        // (the picture a link to the model: --once wrote over the model)
+        {(dir / "tree.json").string() + common.substr(0, common.find(" -o ")) + " -o " +
+             (dir / "self.png").string(),
+         "self.png: is the input"},
     };
+    fs::create_symlink("tree.json", dir / "self.png");
+    const std::string model = fileContents(dir / "tree.json");
     for (const auto& b : bad) {
         const cambium::test::Result e = cambium::test::run("preview " + b.args);
         EXPECT_EQ(e.status, 2) << b.args << ": " << e.err;
         EXPECT_NE(e.err.find(b.expected), std::string::npos) << b.args << ": " << e.err;
     }
+    EXPECT_EQ(fileContents(dir / "tree.json"), model);
     // A file that does not read: exit 2 with --once, the picture kept.
     const std::string before = fileContents(png);
     writeSpecies(dir / "tree.json", "-400");

@@ -723,6 +723,11 @@ TEST(ShapeAnimation, ASequenceFrameIsTheSingleBakeAtItsTimeAndStillFramesAreIden
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("frame 4: " + dir + "/g.0004.vdb finished before"), std::string::npos)
         << r.out;
+    // Frames of another colour extent are another bake's (they were kept).
+    r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir +
+                  "/g.####.vdb --resume --colour none" + opts);
+    EXPECT_EQ(r.status, 2) << r.out;
+    EXPECT_NE(r.err.find("exists from another bake"), std::string::npos) << r.err;
     // A sequence is refused before work without a pattern, with a mesh.
     r = test::run("shape " + dir + "/grow.json --frames 1-4 -o " + dir + "/bad.vdb" + opts);
     EXPECT_EQ(r.status, 2);

@@ -3,6 +3,7 @@
 
 #include "blobtree/evaluator.h"
 #include "core/error.h"
+#include "core/math.h"
 #include "model/load_model.h"
 
 #include <fmt/format.h>
@@ -17,9 +18,13 @@ namespace {
 int runEval(const std::string& scenePath, const std::vector<double>& xyz)
 {
     const glm::dvec3 p(xyz[0], xyz[1], xyz[2]);
-    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+    // (within the coordinates a model may have: a bend's squared terms
+    // overflowed at 1e160, "inside" with a NaN gradient, exit 0)
+    if (!(std::abs(p.x) <= kFarthestCoordinate && std::abs(p.y) <= kFarthestCoordinate &&
+          std::abs(p.z) <= kFarthestCoordinate))
         throw InputError(
-            fmt::format("eval: the point {} must have finite coordinates", formatVec(p)));
+            fmt::format("eval: the point {} must have finite coordinates within {:g} of the origin",
+                        formatVec(p), kFarthestCoordinate));
     const BlobTree tree = loadModel(scenePath);
     const ReferenceEvaluator eval(tree);
     const FieldSample s = eval.sample(p);

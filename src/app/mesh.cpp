@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "io/grids.h"
+#include "io/vdb_header.h"
 #include "io/mesh_file.h"
 #include "io/vdb.h"
 #include "use/mesh.h"
@@ -38,7 +39,8 @@ int runMeshCommand(const MeshRequest& req)
         throw InputError(
             fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
     forEachFile(
-        req.input, req.output, req.frames, checkMeshOutput,
+        req.input, req.output, req.frames, [](const std::string& in) { inspectVdb(in); },
+        checkMeshOutput,
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             LevelSetGrids f = readLevelSet(in, req.grid);

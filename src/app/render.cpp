@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "io/grids.h"
+#include "io/vdb_header.h"
 #include "io/image_codec.h"
 #include "io/image_file.h"
 #include "io/mesh_file.h"
@@ -55,7 +56,12 @@ int runRenderCommand(RenderRequest req)
             sequenceBounds = storedActiveBounds(last, req.grid);
     }
     forEachFile(
-        meshFile ? req.mesh : req.input, req.output, req.frames, checkImageOutput,
+        meshFile ? req.mesh : req.input, req.output, req.frames,
+        [&](const std::string& in) {
+            if (!meshFile)
+                inspectVdb(in);
+        },
+        checkImageOutput,
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             const double aspect = double(req.width) / double(req.height);

@@ -66,6 +66,7 @@ std::vector<long long> parseFrames(const std::string& range, const std::string& 
 }
 
 void forEachFile(const std::string& input, const std::string& output, const std::string& frames,
+                 const std::function<void(const std::string&)>& checkInput,
                  const std::function<void(const std::string&)>& checkOutput,
                  const std::function<void(const std::string&, const std::string&)>& one)
 {
@@ -89,6 +90,8 @@ void forEachFile(const std::string& input, const std::string& output, const std:
             throw InputError(
                 fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
     }
+    for (long long f : list)
+        checkInput(framePath(input, f));
     checkOutput(framePath(output, list.front()));
     std::vector<std::string> ins, outs;
     for (long long f : list) {

@@ -30,10 +30,13 @@ std::vector<long long> parseFrames(const std::string& range,
 
 /// Runs one(input, output) for a single file, or, when input or output holds
 /// a run of `#` or `frames` is given, for every frame of `frames` with the
-/// frame number in both names; first checks every input exists, calls
-/// checkOutput on the first output and refuses an output that is its input
-/// (checkOutputIsNoInput), so that bad input fails before any work.
+/// frame number in both names; first checks every input exists and passes
+/// checkInput (each frame's, a sequence's middle frame damaged was found
+/// after the frames before it were written), calls checkOutput on the first
+/// output and refuses an output that is an input (checkNoOutputIsAnInput),
+/// so that bad input fails before any work.
 void forEachFile(const std::string& input, const std::string& output, const std::string& frames,
+                 const std::function<void(const std::string&)>& checkInput,
                  const std::function<void(const std::string&)>& checkOutput,
                  const std::function<void(const std::string&, const std::string&)>& one);
 

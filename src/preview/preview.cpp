@@ -7,6 +7,7 @@
 #include "use/render.h"
 #include "core/clock.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/hash.h"
 #include "field/program.h"
 #include "io/image_file.h"
@@ -74,6 +75,7 @@ PreviewSession::PreviewSession(PreviewSettings settings)
         checkVoxelSize(*settings_.voxelSize);
     checkPicture(settings_.width, settings_.height, settings_.spp);
     checkImageOutput(settings_.output);
+    checkOutputIsNoInput(settings_.output, {settings_.input});
     // The camera's spec, before any work.
     parseCamera(settings_.camera, Box(glm::dvec3(0.0), glm::dvec3(1.0)), 1.0);
     state_->view.time = settings_.model.time;
@@ -342,6 +344,9 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         u.render = secondsSince(t);
         stop();
         t = Clock::now();
+        // (every picture: an edit may name a photo, or the picture may have
+        // become a link to the model; --once wrote over its own model)
+        checkOutputIsNoInput(settings_.output, modelFiles(settings_.input));
         writeImage(image, settings_.output);
         u.write = secondsSince(t);
         s.pictured = u.view;

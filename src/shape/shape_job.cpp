@@ -229,8 +229,9 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
             cb.progress("frames checked", double(i + 1) / double(frames.size()));
     }
     const std::string options =
-        fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={}", r.voxelSize,
-                    req.halfWidth, levels, req.fog, req.half, deviceName(req.device));
+        fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={} colour={}", r.voxelSize,
+                    req.halfWidth, levels, req.fog, req.half, deviceName(req.device),
+                    colourExtentName(req.colour));
     // (the files the shape reads too: an edited control mesh or painted
     // PLY makes other frames)
     const std::string key = sequenceKeyOf(text, options, files);
