@@ -628,6 +628,11 @@ TEST(Cli, ASequencesEmptyFrameIsMeshedAndRenderedAsNothing)
         EXPECT_NE(r.out.substr(zero, one - zero).find(sky), std::string::npos) << r.out;
         EXPECT_EQ(r.out.substr(one).find(sky), std::string::npos) << r.out;
     }
+    // The statistics of time 0 (the tree not yet grown) are a report, not
+    // an error (they printed, then exit 2 "the skeleton has no internodes").
+    const Result g = run("growth " + populus + " --time 0 --print-stats");
+    EXPECT_EQ(g.status, 0) << g.err;
+    EXPECT_NE(g.out.find("BlobTree: none (nothing has grown yet)"), std::string::npos) << g.out;
     expectRefused("mesh", {{(dir / "p.0.vdb").string() + " -o " + (dir / "lone.obj").string(),
                             "no active voxels: nothing to mesh"}});
     expectRefused("render", {{(dir / "p.0.vdb").string() + " -o " + (dir / "lone.png").string(),

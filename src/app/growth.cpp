@@ -40,6 +40,11 @@ void printGrowthStats(const GrowthModel& model, const Skeleton& sk, const Growth
                s.rings, sk.scars.size());
     fmt::print("shoots: {} grown, {} with their metamer count moved by the {:g} degree rule\n",
                s.shoots, s.shootsAdjusted, model.params().longestSeparation);
+    // (at time 0 nothing has grown: no tree to count, not an error)
+    if (sk.internodes.empty()) {
+        fmt::print("BlobTree: none (nothing has grown yet)\n");
+        return;
+    }
     const TreeStats ts = computeStats(buildTree(sk, model.buildOptions()));
     fmt::print("BlobTree: {} primitives, {} operators, {} warps, depth {}\n", ts.primitives,
                ts.operators, ts.warps, ts.depth);
