@@ -170,8 +170,19 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     for (const FarmChunkState& c : state.chunks)
         missing.insert(missing.end(), c.missing.begin(), c.missing.end());
     EXPECT_EQ(missing, std::vector<long long>{4});
-    std::ofstream(dir / "farm" / "p.0004.vdb", std::ios::binary) << four;
+    // A byte changed near its end (its size and header as written): a
+    // status reads only headers, the final job's check finds it missing.
+    std::string damaged = four;
+    damaged[damaged.size() - 100] ^= 0x5a;
+    std::ofstream(dir / "farm" / "p.0004.vdb", std::ios::binary) << damaged;
     EXPECT_EQ(assessFarm(farm).good, 6u);
+    state = assessFarm(farm, /*verify=*/true);
+    EXPECT_EQ(state.good, 5u);
+    EXPECT_EQ(state.chunks[0].missing.size() + state.chunks[1].missing.size() +
+                  state.chunks[2].missing.size(),
+              1u);
+    std::ofstream(dir / "farm" / "p.0004.vdb", std::ios::binary) << four;
+    EXPECT_EQ(assessFarm(farm, true).good, 6u);
     fs::remove(dir / "farm" / "p.0005.vdb");
     std::ofstream(array.farmDir + "/task-1.status") << "137 78\n";
     fs::remove(dir / "farm" / "p.0008.vdb");

@@ -488,7 +488,7 @@ void markSubmittedAgain(const std::string& farmDir, size_t chunk)
     writeFile(path.string(), text.data(), text.size());
 }
 
-FarmState assessFarm(const FarmPlan& plan)
+FarmState assessFarm(const FarmPlan& plan, bool verify)
 {
     // Attempts so far: an earlier final job's count, one more where it
     // submitted the chunk again.
@@ -535,9 +535,14 @@ FarmState assessFarm(const FarmPlan& plan)
         for (const FarmPlan::File& file : plan.chunkFiles(k)) {
             FileStamp stamp;
             try {
-                if (!s.merged)
+                if (!s.merged) {
                     stamp = readFileStamp(file.path);
+                    // (a frame whose bytes changed passed as written)
+                    if (verify)
+                        verifyVdbChecksum(file.path, inspectVdb(file.path));
+                }
             } catch (const InputError&) {
+                stamp = {};
             }
             // (Another frame's or tile's file copied over it is not it.)
             const std::string part =
