@@ -1,6 +1,7 @@
 // The cambium binary end to end: `info` on the bundled examples, clear errors
 // and a non-zero exit for malformed scenes.
 #include "cli_util.h"
+#include "temp_dir.h"
 
 #include <gtest/gtest.h>
 
@@ -604,9 +605,7 @@ TEST(Cli, ASequencesEmptyFrameIsMeshedAndRenderedAsNothing)
     // a sequence's mesh and picture of it are an empty mesh and the sky (the
     // whole sequence was refused for it); the lone file is still refused.
     const std::string populus = kExamples + "populus/populus.json";
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("cambium_cli_empty_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
+    const auto dir = cambium::test::freshDir("cambium_cli_empty");
     const std::string pattern = (dir / "p.#.vdb").string();
     const Result b =
         run("bake " + populus + " --frames 0-1 --voxel-size 0.05 --device cpu -o " + pattern);
@@ -637,7 +636,6 @@ TEST(Cli, ASequencesEmptyFrameIsMeshedAndRenderedAsNothing)
                             "no active voxels: nothing to mesh"}});
     expectRefused("render", {{(dir / "p.0.vdb").string() + " -o " + (dir / "lone.png").string(),
                               "no active voxels: nothing to see"}});
-    std::filesystem::remove_all(dir);
 }
 
 TEST(Cli, UnknownCommandIsAUsageError)

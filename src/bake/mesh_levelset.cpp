@@ -226,34 +226,26 @@ Triangles prepareTriangles(const TriangleMesh& mesh, double h, const std::string
     if (std::all_of(T.tris.begin(), T.tris.end(),
                     [](const Tri& t) { return t.n == glm::vec3(0.0f); }))
         throw InputError(fmt::format("{}: the mesh has no triangles of any area", what));
-    // A closed mesh facing inwards encloses a negative volume: its insides
+    // Six times the enclosed volume and twice the area, in one pass.  A
+    // closed mesh facing inwards encloses a negative volume: its insides
     // are the pseudo-normals' outsides.
-    const double volume = tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<size_t>(0, nt, 8192), 0.0,
-        [&](const tbb::blocked_range<size_t>& r, double s) {
+    const glm::dvec2 sums = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, nt, 8192), glm::dvec2(0.0),
+        [&](const tbb::blocked_range<size_t>& r, glm::dvec2 s) {
             for (size_t i = r.begin(); i != r.end(); ++i) {
-                const Tri& t = T.tris[i];
-                s += glm::dot(dvec3(t.a), glm::cross(dvec3(t.b), dvec3(t.c)));
+                const dvec3 a(T.tris[i].a), b(T.tris[i].b), c(T.tris[i].c);
+                s += glm::dvec2(glm::dot(a, glm::cross(b, c)),
+                                glm::length(glm::cross(b - a, c - a)));
             }
             return s;
         },
-        std::plus<double>());
+        std::plus<glm::dvec2>());
+    const double volume = sums.x, area = 0.5 * sums.y;
     T.inward = volume < 0.0;
     // A closed mesh around no volume (its faces folded onto one another: a
     // base with a point given twice) has no inside to bake: it made a level
     // set of zero thickness, exit 0.  (A millionth of the isoperimetric
     // scale A^1.5: a sheet a millionth as thick as it is wide.)
-    const double area = tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<size_t>(0, nt, 8192), 0.0,
-        [&](const tbb::blocked_range<size_t>& r, double s) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-                const Tri& t = T.tris[i];
-                s +=
-                    0.5 * glm::length(glm::cross(dvec3(t.b) - dvec3(t.a), dvec3(t.c) - dvec3(t.a)));
-            }
-            return s;
-        },
-        std::plus<double>());
     if (!(std::fabs(volume) / 6.0 > 1e-6 * std::pow(area, 1.5)))
         throw InputError(fmt::format(
             "{}: the closed mesh encloses no volume ({:.3g} inside {:.3g} of surface): its faces "

@@ -329,12 +329,27 @@ void checkDiskSpace(const std::string& output, double bytes, const std::string& 
             what, formatBytes(bytes), outputDirectory(output).string(), formatBytes(free)));
 }
 
+namespace {
+
+/// An existing file by its device and inode: through links, other
+/// spellings and hard links, one file is one id.  False for an empty name
+/// or a file that does not exist.
+using FileId = std::pair<dev_t, ino_t>;
+bool fileId(const std::string& path, FileId& id)
+{
+    struct stat st {};
+    if (path.empty() || ::stat(path.c_str(), &st) != 0)
+        return false;
+    id = {st.st_dev, st.st_ino};
+    return true;
+}
+
+}  // namespace
+
 bool sameFile(const std::string& a, const std::string& b)
 {
-    struct stat sa {
-    }, sb{};
-    return !a.empty() && !b.empty() && ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 &&
-           sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    FileId x, y;
+    return fileId(a, x) && fileId(b, y) && x == y;
 }
 
 void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
@@ -345,22 +360,13 @@ void checkOutputIsNoInput(const std::string& output, const std::vector<std::stri
 void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
                             const std::vector<std::string>& inputs)
 {
-    // Each existing file by its device and inode: through links, other
-    // spellings and hard links, one file is one key.
-    auto fileOf = [](const std::string& path, std::pair<dev_t, ino_t>& id) {
-        struct stat st {};
-        if (path.empty() || ::stat(path.c_str(), &st) != 0)
-            return false;
-        id = {st.st_dev, st.st_ino};
-        return true;
-    };
-    std::map<std::pair<dev_t, ino_t>, const std::string*> read, written;
-    std::pair<dev_t, ino_t> id;
+    std::map<FileId, const std::string*> read, written;
+    FileId id;
     for (const std::string& input : inputs)
-        if (fileOf(input, id))
+        if (fileId(input, id))
             read.emplace(id, &input);
     for (const std::string& output : outputs) {
-        if (!fileOf(output, id))
+        if (!fileId(output, id))
             continue;
         if (const auto in = read.find(id); in != read.end())
             throw InputError(fmt::format("{}: is the input {} (the output would replace it)",

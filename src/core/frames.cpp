@@ -84,23 +84,20 @@ void forEachFile(const std::string& input, const std::string& output, const std:
                 ? output
                 : "out/tree.####" + std::filesystem::path(output).extension().string()));
     const std::vector<long long> list = parseFrames(frames);
-    for (long long f : list) {
-        const std::string in = framePath(input, f);
-        if (!std::filesystem::exists(in))
-            throw InputError(
-                fmt::format("{}: no such file (frame {} of --frames {})", in, f, frames));
-    }
-    for (long long f : list)
-        checkInput(framePath(input, f));
-    checkOutput(framePath(output, list.front()));
     std::vector<std::string> ins, outs;
     for (long long f : list) {
         ins.push_back(framePath(input, f));
         outs.push_back(framePath(output, f));
+        if (!std::filesystem::exists(ins.back()))
+            throw InputError(
+                fmt::format("{}: no such file (frame {} of --frames {})", ins.back(), f, frames));
     }
+    for (const std::string& in : ins)
+        checkInput(in);
+    checkOutput(outs.front());
     checkNoOutputIsAnInput(outs, ins);
-    for (long long f : list)
-        one(framePath(input, f), framePath(output, f));
+    for (size_t i = 0; i < ins.size(); ++i)
+        one(ins[i], outs[i]);
 }
 
 }  // namespace cambium
