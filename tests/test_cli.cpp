@@ -166,6 +166,13 @@ TEST(Cli, DryRunPrintsThePlanOfAnyBakeAndWritesNothing)
     r = run("bake " + populus + " --tiles 3 -o " + out + " --dry-run");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("as 3 tiles"), std::string::npos) << r.out;
+    // A frame within --max-memory is one bake, as its run then says (the
+    // plan said "as 1 tiles, merged").
+    r = run("bake " + populus + " --year 6 --max-memory 1T -o " + out + " --dry-run");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("as one bake (the frame's estimate is within --max-memory)"),
+              std::string::npos)
+        << r.out;
     EXPECT_TRUE(std::filesystem::is_empty(dir));
     // Then the bake: the planned voxel size.
     r = run("bake " + populus + " --year 6 -o " + out + " --device cpu");
@@ -213,6 +220,22 @@ TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
             .status,
         0);
     EXPECT_NE(run("info " + grown).out.find("cambium_time           3\n"), std::string::npos);
+    // Its checksum's key renamed (one byte, as an editor would): not "none
+    // (not written by cambium)" beside cambium's other metadata.
+    {
+        std::string bytes = cambium::test::fileContents(grown);
+        const size_t key = bytes.find("cambium_checksum");
+        ASSERT_NE(key, std::string::npos);
+        bytes[key + 15] = 'X';
+        std::ofstream(grown, std::ios::binary) << bytes;
+    }
+    const Result renamed = run("info " + grown);
+    EXPECT_EQ(renamed.status, 0) << renamed.err;
+    EXPECT_NE(renamed.out.find("checksum   missing: "), std::string::npos) << renamed.out;
+    const Result renamedCheck = run("info " + grown + " --check");
+    EXPECT_EQ(renamedCheck.status, 2);
+    EXPECT_NE(renamedCheck.err.find("cambium's metadata without its checksum"), std::string::npos)
+        << renamedCheck.err;
     std::filesystem::remove_all(dir);
 }
 

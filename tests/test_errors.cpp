@@ -638,6 +638,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // Hexadecimal numbers in decimal formats (read as 16 without a word).
         {"bake IN/hex.txt -o OUT/out.vdb", "hex.txt:1: y1 is not a finite number ('0x10')"},
         {"lsystem IN/hex.l", "bad number in '0x10' (numbers are decimal"},
+        // ... and on the command line (strtold read 0x10 as 16, 1p3 as 8000)
+        {"eval " + S + " -- 0x10 0 0", "point: '0x10' is not a decimal number"},
+        {"lsystem " + L + " --seed 1p3", "--seed: '1p3' is not a decimal number"},
         {"bake IN/negr.txt -o OUT/out.vdb", "negr.txt:1: r0 must be greater than 0"},
         {"bake IN/twice.txt -o OUT/out.vdb", "twice.txt:2: id 1 appears twice"},
         {"bake IN/point.txt -o OUT/out.vdb",
@@ -711,6 +714,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/afar.json --voxel-size 0.0002 -o OUT/out.vdb",
          "afar.json: the surface reaches 1e+05 from the origin, 5e+08 voxels of 0.0002: beyond "
          "1048576 voxels, where single-precision positions"},
+        // (it was "the mesh has no triangles of any area")
+        {"shape " + kExamples + "shapes/rock.json --voxel-size 1e9 -o OUT/out.vdb",
+         "rock.json: the mesh, 2.03 across, is less than a thousandth of a voxel of 1e+09"},
         {"shape IN/seed.json -o OUT/out.obj", "details[0].seed: must be a whole number (got 1.5)"},
         {"shape IN/span.json -o OUT/out.obj", "amplitude.keys[0][0]: must be between"},
         {"render --mesh IN/hex.obj -o OUT/out.png", "hex.obj:1: 'v' expects 3 numbers"},
@@ -750,8 +756,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // A view narrower than float rays resolve (1e-9 degrees: every ray
         // missed, an empty picture with exit 0).
         {"render VDB -o OUT/out.png --camera look:5,5,5:0,0,0:1e-9",
-         "--camera look:5,5,5:0,0,0:1e-9: the eye must differ from the target, the view must not "
-         "be vertical, and the field of view must be from 0.0001 to below 180 degrees"},
+         "--camera look:5,5,5:0,0,0:1e-9: the field of view must be from 0.0001 to below 180 "
+         "degrees (got 1e-09)"},
+        // Each fault named (one message named all three)
+        {"render VDB -o OUT/out.png --camera look:1,1,1:1,1,1", "the eye is the target"},
+        {"render VDB -o OUT/out.png --camera look:0,5,0:0,0,0", "the view is vertical"},
+        {"render VDB -o OUT/out.png --camera look:5,5,5:0,0", "look: takes 6 or 7 numbers"},
+        {"render VDB -o OUT/out.png --camera look:5,5,0x5:0,0,0", "EZ '0x5' is not a finite"},
+        {"render VDB -o OUT/out.png --camera turntable:ten", "the angle 'ten' is not a finite"},
         {"render VDB -o OUT/out.png --device gpu", "--device"},
         {"render VDB -o OUT/out.tif", "out.tif: unknown image format '.tif'"},
         {"render -o OUT/out.png", "nothing to render"},
@@ -801,6 +813,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"mesh IN/fog.vdb -o OUT/out.ply",
          "fog.vdb: grid 'surface' has the background 0, not a level set's positive half-width"},
         // photos that lie
+        // A photo for a model of no bark colour (it was ignored, exit 0)
+        {"bake " + S + " --bark-photo IN/bark.png -o OUT/out.vdb",
+         "bark.png: the bark photo would paint nothing: no cone or segment of "},
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/cut.png -o OUT/out.vdb",
          "cut.png: a truncated or damaged PNG: its chunk IDAT at byte"},
         {"bake " + P + " --year 3 --voxel-size 0.02 --bark-photo IN/zlib.png -o OUT/out.vdb",
@@ -845,9 +860,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "--fps-per-year must be a positive number of at most 1e6 (got 10000000)"},
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg '--x\nid' -o OUT/s.####.vdb",
          "--slurm-arg '--x\\x0aid': a control character (code 10) in an sbatch option"},
-        {"preview " + S + " --once --port 99999 -o OUT/p.png",
+        {"preview " + S + " --port 99999 -o OUT/p.png",
          "--port must be from 1 to 65535, or 0 for a free one (got 99999)"},
-        {"preview " + S + " --once --port -1 -o OUT/p.png", "--port must be from 1 to 65535"},
+        {"preview " + S + " --port -1 -o OUT/p.png", "--port must be from 1 to 65535"},
+        // (what --once would not use: the page's port, its background years)
+        {"preview " + S + " --once --port 8000 -o OUT/p.png", "--port excludes --once"},
+        {"preview " + S + " --once --frames 1-3 -o OUT/p.png", "--frames excludes --once"},
         // the command line itself
         {"", "A subcommand is required"},
         {"bogus", "unknown command 'bogus' (the commands: info, eval, bake"},

@@ -11,6 +11,7 @@
 #include "core/frames.h"
 #include "cli_util.h"
 #include "temp_dir.h"
+#include "test_util.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -170,6 +171,11 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     for (const FarmChunkState& c : state.chunks)
         missing.insert(missing.end(), c.missing.begin(), c.missing.end());
     EXPECT_EQ(missing, std::vector<long long>{4});
+    // ... named as another's file, not as missing
+    for (const FarmChunkState& c : state.chunks)
+        if (!c.done())
+            EXPECT_NE(describeChunk(c).find("frame 4 not of this plan"), std::string::npos)
+                << describeChunk(c);
     // A byte changed near its end (its size and header as written): a
     // status reads only headers, the final job's check finds it missing.
     std::string damaged = four;
@@ -330,7 +336,7 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     EXPECT_EQ(fileContents(dir / "many.vdb.txt").find("tile 6/"), std::string::npos);
     for (const char* bad : {"--tile 0/3", "--tile 4/3", "--tile 1/0", "--tile 2", "--tiles 2 --fog",
                             "--tile +1/3", "--tile 1/99999999999", "--max-memory 12X",
-                            "--tiles 2 --max-memory 1K", "--max-memory 1"}) {
+                            "--tiles 2 --max-memory 1K", "--max-memory 1", "--max-memory ''"}) {
         EXPECT_EQ(run(bad, "bad.vdb"), 2) << bad << ": " << fileContents(dir / "bad.vdb.txt");
         EXPECT_FALSE(fs::exists(dir / "bad.vdb")) << bad;
     }
@@ -445,7 +451,7 @@ TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)
 
 }  // namespace
 
-TEST(FarmTiles, AFifoInTheFarmDirectoryIsRefusedNotWaitedFor)
+TEST(FarmTiles, AFifoOrALineCambiumNeverWritesInTheFarmDirectoryIsRefused)
 {
     // A FIFO where the farm keeps its job list or a chunk's history would
     // block `cambium farm` for ever on its read: refused by name, exit 2.
@@ -478,5 +484,25 @@ TEST(FarmTiles, AFifoInTheFarmDirectoryIsRefusedNotWaitedFor)
                   std::string::npos)
             << r.err;
         fs::remove(fifo);
+    }
+    // Lines cambium never writes (they were skipped: a job list of "12; rm"
+    // made squeue answer "Invalid job id", every live job unseen) are
+    // refused by line; a chunk history's last line cut short by a crash is
+    // read as not written.
+    std::ofstream(fs::path(array.farmDir) / "jobs") << "1234\n12; rm\n";
+    const test::Result jobs = test::run("farm " + shellQuote(array.farmDir));
+    EXPECT_EQ(jobs.status, 2) << jobs.err;
+    EXPECT_NE(jobs.err.find("jobs:2: '12; rm' is not a Slurm job id"), std::string::npos)
+        << jobs.err;
+    fs::remove(fs::path(array.farmDir) / "jobs");
+    const std::string history = chunkHistoryPath(array.farmDir, 0);
+    std::ofstream(history) << "137 78\nsubmitted again\n0 79\n13";
+    const std::vector<ChunkEvent> read = readChunkEvents(array.farmDir, 0);
+    ASSERT_EQ(read.size(), 3u);
+    EXPECT_EQ(read[2].status, 0);
+    for (const std::string bad : {"137 78\nok\n", "1 2 3\n", "256 78\n", "-1 78\n", "0 x\n"}) {
+        std::ofstream(history) << bad;
+        cambium::test::expectInputError([&] { readChunkEvents(array.farmDir, 0); },
+                                        "task-0.status:", bad);
     }
 }

@@ -336,6 +336,16 @@ TEST(Mesh, ReadsOtherToolsObjAndPly)
             EXPECT_GT(m.normals[i].dot(out) / out.length(), 0.9) << name << " vertex " << i;
         }
     }
+    // An int alpha is on uchar's 0-255 scale as a uchar one (it was divided
+    // by 2^32 - 1: every int alpha read as 0).
+    const TriangleMesh intAlpha =
+        readText("alpha.ply",
+                 "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                 "property float z\nproperty int alpha\nelement face 1\nproperty list uchar int "
+                 "vertex_indices\nend_header\n0 0 0 255\n1 0 0 51\n0 1 0 0\n3 0 1 2\n");
+    ASSERT_EQ(intAlpha.alpha.size(), 3u);
+    EXPECT_FLOAT_EQ(intAlpha.alpha[0], 1.0f);
+    EXPECT_FLOAT_EQ(intAlpha.alpha[1], 0.2f);
     const TriangleMesh ply = readText("cube.ply", kCubePly);
     ASSERT_EQ(ply.colors.size(), 8u);
     EXPECT_EQ(ply.colors[0], openvdb::Vec3s(1, 0, 0));
@@ -358,6 +368,13 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
     expectRefused("e2.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\nf 3 2 1\n",
                   "e2.obj: the mesh has no area: every face's corners lie on one line or at one "
                   "point");
+    // A tetrahedron 1e-14 across has area (5e-29), but not in float
+    // arithmetic (its cross products' squares underflow): named as small.
+    expectRefused("e3.obj",
+                  "v 0 0 0\nv 1e-14 0 0\nv 0 1e-14 0\nv 0 0 1e-14\n"
+                  "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+                  "e3.obj: the mesh is too small for single precision: its largest face's area is "
+                  "8.66e-29");
     expectRefused("f.ply", "ply\nformat binary_big_endian 1.0\nend_header\n",
                   "binary_big_endian' is not read");
     expectRefused("g.ply", "PLY\n", "not a PLY file");
@@ -372,6 +389,24 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
                   "ply\nformat ascii 1.0\nelement vertex 1\nproperty float q\nend_header\n1\n",
                   "the vertex element has no x, y, z");
     expectRefused("k.stl", "solid\n", "unknown mesh format '.stl'");
+    // Colours and alphas off their scale: an integer beyond 255 (a 16-bit
+    // scale, read as 300/255), a real alpha beyond 1.
+    const std::string header =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\n";
+    const std::string face = "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    expectRefused(
+        "l.ply",
+        header + "property uchar alpha\n" + face + "0 0 0 1\n1 0 0 300\n0 1 0 0\n3 0 1 2\n",
+        "l.ply: vertex 1 ('alpha'): 300 is outside 0-255");
+    expectRefused(
+        "m.ply",
+        header + "property float alpha\n" + face + "0 0 0 1\n1 0 0 1.5\n0 1 0 0\n3 0 1 2\n",
+        "m.ply: vertex 1 ('alpha'): 1.5 is outside 0-1");
+    expectRefused("n.ply",
+                  header + "property ushort red\nproperty ushort green\nproperty ushort blue\n" +
+                      face + "0 0 0 1 2 3\n1 0 0 65535 0 0\n0 1 0 0 0 0\n3 0 1 2\n",
+                  "n.ply: vertex 1 ('red'): 65535 is outside 0-255");
     // Points no tool can draw (Embree's build overflowed on 1e38 and aborted).
     expectRefused("l.obj", "v 0 0 0\nv 1e38 0 1\nv 0 1 0\nf 1 2 3\n",
                   "l.obj:2: vertex 2 lies 1e+38 from the origin, beyond the 1e+15");

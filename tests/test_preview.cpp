@@ -283,7 +283,10 @@ TEST(PreviewCommand, OncePicturesAndRefusesBadInputWithStatus2)
     const cambium::test::Result e =
         cambium::test::run("preview " + (dir / "tree.json").string() + common);
     EXPECT_EQ(e.status, 2);
-    EXPECT_NE(e.out.find("branching_angle"), std::string::npos) << e.out;
+    // (one line as every command's error, and no picture report)
+    EXPECT_EQ(e.err.rfind("cambium: error: ", 0), 0u) << e.err;
+    EXPECT_NE(e.err.find("branching_angle"), std::string::npos) << e.err;
+    EXPECT_EQ(e.out, "");
     EXPECT_EQ(fileContents(png), before);
 }
 

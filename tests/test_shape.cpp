@@ -499,6 +499,12 @@ TEST(ShapeCommand, WritesMeshesAndLevelSetsAndRefusesBadInputFirst)
     EXPECT_EQ(std::count(all.begin(), all.end(), '\n') > 1536, true);
     r = test::run("shape " + dir + "/rock.json -o " + dir + "/rock.vdb --voxel-size 0.02");
     ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.find("note: "), std::string::npos) << r.out;
+    // A voxel the size of the rock: said, as bake says of thin primitives.
+    r = test::run("shape " + dir + "/rock.json -o " + dir + "/coarse.vdb --voxel-size 0.5");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("voxels of 0.5: it bakes as a few voxel-sized blocks"), std::string::npos)
+        << r.out;
     r = test::run("info " + dir + "/rock.json");
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("level 4: 1,538 vertices, 1,536 faces"), std::string::npos) << r.out;

@@ -167,6 +167,17 @@ TEST(Messages, PrintableEscapesControlsAndBidiOverridesAndShortenedKeepsBothEnds
     // escaped; other multi-byte characters (an e acute, U+2014) kept.
     EXPECT_EQ(printable("x\xe2\x80\xaey\xe2\x81\xa6z"), "x\\u{202e}y\\u{2066}z");
     EXPECT_EQ(printable("caf\xc3\xa9 \xe2\x80\x94 ok"), "caf\xc3\xa9 \xe2\x80\x94 ok");
+    // Invalid UTF-8 (a lone continuation byte, a cut sequence, an overlong
+    // slash, a surrogate, past U+10FFFF) byte by byte; a C1 control (U+009B,
+    // a terminal's CSI) as \u; a 4-byte character kept.
+    EXPECT_EQ(printable("a\x80"
+                        "b\xc3"),
+              "a\\x80b\\xc3");
+    EXPECT_EQ(printable("\xc0\xaf\xed\xa0\x80\xf4\x90\x80\x80"),
+              "\\xc0\\xaf\\xed\\xa0\\x80\\xf4\\x90\\x80\\x80");
+    EXPECT_EQ(printable("\xc2\x9b"
+                        "31m \xf0\x9f\x8c\xb3"),
+              "\\u{009b}31m \xf0\x9f\x8c\xb3");
     EXPECT_EQ(shortened("short", 10), "short");
     const std::string key = "file.json: root." + std::string(100000, 'k') + ": unknown field";
     const std::string s = shortened(key, 300);

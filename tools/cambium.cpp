@@ -35,6 +35,7 @@ int main(int argc, char** argv)
     cambium::Action action;
     for (cambium::AddCommand add : kCommands)
         add(app, action);
+    cambium::requireDecimalNumbers(app);
 
     // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
     // any work (a farm must not retry); 1 a failure during the work.

@@ -102,7 +102,15 @@ int printSequencePlan(const SequencePlan& plan)
 
 int printTilePlan(const BakeRequest& req, const TilePlan& plan)
 {
-    fmt::print("plan: bake {} into {} as {} tiles, merged\n", req.input, req.output, plan.tiles);
+    // (one tile: the bake runs as a plain one, as the dry run says)
+    if (plan.tiles == 1)
+        fmt::print(
+            "plan: bake {} into {} as one bake (the frame's estimate is within "
+            "--max-memory)\n",
+            req.input, req.output);
+    else
+        fmt::print("plan: bake {} into {} as {} tiles, merged\n", req.input, req.output,
+                   plan.tiles);
     fmt::print("  voxel size {:g}; the frame's memory about {}\n", plan.voxelSize,
                formatBytes(plan.frameBytes));
     printResources(plan.bandVoxels, plan.tileBytes, 1, plan.fileBytes, req.output);
@@ -289,11 +297,19 @@ void addBakeCommand(CLI::App& app, Action& action)
                         "Bake the frame as this many spatial tiles, each by a process of its own "
                         "(its memory its tile's), then merge them into -o: the same grids")
             ->check(CLI::Range(1, 4096));
-    auto* memoryOpt = cmd->add_option(
-        "--max-memory", o->maxMemory,
-        "A tile's share of the frame's estimated memory at most this (8G = 8 GB = 8e9 bytes, "
-        "512M): with --tiles "
-        "a check, alone as many tiles as that takes (one bake when the frame fits)");
+    auto* memoryOpt =
+        cmd->add_option("--max-memory", o->maxMemory,
+                        "A tile's share of the frame's estimated memory at most this (8G = 8 GB = "
+                        "8e9 bytes, "
+                        "512M): with --tiles "
+                        "a check, alone as many tiles as that takes (one bake when the frame fits)")
+            // (an empty value read as no option: a plain bake, silently)
+            ->check(CLI::Validator(
+                [](std::string& v) {
+                    return v.empty() ? std::string("an empty size (8G, 512M or bytes)")
+                                     : std::string();
+                },
+                "SIZE"));
     cmd->add_option("--tile", o->tile,
                     "K/N: bake tile K of N only (what --tiles runs; docs/farm.md)")
         ->excludes(tilesOpt)

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <cstdio>
 #include <unistd.h>
 
@@ -45,6 +46,60 @@ void addModelFlags(CLI::App* cmd, ModelFlags& flags)
     flags.timeOption = cmd->add_option(
         "--time,--year", flags.time,
         "Growth parameter files: the tree at this time in years (default: the last)");
+}
+
+void requireDecimalNumbers(CLI::App& app)
+{
+    for (CLI::Option* opt : app.get_options()) {
+        const std::string type = opt->get_type_name();
+        if (type.find("FLOAT") == std::string::npos && type.find("INT") == std::string::npos)
+            continue;
+        opt->transform(CLI::Validator(
+            [](std::string& text) -> std::string {
+                // [sign] digits [. digits] [e [sign] digits], or a word
+                // (inf, nan) left to the option's own check
+                if (text.empty())
+                    return "an empty text is not a number";
+                size_t i = text[0] == '+' || text[0] == '-' ? 1 : 0;
+                if (i < text.size() && std::isalpha(static_cast<unsigned char>(text[i])))
+                    return text.find_first_of("0123456789") == std::string::npos
+                               ? std::string()
+                               : "'" + text + "' is not a decimal number";
+                const size_t digits = text.find_first_not_of('0', i);
+                size_t j = i, mantissa = 0;
+                while (j < text.size() && std::isdigit(static_cast<unsigned char>(text[j])))
+                    ++j, ++mantissa;
+                if (j < text.size() && text[j] == '.')
+                    for (++j; j < text.size() && std::isdigit(static_cast<unsigned char>(text[j]));
+                         ++j)
+                        ++mantissa;
+                if (mantissa > 0 && j < text.size() && (text[j] == 'e' || text[j] == 'E')) {
+                    size_t k = j + 1;
+                    if (k < text.size() && (text[k] == '+' || text[k] == '-'))
+                        ++k;
+                    const size_t exponent = k;
+                    while (k < text.size() && std::isdigit(static_cast<unsigned char>(text[k])))
+                        ++k;
+                    if (k > exponent)
+                        j = k;
+                }
+                if (mantissa == 0 || j != text.size())
+                    return "'" + text + "' is not a decimal number";
+                // leading zeros dropped, one digit kept before a point
+                if (digits != std::string::npos && digits > i) {
+                    const size_t keep =
+                        digits < text.size() &&
+                                std::isdigit(static_cast<unsigned char>(text[digits]))
+                            ? digits
+                            : digits - 1;
+                    text.erase(i, keep - i);
+                }
+                return std::string();
+            },
+            "", "decimal"));
+    }
+    for (CLI::App* sub : app.get_subcommands({}))
+        requireDecimalNumbers(*sub);
 }
 
 std::string formatVec(const glm::dvec3& v)

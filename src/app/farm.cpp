@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/frames.h"
+#include "core/math.h"
 #include "core/system.h"
 #include "bake/bake.h"
 #include "bake/tiles.h"
@@ -100,11 +101,21 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
 /// arrays and final jobs, one a line), comma-separated.
 std::string farmJobs(const fs::path& farm)
 {
+    // (written whole by writeFile: a line not an id is an edit, and squeue
+    // would answer "Invalid job id" for the whole list, every job unseen)
+    const std::string path = (farm / "jobs").string();
+    std::istringstream lines(fileText(path, "farm's job list"));
     std::string list;
-    for (char c : fileText(farm / "jobs", "farm's job list"))
-        list += c == '\n' ? ',' : c;
-    while (!list.empty() && list.back() == ',')
-        list.pop_back();
+    size_t number = 0;
+    for (std::string line; std::getline(lines, line);) {
+        ++number;
+        if (!allDigits(line, 20))
+            throw InputError(fmt::format(
+                "{}:{}: '{}' is not a Slurm job id (cambium writes one a line): the farm "
+                "directory was edited",
+                path, number, line));
+        list += (list.empty() ? "" : ",") + line;
+    }
     return list;
 }
 

@@ -12,6 +12,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace cambium {
 
 namespace {
@@ -65,7 +67,21 @@ int runVdbInfo(const std::string& path, bool check)
     if (!text("cambium_sequence").empty())
         fmt::print("sequence   {}{}\n", text("cambium_sequence"),
                    text("cambium_part").empty() ? "" : ", " + text("cambium_part"));
-    if (s.checksumEnd == 0) {
+    // (cambium writes the checksum with its other metadata: a file with
+    // those but without it was edited or damaged, not another tool's)
+    const bool cambiums = text("creator").rfind("cambium", 0) == 0 ||
+                          std::any_of(s.strings.begin(), s.strings.end(), [](const auto& kv) {
+                              return kv.first.rfind("cambium_", 0) == 0;
+                          });
+    if (s.checksumEnd == 0 && cambiums) {
+        const std::string missing = fmt::format(
+            "{}: cambium's metadata without its checksum (cambium_checksum): the file "
+            "was edited or damaged",
+            path);
+        if (check)
+            throw InputError(missing);
+        fmt::print("checksum   missing: {}\n", missing);
+    } else if (s.checksumEnd == 0) {
         fmt::print("checksum   none (not written by cambium)\n");
     } else if (!check) {
         fmt::print("checksum   present, not verified (--check reads every byte)\n");

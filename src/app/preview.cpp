@@ -43,7 +43,12 @@ void report(const PreviewSettings& settings, const PreviewUpdate& u)
             break;
         }
         case O::Failed:
-            fmt::print("error: {} (the last picture kept)\n", u.error);
+            // (on stderr as every error, the session going on)
+            std::fflush(stdout);
+            std::fprintf(stderr, "cambium: error: %s (%s)\n",
+                         printable(shortened(u.error, 1000)).c_str(),
+                         u.pictures ? "the last picture kept"
+                                    : "no picture yet: the next change of the file tries again");
             break;
         case O::Interrupted:
             fmt::print("interrupted after {:.2f} s: the file changed again\n", u.total);
@@ -96,22 +101,28 @@ void addPreviewCommand(CLI::App& app, Action& action)
         ->capture_default_str();
     cmd->add_option("--render-device", o->renderDevice, "The march's device: cpu or opencl")
         ->capture_default_str();
-    cmd->add_option("--port", o->port,
-                    "The page's port on 127.0.0.1 (default: a free one); its URL, with a "
-                    "random token, is the first line printed");
-    cmd->add_option("--frames", o->frames,
-                    "Years A-B[:STEP] of a growth parameter file to bake in the background "
-                    "after the first picture, so that the page's year slider shows them at once");
-    cmd->add_option("--frames-memory", o->framesMemoryGB,
-                    "GB the --frames kept may take; the years past it are baked when the "
-                    "slider reaches them (default: a quarter of the memory available at start)");
-    cmd->add_flag("--once", o->once,
-                  "One picture, then exit (2: bad input, 1: a failure): what scripts and tests "
-                  "run");
+    auto* portOpt =
+        cmd->add_option("--port", o->port,
+                        "The page's port on 127.0.0.1 (default: a free one); its URL, with a "
+                        "random token, is the first line printed");
+    auto* framesOpt = cmd->add_option(
+        "--frames", o->frames,
+        "Years A-B[:STEP] of a growth parameter file to bake in the background "
+        "after the first picture, so that the page's year slider shows them at once");
+    auto* framesMemoryOpt = cmd->add_option(
+        "--frames-memory", o->framesMemoryGB,
+        "GB the --frames kept may take; the years past it are baked when the "
+        "slider reaches them (default: a quarter of the memory available at start)");
+    auto* onceFlag =
+        cmd->add_flag("--once", o->once,
+                      "One picture, then exit (2: bad input, 1: a failure): what scripts and "
+                      "tests run");
+    // (what only the page and its background bakes use)
+    onceFlag->excludes(portOpt)->excludes(framesOpt)->excludes(framesMemoryOpt);
     cmd->callback([o, voxelOpt, &action] {
         action = [o, voxelOpt] {
             PreviewSettings& s = o->settings;
-            if (o->port < 0 || o->port > 65535)  // (checked with --once too)
+            if (o->port < 0 || o->port > 65535)
                 throw InputError(fmt::format(
                     "--port must be from 1 to 65535, or 0 for a free one (got {})", o->port));
             if (voxelOpt->count())
@@ -126,9 +137,12 @@ void addPreviewCommand(CLI::App& app, Action& action)
             PreviewSession session(s);
             if (o->once) {
                 const PreviewUpdate u = session.update();
-                report(s, u);
+                // (a failure is the command's error: exit 2 or 1)
+                if (u.outcome == PreviewUpdate::Outcome::Failed && u.inputError)
+                    throw InputError(u.error);
                 if (u.outcome == PreviewUpdate::Outcome::Failed)
-                    return u.inputError ? 2 : 1;
+                    throw std::runtime_error(u.error);
+                report(s, u);
                 return 0;
             }
             InotifyChanges changes(s.input);

@@ -123,6 +123,13 @@ BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
     p.coherent = req.barkCoherent.value_or(look.coherent);
     p.color = look.color;
     checkOutputIsNoInput(req.output, {p.photo});  // (a scene's or growth file's photo)
+    // (a photo that paints nothing was ignored without a word)
+    if (!p.photo.empty() && !hasBarkToPaint(tree, p.color))
+        throw InputError(fmt::format(
+            "{}: the bark photo would paint nothing: no cone or segment of {} has the bark "
+            "colour ({:g}, {:g}, {:g}) (a scene names its bark's colour as \"bark\": "
+            "{{\"color\": [r, g, b]}})",
+            p.photo, req.input, p.color.x, p.color.y, p.color.z));
     if (!p.photo.empty())
         p.histogram = std::make_shared<const ColourHistogram>(ColourHistogram::fromPhoto(p.photo));
     return p;

@@ -175,6 +175,22 @@ double coherentDraw(double s, double theta, uint64_t seed)
     return calibrated(coherentNoise(s, std::cos(theta), std::sin(theta), seed));
 }
 
+bool isBarkShade(const glm::dvec3& c, const glm::dvec3& bark)
+{
+    const double bb = glm::dot(bark, bark);
+    const double k = glm::dot(c, bark) / bb;
+    return k > 0.05 && glm::length(c - k * bark) <= 0.01 * std::sqrt(bb);
+}
+
+bool hasBarkToPaint(const BlobTree& tree, const glm::dvec3& bark)
+{
+    for (const Node& n : tree.nodes())
+        if ((n.type == NodeType::CONE || n.type == NodeType::SEGMENT) && n.prim().weight > 0.0 &&
+            isBarkShade(n.shade, bark))
+            return true;
+    return false;
+}
+
 size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const ColourHistogram& photo,
                            BarkColouring mode, const glm::dvec3& bark, uint64_t seed)
 {
@@ -247,9 +263,9 @@ size_t colourBarkFromPhoto(BakedGrids& grids, const BlobTree& tree, const Colour
                     continue;
                 const openvdb::Vec3f cv = v.getValue();
                 const glm::dvec3 c(cv[0], cv[1], cv[2]);
-                const double k = glm::dot(c, bark) / bb;
-                if (!(k > 0.05) || glm::length(c - k * bark) > 0.01 * std::sqrt(bb))
+                if (!isBarkShade(c, bark))
                     continue;  // not bark (a leaf, or bark blended with one)
+                const double k = glm::dot(c, bark) / bb;
                 double u;
                 if (mode == BarkColouring::Random) {
                     u = randomDraw(ijk, seed);

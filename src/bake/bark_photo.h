@@ -50,6 +50,14 @@ double randomDraw(const openvdb::Coord& voxel, uint64_t seed);
 /// number in [0, 1): smooth in s and theta, periodic in theta.
 double coherentDraw(double s, double theta, uint64_t seed);
 
+/// Whether colour `c` is the bark colour `bark` times a shade k > 0.05
+/// (within 1 % of |bark|): what colourBarkFromPhoto recolours.
+bool isBarkShade(const glm::dvec3& c, const glm::dvec3& bark);
+
+/// Whether any cone or segment of `tree` (weight > 0) is of the bark
+/// colour: else a photo would recolour nothing.
+bool hasBarkToPaint(const BlobTree& tree, const glm::dvec3& bark);
+
 /// Recolours the bark of baked grids: every active Cd voxel within 1.5
 /// voxels of the surface whose colour is the bark colour (`bark`) times a
 /// shade k (scars and ridges are darker) becomes k times a colour drawn from

@@ -664,6 +664,14 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
                             "{:g}: beyond {:.0f} voxels, {}",
                             what, v, r, r / h, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
     }
+    // (a mesh a tiny fraction of a voxel across has index-space triangles
+    // of no area in float: it was refused as "no triangles of any area")
+    const double extent = meshExtent(mesh);
+    if (extent < 1e-3 * h)
+        throw InputError(fmt::format(
+            "{}: the mesh, {:.3g} across, is less than a thousandth of a voxel of {:g}: "
+            "nothing to bake (use a smaller voxel size)",
+            what, extent, h));
     // The binning's (triangle, leaf) pairs, 4 bytes each: a triangle claims
     // the leaves of its band box within reach of its plane, about its box's
     // footprint across its normal's largest axis times the band's thickness

@@ -36,21 +36,42 @@ std::string printable(const std::string& text)
 {
     std::string out;
     out.reserve(text.size());
-    for (size_t i = 0; i < text.size(); ++i) {
-        const auto u = static_cast<unsigned char>(text[i]);
-        // Unicode's bidirectional controls (U+202A-202E, U+2066-2069, in
-        // UTF-8 E2 80 AA-AE and E2 81 A6-A9) turn the rest of a terminal's
-        // line around: written as \u{...} too.
-        if (u == 0xE2 && i + 2 < text.size()) {
-            const auto b = static_cast<unsigned char>(text[i + 1]),
-                       c = static_cast<unsigned char>(text[i + 2]);
-            if ((b == 0x80 && c >= 0xAA && c <= 0xAE) || (b == 0x81 && c >= 0xA6 && c <= 0xA9)) {
-                out += fmt::format("\\u{{{:04x}}}", 0x2000 + ((b & 0x3F) << 6) + (c & 0x3F));
-                i += 2;
-                continue;
-            }
+    auto byte = [&](size_t i) { return static_cast<unsigned char>(text[i]); };
+    for (size_t i = 0; i < text.size();) {
+        const unsigned u = byte(i);
+        if (u < 0x80) {
+            out += u < 0x20 || u == 0x7f ? fmt::format("\\x{:02x}", u) : std::string(1, text[i]);
+            ++i;
+            continue;
         }
-        out += u < 0x20 || u == 0x7f ? fmt::format("\\x{:02x}", u) : std::string(1, text[i]);
+        // One UTF-8 sequence, decoded strictly (no overlong forms, no
+        // surrogates, nothing past U+10FFFF); a byte that starts none is
+        // written as \x.., so a terminal never sees a broken sequence.
+        const size_t n = u >= 0xC2 && u <= 0xDF   ? 2
+                         : u >= 0xE0 && u <= 0xEF ? 3
+                         : u >= 0xF0 && u <= 0xF4 ? 4
+                                                  : 0;
+        uint32_t cp = n == 2 ? u & 0x1F : n == 3 ? u & 0x0F : u & 0x07;
+        bool valid = n != 0 && i + n <= text.size();
+        for (size_t k = 1; valid && k < n; ++k) {
+            valid = (byte(i + k) & 0xC0) == 0x80;
+            cp = (cp << 6) | (byte(i + k) & 0x3F);
+        }
+        valid = valid && !(n == 3 && cp < 0x800) && !(n == 4 && (cp < 0x10000 || cp > 0x10FFFF)) &&
+                !(cp >= 0xD800 && cp <= 0xDFFF);
+        if (!valid) {
+            out += fmt::format("\\x{:02x}", u);
+            ++i;
+            continue;
+        }
+        // C1 controls and Unicode's bidirectional controls (U+202A-202E,
+        // U+2066-2069, which turn the rest of a terminal's line around)
+        // are written as \u{...}.
+        if (cp < 0xA0 || (cp >= 0x202A && cp <= 0x202E) || (cp >= 0x2066 && cp <= 0x2069))
+            out += fmt::format("\\u{{{:04x}}}", cp);
+        else
+            out += text.substr(i, n);
+        i += n;
     }
     return out;
 }

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "core/hash.h"
+#include "core/math.h"
 #include "core/system.h"
 
 #include <fmt/format.h>
@@ -659,10 +660,7 @@ bool lockedFrames(const std::string& file, const std::string& name, long long& f
         return false;
     const std::string range = file.substr(head.size(), file.size() - head.size() - tail.size());
     const size_t dash = range.find('-');
-    auto number = [](const std::string& t) {
-        return !t.empty() && t.size() < 19 &&
-               std::all_of(t.begin(), t.end(), [](unsigned char c) { return std::isdigit(c); });
-    };
+    auto number = [](const std::string& t) { return allDigits(t, 18); };
     if (dash == std::string::npos || !number(range.substr(0, dash)) ||
         !number(range.substr(dash + 1)))
         return false;

@@ -4,6 +4,7 @@
 #include <glm/glm.hpp>
 
 #include <algorithm>
+#include <string_view>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -31,6 +32,14 @@ constexpr const char* kFloatPrecisionReason =
 /// The largest seed a file or an option takes (whole numbers from 0: a
 /// double holds each exactly).
 constexpr long long kMaxSeed = 9000000000000000LL;
+
+/// Whether `t` is 1 to `most` decimal digits (a job id, an exit status, a
+/// frame number in a file's name).
+inline bool allDigits(std::string_view t, size_t most)
+{
+    return !t.empty() && t.size() <= most &&
+           std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
 
 /// Whether strtod's number [begin, end) was written in hexadecimal (0x10):
 /// the text formats here are decimal, and a hex number in them is a typo

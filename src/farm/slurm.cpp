@@ -5,6 +5,7 @@
 #include "core/files.h"
 #include "core/frames.h"
 #include "core/hash.h"
+#include "core/math.h"
 #include "core/json.h"
 #include "io/vdb_header.h"
 
@@ -464,13 +465,32 @@ std::vector<ChunkEvent> readChunkEvents(const std::string& farmDir, size_t chunk
     if (!fs::exists(fs::symlink_status(path, ec)))
         return events;
     // (readTextFile refuses a FIFO or a device, whose read would block)
-    std::istringstream in(readTextFile(path, "chunk history"));
+    const std::string text = readTextFile(path, "chunk history");
+    std::istringstream in(text);
+    size_t number = 0;
     for (std::string line; std::getline(in, line);) {
+        ++number;
+        // (the last line cut short by a node's crash, without its newline:
+        // as if not written, even where what is left reads, "13" of "137")
+        if (in.eof() && text.back() != '\n')
+            break;
         ChunkEvent e;
-        if (line == kSubmittedAgain)
+        // "STATUS [ARRAY-JOB-ID]" (the task's exit status, 0-255), or a
+        // final job's "submitted again"
+        std::istringstream words(line);
+        std::string status, job, more;
+        words >> status >> job >> more;
+        if (line == kSubmittedAgain) {
             e.again = true;
-        else if (std::istringstream words(line); !(words >> e.status))
-            continue;  // (a line cut short by a node's crash)
+        } else if (allDigits(status, 3) && std::stoi(status) <= 255 &&
+                   (job.empty() || allDigits(job, 20)) && more.empty()) {
+            e.status = std::stoi(status);
+        } else {
+            throw InputError(fmt::format(
+                "{}:{}: '{}' is not a task's status line (an exit status and a job id, or "
+                "'{}'): the farm directory was edited; remove the file to run the chunk again",
+                path, number, line, kSubmittedAgain));
+        }
         events.push_back(e);
     }
     return events;
@@ -548,10 +568,13 @@ FarmState assessFarm(const FarmPlan& plan, bool verify)
             const std::string part =
                 plan.tiles ? tilePart(int(k), int(plan.chunks.size())) : framePart(file.number);
             ++s.frames;
-            if (s.merged || (stamp.key == plan.key && (stamp.part.empty() || stamp.part == part)))
+            if (s.merged || (stamp.key == plan.key && (stamp.part.empty() || stamp.part == part))) {
                 ++s.good;
-            else
+            } else {
                 c.missing.push_back(file.number);
+                if (!stamp.key.empty())
+                    c.foreign.push_back(file.number);
+            }
         }
         s.chunks.push_back(std::move(c));
     }
@@ -581,11 +604,27 @@ std::string describeChunk(const FarmChunkState& c)
 {
     if (c.done())
         return "done";
-    const std::string frames = c.missing.size() == 1
-                                   ? fmt::format("{} {} missing", c.unit, c.missing.front())
-                                   : fmt::format("{} {}s missing", c.missing.size(), c.unit);
+    // "frame 5 missing", "3 frames missing", "tile 2 not of this plan ...":
+    // absent or unreadable files, and files of another plan, apart.
+    std::vector<long long> absent;
+    for (long long n : c.missing)
+        if (std::find(c.foreign.begin(), c.foreign.end(), n) == c.foreign.end())
+            absent.push_back(n);
+    auto count = [&](const std::vector<long long>& v, const char* what) {
+        return v.size() == 1 ? fmt::format("{} {} {}", c.unit, v.front(), what)
+                             : fmt::format("{} {}s {}", v.size(), c.unit, what);
+    };
+    std::string files;
+    if (!absent.empty())
+        files = count(absent, "missing");
+    if (!c.foreign.empty())
+        files += (files.empty() ? "" : ", ") +
+                 count(c.foreign, fmt::format("not of this plan (baked from another input or "
+                                              "options, or another {}'s file)",
+                                              c.unit)
+                                      .c_str());
     return (c.status == 0 ? std::string("ended (exit 0)") : describeStatus(c.status)) + ", " +
-           frames;
+           files;
 }
 
 bool FarmState::complete(const FarmPlan& plan) const

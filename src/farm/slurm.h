@@ -123,6 +123,9 @@ struct FarmChunkState {
     int attempts = 1;  ///< times the chunk was submitted
     /// The chunk's frames not written, not readable or not of this plan.
     std::vector<long long> missing;
+    /// Those of `missing` that are there, readable, but another plan's (a
+    /// tile baked from an edited input, another frame's file copied over).
+    std::vector<long long> foreign;
     bool done() const { return missing.empty(); }
     bool badInput() const { return !done() && status == 2; }
 };

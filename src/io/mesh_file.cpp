@@ -368,12 +368,23 @@ void readPlyElement(std::istream& in, TextLines& lines, const std::string& path,
     if (e.name == "face" && list < 0)
         fail(path, 0, "the face element has no vertex_indices list");
     const bool colours = e.name == "vertex" && r >= 0 && g >= 0 && b >= 0;
+    // Integer colours and alpha are on the 0-255 scale of the uchar every
+    // tool writes, whatever their type; real ones on 0-1.
     const double colourScale = colours && e.properties[size_t(r)].type.real ? 1.0 : 1.0 / 255.0;
     const int a = e.name == "vertex" ? index("alpha") : -1;
-    const double alphaScale =
-        a < 0 || e.properties[size_t(a)].type.real
-            ? 1.0
-            : 1.0 / (std::ldexp(1.0, 8 * e.properties[size_t(a)].type.size) - 1.0);
+    const double alphaScale = a < 0 || e.properties[size_t(a)].type.real ? 1.0 : 1.0 / 255.0;
+    // (an integer colour beyond 255 is of a scale not read here: 16-bit, or
+    // a typo; an alpha, a weight, is within 0-1 on either scale)
+    auto checkScale = [&](size_t item, int k, double v, bool realsToo) {
+        const PlyProperty& p = e.properties[size_t(k)];
+        const double most = p.type.real ? 1.0 : 255.0;
+        if ((p.type.real && !realsToo) || (v >= 0.0 && v <= most))
+            return;
+        fail(path, 0,
+             fmt::format("vertex {} ('{}'): {:g} is outside 0-{:g} (PLY {} are 0-255 as integers, "
+                         "0-1 as reals)",
+                         item, p.name, v, most, k == a ? "alphas" : "colours"));
+    };
     // A binary item of no properties takes no bytes: its count, however
     // large, reads nothing (and must not loop over 2^64 items).
     if (!ascii && e.properties.empty())
@@ -440,6 +451,11 @@ void readPlyElement(std::istream& in, TextLines& lines, const std::string& path,
                 m.normals.emplace_back(float(values[size_t(nx)]), float(values[size_t(ny)]),
                                        float(values[size_t(nz)]));
             if (colours)
+                for (int k : {r, g, b})
+                    checkScale(item, k, values[size_t(k)], false);
+            if (a >= 0)
+                checkScale(item, a, values[size_t(a)], true);
+            if (colours)
                 m.colors.emplace_back(float(values[size_t(r)] * colourScale),
                                       float(values[size_t(g)] * colourScale),
                                       float(values[size_t(b)] * colourScale));
@@ -486,12 +502,23 @@ TriangleMesh parseMesh(std::istream& in, const std::string& name, const std::str
     if (m.triangles.empty())
         fail(name, 0, "the mesh has no faces");
     // (A mesh of no area draws, frames and bakes as nothing, with exit 0.)
-    const bool flat = std::none_of(m.triangles.begin(), m.triangles.end(), [&](const auto& t) {
-        const auto c = (m.points[t[1]] - m.points[t[0]]).cross(m.points[t[2]] - m.points[t[0]]);
-        return c.lengthSqr() > 0.0f;
-    });
-    if (flat)
+    // The largest face's area, exactly (double) and as the float
+    // arithmetic of every later stage sees it.
+    double largest = 0.0;
+    bool flat = true;
+    for (const auto& t : m.triangles) {
+        const auto e1 = m.points[t[1]] - m.points[t[0]], e2 = m.points[t[2]] - m.points[t[0]];
+        flat = flat && !(e1.cross(e2).lengthSqr() > 0.0f);
+        largest = std::max(largest,
+                           0.5 * openvdb::math::Vec3d(e1).cross(openvdb::math::Vec3d(e2)).length());
+    }
+    if (!(largest > 0.0))
         fail(name, 0, "the mesh has no area: every face's corners lie on one line or at one point");
+    if (flat)
+        fail(name, 0,
+             fmt::format("the mesh is too small for single precision: its largest face's area "
+                         "is {:.3g}, below the about 1e-19 that float arithmetic resolves",
+                         largest));
     if (m.normals.size() != m.points.size())
         m.normals = vertexNormals(m);
     return m;

@@ -168,14 +168,31 @@ VdbFileInfo fileInfo(const ShapeRequest& req)
 }
 
 /// The voxel size: given, or 512 across the mesh (checked to fit).
+double automaticVoxelSize(const TriangleMesh& mesh)
+{
+    return std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
+}
+
 void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeReport& r)
 {
     r.autoVoxelSize = !req.voxelSize;
-    r.voxelSize =
-        req.voxelSize ? *req.voxelSize : std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
+    r.voxelSize = req.voxelSize ? *req.voxelSize : automaticVoxelSize(mesh);
     if (r.autoVoxelSize)
         checkBakeMemory(r.area, r.voxelSize, req.halfWidth,
                         fmt::format("{}: the automatic voxel size", req.input));
+}
+
+/// As bake says of primitives thinner than a voxel: a shape a few voxels
+/// across bakes as blocks (it did so silently).  After the checks, so that
+/// a refused bake has its error alone.
+void noteCoarseVoxels(const TriangleMesh& mesh, const ShapeReport& r, const ShapeCallbacks& cb)
+{
+    const double extent = meshExtent(mesh);
+    if (cb.notice && extent < 8.0 * r.voxelSize)
+        cb.notice(
+            fmt::format("the shape is {:.3g} across, {:.2g} voxels of {:g}: it bakes as a few "
+                        "voxel-sized blocks; the automatic voxel size is {:.3g}",
+                        extent, extent / r.voxelSize, r.voxelSize, automaticVoxelSize(mesh)));
 }
 
 ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
@@ -228,6 +245,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
         if (cb.progress)
             cb.progress("frames checked", double(i + 1) / double(frames.size()));
     }
+    noteCoarseVoxels(first, r, cb);
     const std::string options =
         fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={} colour={}", r.voxelSize,
                     req.halfWidth, levels, req.fog, req.half, deviceName(req.device),
@@ -313,6 +331,8 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
         r.writeSeconds = secondsSince(t);
     } else {
         chooseVoxelSize(req, mesh, r);
+        checkMeshBake(mesh, meshBakeOptions(req, {}, r), req.input);
+        noteCoarseVoxels(mesh, r, cb);
         VdbFileInfo info = fileInfo(req);
         info.time = req.time;
         bakeAndWrite(mesh, req, cb, info, req.output, r);

@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/frames.h"
 #include "core/files.h"
+#include "core/math.h"
 #include "core/system.h"
 #include "io/vdb.h"
 #include "use/world_sampler.h"
@@ -69,53 +70,65 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
 {
     if (spec == "auto")
         return framingCamera(bounds, aspect);
-    const std::string turntable = "turntable:";
-    if (spec.rfind(turntable, 0) == 0) {
+    // One decimal number of the spec, or a message naming it.
+    auto number = [&](const std::string& item, const char* what) {
         char* end = nullptr;
-        const std::string angle = spec.substr(turntable.size());
-        const double a = std::strtod(angle.c_str(), &end);
-        if (!angle.empty() && end && *end == '\0' && std::isfinite(a))
-            return framingCamera(bounds, aspect, 35.0 + a);
-    }
+        const double x = std::strtod(item.c_str(), &end);
+        if (item.empty() || end == item.c_str() || *end != '\0' || !std::isfinite(x) ||
+            writtenInHex(item.c_str(), end))
+            throw InputError(fmt::format("--camera {}: {} '{}' is not a finite decimal number",
+                                         spec, what, item));
+        return x;
+    };
+    const std::string turntable = "turntable:";
+    if (spec.rfind(turntable, 0) == 0)
+        return framingCamera(bounds, aspect,
+                             35.0 + number(spec.substr(turntable.size()), "the angle"));
     // look:EX,EY,EZ:TX,TY,TZ[:FOV] — an eye, a target and a vertical field of view.
     const std::string look = "look:";
-    if (spec.rfind(look, 0) == 0) {
-        std::vector<double> v;
-        std::string rest = spec.substr(look.size());
-        bool ok = true;
+    if (spec.rfind(look, 0) != 0)
+        throw InputError(
+            fmt::format("--camera {}: expected auto, turntable:ANGLE (degrees) or "
+                        "look:EX,EY,EZ:TX,TY,TZ[:FOV]",
+                        spec));
+    std::vector<std::string> items;
+    {
+        std::string rest = spec.substr(look.size()), item;
         for (char& c : rest)
             if (c == ':')
                 c = ',';
-        std::istringstream in(rest);
-        for (std::string item; ok && std::getline(in, item, ',');) {
-            char* end = nullptr;
-            const double x = std::strtod(item.c_str(), &end);
-            ok = !item.empty() && end && *end == '\0' && std::isfinite(x);
-            v.push_back(x);
-        }
-        if (ok && (v.size() == 6 || v.size() == 7)) {
-            Camera cam;
-            cam.eye = {v[0], v[1], v[2]};
-            cam.target = {v[3], v[4], v[5]};
-            if (v.size() == 7)
-                cam.fovY = v[6];
-            const glm::dvec3 w = cam.target - cam.eye;
-            // (Below 1e-4 degrees a pixel's rays differ by less than a float
-            // resolves: at 1e-9 every ray missed, an empty picture.)
-            constexpr double kNarrowestView = 1e-4;
-            if (glm::length(w) > 0.0 && glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6 &&
-                cam.fovY >= kNarrowestView && cam.fovY < 180.0)
-                return cam;
-            throw InputError(fmt::format(
-                "--camera {}: the eye must differ from the target, the view must not be "
-                "vertical, and the field of view must be from {:g} to below 180 degrees",
-                spec, kNarrowestView));
-        }
+        std::istringstream in(rest + ",");
+        while (std::getline(in, item, ','))
+            items.push_back(item);
     }
-    throw InputError(
-        fmt::format("--camera {}: expected auto, turntable:ANGLE (degrees) or "
-                    "look:EX,EY,EZ:TX,TY,TZ[:FOV]",
-                    spec));
+    if (items.size() != 6 && items.size() != 7)
+        throw InputError(
+            fmt::format("--camera {}: look: takes 6 or 7 numbers (EX,EY,EZ:TX,TY,TZ[:FOV]), got {}",
+                        spec, items.size()));
+    static const char* const kNames[] = {"EX", "EY", "EZ", "TX", "TY", "TZ", "FOV"};
+    double v[7];
+    for (size_t i = 0; i < items.size(); ++i)
+        v[i] = number(items[i], kNames[i]);
+    Camera cam;
+    cam.eye = {v[0], v[1], v[2]};
+    cam.target = {v[3], v[4], v[5]};
+    if (items.size() == 7)
+        cam.fovY = v[6];
+    const glm::dvec3 w = cam.target - cam.eye;
+    // (Below 1e-4 degrees a pixel's rays differ by less than a float
+    // resolves: at 1e-9 every ray missed, an empty picture.)
+    constexpr double kNarrowestView = 1e-4;
+    if (!(glm::length(w) > 0.0))
+        throw InputError(fmt::format("--camera {}: the eye is the target", spec));
+    if (!(glm::length(glm::cross(glm::normalize(w), cam.up)) > 1e-6))
+        throw InputError(fmt::format(
+            "--camera {}: the view is vertical (the picture's up is +y: move the eye aside)",
+            spec));
+    if (!(cam.fovY >= kNarrowestView && cam.fovY < 180.0))
+        throw InputError(fmt::format(
+            "--camera {}: the field of view must be from {:g} to below 180 degrees (got {:g})",
+            spec, kNarrowestView, cam.fovY));
+    return cam;
 }
 
 Camera orbitCamera(const Camera& cam, double azimuthDeg, double elevationDeg)
