@@ -76,7 +76,7 @@ int runVdbInfo(const std::string& path, bool check)
     if (s.checksumEnd == 0 && cambiums) {
         const std::string missing = fmt::format(
             "{}: cambium's metadata without its checksum (cambium_checksum): the file "
-            "was edited or damaged",
+            "was edited or damaged (or written by a cambium before checksums, 8e5b3d3)",
             path);
         if (check)
             throw InputError(missing);

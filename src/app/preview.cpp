@@ -169,12 +169,13 @@ void addPreviewCommand(CLI::App& app, Action& action)
                 return more;
             };
             loop.updated = [&](const PreviewUpdate& u) {
-                report(s, u);
-                server.publish(u);
                 // A first picture the work could not make (not the file's
-                // fault): the preview cannot start.
+                // fault): the preview cannot start (said once, as the
+                // command's failure).
                 if (first && u.outcome == PreviewUpdate::Outcome::Failed && !u.inputError)
                     throw std::runtime_error(u.error);
+                report(s, u);
+                server.publish(u);
                 first = first && u.outcome != PreviewUpdate::Outcome::Rendered;
             };
             runPreviewLoop(session, changes, never, loop);
