@@ -209,6 +209,7 @@ TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
     const Result bad = run("info " + vdb + " --check");
     EXPECT_EQ(bad.status, 2);
     EXPECT_NE(bad.err.find("do not match the checksum"), std::string::npos) << bad.err;
+    EXPECT_EQ(bad.out, "") << "refused: nothing printed before the error";
     // Any name: the magic number says it is a .vdb.
     const std::string other = (dir / "frame.data").string();
     std::filesystem::copy_file(vdb, other);

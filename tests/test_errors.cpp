@@ -165,8 +165,9 @@ TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
          "seq.0002.vdb: is a FIFO"},
         {"mesh " + vdb + " -o " + (dir / "d.ply").string(), "d.ply: is a directory"},
         {"bake " + kScene + " -o " + dir.string(), ": is a directory"},
-        {"bake " + kScene + " -o ''", "-o: the output path is empty"},
-        {"mesh " + vdb + " -o ''", "the mesh file's path is empty (use .obj or .ply)"},
+        // (every option's empty value refused as such, before its own check)
+        {"bake " + kScene + " -o ''", "--output: an empty value"},
+        {"mesh " + vdb + " -o ''", "--output: an empty value"},
     };
     const auto before = snapshot(dir);
     for (const auto& [args, expected] : cases) {
@@ -408,6 +409,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     std::string flipped = good;
     flipped[flipped.size() * 2 / 3] ^= 0x10;  // a bit changed inside a grid's compressed data
     writeText(in / "flipped.vdb", flipped);
+    // ... and one whose second frame has a byte changed (the first frame's
+    // mesh was written before the second's checksum was read)
+    writeText(in / "flip.1.vdb", good);
+    writeText(in / "flip.2.vdb", flipped);
     writeText(in / "text.vdb", "not a vdb at all\n");
     writeText(in / "zeros.vdb", std::string(4096, '\0'));
     writeText(in / "index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
@@ -692,7 +697,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake " + S + " --primitives cubes -o OUT/out.vdb",
          "--primitives must be cone, convolution or mixed"},
         {"bake " + S + " -o OUT", "OUT: is a directory, not an output file"},
-        {"bake " + S + " -o ''", "-o: the output path is empty"},
+        {"bake " + S + " -o ''", "--output: an empty value"},
         {"bake " + S + " -o /dev/null", "/dev/null: is a character device"},
         {"bake IN/bad.l -o IN/bad.l", "bad.l: unknown output format '.l' (use .vdb)"},
         {"bake " + S + " -o OUT/x.png", "x.png: unknown output format '.png' (use .vdb)"},
@@ -721,7 +726,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"shape IN/span.json -o OUT/out.obj", "amplitude.keys[0][0]: must be between"},
         {"render --mesh IN/hex.obj -o OUT/out.png", "hex.obj:1: 'v' expects 3 numbers"},
         {"shape IN/year0.json -o OUT/out.obj", "at year 0 the tree has not begun to grow"},
+        {"shape " + kExamples + "shapes/rock.json --frames 0-1 --time 1 -o OUT/r.#.vdb",
+         "--time excludes --frames"},
         {"shape IN/tiled.json -o OUT/out.obj",
+         "tile.vdb: is tile 1/2 of a frame baked in tiles, a part of its surface"},
+        // (meshed or rendered, half the surface with exit 0)
+        {"mesh IN/tile.vdb -o OUT/out.obj",
+         "tile.vdb: is tile 1/2 of a frame baked in tiles, a part of its surface"},
+        {"render IN/tile.vdb -o OUT/out.png",
          "tile.vdb: is tile 1/2 of a frame baked in tiles, a part of its surface"},
         {"bake " + S + " --tile 4096/4096 --voxel-size 0.05 -o OUT/out.vdb",
          "--tile 4096/4096: the frame spans 2 layers of 128 voxels"},
@@ -845,6 +857,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // farms and the preview server
         {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg=--array=0-99 -o OUT/s.####.vdb",
          "--slurm-arg '--array=0-99': --array is set by cambium's job scripts"},
+        // (sbatch takes an unambiguous prefix of a long option: --arr is --array)
+        {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg=--arr=0-9 -o OUT/s.####.vdb",
+         "--slurm-arg '--arr=0-9': --array is set by cambium's job scripts"},
+        {"bake " + P + " --frames 1-2 --slurm --dry-run --slurm-arg=partition=x -o OUT/s.####.vdb",
+         "--slurm-arg 'partition=x': one sbatch option, as -x"},
         {"bake " + S + " --year 5 -o OUT/out.vdb",
          "a time (--year, --time, a shape base's \"year\") is for growth parameter files"},
         {"bake " + S + " --resume -o OUT/out.vdb", "--resume requires --frames"},
@@ -854,6 +871,23 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"mesh IN/part.#.vdb --frames 1-2 -o OUT/part.#.obj", "part.2.vdb: a truncated .vdb file"},
         {"render IN/part.#.vdb --frames 1-2 -o OUT/part.#.png",
          "part.2.vdb: a truncated .vdb file"},
+        {"mesh IN/flip.#.vdb --frames 1-2 -o OUT/flip.#.obj",
+         "flip.2.vdb: a damaged .vdb file: its bytes do not match the checksum"},
+        {"render IN/flip.#.vdb --frames 1-2 -o OUT/flip.#.png",
+         "flip.2.vdb: a damaged .vdb file: its bytes do not match the checksum"},
+        // Empty values (they were taken as no option: one frame baked, the
+        // whole frame for --tile '', the default junctions)
+        {"bake " + S + " --frames '' --resume -o OUT/out.vdb", "--frames: an empty value"},
+        {"bake " + S + " --tile '' -o OUT/out.vdb", "--tile: an empty value"},
+        {"bake " + S + " --junctions '' -o OUT/out.vdb", "--junctions: an empty value"},
+        {"render VDB --frames '' -o OUT/out.png", "--frames: an empty value"},
+        // The benchmarks' cases and sizes (a voxel size of 0 aborted)
+        {"bench bake --case 1000:0 --skip-cpu --repeat 1",
+         "--case 1000:0: the voxel size must be a number from 0.0001 to 1e9 (got 0)"},
+        {"bench bake --case 1e3:0.01",
+         "a whole number from 1 to 1000000 and a decimal number"},  // (no IN: substituted)
+        {"bench render --width 0 --internodes 10", "--width: Value 0 not in range"},
+        {"bench mesh --voxel-size 0", "--voxel-size: Value 0 not in range"},
         {"shape IN/flat.json --voxel-size 0.05 -o OUT/out.vdb",
          "flat.json: the closed mesh encloses no volume"},
         {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",

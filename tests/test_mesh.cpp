@@ -398,15 +398,24 @@ TEST(Mesh, UnreadableMeshFilesAreNamedWithTheirLine)
     expectRefused(
         "l.ply",
         header + "property uchar alpha\n" + face + "0 0 0 1\n1 0 0 300\n0 1 0 0\n3 0 1 2\n",
-        "l.ply: vertex 1 ('alpha'): 300 is outside 0-255");
+        "l.ply: vertex 1 ('alpha'): 300 is not within 0-255");
     expectRefused(
         "m.ply",
         header + "property float alpha\n" + face + "0 0 0 1\n1 0 0 1.5\n0 1 0 0\n3 0 1 2\n",
-        "m.ply: vertex 1 ('alpha'): 1.5 is outside 0-1");
+        "m.ply: vertex 1 ('alpha'): 1.5 is not within 0-1");
     expectRefused("n.ply",
                   header + "property ushort red\nproperty ushort green\nproperty ushort blue\n" +
                       face + "0 0 0 1 2 3\n1 0 0 65535 0 0\n0 1 0 0 0 0\n3 0 1 2\n",
-                  "n.ply: vertex 1 ('red'): 65535 is outside 0-255");
+                  "n.ply: vertex 1 ('red'): 65535 is not within 0-255");
+    expectRefused(
+        "o.ply",
+        header + "property uchar alpha\n" + face + "0 0 0 1\n1 0 0 2.5\n0 1 0 0\n3 0 1 2\n",
+        "o.ply: vertex 1 ('alpha'): 2.5 is not within 0-255");
+    // An OBJ's vertex colours on 0-1 (1e30 drew a picture of 1e30, exit 0).
+    expectRefused("p.obj", "v 0 0 0 1e30 0 0\nv 1 0 0 1 1 1\nv 0 1 0 1 1 1\nf 1 2 3\n",
+                  "p.obj:1: vertex 1: colour 1e+30 is outside 0-1");
+    // A vertex's weight (OBJ's optional w) is read past.
+    EXPECT_EQ(readText("w.obj", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n").points.size(), 3u);
     // Points no tool can draw (Embree's build overflowed on 1e38 and aborted).
     expectRefused("l.obj", "v 0 0 0\nv 1e38 0 1\nv 0 1 0\nf 1 2 3\n",
                   "l.obj:2: vertex 2 lies 1e+38 from the origin, beyond the 1e+15");

@@ -9,6 +9,7 @@
 #include <openvdb/openvdb.h>
 
 #include <cstdio>
+#include <cstring>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -35,7 +36,7 @@ int main(int argc, char** argv)
     cambium::Action action;
     for (cambium::AddCommand add : kCommands)
         add(app, action);
-    cambium::requireDecimalNumbers(app);
+    cambium::checkOptionValues(app);
 
     // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
     // any work (a farm must not retry); 1 a failure during the work.
@@ -57,7 +58,9 @@ int main(int argc, char** argv)
     auto say = [](const char* how, const char* what) {
         std::string line;
         try {
-            line = cambium::printable(cambium::shortened(what, 1000));
+            // (escaped, then shortened: a control character is 4 bytes
+            // escaped, and a message at most 1000 bytes with its prefix)
+            line = cambium::shortened(cambium::printable(what), 1000 - 11 - std::strlen(how));
         } catch (...) {
             line = what;
         }

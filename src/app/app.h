@@ -37,11 +37,12 @@ void addPrepareCommand(CLI::App& app, Action& action);
 void addFarmCommand(CLI::App& app, Action& action);
 void addPreviewCommand(CLI::App& app, Action& action);
 
-/// Every number option of `app` and its commands takes decimal text only:
-/// "0x10" and "1p3" (which strtold and strtoll read as 16 and 8000) are
-/// refused, and an integer's leading zeros dropped ("010" is 10, where
-/// strtoll would read 8).  "inf" and "nan" pass to each option's own check.
-void requireDecimalNumbers(CLI::App& app);
+/// The values of every option of `app` and its commands: none empty, and a
+/// number option's decimal text only: "0x10" and "1p3" (which strtold and
+/// strtoll read as 16 and 8000) are refused, and an integer's leading zeros
+/// dropped ("010" is 10, where strtoll would read 8).  "inf" and "nan" pass
+/// to each option's own check.
+void checkOptionValues(CLI::App& app);
 
 /// The model options of info and bake as the command line gives them.
 struct ModelFlags {

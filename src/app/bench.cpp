@@ -7,9 +7,11 @@
 #include "bench/read_bench.h"
 #include "bench/shape_bench.h"
 #include "bench/tree_generator.h"
+#include "bake/bake.h"
 #include "bench/use_bench.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/math.h"
 #include "model/skeleton.h"
 #include "preview/preview_bench.h"
 
@@ -29,6 +31,10 @@ struct BenchTree {
     std::string text;
     Skeleton skeleton;
 };
+
+/// The largest generated tree a benchmark takes (the generator's trees of a
+/// million internodes bake in minutes).
+constexpr int kMaxBenchInternodes = 1000000;
 
 BenchTree benchTree(int internodes)
 {
@@ -331,17 +337,32 @@ void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
     bake->callback([o, &action] {
         action = [o] {
             std::vector<BakeBenchCase> cases;
+            // Every case checked before any is run (a voxel size of 0 ended
+            // the process with an abort mid-table; stoi read "1e3" as 1).
+            std::vector<std::pair<int, double>> parsed;
             for (const std::string& c : o->cases) {
                 const auto colon = c.find(':');
-                if (colon == std::string::npos)
-                    throw InputError(fmt::format("--case {}: expected INTERNODES:VOXEL_SIZE", c));
-                const int n = std::stoi(c.substr(0, colon));
+                const std::string count = c.substr(0, colon),
+                                  size = colon == std::string::npos ? "" : c.substr(colon + 1);
+                char* end = nullptr;
+                const double h = std::strtod(size.c_str(), &end);
+                if (colon == std::string::npos || !allDigits(count, 7) || std::stol(count) < 1 ||
+                    std::stol(count) > kMaxBenchInternodes || size.empty() || *end != '\0' ||
+                    writtenInHex(size.c_str(), end))
+                    throw InputError(fmt::format(
+                        "--case {}: expected INTERNODES:VOXEL_SIZE, a whole number from 1 to {} "
+                        "and a decimal number",
+                        c, kMaxBenchInternodes));
+                checkVoxelSize(h, fmt::format("--case {}: the voxel size", c));
+                parsed.emplace_back(int(std::stol(count)), h);
+            }
+            for (const auto& [n, h] : parsed) {
                 BakeBenchCase bc;
                 BenchTree tree = benchTree(n);
                 bc.text = std::move(tree.text);
                 bc.skeleton = std::move(tree.skeleton);
                 bc.label = fmt::format("tree of {} internodes", n);
-                bc.voxelSize = std::stod(c.substr(colon + 1));
+                bc.voxelSize = h;
                 cases.push_back(std::move(bc));
             }
             runBakeBench(cases, o->skipCpu, o->repeats, printBakeTable);
@@ -355,9 +376,11 @@ void addUseBenches(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Acti
 {
     auto useOptions = [o](CLI::App* cmd) {
         cmd->add_option("--internodes", o->internodes, "Internodes of the generated tree")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(CLI::Range(1, kMaxBenchInternodes));
         cmd->add_option("--voxel-size", o->voxelSize, "Voxel size of the bake")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(CLI::Range(kMinVoxelSize, kMaxVoxelSize));
         cmd->add_option("--repeat", o->repeats, "Runs of each method; the table shows medians")
             ->capture_default_str()
             ->check(CLI::Range(1, 100));
@@ -378,8 +401,12 @@ void addUseBenches(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Acti
                                          "level-set marches and Embree on its mesh, "
                                          "against the papers' figures");
     useOptions(render);
-    render->add_option("--width", o->width, "Image width")->capture_default_str();
-    render->add_option("--height", o->height, "Image height")->capture_default_str();
+    render->add_option("--width", o->width, "Image width")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 16384));
+    render->add_option("--height", o->height, "Image height")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 16384));
     render->callback([o, label, &action] {
         action = [o, label] {
             printRenderTable(runRenderBench(benchTree(o->internodes).skeleton, label(o->internodes),
@@ -437,7 +464,9 @@ void addGrowthBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Act
     growth->add_option("--years", g.years, "Years to measure")
         ->capture_default_str()
         ->delimiter(',');
-    growth->add_option("--voxel-size", g.voxelSize, "Voxel size")->capture_default_str();
+    growth->add_option("--voxel-size", g.voxelSize, "Voxel size")
+        ->capture_default_str()
+        ->check(CLI::Range(kMinVoxelSize, kMaxVoxelSize));
     growth
         ->add_option("--fps-per-year", g.fpsPerYear,
                      "Frame rate of the whole sequence (0: leave it out)")
@@ -468,7 +497,8 @@ void addReadBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
         ->capture_default_str();
     read->add_option("--year", rb.year, "Year of the default frame")->capture_default_str();
     read->add_option("--voxel-size", rb.voxelSize, "Voxel size of the default frame")
-        ->capture_default_str();
+        ->capture_default_str()
+        ->check(CLI::Range(kMinVoxelSize, kMaxVoxelSize));
     read->add_option("--repeat", rb.repeats, "Rounds of every command")
         ->capture_default_str()
         ->check(CLI::Range(1, 100));

@@ -48,9 +48,18 @@ void addModelFlags(CLI::App* cmd, ModelFlags& flags)
         "Growth parameter files: the tree at this time in years (default: the last)");
 }
 
-void requireDecimalNumbers(CLI::App& app)
+void checkOptionValues(CLI::App& app)
 {
     for (CLI::Option* opt : app.get_options()) {
+        if (opt->get_type_size() == 0)
+            continue;  // a flag
+        // (an empty value was taken as no option: --frames '' baked one
+        // frame, --tile '' the whole frame, --junctions '' the default)
+        opt->check(CLI::Validator(
+            [](std::string& text) {
+                return text.empty() ? std::string("an empty value") : std::string();
+            },
+            "", "not empty"));
         const std::string type = opt->get_type_name();
         if (type.find("FLOAT") == std::string::npos && type.find("INT") == std::string::npos)
             continue;
@@ -59,7 +68,7 @@ void requireDecimalNumbers(CLI::App& app)
                 // [sign] digits [. digits] [e [sign] digits], or a word
                 // (inf, nan) left to the option's own check
                 if (text.empty())
-                    return "an empty text is not a number";
+                    return std::string("an empty value");
                 size_t i = text[0] == '+' || text[0] == '-' ? 1 : 0;
                 if (i < text.size() && std::isalpha(static_cast<unsigned char>(text[i])))
                     return text.find_first_of("0123456789") == std::string::npos
@@ -99,7 +108,7 @@ void requireDecimalNumbers(CLI::App& app)
             "", "decimal"));
     }
     for (CLI::App* sub : app.get_subcommands({}))
-        requireDecimalNumbers(*sub);
+        checkOptionValues(*sub);
 }
 
 std::string formatVec(const glm::dvec3& v)

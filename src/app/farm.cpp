@@ -242,16 +242,26 @@ SlurmOptions slurmOptions(const SlurmFlags& flags)
                                                  "-e",
                                                  "-D",
                                                  "-d"};
-    for (const std::string& arg : flags.sbatchArgs)
+    for (const std::string& arg : flags.sbatchArgs) {
+        // One option a line, as sbatch reads "#SBATCH" lines: "-x", "-xVALUE",
+        // "--name" or "--name=VALUE" (a space would be read as two words).
+        if (arg.size() < 2 || arg[0] != '-' || arg.find_first_of(" \t") != std::string::npos)
+            throw InputError(fmt::format(
+                "--slurm-arg '{}': one sbatch option, as -x, -xVALUE, --name or --name=VALUE "
+                "(no spaces)",
+                printable(arg)));
+        // sbatch takes an unambiguous prefix of a long option's name as the
+        // option (--arr is --array): a prefix of an own option is refused.
+        const std::string given = arg.substr(0, arg.find('='));
         for (const std::string& name : own) {
             const bool longName = name.size() > 2;
-            if (arg == name || arg.rfind(name + "=", 0) == 0 ||
-                (!longName && arg.rfind(name, 0) == 0))
+            if (longName ? given.size() > 2 && name.rfind(given, 0) == 0 : arg.rfind(name, 0) == 0)
                 throw InputError(fmt::format(
                     "--slurm-arg '{}': {} is set by cambium's job scripts (the farm's array, "
                     "resources, logs and directory); give other sbatch options",
                     printable(arg), name));
         }
+    }
     o.sbatchArgs = flags.sbatchArgs;
     o.exe = (fs::path(executableDirectory()) / "cambium").string();
     const Output nodes = capture("sinfo -h -o '%c %m'");

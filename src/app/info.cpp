@@ -61,18 +61,15 @@ int runVdbInfo(const std::string& path, bool check)
         const auto it = s.strings.find(key);
         return it == s.strings.end() ? std::string() : it->second;
     };
-    fmt::print("file       {}: {} bytes, OpenVDB file format {}{}\n", path,
-               formatCount(double(s.bytes)), s.fileVersion,
-               text("creator").empty() ? "" : ", written by " + text("creator"));
-    if (!text("cambium_sequence").empty())
-        fmt::print("sequence   {}{}\n", text("cambium_sequence"),
-                   text("cambium_part").empty() ? "" : ", " + text("cambium_part"));
+    // The checksum's verdict first: a file --check refuses prints nothing
+    // (its "file" line came before the error).
     // (cambium writes the checksum with its other metadata: a file with
     // those but without it was edited or damaged, not another tool's)
     const bool cambiums = text("creator").rfind("cambium", 0) == 0 ||
                           std::any_of(s.strings.begin(), s.strings.end(), [](const auto& kv) {
                               return kv.first.rfind("cambium_", 0) == 0;
                           });
+    std::string checksum;
     if (s.checksumEnd == 0 && cambiums) {
         const std::string missing = fmt::format(
             "{}: cambium's metadata without its checksum (cambium_checksum): the file "
@@ -80,16 +77,23 @@ int runVdbInfo(const std::string& path, bool check)
             path);
         if (check)
             throw InputError(missing);
-        fmt::print("checksum   missing: {}\n", missing);
+        checksum = "missing: " + missing;
     } else if (s.checksumEnd == 0) {
-        fmt::print("checksum   none (not written by cambium)\n");
+        checksum = "none (not written by cambium)";
     } else if (!check) {
-        fmt::print("checksum   present, not verified (--check reads every byte)\n");
+        checksum = "present, not verified (--check reads every byte)";
     } else {
         const auto t = Clock::now();
         verifyVdbChecksum(path, s);  // (InputError when it does not hold)
-        fmt::print("checksum   holds: every byte as written ({:.2f} s)\n", secondsSince(t));
+        checksum = fmt::format("holds: every byte as written ({:.2f} s)", secondsSince(t));
     }
+    fmt::print("file       {}: {} bytes, OpenVDB file format {}{}\n", path,
+               formatCount(double(s.bytes)), s.fileVersion,
+               text("creator").empty() ? "" : ", written by " + text("creator"));
+    if (!text("cambium_sequence").empty())
+        fmt::print("sequence   {}{}\n", text("cambium_sequence"),
+                   text("cambium_part").empty() ? "" : ", " + text("cambium_part"));
+    fmt::print("checksum   {}\n", checksum);
     for (const VdbGridDescription& g : d.grids) {
         fmt::print(
             "grid       {}: {}{}{}, {} active voxels{}\n", g.name, g.valueType,

@@ -39,8 +39,8 @@ int runMeshCommand(const MeshRequest& req)
         throw InputError(
             fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
     forEachFile(
-        req.input, req.output, req.frames, [](const std::string& in) { inspectVdb(in); },
-        checkMeshOutput,
+        req.input, req.output, req.frames,
+        [&](const std::string& in) { checkLevelSetFile(in, req.grid); }, checkMeshOutput,
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             LevelSetGrids f = readLevelSet(in, req.grid);

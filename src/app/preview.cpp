@@ -46,7 +46,7 @@ void report(const PreviewSettings& settings, const PreviewUpdate& u)
             // (on stderr as every error, the session going on)
             std::fflush(stdout);
             std::fprintf(stderr, "cambium: error: %s (%s)\n",
-                         printable(shortened(u.error, 1000)).c_str(),
+                         shortened(printable(u.error), 900).c_str(),
                          u.pictures ? "the last picture kept"
                                     : "no picture yet: the next change of the file tries again");
             break;

@@ -59,7 +59,7 @@ int runRenderCommand(RenderRequest req)
         meshFile ? req.mesh : req.input, req.output, req.frames,
         [&](const std::string& in) {
             if (!meshFile)
-                inspectVdb(in);
+                checkLevelSetFile(in, req.grid);
         },
         checkImageOutput,
         [&](const std::string& in, const std::string& out) {

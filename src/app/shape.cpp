@@ -1,6 +1,7 @@
 // cambium shape — a shape file (docs/shape-format.md) synthesised into a mesh
 // or baked into a level set.
 #include "app/app.h"
+#include "core/frames.h"
 
 #include "core/system.h"
 #include "shape/shape_job.h"
@@ -24,6 +25,13 @@ int runShapeCommand(ShapeFlags& f)
         f.request.voxelSize = f.voxelSize;
     f.request.device = parseDevice(f.device);
     f.request.colour = parseColourExtent(f.colour);
+    // (seconds for the longest: each frame's file read and paths checked;
+    // on stderr, as bake says it)
+    if (!f.request.frames.empty()) {
+        const size_t frames = parseFrames(f.request.frames).size();
+        if (frames >= 100000)
+            fmt::print(stderr, "cambium: planning {} frames\n", formatCount(double(frames)));
+    }
     ProgressBar bar;
     ShapeCallbacks cb;
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };
@@ -92,12 +100,15 @@ void addShapeCommand(CLI::App& app, Action& action)
                     "Where a .vdb keeps the colour grid Cd: shell (the voxels a lookup on the "
                     "surface reads), band (every band voxel) or none")
         ->capture_default_str();
-    cmd->add_option("--time", f->request.time,
-                    "Animation time of the output: keyframed numbers take their value at it")
-        ->capture_default_str();
+    auto* timeOpt =
+        cmd->add_option("--time", f->request.time,
+                        "Animation time of the output: keyframed numbers take their value at it")
+            ->capture_default_str();
+    // (a sequence's frame f is at time f: --time was ignored)
     cmd->add_option("--frames", f->request.frames,
                     "A sequence: frames FIRST-LAST[:STEP] (frame f at time f) into -o with a run "
-                    "of '#', e.g. -o out/shape.####.vdb");
+                    "of '#', e.g. -o out/shape.####.vdb")
+        ->excludes(timeOpt);
     cmd->add_flag("--resume", f->request.resume,
                   "Keep the frames an interrupted run of the same sequence finished");
     cmd->add_option("--device", f->device,

@@ -48,21 +48,6 @@ std::vector<std::vector<size_t>> yearRuns(const std::vector<double>& times)
 /// Frames the plan estimates at most (memory of the last year's, files).
 constexpr size_t kSampledFrames = 64;
 
-/// At most `most` indices of [0, n), evenly spread, the first and last among
-/// them (all when n <= most).
-std::vector<size_t> spread(size_t n, size_t most)
-{
-    std::vector<size_t> out;
-    if (n <= most) {
-        for (size_t i = 0; i < n; ++i)
-            out.push_back(i);
-        return out;
-    }
-    for (size_t k = 0; k < most; ++k)
-        out.push_back(size_t(std::llround(double(k) * double(n - 1) / double(most - 1))));
-    return out;
-}
-
 /// The sum over the frames from at.front() to at.back() of a value known at
 /// the sorted indices `at`, linear between them.
 double sumOverFrames(const std::vector<size_t>& at, const std::vector<double>& values)
@@ -175,7 +160,7 @@ SequencePlan planSequence(const SequenceRequest& request)
         for (size_t i = 0; i + 1 < plan.times.size(); ++i)
             if (growthYear(plan.times[i]) == lastYear)
                 lastYears.push_back(i);
-        for (size_t i : spread(lastYears.size(), kSampledFrames)) {
+        for (size_t i : spreadIndices(lastYears.size(), kSampledFrames)) {
             const Skeleton sk = model.skeleton(plan.times[lastYears[i]], true);
             if (!sk.internodes.empty())
                 voxels.bytes = std::max(
@@ -185,7 +170,7 @@ SequencePlan planSequence(const SequenceRequest& request)
     }
     // The files: estimated at up to kSampledFrames frames spread over the
     // sequence, linear between them; all must fit on the output's disk.
-    const std::vector<size_t> sampled = spread(plan.times.size(), kSampledFrames);
+    const std::vector<size_t> sampled = spreadIndices(plan.times.size(), kSampledFrames);
     std::vector<double> fileAt, bandAt;
     for (size_t i : sampled) {
         const Skeleton sk = model.skeleton(plan.times[i], req.model.leaves);

@@ -86,7 +86,10 @@ std::string shortened(const std::string& text, size_t most)
             --i;
         return i;
     };
-    const size_t head = back(most * 2 / 3), tail = back(text.size() - most / 3);
+    // (the marker within `most` too: a message of 1000 bytes at most)
+    const size_t marker = fmt::format(" ... ({} characters left out) ... ", text.size()).size();
+    const size_t room = most > marker ? most - marker : 0;
+    const size_t head = back(room * 2 / 3), tail = back(text.size() - room / 3);
     return fmt::format("{} ... ({} characters left out) ... {}", text.substr(0, head), tail - head,
                        text.substr(tail));
 }

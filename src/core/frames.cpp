@@ -1,6 +1,8 @@
 // cambium — frame sequences.
 #include "core/frames.h"
 
+#include <cmath>
+
 #include "core/error.h"
 #include "core/files.h"
 
@@ -98,6 +100,19 @@ void forEachFile(const std::string& input, const std::string& output, const std:
     checkNoOutputIsAnInput(outs, ins);
     for (size_t i = 0; i < ins.size(); ++i)
         one(ins[i], outs[i]);
+}
+
+std::vector<size_t> spreadIndices(size_t n, size_t most)
+{
+    std::vector<size_t> out;
+    if (n <= most) {
+        for (size_t i = 0; i < n; ++i)
+            out.push_back(i);
+        return out;
+    }
+    for (size_t k = 0; k < most; ++k)
+        out.push_back(size_t(std::llround(double(k) * double(n - 1) / double(most - 1))));
+    return out;
 }
 
 }  // namespace cambium

@@ -25,6 +25,10 @@ constexpr long long kMaxFrames = 1'000'000;
 
 /// The frames of a range "A", "A-B" or "A-B:STEP" (A <= B, STEP >= 1), in
 /// order.  Throws InputError naming `option` for anything else.
+/// At most `most` indices of [0, n), evenly spread, the first and last among
+/// them (all when n <= most): the frames a plan samples.
+std::vector<size_t> spreadIndices(size_t n, size_t most);
+
 std::vector<long long> parseFrames(const std::string& range,
                                    const std::string& option = "--frames");
 

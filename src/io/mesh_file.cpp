@@ -156,10 +156,12 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
             int n = 0;
             while (n < 6 && readNumber(s, x[n]))
                 ++n;
-            if (n < 3 || (tag == "v" && n != 3 && n != 6) || (tag == "vn" && n != 3))
+            if (n < 3 || (tag == "v" && n != 3 && n != 4 && n != 6) || (tag == "vn" && n != 3))
                 fail(path, line,
                      fmt::format("'{}' expects 3 numbers{}", tag,
-                                 tag == "v" ? " (or 6 with a colour)" : ""));
+                                 tag == "v" ? " (4 with a weight, which polygons ignore, or 6 "
+                                              "with a colour)"
+                                            : ""));
             for (int k = 0; k < n; ++k)
                 checkVertexValue(x[k], tag == "v" && k < 3, path, line, [&] {
                     return tag == "v" ? fmt::format("vertex {}", m.points.size() + 1)
@@ -173,6 +175,12 @@ TriangleMesh readObj(std::istream& in, const std::string& path)
             if (n == 6) {
                 if (m.colors.size() + 1 != m.points.size())
                     fail(path, line, "some vertices have colours and others not");
+                // (a colour of 1e30 made a picture of 1e30 with exit 0)
+                for (int k = 3; k < 6; ++k)
+                    if (!(x[k] >= 0.0 && x[k] <= 1.0))
+                        fail(path, line,
+                             fmt::format("vertex {}: colour {:g} is outside 0-1", m.points.size(),
+                                         x[k]));
                 m.colors.emplace_back(float(x[3]), float(x[4]), float(x[5]));
             }
         } else if (tag == "f") {
@@ -374,15 +382,15 @@ void readPlyElement(std::istream& in, TextLines& lines, const std::string& path,
     const int a = e.name == "vertex" ? index("alpha") : -1;
     const double alphaScale = a < 0 || e.properties[size_t(a)].type.real ? 1.0 : 1.0 / 255.0;
     // (an integer colour beyond 255 is of a scale not read here: 16-bit, or
-    // a typo; an alpha, a weight, is within 0-1 on either scale)
-    auto checkScale = [&](size_t item, int k, double v, bool realsToo) {
+    // a typo; a real one beyond 1 made a picture of 1e30 with exit 0)
+    auto checkScale = [&](size_t item, int k, double v) {
         const PlyProperty& p = e.properties[size_t(k)];
         const double most = p.type.real ? 1.0 : 255.0;
-        if ((p.type.real && !realsToo) || (v >= 0.0 && v <= most))
+        if (v >= 0.0 && v <= most && (p.type.real || v == std::trunc(v)))
             return;
         fail(path, 0,
-             fmt::format("vertex {} ('{}'): {:g} is outside 0-{:g} (PLY {} are 0-255 as integers, "
-                         "0-1 as reals)",
+             fmt::format("vertex {} ('{}'): {:g} is not within 0-{:g} (PLY {} are whole numbers "
+                         "0-255 as integers, 0-1 as reals)",
                          item, p.name, v, most, k == a ? "alphas" : "colours"));
     };
     // A binary item of no properties takes no bytes: its count, however
@@ -452,9 +460,9 @@ void readPlyElement(std::istream& in, TextLines& lines, const std::string& path,
                                        float(values[size_t(nz)]));
             if (colours)
                 for (int k : {r, g, b})
-                    checkScale(item, k, values[size_t(k)], false);
+                    checkScale(item, k, values[size_t(k)]);
             if (a >= 0)
-                checkScale(item, a, values[size_t(a)], true);
+                checkScale(item, a, values[size_t(a)]);
             if (colours)
                 m.colors.emplace_back(float(values[size_t(r)] * colourScale),
                                       float(values[size_t(g)] * colourScale),

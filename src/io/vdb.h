@@ -107,6 +107,14 @@ enum class ColourRead {
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid,
                            ColourRead colour = ColourRead::Whole);
 
+/// What readLevelSet checks before OpenVDB reads a byte of the trees: the
+/// file's structure, that it holds one grid `grid` of a float tree (and a
+/// vec3s tree for `Cd`), cambium's checksum, and (unless `tile`) that it is
+/// a whole frame, not one tile of a tiled bake.  InputError naming the file;
+/// its summary.  What mesh and render check of every frame before the first.
+VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = kSurfaceGrid,
+                             bool tile = false);
+
 /// The `Cd` grid of a file readLevelSet has read (null when it has none),
 /// `lazy` as readVdbGrid's: a render's colour, read once its level set is gone.
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy);

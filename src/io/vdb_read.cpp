@@ -393,14 +393,23 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                     "not a narrow-band level set");
 }
 
-LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
-                        ColourRead colour)
+}  // namespace
+
+VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, bool tile)
 {
     // A damaged file is named here, before OpenVDB decodes it: its structure,
     // and for cambium's own files the checksum of every byte.
     const VdbSummary summary = inspectVdb(path);
+    // (a tile holds a run of the frame's layers and their halo: meshed,
+    // rendered or captured, it made a fragment of the surface with exit 0)
+    if (const auto part = summary.strings.find("cambium_part");
+        !tile && part != summary.strings.end() && part->second.rfind("tile ", 0) == 0)
+        throw InputError(fmt::format(
+            "{}: is {} of a frame baked in tiles, a part of its surface: merge the tiles "
+            "(cambium farm --finish) or bake the frame whole",
+            path, printable(part->second)));
     std::string names;
-    bool found = false, hasColour = false;
+    bool found = false;
     for (const VdbSummary::Grid& g : summary.grids) {
         names += (names.empty() ? "" : ", ") + printable(g.name);
         // (OpenVDB stores a second grid of a name with a suffix of its own)
@@ -409,7 +418,6 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
                 fmt::format("{}: more than one grid is named '{}': which one is meant?", path,
                             printable(grid)));
         found = found || g.name == grid;
-        hasColour = hasColour || g.name == kColorGrid;
     }
     if (!found)
         throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
@@ -431,6 +439,18 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
                                          printable(g.name), printable(g.type),
                                          surface ? "float level set" : "colour grid", want));
     }
+    return summary;
+}
+
+namespace {
+
+LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
+                        ColourRead colour, bool tile)
+{
+    const VdbSummary summary = checkLevelSetFile(path, grid, tile);
+    bool hasColour = false;
+    for (const VdbSummary::Grid& g : summary.grids)
+        hasColour = hasColour || g.name == kColorGrid;
     LevelSetGrids out;
     const openvdb::GridBase::Ptr g = readVdbGrid(path, summary, grid, lazy);
     out.surface = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
@@ -454,7 +474,7 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
 
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour)
 {
-    return readGrids(path, grid, false, colour);
+    return readGrids(path, grid, false, colour, /*tile=*/false);
 }
 
 VdbDescription describeVdb(const std::string& path)
@@ -529,7 +549,7 @@ VdbDescription describeVdb(const std::string& path)
 
 LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)
 {
-    return readGrids(path, grid, true, ColourRead::Lazy);
+    return readGrids(path, grid, true, ColourRead::Lazy, /*tile=*/true);
 }
 
 }  // namespace cambium

@@ -187,13 +187,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
     openvdb::FloatGrid::Ptr fine;
     double extent = 0.0;
     if (b.type == BaseType::LevelSet) {
-        // (a tile holds a run of the frame's layers and their halo: captured,
-        // it made a fragment of the shape with exit 0)
-        if (const std::string part = readFileStamp(b.file).part; part.rfind("tile ", 0) == 0)
-            throw InputError(fmt::format(
-                "{}: is {} of a frame baked in tiles, a part of its surface: merge the tiles "
-                "(cambium farm --finish) or bake the frame whole",
-                what, part));
+        // (readLevelSet refuses a tile of a frame: a fragment of the shape)
         fine = readLevelSet(b.file).surface;
         const openvdb::CoordBBox box = fine->evalActiveVoxelBoundingBox();
         const openvdb::Vec3d d = box.dim().asVec3d() * fine->voxelSize()[0];
