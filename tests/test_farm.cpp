@@ -174,7 +174,8 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
     // ... named as another's file, not as missing
     for (const FarmChunkState& c : state.chunks)
         if (!c.done())
-            EXPECT_NE(describeChunk(c).find("frame 4 not of this plan"), std::string::npos)
+            EXPECT_NE(describeChunk(c).find("frame 4 there but not of this plan"),
+                      std::string::npos)
                 << describeChunk(c);
     // A byte changed near its end (its size and header as written): a
     // status reads only headers, the final job's check finds it missing.

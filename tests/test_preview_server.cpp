@@ -246,12 +246,26 @@ TEST(PreviewServer, NoPathReachesAFileAndOnlyTheWatchedFileIsWritten)
         {{{"key", "Gh"}, {"points", {{0, 0}, {1, "x"}}}}, "two numbers"},
         {{{"key", "Gh"}, {"file", "secret.txt"}}, "CURVE"},
         {json::array(), "a JSON object"},
+        // (a field the edit does not take was dropped, with 200)
+        {{{"key", "Gh"}, {"points", {{0, 0}, {1, 1}}}, {"interpolation", "cubic"}},
+         "interpolation: not a field of a curve edit"},
     };
     for (const auto& b : bad) {
         r = f.post("/curve", b.body);
         ASSERT_TRUE(r);
         EXPECT_EQ(r->status, 400) << b.body;
         EXPECT_NE(r->body.find(b.expected), std::string::npos) << r->body;
+    }
+    // A key twice (the last one won) and a number past a double: the
+    // files' parser's words.
+    for (const auto& [raw, expected] :
+         {std::pair<std::string, std::string>{
+              R"({"key": "Gh", "key": "Gh", "points": [[0, 0], [1, 1]]})", "duplicate key 'key'"},
+          {R"({"key": "Gh", "points": [[0, 0], [1, 1e999]]})", "number overflow"}}) {
+        r = f.client.Post(f.withToken("/curve").c_str(), raw, "application/json");
+        ASSERT_TRUE(r);
+        EXPECT_EQ(r->status, 400) << raw;
+        EXPECT_NE(r->body.find(expected), std::string::npos) << r->body;
     }
     EXPECT_EQ(fileContents(f.dir / "tree.json"), before);
     // A good edit: the watched file, and only its curve's points, changed.

@@ -200,3 +200,21 @@ TEST(Messages, PrintableEscapesControlsAndBidiOverridesAndShortenedKeepsBothEnds
     }
     EXPECT_NE(static_cast<unsigned char>(t.back()), 0xc3);
 }
+
+TEST(Messages, ATextFilesByteOrderMarkIsReadPast)
+{
+    // (an L-system's first line read as "unknown line 'Axiom: F'", with the
+    // invisible U+FEFF in the message)
+    const std::string path =
+        (std::filesystem::temp_directory_path() / ("cambium_bom_" + std::to_string(::getpid())))
+            .string();
+    std::ofstream(path, std::ios::binary) << "\xEF\xBB\xBF"
+                                             "Axiom: F\n";
+    EXPECT_EQ(cambium::readTextFile(path, "L-system file"), "Axiom: F\n");
+    std::ofstream(path, std::ios::binary) << "Axiom: \xEF\xBB\xBF"
+                                             "F\n";  // (only at the start)
+    EXPECT_EQ(cambium::readTextFile(path, "L-system file"),
+              "Axiom: \xEF\xBB\xBF"
+              "F\n");
+    std::filesystem::remove(path);
+}

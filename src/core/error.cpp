@@ -128,6 +128,10 @@ std::string readTextFile(const std::string& path, const char* what)
                 "{}: is a .vdb file (a baked level set), not a {}: mesh or render it", path, what));
         throw InputError(fmt::format("{}: a binary file, not a {} (a text file)", path, what));
     }
+    // A UTF-8 byte-order mark, as some editors write, is read past (an
+    // L-system's first line was "unknown", a skeleton's id no number).
+    if (text.rfind("\xEF\xBB\xBF", 0) == 0)
+        text.erase(0, 3);
     return text;
 }
 

@@ -62,9 +62,9 @@ uint64_t checkInputFile(const std::string& path, const char* what);
 /// The largest text input read (a scene, L-system, skeleton or parameter file).
 constexpr uint64_t kMaxTextFileBytes = uint64_t(1) << 30;
 
-/// The whole text of a file (checkInputFile, at most kMaxTextFileBytes);
-/// a binary file is refused by name ("PATH: is a .vdb file (a baked level
-/// set), not a WHAT", "PATH: a binary file, not a WHAT").
+/// The whole text of a file (checkInputFile, at most kMaxTextFileBytes),
+/// without a UTF-8 byte-order mark; a binary file is refused by name ("PATH: is a .vdb file (a
+/// baked level set), not a WHAT", "PATH: a binary file, not a WHAT").
 std::string readTextFile(const std::string& path, const char* what);
 
 }  // namespace cambium

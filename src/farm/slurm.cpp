@@ -572,7 +572,8 @@ FarmState assessFarm(const FarmPlan& plan, bool verify)
                 ++s.good;
             } else {
                 c.missing.push_back(file.number);
-                if (!stamp.key.empty())
+                std::error_code ec;
+                if (!stamp.key.empty() || fs::exists(file.path, ec))
                     c.foreign.push_back(file.number);
             }
         }
@@ -619,8 +620,9 @@ std::string describeChunk(const FarmChunkState& c)
         files = count(absent, "missing");
     if (!c.foreign.empty())
         files += (files.empty() ? "" : ", ") +
-                 count(c.foreign, fmt::format("not of this plan (baked from another input or "
-                                              "options, or another {}'s file)",
+                 count(c.foreign, fmt::format("there but not of this plan (damaged, another "
+                                              "tool's, baked from another input or options, or "
+                                              "another {}'s file)",
                                               c.unit)
                                       .c_str());
     return (c.status == 0 ? std::string("ended (exit 0)") : describeStatus(c.status)) + ", " +

@@ -123,8 +123,9 @@ struct FarmChunkState {
     int attempts = 1;  ///< times the chunk was submitted
     /// The chunk's frames not written, not readable or not of this plan.
     std::vector<long long> missing;
-    /// Those of `missing` that are there, readable, but another plan's (a
-    /// tile baked from an edited input, another frame's file copied over).
+    /// Those of `missing` whose file is there, but damaged or another plan's
+    /// (a tile baked from an edited input, another frame's or another
+    /// tool's file copied over, a truncated file).
     std::vector<long long> foreign;
     bool done() const { return missing.empty(); }
     bool badInput() const { return !done() && status == 2; }

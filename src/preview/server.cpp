@@ -6,6 +6,8 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/json.h"
+#include "core/math.h"
 #include "model/growth_params.h"
 
 #include <fmt/format.h>
@@ -13,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <fstream>
@@ -180,7 +183,9 @@ namespace {
 /// The request's body as a JSON object, else InputError.
 json jsonObject(const std::string& body)
 {
-    json j = json::parse(body, nullptr, /*allow_exceptions=*/false);
+    // The files' parser (a duplicate key refused, a number that overflows
+    // named as such), then an object.
+    json j = parseJson(body, "the request's body");
     if (!j.is_object())
         throw InputError("the request's body must be a JSON object");
     return j;
@@ -191,6 +196,13 @@ json jsonObject(const std::string& body)
 CurveEdit parseCurveEdit(const std::string& body)
 {
     const json j = jsonObject(body);
+    // (anything else, such as an interpolation, was dropped with 200)
+    for (const auto& [key, value] : j.items())
+        if (key != "key" && key != "points")
+            throw InputError(fmt::format(
+                "{}: not a field of a curve edit (expected {{\"key\": CURVE, \"points\": [[x, y], "
+                "...]}}; a curve's interpolation is edited in the file)",
+                printable(key)));
     if (!j.contains("key") || !j["key"].is_string() || !j.contains("points") ||
         !j["points"].is_array())
         throw InputError("expected {\"key\": CURVE, \"points\": [[x, y], ...]}");
@@ -210,9 +222,11 @@ PreviewView parseViewEdit(const std::string& body, PreviewView v)
     for (const auto& [key, value] : j.items()) {
         if (key == "time" && value.is_null())
             v.time.reset();
-        else if (key == "time" && value.is_number())
+        else if (key == "time" && value.is_number() && value.get<double>() >= 0.0 &&
+                 value.get<double>() <= kFarthestCoordinate)
             v.time = value.get<double>();
-        else if ((key == "azimuth" || key == "elevation") && value.is_number())
+        else if ((key == "azimuth" || key == "elevation") && value.is_number() &&
+                 std::isfinite(value.get<double>()))
             (key == "azimuth" ? v.azimuth : v.elevation) = value.get<double>();
         else
             throw InputError(fmt::format(
