@@ -129,7 +129,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
                 s.voxelSize = o->voxelSize;
             s.model = o->model.options();
             s.device = parseDevice(o->device);
-            s.renderDevice = parseDevice(o->renderDevice);
+            s.renderDevice = parseDevice(o->renderDevice, "--render-device");
             if (!o->frames.empty())
                 for (long long year : parseFrames(o->frames, "--frames"))
                     s.frames.push_back(double(year));

@@ -38,6 +38,9 @@ struct BakeRequest {
     /// each exactly the whole bake's (BakeOptions::tile); the memory check
     /// takes the tile's share of the frame's estimate.
     BandTile tile;
+    /// Whether the command offers --tiles (the memory check's advice names
+    /// it): bake's, not preview's.
+    bool tilesOffered = true;
     /// A farm's key for the file's metadata (`cambium_sequence`): what its
     /// final job checks a tile's file against (farm/slurm.h tileFarmKey).
     std::string key;

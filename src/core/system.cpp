@@ -204,9 +204,9 @@ const char* deviceName(Device device)
     return kDeviceNames[size_t(device)].c_str();
 }
 
-Device parseDevice(const std::string& name)
+Device parseDevice(const std::string& name, const char* option)
 {
-    return Device(optionChoice(name, kDeviceNames, "--device"));
+    return Device(optionChoice(name, kDeviceNames, option));
 }
 
 }  // namespace cambium

@@ -64,6 +64,6 @@ enum class Device { OpenCL, Cpu };
 /// "opencl" or "cpu", the --device option's values.
 const char* deviceName(Device device);
 /// InputError unless `name` is "opencl" or "cpu".
-Device parseDevice(const std::string& name);
+Device parseDevice(const std::string& name, const char* option = "--device");
 
 }  // namespace cambium

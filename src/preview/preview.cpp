@@ -182,6 +182,7 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     // every model: a grown tree needs more).
     BakeRequest planned;
     planned.input = settings_.input;
+    planned.tilesOffered = false;
     planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
     VoxelPlan plan = planVoxelSize(program, planned);
     if (!planned.voxelSize) {

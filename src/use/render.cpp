@@ -107,8 +107,15 @@ Camera parseCamera(const std::string& spec, const Box& bounds, double aspect)
                         spec, items.size()));
     static const char* const kNames[] = {"EX", "EY", "EZ", "TX", "TY", "TZ", "FOV"};
     double v[7];
-    for (size_t i = 0; i < items.size(); ++i)
+    for (size_t i = 0; i < items.size(); ++i) {
         v[i] = number(items[i], kNames[i]);
+        // (1e300 overflowed the view's direction, named "vertical")
+        if (i < 6 && !(std::fabs(v[i]) <= kFarthestCoordinate))
+            throw InputError(
+                fmt::format("--camera {}: {} {:g} is beyond the {:g} from the origin "
+                            "cambium reads",
+                            spec, kNames[i], v[i], kFarthestCoordinate));
+    }
     Camera cam;
     cam.eye = {v[0], v[1], v[2]};
     cam.target = {v[3], v[4], v[5]};
