@@ -98,7 +98,8 @@ TEST(Cli, MissingSceneFails)
 {
     const Result r = run("info /nonexistent/scene.json");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("/nonexistent/scene.json: cannot read the scene file"), std::string::npos)
+    EXPECT_NE(r.err.find("/nonexistent/scene.json: cannot read the model or .vdb file"),
+              std::string::npos)
         << r.err;
 }
 

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <glm/glm.hpp>
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -115,7 +116,9 @@ std::string formatVec(const glm::dvec3& v);
 /// Prints a notice line on stdout ("note: ...").
 void printNotice(const std::string& line);
 
-/// A progress bar on stderr when it is a terminal; silent otherwise.
+/// A progress bar on stderr when it is a terminal; otherwise, once the
+/// command has worked 5 s, a line "cambium: working: STAGE (N % done)" for
+/// each stage it enters.
 class ProgressBar {
 public:
     ProgressBar();
@@ -125,6 +128,7 @@ public:
 
 private:
     bool tty_;
+    std::chrono::steady_clock::time_point start_;
     bool shown_ = false;
     std::mutex mutex_;
     std::string stage_;

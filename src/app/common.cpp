@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <cctype>
+#include <chrono>
 #include <cstdio>
 #include <unistd.h>
 
@@ -122,7 +123,7 @@ void printNotice(const std::string& line)
     std::fflush(stdout);
 }
 
-ProgressBar::ProgressBar() : tty_(::isatty(2) != 0) {}
+ProgressBar::ProgressBar() : tty_(::isatty(2) != 0), start_(std::chrono::steady_clock::now()) {}
 
 ProgressBar::~ProgressBar()
 {
@@ -131,9 +132,21 @@ ProgressBar::~ProgressBar()
 
 void ProgressBar::operator()(const char* stage, double fraction)
 {
-    if (!tty_)
-        return;
     std::lock_guard<std::mutex> lock(mutex_);
+    if (!tty_) {
+        // Not a terminal (a log, a farm's task): a line for each stage still
+        // running once the command has worked kLineAfter seconds (a bake
+        // of three minutes said nothing until it was done).
+        constexpr double kLineAfter = 5.0;
+        if (stage == stage_ ||
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() <
+                kLineAfter)
+            return;
+        stage_ = stage;
+        fmt::print(stderr, "cambium: working: {} ({:.0f} % done)\n", stage_, 100.0 * fraction);
+        std::fflush(stderr);
+        return;
+    }
     const int percent = int(100.0 * fraction);
     if (stage == stage_ && percent == percent_)
         return;

@@ -125,6 +125,8 @@ int runVdbInfo(const std::string& path, bool check)
 
 int runInfo(const std::string& scenePath, const ModelOptions& model, bool check)
 {
+    // (a FIFO's read for the magic number waited for ever)
+    checkInputFile(scenePath, "model or .vdb file");
     // (a .vdb too short for its magic number is named as one, damaged: it
     // was read as a skeleton file, "no internodes")
     if (looksLikeVdbFile(scenePath) || fileExtension(scenePath) == "vdb")

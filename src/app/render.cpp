@@ -58,7 +58,11 @@ int runRenderCommand(RenderRequest req)
     forEachFile(
         meshFile ? req.mesh : req.input, req.output, req.frames,
         [&](const std::string& in) {
-            if (!meshFile)
+            // (every frame read before the first picture: a mesh cut short
+            // in frame 4 was found after frames 1-3 were written)
+            if (meshFile)
+                readMesh(in);
+            else
                 checkLevelSetFile(in, req.grid);
         },
         checkImageOutput,

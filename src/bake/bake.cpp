@@ -2,6 +2,7 @@
 #include "bake/bake.h"
 
 #include "bake/bark_photo.h"
+#include "bake/options.h"
 
 #include "cl/runtime.h"
 #include "io/vdb.h"
@@ -24,6 +25,7 @@
 #include <limits>
 #include <memory>
 #include <sys/resource.h>
+#include <thread>
 #include <unistd.h>
 
 namespace cambium {
@@ -115,6 +117,9 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                                            : std::string(" or --tiles")));
     return plan;
 }
+
+/// A bake estimated longer than this says how long before it starts.
+constexpr double kSayBakeSeconds = 10.0;
 
 BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
 {
@@ -253,6 +258,15 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
                 ? fmt::format("; --voxel-size {:.3g} resolves them", thinnest / 2.0)
                 : fmt::format(" (no voxel size resolves them: the smallest baked is {:g})",
                               kMinVoxelSize)));
+    // A long bake says so before it starts (one of three minutes said
+    // nothing until it was done where stderr is not a terminal).
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    if (const double seconds = estimateBakeSeconds(plan.bandVoxels, cores);
+        seconds > kSayBakeSeconds && callbacks.notice)
+        callbacks.notice(
+            fmt::format("baking about {} band voxels: roughly {} on this machine's {} "
+                        "cores",
+                        formatCount(plan.bandVoxels), formatDuration(seconds), cores));
 
     if (deviceError)
         std::rethrow_exception(deviceError);

@@ -5,12 +5,15 @@
 #include "bench/median.h"
 #include "core/clock.h"
 #include "shape/details.h"
+#include "shape/shape_job.h"
 #include "shape/synthesis.h"
+#include "subdiv/control_mesh.h"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <openvdb/tools/MeshToVolume.h>
 
+#include <fmt/format.h>
 #include <malloc.h>
 
 #include <cmath>
@@ -191,6 +194,12 @@ ShapeBenchResult runShapeBench(const ShapeBenchRequest& req,
     r.levels = req.levels;
     const ShapeSpec spec = rockSphere(req.levels);
     const BaseShape base = makeBase(spec.base, spec.source, Device::Cpu);
+    // (what `cambium shape` checks before its work: --levels 10 at voxel
+    // size 1e-4 ran out of memory after 17 s)
+    checkSynthesisMemory(base.mesh, std::max(req.levels, req.editLevel),
+                         fmt::format("--levels {}", std::max(req.levels, req.editLevel)));
+    checkBakeMemory(2.0 * surfaceArea(base.mesh), req.voxelSize, 3.0,
+                    fmt::format("--voxel-size {}", req.voxelSize));
     std::vector<double> osdTop, osdInt, setup, synth, plain, edit, aloneSynth, blendSynth,
         plainMesh, shadedMesh;
     std::unique_ptr<ShapeSurface> shape;

@@ -23,6 +23,13 @@ namespace {
 BakedGrids bakeSkeleton(const Skeleton& skeleton, double h)
 {
     const FieldProgram program = FieldProgram::compile(skeletonToBlend(skeleton));
+    // (the bake's memory checked as bake checks it: a million internodes at
+    // 1e-4 ran for a minute into the memory limit)
+    BakeRequest planned;
+    planned.input = "the benchmark tree";
+    planned.voxelSize = h;
+    planned.tilesOffered = false;
+    planVoxelSize(program, planned);
     auto sampler = makeOpenCLSampler();
     BakeOptions opt;
     opt.voxelSize = h;

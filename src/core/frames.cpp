@@ -1,13 +1,12 @@
 // cambium — frame sequences.
 #include "core/frames.h"
 
-#include <cmath>
-
 #include "core/error.h"
 #include "core/files.h"
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <regex>
@@ -96,7 +95,11 @@ void forEachFile(const std::string& input, const std::string& output, const std:
     }
     for (const std::string& in : ins)
         checkInput(in);
+    // Every output's path (a directory where frame 3's should be was found
+    // after frames 1 and 2 were written); the first's directory probed.
     checkOutput(outs.front());
+    for (size_t i = 1; i < outs.size(); ++i)
+        checkOutputPath(outs[i], /*probe=*/false);
     checkNoOutputIsAnInput(outs, ins);
     for (size_t i = 0; i < ins.size(); ++i)
         one(ins[i], outs[i]);

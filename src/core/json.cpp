@@ -341,6 +341,9 @@ std::string jsonPath(const std::string& path, const std::string& key)
 
 void JsonValidator::fail(const std::string& path, const std::string& what) const
 {
+    // (the document itself has no path: "plan.json: : a farm plan")
+    if (path.empty())
+        throw InputError(fmt::format("{}: {}", source_, what));
     throw InputError(fmt::format("{}: {}: {}", source_, path, what));
 }
 

@@ -402,8 +402,13 @@ struct PreviewServer::Impl {
                 });
         });
         server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+            // (a body too large was answered "no such page")
             if (res.body.empty())
-                refuse(res, res.status, "no such page");
+                refuse(res, res.status,
+                       res.status == 404   ? std::string("no such page")
+                       : res.status == 413 ? std::string("the request's body is too large")
+                       : res.status == 400 ? std::string("a malformed request")
+                                           : fmt::format("HTTP status {}", res.status));
         });
     }
 };

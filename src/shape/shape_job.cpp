@@ -27,7 +27,8 @@ namespace {
 /// bins and the flood fill's tiles (measured about 30 bytes; with margin).
 constexpr double kMeshBakeBytesPerVoxel = 48.0;
 
-/// InputError when a band of `area` at `voxelSize` would not fit.
+}  // namespace
+
 void checkBakeMemory(double area, double voxelSize, double halfWidth, const std::string& what)
 {
     const double voxels = area / (voxelSize * voxelSize) * 2.0 * halfWidth;
@@ -35,6 +36,8 @@ void checkBakeMemory(double area, double voxelSize, double halfWidth, const std:
                     fmt::format("{}: the level set at voxel size {}", what, voxelSize),
                     "use a larger voxel size");
 }
+
+namespace {
 
 /// The request's own checks (before the shape file is read).
 void checkRequest(const ShapeRequest& req, bool levelSet)

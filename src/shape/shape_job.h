@@ -66,4 +66,8 @@ struct ShapeReport {
 /// (SequenceOutput: lock, atomic frames, --resume, the sequence key).
 ShapeReport runShape(const ShapeRequest& request, const ShapeCallbacks& callbacks = {});
 
+/// InputError naming `what` when a mesh's level set, a band of `area` at
+/// `voxelSize` and `halfWidth` voxels, would not fit in memory.
+void checkBakeMemory(double area, double voxelSize, double halfWidth, const std::string& what);
+
 }  // namespace cambium
