@@ -57,11 +57,25 @@ double timed(F&& f, double& peakBytes)
             std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
     });
-    const auto t0 = Clock::now();
-    f();
-    const double s = secondsSince(t0);
-    done = true;
-    watch.join();
+    // (joined however f ends: a joinable thread destroyed by an exception
+    // from f aborted the process, "terminate called without an active
+    // exception")
+    struct Join {
+        std::atomic<bool>& done;
+        std::thread& thread;
+        ~Join()
+        {
+            done = true;
+            thread.join();
+        }
+    };
+    double s = 0.0;
+    {
+        const Join join{done, watch};
+        const auto t0 = Clock::now();
+        f();
+        s = secondsSince(t0);
+    }
     peakBytes = std::max(peak.load(), residentBytes());
     return s;
 }

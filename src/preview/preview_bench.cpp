@@ -85,35 +85,53 @@ void benchYear(const PreviewBenchRequest& req, int yearNumber, const fs::path& d
         seen.changed.notify_all();
         server.publish(u);
     };
-    std::thread loop([&] { runPreviewLoop(session, changes, stop, options); });
+    // (an exception out of a thread ends the process: the loop's failure,
+    // such as the scratch directory removed by a signal's cleanup, is kept
+    // for the waits below, which stop on it; a SIGTERM aborted the bench)
+    std::thread loop([&] {
+        try {
+            runPreviewLoop(session, changes, stop, options);
+        } catch (const std::exception& e) {
+            std::lock_guard<std::mutex> lock(seen.mutex);
+            seen.failure = e.what();
+            seen.changed.notify_all();
+        }
+    });
     // The page's side: the events, and each new picture fetched.
     std::thread page([&] {
-        httplib::Client events("127.0.0.1", server.port()), pictures("127.0.0.1", server.port());
-        events.set_read_timeout(60, 0);
-        std::string buffer;
-        events.Get(fmt::format("/events?token={}", server.token()).c_str(),
-                   [&](const char* data, size_t size) {
-                       buffer.append(data, size);
-                       for (size_t end; (end = buffer.find("\n\n")) != std::string::npos;) {
-                           const std::string message = buffer.substr(0, end);
-                           buffer.erase(0, end + 2);
-                           const auto at = message.find("data: ");
-                           if (at == std::string::npos)
-                               continue;
-                           const json u = json::parse(message.substr(at + 6), nullptr, false);
-                           if (!u.is_object() || u["outcome"] != "rendered")
-                               continue;
-                           pictures.Get(fmt::format("/picture.png?token={}&n={}", server.token(),
-                                                    u["picture"].get<size_t>())
-                                            .c_str());
-                           {
-                               std::lock_guard<std::mutex> lock(seen.mutex);
-                               seen.fetched[u["picture"].get<size_t>()] = Clock::now();
+        try {
+            httplib::Client events("127.0.0.1", server.port()),
+                pictures("127.0.0.1", server.port());
+            events.set_read_timeout(60, 0);
+            std::string buffer;
+            events.Get(fmt::format("/events?token={}", server.token()).c_str(),
+                       [&](const char* data, size_t size) {
+                           buffer.append(data, size);
+                           for (size_t end; (end = buffer.find("\n\n")) != std::string::npos;) {
+                               const std::string message = buffer.substr(0, end);
+                               buffer.erase(0, end + 2);
+                               const auto at = message.find("data: ");
+                               if (at == std::string::npos)
+                                   continue;
+                               const json u = json::parse(message.substr(at + 6), nullptr, false);
+                               if (!u.is_object() || u["outcome"] != "rendered")
+                                   continue;
+                               pictures.Get(fmt::format("/picture.png?token={}&n={}",
+                                                        server.token(), u["picture"].get<size_t>())
+                                                .c_str());
+                               {
+                                   std::lock_guard<std::mutex> lock(seen.mutex);
+                                   seen.fetched[u["picture"].get<size_t>()] = Clock::now();
+                               }
+                               seen.changed.notify_all();
                            }
-                           seen.changed.notify_all();
-                       }
-                       return !stop.load();
-                   });
+                           return !stop.load();
+                       });
+        } catch (const std::exception& e) {  // (the page's side: a reply not as expected)
+            std::lock_guard<std::mutex> lock(seen.mutex);
+            seen.failure = e.what();
+            seen.changed.notify_all();
+        }
     });
     struct Stop {
         std::atomic<bool>& stop;
