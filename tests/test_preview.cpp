@@ -2,6 +2,7 @@
 // reused); a bad edit keeps the last good picture and names the problem and
 // its place; a burst of edits is one update, for the last; an interrupted
 // bake writes nothing.
+#include "farm/slurm.h"
 #include "preview/loop.h"
 #include "preview/preview.h"
 #include "core/error.h"
@@ -407,4 +408,26 @@ TEST(PreviewSession, AShapeFileIsSynthesisedBakedAndPictured)
     EXPECT_EQ(u.outcome, O::Failed);
     EXPECT_TRUE(u.inputError);
     EXPECT_NE(u.error.find("levels"), std::string::npos) << u.error;
+}
+
+TEST(PreviewBench, ASigtermEndsItWith143NotAnAbort)
+{
+    // The signal's cleanup removes the bench's scratch directory; its loop's
+    // thread then failed to watch the file and let the exception out:
+    // "terminate called", exit 134.  (Sent after 6 s, while the edits run;
+    // on a slower machine sooner, where 143 holds too.)
+    const fs::path dir = cambium::test::freshDir("cambium_bench_preview_signal");
+    const std::string command =
+        "bash -c " +
+        cambium::shellQuote(std::string(CAMBIUM_EXE) + " bench preview --parameters " +
+                            cambium::shellQuote(kPopulus) +
+                            " --years 3 --edits 100000 --device cpu --width 16 --height 16 > " +
+                            cambium::shellQuote((dir / "out.txt").string()) + " 2> " +
+                            cambium::shellQuote((dir / "err.txt").string()) +
+                            " & pid=$!; sleep 6; kill -TERM $pid; wait $pid; echo $? > " +
+                            cambium::shellQuote((dir / "status.txt").string()));
+    ASSERT_EQ(std::system(command.c_str()), 0);
+    EXPECT_EQ(fileContents(dir / "status.txt"), "143\n") << fileContents(dir / "err.txt");
+    EXPECT_EQ(fileContents(dir / "err.txt").find("terminate called"), std::string::npos)
+        << fileContents(dir / "err.txt");
 }
