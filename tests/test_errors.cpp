@@ -906,6 +906,13 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "a whole number from 1 to 1000000 and a decimal number"},  // (no IN: substituted)
         {"bench render --width 0 --internodes 10", "--width: Value 0 not in range"},
         {"bench mesh --voxel-size 0", "--voxel-size: Value 0 not in range"},
+        // ... and their memory, before any work (they ran into the limit)
+        {"bench bake --case 20000:0.0001 --skip-cpu --repeat 1",
+         "tree of 20000 internodes: a voxel size of 0.0001"},
+        {"bench render --internodes 10 --width 16384 --height 16384",
+         "--width 16384 --height 16384: a picture this large needs about"},
+        {"bench growth --years 27 --voxel-size 0.0001 --device cpu",
+         "year 27: a voxel size of 0.0001"},
         {"shape IN/flat.json --voxel-size 0.05 -o OUT/out.vdb",
          "flat.json: the closed mesh encloses no volume"},
         {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",

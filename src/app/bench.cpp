@@ -12,8 +12,10 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/math.h"
+#include "field/program.h"
 #include "model/skeleton.h"
 #include "preview/preview_bench.h"
+#include "use/render.h"
 
 #include <fmt/format.h>
 
@@ -270,6 +272,7 @@ int runGrowthBenchCommand(const GrowthBenchRequest& req)
             "| year | internodes | primitives | operators | model s | bake s | write s | active "
             "voxels | "
             "file MB | peak MB |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        std::fflush(stdout);  // (a log saw nothing while the first year baked)
     };
     callbacks.year = [&](const GrowthBenchYear& y) {
         fmt::print("| {} | {} | {} | {} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | {:.0f} |\n",
@@ -363,6 +366,7 @@ void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
                 bc.skeleton = std::move(tree.skeleton);
                 bc.label = fmt::format("tree of {} internodes", n);
                 bc.voxelSize = h;
+                checkBakeFits(FieldProgram::compile(skeletonToBlend(bc.skeleton)), h, bc.label);
                 cases.push_back(std::move(bc));
             }
             runBakeBench(cases, o->skipCpu, o->repeats, printBakeTable);
@@ -409,6 +413,7 @@ void addUseBenches(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Acti
         ->check(CLI::Range(1, 16384));
     render->callback([o, label, &action] {
         action = [o, label] {
+            checkPicture(o->width, o->height, 1);  // (16384^2 ran into the memory limit)
             printRenderTable(runRenderBench(benchTree(o->internodes).skeleton, label(o->internodes),
                                             o->voxelSize, o->width, o->height, o->repeats));
             return 0;

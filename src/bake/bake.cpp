@@ -118,6 +118,15 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     return plan;
 }
 
+void checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what)
+{
+    BakeRequest planned;
+    planned.input = what;
+    planned.voxelSize = voxelSize;
+    planned.tilesOffered = false;
+    planVoxelSize(program, planned);
+}
+
 /// A bake estimated longer than this says how long before it starts.
 constexpr double kSayBakeSeconds = 10.0;
 

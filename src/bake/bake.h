@@ -112,6 +112,11 @@ constexpr double kMinVoxelSize = 1e-4;
 constexpr double kMaxVoxelSize = 1e9;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
+/// planVoxelSize's checks of a bake of `program` at `voxelSize` alone
+/// (InputError naming `what` when it would not fit this machine's memory):
+/// what the benchmarks check before they bake.
+void checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what);
+
 /// The band's options as every command that bakes checks them (bake, shape,
 /// preview, and the mesh bake under them): a voxel size from kMinVoxelSize
 /// to kMaxVoxelSize, a half-width from 1 to 64 voxels.  InputError naming

@@ -33,6 +33,12 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
         if (y < 1 || y > model.params().years)
             throw InputError(fmt::format("--years: {} is outside the tree's 1 to {} years", y,
                                          model.params().years));
+    // (the largest year's bake checked before any: a voxel size of 5e-4 ran
+    // silently for minutes, 1e-4 into the memory limit)
+    if (!years.empty())
+        checkBakeFits(FieldProgram::compile(buildTree(model.skeleton(years.back(), req.leaves),
+                                                      model.buildOptions())),
+                      req.voxelSize, fmt::format("{} year {}", req.parameters, years.back()));
     std::unique_ptr<FieldSampler> sampler = makeSampler(req.device);
     if (callbacks.setup)
         callbacks.setup({model.branches().size(), model.params().years, global, sampler->name()});

@@ -25,11 +25,7 @@ BakedGrids bakeSkeleton(const Skeleton& skeleton, double h)
     const FieldProgram program = FieldProgram::compile(skeletonToBlend(skeleton));
     // (the bake's memory checked as bake checks it: a million internodes at
     // 1e-4 ran for a minute into the memory limit)
-    BakeRequest planned;
-    planned.input = "the benchmark tree";
-    planned.voxelSize = h;
-    planned.tilesOffered = false;
-    planVoxelSize(program, planned);
+    checkBakeFits(program, h, "the benchmark tree");
     auto sampler = makeOpenCLSampler();
     BakeOptions opt;
     opt.voxelSize = h;
