@@ -113,6 +113,11 @@ bool timingsAsked(bool flag);
 /// "(x, y, z)" with six significant digits.
 std::string formatVec(const glm::dvec3& v);
 
+/// Says "cambium: planning N frames" on stderr (with the progress bars:
+/// stdout is the report) for a sequence of 100,000 frames or more, whose
+/// plan takes seconds: each frame's path checked, frames sampled.
+void notePlanning(size_t frames);
+
 /// Prints a notice line on stdout ("note: ...").
 void printNotice(const std::string& line);
 

@@ -157,11 +157,7 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
     // frames, half-width, device, output, the model options.
     const bool sequence = !request.frames.empty();
     const size_t frames = sequence ? parseFrames(request.frames).size() : 0;
-    if (frames >= 100000)
-        // (Seconds: each frame's path is checked, and up to 64 of the
-        // frames' trees are built for the disk estimate.  On stderr, with
-        // the progress bars, as cambium's: stdout is the report.)
-        fmt::print(stderr, "cambium: planning {} frames\n", formatCount(double(frames)));
+    notePlanning(frames);  // (up to 64 of the frames' trees built for the disk estimate)
     const bool tiled = o->tiles > 0 || !o->maxMemory.empty();
     if (o->slurm.slurm && !sequence && !tiled)
         throw InputError(
@@ -297,19 +293,12 @@ void addBakeCommand(CLI::App& app, Action& action)
                         "Bake the frame as this many spatial tiles, each by a process of its own "
                         "(its memory its tile's), then merge them into -o: the same grids")
             ->check(CLI::Range(1, 4096));
-    auto* memoryOpt =
-        cmd->add_option("--max-memory", o->maxMemory,
-                        "A tile's share of the frame's estimated memory at most this (8G = 8 GB = "
-                        "8e9 bytes, "
-                        "512M): with --tiles "
-                        "a check, alone as many tiles as that takes (one bake when the frame fits)")
-            // (an empty value read as no option: a plain bake, silently)
-            ->check(CLI::Validator(
-                [](std::string& v) {
-                    return v.empty() ? std::string("an empty size (8G, 512M or bytes)")
-                                     : std::string();
-                },
-                "SIZE"));
+    auto* memoryOpt = cmd->add_option(
+        "--max-memory", o->maxMemory,
+        "A tile's share of the frame's estimated memory at most this (8G = 8 GB = "
+        "8e9 bytes, "
+        "512M): with --tiles "
+        "a check, alone as many tiles as that takes (one bake when the frame fits)");
     cmd->add_option("--tile", o->tile,
                     "K/N: bake tile K of N only (what --tiles runs; docs/farm.md)")
         ->excludes(tilesOpt)

@@ -349,15 +349,15 @@ void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
                                   size = colon == std::string::npos ? "" : c.substr(colon + 1);
                 char* end = nullptr;
                 const double h = std::strtod(size.c_str(), &end);
-                if (colon == std::string::npos || !allDigits(count, 7) || std::stol(count) < 1 ||
-                    std::stol(count) > kMaxBenchInternodes || size.empty() || *end != '\0' ||
-                    writtenInHex(size.c_str(), end))
+                const long n = allDigits(count, 7) ? std::stol(count) : 0;
+                if (colon == std::string::npos || n < 1 || n > kMaxBenchInternodes ||
+                    size.empty() || *end != '\0' || writtenInHex(size.c_str(), end))
                     throw InputError(fmt::format(
                         "--case {}: expected INTERNODES:VOXEL_SIZE, a whole number from 1 to {} "
                         "and a decimal number",
                         c, kMaxBenchInternodes));
                 checkVoxelSize(h, fmt::format("--case {}: the voxel size", c));
-                parsed.emplace_back(int(std::stol(count)), h);
+                parsed.emplace_back(int(n), h);
             }
             for (const auto& [n, h] : parsed) {
                 BakeBenchCase bc;

@@ -117,6 +117,12 @@ std::string formatVec(const glm::dvec3& v)
     return fmt::format("({:.6g}, {:.6g}, {:.6g})", v.x, v.y, v.z);
 }
 
+void notePlanning(size_t frames)
+{
+    if (frames >= 100000)
+        fmt::print(stderr, "cambium: planning {} frames\n", formatCount(double(frames)));
+}
+
 void printNotice(const std::string& line)
 {
     fmt::print("note: {}\n", line);

@@ -25,13 +25,8 @@ int runShapeCommand(ShapeFlags& f)
         f.request.voxelSize = f.voxelSize;
     f.request.device = parseDevice(f.device);
     f.request.colour = parseColourExtent(f.colour);
-    // (seconds for the longest: each frame's file read and paths checked;
-    // on stderr, as bake says it)
-    if (!f.request.frames.empty()) {
-        const size_t frames = parseFrames(f.request.frames).size();
-        if (frames >= 100000)
-            fmt::print(stderr, "cambium: planning {} frames\n", formatCount(double(frames)));
-    }
+    if (!f.request.frames.empty())  // (each frame's file read too)
+        notePlanning(parseFrames(f.request.frames).size());
     ProgressBar bar;
     ShapeCallbacks cb;
     cb.progress = [&](const char* stage, double fraction) { bar(stage, fraction); };

@@ -170,16 +170,17 @@ VdbFileInfo fileInfo(const ShapeRequest& req)
     return info;
 }
 
-/// The voxel size: given, or 512 across the mesh (checked to fit).
 /// The frames of a shape sequence checked before any is written (all of
 /// a sequence this long or shorter).
 constexpr size_t kCheckedShapeFrames = 1024;
 
+/// 512 voxels across the mesh, at least kMinVoxelSize.
 double automaticVoxelSize(const TriangleMesh& mesh)
 {
     return std::max(meshExtent(mesh) / 512.0, kMinVoxelSize);
 }
 
+/// The voxel size: given, or automaticVoxelSize (checked to fit).
 void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeReport& r)
 {
     r.autoVoxelSize = !req.voxelSize;
