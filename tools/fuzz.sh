@@ -4,12 +4,36 @@
 # examples/, tests/fuzz/seeds/ and tests/fuzz/regressions/, and prints what
 # each reached.  A finding stops with a non-zero status and leaves the input
 # in build-fuzz/findings/<harness>/: keep it in tests/fuzz/regressions/.
-#   bash tools/fuzz.sh [SECONDS]
+# --ci runs each harness for a fixed number of inputs from a fixed random
+# seed and a fresh corpus of the seeds, about 25 s each here: the same
+# inputs every run, so that CI's verdict depends on the code alone (a timed
+# run explores differently each time, and once found in CI what ten local
+# runs did not).  A finding's log tail and its bytes are printed.
+#   bash tools/fuzz.sh [SECONDS | --ci]
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${CAMBIUM_FUZZ_BUILD_DIR:-$root/build-fuzz}
-seconds=${1:-60}
+ci=false
+if [ "${1:-}" = --ci ]; then
+  ci=true
+else
+  seconds=${1:-60}
+fi
+
+# --ci: each harness's inputs, about 25 s of it on this 2-core machine.
+ci_runs() {
+  case $1 in
+    growth | lsystem) echo 120000 ;;
+    mesh) echo 80000 ;;
+    photo) echo 12000 ;;
+    request) echo 350000 ;;
+    scene | shape) echo 160000 ;;
+    skeleton) echo 500000 ;;
+    vdb) echo 30000 ;;
+    *) echo 50000 ;;
+  esac
+}
 bash "$root/tools/sanitize.sh" build
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp}
@@ -45,20 +69,27 @@ seeds() {
 # One harness: its line of the report in $build/fuzz-<harness>.result.
 fuzz_one() {
   local h=$1 corpus=$build/corpus/$1 findings=$build/findings/$1 log=$build/fuzz-$1.log
+  local limit=(-max_total_time="${seconds:-0}")
+  if $ci; then
+    corpus=$build/corpus-ci/$h
+    rm -rf "$corpus"
+    limit=(-seed=1 -runs="$(ci_runs "$h")")
+  fi
   mkdir -p "$corpus" "$findings"
   for s in $(seeds "$h"); do cp -n "$s" "$corpus/" 2>/dev/null || true; done
-  local result=clean
-  if ! "$build/tests/fuzz/fuzz_$h" "$corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3000 \
+  local result=clean start=$SECONDS
+  if ! "$build/tests/fuzz/fuzz_$h" "$corpus" "${limit[@]}" -timeout=10 -rss_limit_mb=3000 \
       -malloc_limit_mb=2500 -print_final_stats=1 -artifact_prefix="$findings/" >"$log" 2>&1; then
     result="FINDING: $(ls "$findings" | head -1) (see $log)"
   fi
+  local took=$((SECONDS - start > 0 ? SECONDS - start : 1))
   local execs last cov ft corp
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
   last=$(grep -E '^#[0-9]+' "$log" | tail -1)
   cov=$(grep -o 'cov: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
   ft=$(grep -o 'ft: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
   corp=$(grep -o 'corp: [0-9]*' <<<"$last" | grep -o '[0-9]*' || echo 0)
-  printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' "$h" "$seconds" "$execs" "$((execs / seconds))" "$cov" "$ft" \
+  printf '%-9s %8s %12s %10s %6s %7s %6s  %s\n' "$h" "$took" "$execs" "$((execs / took))" "$cov" "$ft" \
     "$corp" "$result" >"$build/fuzz-$h.result"
 }
 
@@ -83,7 +114,16 @@ status=0
 for h in "${harnesses[@]}"; do
   if [ -f "$build/fuzz-$h.result" ]; then
     tee -a "$report" <"$build/fuzz-$h.result"
-    ! grep -q FINDING "$build/fuzz-$h.result" || status=1
+    if grep -q FINDING "$build/fuzz-$h.result"; then
+      status=1
+      # What a CI log must carry to reproduce it: the report and the input.
+      { echo "== $h: the end of $build/fuzz-$h.log"
+        grep -v '^#[0-9]' "$build/fuzz-$h.log" | tail -40
+        for f in "$build/findings/$h"/*; do
+          echo "== $h: $f ($(stat -c %s "$f") bytes), its first 4 KB"
+          head -c 4096 "$f" | od -A d -t x1
+        done; } >&2
+    fi
   else
     echo "$h: the harness's run ended without a report (see $build/fuzz-$h.log)" | tee -a "$report"
     status=1

@@ -112,13 +112,83 @@ void checkJpegScans(const std::string& path)
     }
 }
 
+/// A BMP's headers, checked before OpenImageIO 2.4 reads them: its reader
+/// takes a header of any size other than the four it knows as read and
+/// leaves every field uninitialised (a 21-byte file was then decoded with a
+/// size and channel count from the heap: a find of the photo fuzzer), sizes
+/// its palette from the header's count, and unpacks an RLE picture whole in
+/// open(), before the pixel count is checked.  `maxPixels`: the most pixels
+/// read.
+void checkBmpHeader(const std::string& path, uint64_t size, size_t maxPixels)
+{
+    unsigned char h[54] = {};
+    std::ifstream in(path, std::ios::binary);
+    in.read(reinterpret_cast<char*>(h), sizeof h);
+    const uint64_t got = uint64_t(in.gcount());
+    auto u16 = [&](int at) { return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8; };
+    auto u32 = [&](int at) { return u16(at) | u16(at + 2) << 16; };
+    auto bad = [&](const std::string& what) {
+        return InputError(fmt::format("{}: a damaged or unusual BMP: {}; re-save it", path, what));
+    };
+    if (got < 18)
+        throw bad(fmt::format("the file ends at byte {}, inside its headers", got));
+    const uint32_t header = u32(14);
+    if (header == 12)
+        throw bad("an OS/2 1.x header (12 bytes), which OpenImageIO reads wrong");
+    if (header != 40 && header != 108 && header != 124)
+        throw bad(fmt::format("a header of {} bytes, where a BMP's is 40, 108 or 124", header));
+    if (size < 14 + header || got < sizeof h)
+        throw bad(fmt::format("the file ends at byte {}, inside its {}-byte header", size, header));
+    const int32_t width = int32_t(u32(18)), height = int32_t(u32(22));
+    const uint32_t planes = u16(26), bits = u16(28), compression = u32(30), colours = u32(46);
+    const uint32_t data = u32(10);
+    if (width <= 0 || height == 0 || height == INT32_MIN)
+        throw bad(fmt::format("a picture of {} x {} pixels", width, height));
+    const uint64_t rows = uint64_t(std::abs(int64_t(height)));
+    if (double(width) * double(rows) > double(maxPixels))
+        throw InputError(fmt::format(
+            "{}: its header says {} x {} pixels, more than the {:g} million pixels read: scale "
+            "it down",
+            path, width, rows, double(maxPixels) / 1e6));
+    if (planes != 1)
+        throw bad(fmt::format("{} colour planes, where a BMP has 1", planes));
+    if (bits != 1 && bits != 4 && bits != 8 && bits != 16 && bits != 24 && bits != 32)
+        throw bad(fmt::format("{} bits a pixel, where a BMP has 1, 4, 8, 16, 24 or 32", bits));
+    const bool rle = compression == 1 || compression == 2;
+    const bool fits = compression == 0 || (compression == 1 && bits == 8) ||
+                      (compression == 2 && bits == 4) ||
+                      (compression == 3 && (bits == 16 || bits == 32));
+    if (!fits)
+        throw bad(fmt::format("compression {} for {} bits a pixel", compression, bits));
+    if (rle && height < 0)
+        throw bad("a run-length encoded picture stored top down");
+    // A 16-bit picture's colour masks come after a 40-byte header, where
+    // OpenImageIO 2.4 does not read them: it would use uninitialised ones.
+    if (bits == 16 && header == 40)
+        throw bad(
+            "16 bits a pixel with a 40-byte header, whose colour masks OpenImageIO reads "
+            "wrong");
+    if ((bits <= 8 && colours > (1u << bits)) || (bits > 8 && colours != 0))
+        throw bad(fmt::format("a palette of {} colours for {} bits a pixel", colours, bits));
+    const uint64_t palette = bits <= 8 ? uint64_t(4) * (colours ? colours : 1u << bits) : 0;
+    if (data < 14 + header + palette || data > size)
+        throw bad(fmt::format("its pixels at byte {}, outside the {}-byte file after its headers",
+                              data, size));
+    const uint64_t rowBytes = (uint64_t(width) * bits + 31) / 32 * 4;
+    if (!rle && data + rowBytes * rows > size)
+        throw bad(fmt::format(
+            "{} x {} pixels of {} bits need {} bytes after byte {}, and the file has {}", width,
+            rows, bits, rowBytes * rows, data, size - data));
+}
+
 /// The format of a photo, from its first bytes, among those a photo comes
 /// in; InputError for any other.  OpenImageIO is then given only that
 /// format's reader: its search for a reader tries every format on a file it
 /// does not recognise, and some allocate what the file claims before any
 /// check of ours can run (a 29-byte GIF claiming a 23170-pixel screen cost
-/// 2.2 GB in that search alone).
-std::string photoFormat(const std::string& path, uint64_t size)
+/// 2.2 GB in that search alone).  A PNG's chunks, a JPEG's scans and a
+/// BMP's headers (`maxPixels`: the most pixels read) are checked here.
+std::string photoFormat(const std::string& path, uint64_t size, size_t maxPixels)
 {
     std::ifstream in(path, std::ios::binary);
     char head[12] = {};
@@ -141,8 +211,10 @@ std::string photoFormat(const std::string& path, uint64_t size)
         return "openexr";
     if (starts("#?RADIANCE", 10) || starts("#?RGBE", 6))
         return "hdr";
-    if (starts("BM", 2))
+    if (starts("BM", 2)) {
+        checkBmpHeader(path, size, maxPixels);
         return "bmp";
+    }
     if (starts("RIFF", 4) && starts("WEBP", 4, 8))
         return "webp";
     std::string bytes;
@@ -205,7 +277,7 @@ void preloadImageCodec()
 
 Photo readPhoto(const std::string& path, size_t maxPixels, double room)
 {
-    const std::string format = photoFormat(path, checkInputFile(path, "photo"));
+    const std::string format = photoFormat(path, checkInputFile(path, "photo"), maxPixels);
     // What the decode holds at its peak must fit in this process's room,
     // checked from the header before a pixel is held.
     if (room < 0.0)
