@@ -172,11 +172,13 @@ TEST(FarmArray, ItsTasksBakeTheFramesOfOneLocalRun)
         missing.insert(missing.end(), c.missing.begin(), c.missing.end());
     EXPECT_EQ(missing, std::vector<long long>{4});
     // ... named as another's file, not as missing
-    for (const FarmChunkState& c : state.chunks)
-        if (!c.done())
+    for (const FarmChunkState& c : state.chunks) {
+        if (!c.done()) {
             EXPECT_NE(describeChunk(c).find("frame 4 there but not of this plan"),
                       std::string::npos)
                 << describeChunk(c);
+        }
+    }
     // A byte changed near its end (its size and header as written): a
     // status reads only headers, the final job's check finds it missing.
     std::string damaged = four;

@@ -6,6 +6,7 @@
 #include "preview/loop.h"
 #include "preview/preview.h"
 #include "core/error.h"
+#include "io/image_file.h"
 
 #include "cli_util.h"
 #include "temp_dir.h"
@@ -430,4 +431,62 @@ TEST(PreviewBench, ASigtermEndsItWith143NotAnAbort)
     EXPECT_EQ(fileContents(dir / "status.txt"), "143\n") << fileContents(dir / "err.txt");
     EXPECT_EQ(fileContents(dir / "err.txt").find("terminate called"), std::string::npos)
         << fileContents(dir / "err.txt");
+}
+
+TEST(PreviewSession, AGrowthFilesBarkPhotoPaintsThePictureAsABakeDoes)
+{
+    const fs::path dir = cambium::test::freshDir("cambium_preview_photo");
+    // A photo of one colour (linear RGB), written as a PNG.
+    auto photo = [&](float r, float g, float b) {
+        RenderImage img;
+        img.width = img.height = 8;
+        for (int i = 0; i < 64; ++i)
+            img.rgb.insert(img.rgb.end(), {r, g, b});
+        writeImage(img, (dir / "bark.png").string());
+    };
+    // The picture's pixels (linear RGB) summed, red minus blue.
+    auto redness = [&] {
+        const Photo p = readPhoto((dir / "preview.png").string());
+        double sum = 0.0;
+        for (size_t i = 0; i < p.rgb.size(); i += 3)
+            sum += p.rgb[i] - p.rgb[i + 2];
+        return sum;
+    };
+    std::string text = fileContents(kPopulus);
+    const std::string bark = "\"bark\": {\"color\": [0.36, 0.3, 0.24], ";
+    ASSERT_NE(text.find(bark), std::string::npos);
+    std::ofstream(dir / "tree.json") << text;
+    PreviewSettings settings = settingsFor(dir);
+    settings.camera = "look:0.5,0.5,0.5:0,0.4,0";  // close to the trunk
+    PreviewSession session(settings);
+    using O = PreviewUpdate::Outcome;
+    PreviewUpdate u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    const double plain = redness();
+    // The file names a red photo: the bark is painted red, as a bake paints it.
+    photo(0.8f, 0.02f, 0.02f);
+    text.replace(text.find(bark), bark.size(), bark + "\"photo\": \"bark.png\", ");
+    std::ofstream(dir / "tree.json") << text;
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    const double red = redness();
+    EXPECT_GT(red, plain + 20.0) << plain;
+    // The photo made blue under the same text: baked again at the next update.
+    photo(0.02f, 0.02f, 0.8f);
+    fs::last_write_time(dir / "bark.png",
+                        fs::last_write_time(dir / "bark.png") + std::chrono::seconds(2));
+    u = session.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_TRUE(u.rebaked);
+    EXPECT_LT(redness(), plain - 20.0) << plain;
+    const std::string blue = fileContents(dir / "preview.png");
+    // The same photo: nothing done.
+    EXPECT_EQ(session.update().outcome, O::Unchanged);
+    // A damaged photo is named, and the picture kept.
+    std::ofstream(dir / "bark.png") << "not a picture";
+    u = session.update();
+    EXPECT_EQ(u.outcome, O::Failed);
+    EXPECT_TRUE(u.inputError);
+    EXPECT_NE(u.error.find("bark.png"), std::string::npos) << u.error;
+    EXPECT_EQ(fileContents(dir / "preview.png"), blue);
 }

@@ -130,7 +130,8 @@ void checkBakeFits(const FieldProgram& program, double voxelSize, const std::str
 /// A bake estimated longer than this says how long before it starts.
 constexpr double kSayBakeSeconds = 10.0;
 
-BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
+BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree,
+                    std::shared_ptr<const ColourHistogram> known)
 {
     BarkPaint p;
     const BarkLook& look = tree.barkLook();
@@ -146,7 +147,9 @@ BarkPaint barkPaint(const BakeRequest& req, const BlobTree& tree)
             "{{\"color\": [r, g, b]}})",
             p.photo, req.input, p.color.x, p.color.y, p.color.z));
     if (!p.photo.empty())
-        p.histogram = std::make_shared<const ColourHistogram>(ColourHistogram::fromPhoto(p.photo));
+        p.histogram =
+            known ? std::move(known)
+                  : std::make_shared<const ColourHistogram>(ColourHistogram::fromPhoto(p.photo));
     return p;
 }
 

@@ -63,14 +63,16 @@ inline bool packs(const BakeRequest& req)
 }
 
 /// The bark photo of a bake, read before any work (InputError naming the
-/// file), from the request or the model.
+/// file), from the request or the model.  `known`: the photo's histogram
+/// when the caller has it already (the preview, while the file is the same).
 struct BarkPaint {
     std::shared_ptr<const class ColourHistogram> histogram;  ///< none: no photo
     bool coherent = true;
     glm::dvec3 color{0.0};  ///< the bark colour the photo replaces
     std::string photo;
 };
-BarkPaint barkPaint(const BakeRequest& request, const BlobTree& tree);
+BarkPaint barkPaint(const BakeRequest& request, const BlobTree& tree,
+                    std::shared_ptr<const class ColourHistogram> known = nullptr);
 
 /// The bake's grids with the bark painted (no-op without a photo), then
 /// kept where `colour` says (the painting colours the whole band).

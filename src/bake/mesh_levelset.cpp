@@ -685,18 +685,18 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
         const openvdb::Vec3d n = (p1 - p0).cross(p2 - p0);
         if (!(n.length() > 0.0))
             continue;
-        double extent[3], normal[3];
+        double leaves[3], normal[3];
         for (int k = 0; k < 3; ++k) {
             const double lo = std::min({p0[k], p1[k], p2[k]}) - W * h,
                          hi = std::max({p0[k], p1[k], p2[k]}) + W * h;
-            extent[k] = std::floor(hi / leaf) - std::floor(lo / leaf) + 1.0;
+            leaves[k] = std::floor(hi / leaf) - std::floor(lo / leaf) + 1.0;
             normal[k] = std::abs(n[k]) / n.length();
         }
         const int w = normal[0] >= normal[1] && normal[0] >= normal[2] ? 0
                       : normal[1] >= normal[2]                         ? 1
                                                                        : 2;
-        pairs += extent[(w + 1) % 3] * extent[(w + 2) % 3] *
-                 std::min(extent[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
+        pairs += leaves[(w + 1) % 3] * leaves[(w + 2) % 3] *
+                 std::min(leaves[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
     }
     checkMemoryFits(pairs * 4.0,
                     fmt::format("{}: the band at voxel size {:g} (about {:.3g} triangle-leaf "

@@ -50,13 +50,31 @@ struct PreviewSession::State {
     bool prebakeFull = false;       // a frame did not fit: no more for this text
     bool marcherStale = true;       // the marcher holds an older bake
     std::optional<uint64_t> baked;  // its file text and time, when known
-    PreviewView pictured;           // the last picture's view
+    // The model's bark photo (a scene's or growth file's), painted as a bake
+    // paints it: its histogram kept while the file's name, size and time
+    // are the same.  A photo changed under the same text is baked again
+    // (seen at the next update: an edit, a view).
+    std::string photoPath, photoStamp;
+    std::shared_ptr<const ColourHistogram> photo;
+    PreviewView pictured;  // the last picture's view
     size_t pictures = 0;
     mutable std::mutex viewMutex;
     PreviewView view;  // the next update's
 };
 
 namespace {
+
+/// A file's name, size and modification time ("" where it cannot be read:
+/// it is read again, and its reader names the fault).
+std::string fileStamp(const std::string& path)
+{
+    std::error_code sizeError, timeError;
+    const auto size = std::filesystem::file_size(path, sizeError);
+    const auto time = std::filesystem::last_write_time(path, timeError);
+    if (sizeError || timeError)
+        return {};
+    return fmt::format("{}\n{}\n{}", path, size, time.time_since_epoch().count());
+}
 
 /// The key of a bake: the file's text and the time it was grown to.
 uint64_t bakeKey(const std::string& text, const std::optional<double>& time)
@@ -189,6 +207,14 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
         planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
         plan = planVoxelSize(program, planned);
     }
+    // (its photo read, or refused, before the bake)
+    const std::string photo = tree->barkLook().photo;
+    const std::string stamp = photo.empty() ? std::string() : fileStamp(photo);
+    const BarkPaint paint =
+        barkPaint(planned, *tree, !stamp.empty() && stamp == s.photoStamp ? s.photo : nullptr);
+    s.photoPath = photo;
+    s.photoStamp = stamp;
+    s.photo = paint.histogram;
     u.compile = secondsSince(t);
     stop();
     t = Clock::now();
@@ -199,6 +225,7 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     opt.reuse = &s.cache;
     opt.interrupt = interrupt;
     BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
+    paintBark(grids, *tree, paint, ColourExtent::Shell);
     u.bake = secondsSince(t);
     return grids;
 }
@@ -288,6 +315,14 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         const uint64_t key = bakeKey(text, u.view.time);
         const bool moved =
             u.view.azimuth != s.pictured.azimuth || u.view.elevation != s.pictured.elevation;
+        if (!s.photoPath.empty() && fileStamp(s.photoPath) != s.photoStamp) {
+            // (the frames baked in the background hold the old photo's colours)
+            s.baked.reset();
+            s.prebaked.clear();
+            s.prebakedText = 0;
+            s.prebakedBytes = 0.0;
+            s.prebakeFull = false;
+        }
         if (s.grids && s.baked == key && !moved) {
             u.outcome = PreviewUpdate::Outcome::Unchanged;
             u.pictures = s.pictures;
