@@ -1,5 +1,6 @@
 // Tests of core/system (sizes read in the units they are printed in) and
 // core/process (a command run, its status, output and own peak memory).
+#include "bench/process_run.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/process.h"
@@ -132,6 +133,31 @@ TEST(Process, ACommandsStatusAndOutput)
     // No log: its output discarded (this process's own is untouched).
     EXPECT_EQ(runChild({"/bin/sh", "-c", "echo lost"}, {"", peak}).status, 0);
     EXPECT_THROW(runChild({dir + "/no-such-program"}, {"", ""}), std::runtime_error);
+}
+
+TEST(Process, ABenchmarkedCommandsFailureSaysItsLastWords)
+{
+    // (the benchmark's scratch directory, where its log was, is gone when
+    // the message is read: the message carries the output's end)
+    ASSERT_TRUE(measuresOwnPeak());
+    const ScratchDirectory scratch(ScratchDirectory::temporaryPath("test_process_fail"));
+    const std::string log = scratch.path() + "/log.txt";
+    try {
+        runProcess({"/bin/sh", "-c", "echo early; echo 'the reason\n' >&2; exit 3"}, log);
+        ADD_FAILURE() << "no error";
+    } catch (const std::runtime_error& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("/bin/sh failed (exit 3); it said: early the reason"), std::string::npos)
+            << m;
+        EXPECT_EQ(m.find(log), std::string::npos) << m;
+    }
+    try {
+        runProcess({"/bin/sh", "-c", "exit 4"}, log + ".2");
+        ADD_FAILURE() << "no error";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("(exit 4); it printed nothing"), std::string::npos)
+            << e.what();
+    }
 }
 
 TEST(Process, APeakIsTheCommandsOwnNotThisProcesss)

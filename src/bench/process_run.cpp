@@ -2,9 +2,12 @@
 #include "bench/process_run.h"
 
 #include "bench/median.h"
+#include "core/error.h"
 #include "core/process.h"
 
 #include <algorithm>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -26,6 +29,27 @@ ProcessSummary summariseRuns(const std::vector<ProcessRun>& runs)
     return s;
 }
 
+namespace {
+
+/// The last lines of a command's output, for its failure's message (the
+/// benchmark's scratch directory, the log's, is removed when it ends).
+std::string outputTail(const std::string& logPath)
+{
+    std::ifstream in(logPath, std::ios::binary);
+    const std::string all((std::istreambuf_iterator<char>(in)), {});
+    std::string tail = all.substr(all.size() > 600 ? all.size() - 600 : 0);
+    while (!tail.empty() && (tail.back() == '\n' || tail.back() == ' '))
+        tail.pop_back();
+    const size_t from = tail.find_last_of('\n', tail.size() > 300 ? tail.size() - 300 : 0);
+    tail = tail.substr(from == std::string::npos ? 0 : from + 1);
+    for (char& c : tail)
+        if (c == '\n')
+            c = ' ';
+    return tail.empty() ? std::string("it printed nothing") : "it said: " + printable(tail);
+}
+
+}  // namespace
+
 ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& logPath)
 {
     if (!measuresOwnPeak())
@@ -34,8 +58,8 @@ ProcessRun runProcess(const std::vector<std::string>& argv, const std::string& l
             "memory: bash tools/setup.sh packages installs it");
     const ChildRun run = runChild(argv, {logPath, logPath + ".rss"});
     if (run.status != 0)
-        throw std::runtime_error(fmt::format("{} failed (exit {}); its output is in {}", argv.at(0),
-                                             run.status, logPath));
+        throw std::runtime_error(
+            fmt::format("{} failed (exit {}); {}", argv.at(0), run.status, outputTail(logPath)));
     if (!run.peakExact)
         throw std::runtime_error(fmt::format("GNU time wrote no peak memory for {}", argv.at(0)));
     return {run.seconds, run.peakBytes};
