@@ -509,3 +509,38 @@ TEST(FarmTiles, AFifoOrALineCambiumNeverWritesInTheFarmDirectoryIsRefused)
                                         "task-0.status:", bad);
     }
 }
+
+TEST(FarmArray, ACacheThatHoldsTheFarmIsNotCopiedIntoIt)
+{
+    // The submission copies the user's compiled kernels into the farm's
+    // directory; a PoCL cache holding that directory copied itself, a level
+    // deeper each time (140 levels, until the path was too long).
+    namespace fs = std::filesystem;
+    const fs::path dir = cambium::test::freshDir("cambium_farm_cache");
+    const fs::path bin = dir / "bin", cache = dir / "pocl";
+    fs::create_directories(bin);
+    fs::create_directories(cache / "kernels");
+    fs::create_directories(cache / "out");
+    std::ofstream(cache / "kernels" / "k.bin") << "x";
+    // A Slurm that answers (sinfo: cores and memory of a node; sbatch: a job).
+    for (const auto& [name, answer] : {std::pair{"sinfo", "2 4000"}, std::pair{"sbatch", "4242"}}) {
+        std::ofstream(bin / name) << "#!/bin/sh\necho " << answer << "\n";
+        fs::permissions(bin / name, fs::perms::owner_all);
+    }
+    const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "/usr/bin:/bin";
+    ::setenv("PATH", (bin.string() + ":" + path).c_str(), 1);
+    ::setenv("POCL_CACHE_DIR", cache.c_str(), 1);
+    const auto r =
+        cambium::test::run("bake " + kPopulus + " --frames 1-2 --voxel-size 0.05 --slurm -o " +
+                           (cache / "out" / "s.####.vdb").string());
+    ::setenv("PATH", path.c_str(), 1);
+    ::unsetenv("POCL_CACHE_DIR");
+    EXPECT_EQ(r.status, 0) << r.err;
+    size_t entries = 0;
+    for (auto it = fs::recursive_directory_iterator(cache);
+         it != fs::recursive_directory_iterator(); ++it)
+        ++entries;
+    EXPECT_LT(entries, 40u) << "the cache was copied into itself";
+    EXPECT_TRUE(fs::exists(cache / "out" / "s.frames.vdb.farm" / "plan.json"));
+    EXPECT_FALSE(fs::exists(cache / "out" / "s.frames.vdb.farm" / "cache" / "pocl" / "out"));
+}

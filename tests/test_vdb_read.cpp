@@ -15,7 +15,9 @@
 #include <openvdb/tools/LevelSetSphere.h>
 
 #include <filesystem>
+#include <cstring>
 #include <fstream>
+#include <iterator>
 
 using namespace cambium;
 using namespace cambium::test;
@@ -197,6 +199,42 @@ TEST(VdbRead, ALeafThatIsNotItsTopologysIsNamed)
         io.write(&byte, 1);
     }
     expectInputError([&] { readVdbGrid(path, s, "surface"); }, "leaf 0 of", "a changed mask");
+}
+
+TEST(VdbRead, ARootClaimingMoreNodesThanItsTreeHoldsIsNamed)
+{
+    // OpenVDB makes each node its root claims before reading it: a changed
+    // byte of a foreign 1.2 MB file claimed 58,000 children, 16 GB made
+    // before the read failed (and the unwinding aborted).
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
+    sphere->setName("surface");
+    const std::string path = freshDir("cambium_vdb_read_root").string() + "/r.vdb";
+    {
+        openvdb::io::File f(path);
+        f.write({sphere});
+    }
+    EXPECT_NO_THROW(inspectVdb(path));
+    std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(io)), {});
+    // After the map's name: its 5 vectors, the buffer count, the
+    // background, the root's tile count, then its child count.
+    const size_t map = bytes.find("UniformScaleMap");
+    ASSERT_NE(map, std::string::npos);
+    const size_t children = map + 15 + 120 + 4 + 4 + 4;
+    uint32_t count = 0;
+    std::memcpy(&count, bytes.data() + children, 4);
+    EXPECT_GT(count, 0u);
+    EXPECT_LT(count, 100u);
+    count = 58376;
+    io.seekp(std::streamoff(children));
+    io.write(reinterpret_cast<const char*>(&count), 4);
+    io.close();
+    expectInputError([&] { inspectVdb(path); },
+                     "a damaged .vdb file: grid 'surface' claims 0 tiles and 58376 nodes at its "
+                     "root, at least 478916704 bytes, and its tree has",
+                     "a root of 58,376 children");
 }
 
 TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)

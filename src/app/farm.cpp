@@ -19,6 +19,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cstdio>
@@ -336,10 +337,23 @@ int submitArray(const SlurmArray& array, const SlurmFlags& flags, const std::str
                                : xdg.empty()                      ? fs::path()
                                                                   : xdg / "pocl";
     std::error_code ec;
+    // (a cache that holds the farm's directory is not copied into it: it
+    // would copy itself, a level deeper each time, until the path is too long)
+    auto inside = [](const fs::path& a, const fs::path& b) {
+        std::error_code e;
+        std::string ca = fs::weakly_canonical(a, e).string(),
+                    cb = fs::weakly_canonical(b, e).string();
+        while (ca.size() > 1 && ca.back() == '/')
+            ca.pop_back();
+        while (cb.size() > 1 && cb.back() == '/')
+            cb.pop_back();
+        return ca == cb || ca.rfind(cb == "/" ? cb : cb + "/", 0) == 0;
+    };
     for (const auto& [from, to] :
          {std::pair{fs::path(programCacheDirectory()), farm / "cache" / "cambium" / "opencl"},
           std::pair{poclCache, farm / "cache" / "pocl"}})
-        if (!from.empty() && fs::is_directory(from, ec)) {
+        if (!from.empty() && fs::is_directory(from, ec) && !inside(farm, from) &&
+            !inside(from, farm)) {
             fs::create_directories(to, ec);
             fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
         }
