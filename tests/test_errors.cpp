@@ -372,6 +372,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "neg.json",
               R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
+    writeText(in / "heavy.json",
+              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": 1e39}})");
     writeText(in / "nul.json",
               R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
@@ -608,6 +610,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/dup.json -o OUT/out.vdb", "dup.json: root: duplicate key 'radius'"},
         {"bake IN/nan.json -o OUT/out.vdb", "nan.json: JSON syntax error: parse error at line 1"},
         {"bake IN/neg.json -o OUT/out.vdb", "neg.json: root.r0: must be greater than 0"},
+        // (the kernels sample in float: 1e39 was infinite, the surface inside out)
+        {"bake IN/heavy.json -o OUT/out.vdb",
+         "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
         {"bake IN/type.json -o OUT/out.vdb",
          "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
         // (the message ended at the NUL, its quote unclosed)

@@ -237,6 +237,35 @@ TEST(VdbRead, ARootClaimingMoreNodesThanItsTreeHoldsIsNamed)
                      "a root of 58,376 children");
 }
 
+TEST(VdbRead, ATransformWhoseScaleIsNotItsVoxelSizeIsNamed)
+{
+    // A uniform scale map stores its scale and its voxel size apart, and
+    // OpenVDB reads both as they are: a scale of 3.6e307 under a stored 0.2
+    // passed as 0.2 voxels and meshed to vertices at -inf, exit 0.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.2f);
+    sphere->setName("surface");
+    const std::string path = freshDir("cambium_vdb_read_map").string() + "/m.vdb";
+    {
+        openvdb::io::File f(path);
+        f.write({sphere});
+    }
+    EXPECT_NO_THROW(readLevelSet(path));
+    std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(io)), {});
+    const size_t map = bytes.find("UniformScaleMap");
+    ASSERT_NE(map, std::string::npos);
+    // The scale's z, its top byte (sign and exponent) changed.
+    io.seekp(std::streamoff(map + 15 + 23));
+    io.put('\x7f');
+    io.close();
+    expectInputError([&] { readLevelSet(path); },
+                     "grid 'surface' has a transform whose axis z is 3.59539e+307 long and whose "
+                     "voxel size says 0.2",
+                     "a scale of 3.6e307");
+}
+
 TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)
 {
     // readLevelSet checks the checksum before OpenVDB reads the topology:

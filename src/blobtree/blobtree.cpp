@@ -76,11 +76,20 @@ cb_vec3 unitAxis(const glm::dvec3& axis)
     return toCb(axis / l);
 }
 
+/// The largest weight a primitive may have: the kernels sample in float, and
+/// a weight of 1e39 was infinite there (an inside-out surface, exit 0); far
+/// below that, a field a million times its threshold has no surface a
+/// voxel could resolve.
+constexpr double kMaxWeight = 1e6;
+
 void requireWeight(double w)
 {
     requireFinite(w, "weight");
     if (w == 0.0)
         throw ParameterError("weight", "must not be 0 (a primitive of weight 0 has no field)");
+    if (std::abs(w) > kMaxWeight)
+        throw ParameterError("weight", fmt::format("must be within -{:g} and {:g} (got {:g})",
+                                                   kMaxWeight, kMaxWeight, w));
 }
 
 }  // namespace

@@ -360,6 +360,35 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
     // --voxel-size allows (volumeToMesh crashed on a voxel size of 0 and
     // wrote infinities for 1e300; a mirrored grid meshed inside out).
     const double det = grid.transform().baseMap()->determinant();
+    // (a NaN in the translation left the voxel size and determinant as they
+    // were: meshed with exit 0, every vertex at -inf)
+    openvdb::Mat4d m;
+    try {
+        m = grid.transform().baseMap()->getAffineMap()->getMat4();
+    } catch (const openvdb::Exception& e) {
+        throw InputError(
+            fmt::format("{}: grid '{}' has a transform OpenVDB cannot use ({}): not "
+                        "a usable level set",
+                        path, grid.getName(), e.what()));
+    }
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            if (!std::isfinite(m(i, j)))
+                throw InputError(fmt::format(
+                    "{}: grid '{}' has a transform whose matrix holds {:g} (row {}, column {}): "
+                    "not a usable level set",
+                    path, grid.getName(), m(i, j), i, j));
+    // The map's own voxel size is stored beside its scale, and read as it
+    // is: the two must agree (a scale of 3.6e307 under a stored 0.2 passed
+    // as 0.2 voxels and meshed to vertices at -inf, exit 0).
+    for (int k = 0; k < 3; ++k) {
+        const double axis = std::hypot(m(k, 0), m(k, 1), m(k, 2));  // (no overflow)
+        if (!(std::abs(axis - v[k]) <= 1e-6 * std::max(axis, v[k])))
+            throw InputError(fmt::format(
+                "{}: grid '{}' has a transform whose axis {} is {:g} long and whose voxel size "
+                "says {:g}: damaged, not a usable level set",
+                path, grid.getName(), "xyz"[k], axis, v[k]));
+    }
     if (!(v[0] >= 1e-9 && v[0] <= 1e9) || !std::isfinite(det) || !(det > 0.0))
         throw InputError(fmt::format(
             "{}: grid '{}' has voxels of {:g} x {:g} x {:g} (the transform's determinant "
