@@ -16,6 +16,7 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <thread>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -166,7 +167,11 @@ ThreadLimit::ThreadLimit(int threads)
         return;
     control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                      size_t(threads));
-    const std::string n = std::to_string(threads);
+    // PoCL starts as many threads as it is told, each with its stack: never
+    // more than the machine's (--threads 512 aborted in PoCL's scheduler
+    // under an 8 GB address-space limit; more threads than cores gain nothing).
+    const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+    const std::string n = std::to_string(std::min(threads, cores));
     ::setenv("POCL_MAX_PTHREAD_COUNT", n.c_str(), 1);  // PoCL < 4
     ::setenv("POCL_CPU_MAX_CU_COUNT", n.c_str(), 1);   // PoCL >= 4
 }
