@@ -372,6 +372,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "neg.json",
               R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
+    writeText(in / "big.json",
+              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 3e6}})");
     writeText(in / "heavy.json",
               R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": 1e39}})");
     writeText(in / "nul.json",
@@ -611,6 +613,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/nan.json -o OUT/out.vdb", "nan.json: JSON syntax error: parse error at line 1"},
         {"bake IN/neg.json -o OUT/out.vdb", "neg.json: root.r0: must be greater than 0"},
         // (the kernels sample in float: 1e39 was infinite, the surface inside out)
+        // (a band of 3 voxels of 23437.5 was written as infinities, exit 0)
+        {"bake IN/big.json --half -o OUT/out.vdb",
+         "big.json: --half stores distances as 16-bit floats, at most 65504, and the band "
+         "reaches 7.031e+04 (3 voxels of 23437.5)"},
         {"bake IN/heavy.json -o OUT/out.vdb",
          "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
         {"bake IN/type.json -o OUT/out.vdb",

@@ -94,6 +94,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                             req.input, plan.extent, kMaxVoxelSize));
     }
     const double h = plan.voxelSize;
+    checkHalfRange(req.half, h, req.halfWidth, req.input);
     // Positions in single precision a fraction of a voxel apart (and well
     // inside OpenVDB's 32-bit index space).
     const double span = (far + req.halfWidth * h) / h;
@@ -116,6 +117,16 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                                            ? fmt::format(" or more than {} --tiles", req.tile.count)
                                            : std::string(" or --tiles")));
     return plan;
+}
+
+void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::string& what)
+{
+    constexpr double kLargestHalf = 65504.0;
+    if (half && !(voxelSize * halfWidth <= kLargestHalf))
+        throw InputError(fmt::format(
+            "{}: --half stores distances as 16-bit floats, at most {:g}, and the band reaches "
+            "{:.4g} ({:g} voxels of {:g}): use a smaller --voxel-size or leave out --half",
+            what, kLargestHalf, voxelSize * halfWidth, halfWidth, voxelSize));
 }
 
 void checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what)

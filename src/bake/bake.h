@@ -126,6 +126,11 @@ void checkBakeFits(const FieldProgram& program, double voxelSize, const std::str
 void checkVoxelSize(double voxelSize, const std::string& name = "--voxel-size");
 void checkHalfWidth(double halfWidth, const std::string& name = "--half-width");
 
+/// InputError (`what` first) when `--half` could not hold the band's
+/// distances: a half float's largest is 65504 (a band of 3 voxels of 23437.5
+/// was written as infinities, exit 0, and mesh and render refused the file).
+void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::string& what);
+
 /// The sampler of `device` (an OpenCL failure is named with a hint to use
 /// --device cpu).
 std::unique_ptr<FieldSampler> makeSampler(Device device);

@@ -185,6 +185,7 @@ void chooseVoxelSize(const ShapeRequest& req, const TriangleMesh& mesh, ShapeRep
 {
     r.autoVoxelSize = !req.voxelSize;
     r.voxelSize = req.voxelSize ? *req.voxelSize : automaticVoxelSize(mesh);
+    checkHalfRange(req.half, r.voxelSize, req.halfWidth, req.input);
     if (r.autoVoxelSize)
         checkBakeMemory(r.area, r.voxelSize, req.halfWidth,
                         fmt::format("{}: the automatic voxel size", req.input));
@@ -222,8 +223,10 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
         checkShapeLevels(s, levels);
     const BaseShape base = makeBase(specs.front().base, req.input, req.device);
     checkSynthesisMemory(base.mesh, levels, req.input);
-    if (req.voxelSize)
+    if (req.voxelSize) {
+        checkHalfRange(req.half, *req.voxelSize, req.halfWidth, req.input);
         checkBakeMemory(2.0 * surfaceArea(base.mesh), *req.voxelSize, req.halfWidth, req.input);
+    }
 
     ShapeReport r;
     r.levels = levels;

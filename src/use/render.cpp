@@ -613,11 +613,11 @@ EmbreeMesh::EmbreeMesh(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>(
     // empty scene, and the picture was drawn empty with exit 0)
     const RTCError error = rtcGetDeviceError(device);
     if (error != RTC_ERROR_NONE)
-        throw std::runtime_error(fmt::format(
-            "Embree could not build its structure over the mesh's {} triangles: {}",
-            mesh.triangles.size(),
-            error == RTC_ERROR_OUT_OF_MEMORY ? std::string("out of memory")
-                                             : fmt::format("error {}", int(error))));
+        throw std::runtime_error(
+            fmt::format("Embree could not build its structure over the mesh's {} triangles: {}",
+                        mesh.triangles.size(),
+                        error == RTC_ERROR_OUT_OF_MEMORY ? std::string("out of memory")
+                                                         : fmt::format("error {}", int(error))));
 }
 
 EmbreeMesh::~EmbreeMesh() = default;
