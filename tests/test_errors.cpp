@@ -372,8 +372,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "neg.json",
               R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
-    writeText(in / "big.json",
-              R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 3e6}})");
+    writeText(in / "big.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 3e6}})");
     writeText(in / "heavy.json",
               R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": 1e39}})");
     writeText(in / "nul.json",
@@ -573,6 +572,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "afar.json",
               R"({"root": {"type": "sphere", "center": [100000,0,0], "radius": 0.01}})");
+    writeText(in / "farcube.obj", "v 1e7 0 0\nv 1e7 0 1\nv 1e7 1 0\nv 1e7 1 1\nv 10000001 0 0\n"
+                                  "v 10000001 0 1\nv 10000001 1 0\nv 10000001 1 1\nf 1 3 4 2\n"
+                                  "f 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n");
+    writeText(in / "farshape.json", R"({"base": {"type": "mesh", "file": "farcube.obj"},
+                                        "levels": 2})");
     writeText(in / "seed.json", R"({"base": {"type": "sphere"}, "levels": 2,
                                      "details": [{"type": "rock", "seed": 1.5}]})");
     writeText(in / "span.json", R"({"base": {"type": "sphere"}, "levels": 2, "details":
@@ -617,6 +621,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/big.json --half -o OUT/out.vdb",
          "big.json: --half stores distances as 16-bit floats, at most 65504, and the band "
          "reaches 7.031e+04 (3 voxels of 23437.5)"},
+        // (written with exit 0 on two x values: floats 1e7 from the origin)
+        {"shape IN/farshape.json -o OUT/out.obj",
+         "farshape.json: the shape's base lies 1e+07 from the origin and is 1 across"},
         {"bake IN/heavy.json -o OUT/out.vdb",
          "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
         {"bake IN/type.json -o OUT/out.vdb",

@@ -266,6 +266,25 @@ TEST(VdbRead, ATransformWhoseScaleIsNotItsVoxelSizeIsNamed)
                      "a scale of 3.6e307");
 }
 
+TEST(VdbRead, ALevelSetBeyondFloatPrecisionIsRefused)
+{
+    // Meshes and pictures hold positions as floats: a sphere 1e7 from the
+    // origin meshed with exit 0 to vertices on three x values.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+        1.0f, openvdb::Vec3f(1e7f, 0.0f, 0.0f), 0.05f);
+    sphere->setName("surface");
+    const std::string path = freshDir("cambium_vdb_read_far").string() + "/far.vdb";
+    {
+        openvdb::io::File f(path);
+        f.write({sphere});
+    }
+    expectInputError([&] { readLevelSet(path); },
+                     "grid 'surface' reaches 1e+07 from the origin, 2e+08 voxels of 0.05: beyond "
+                     "1048576 voxels",
+                     "a sphere at 1e7");
+}
+
 TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)
 {
     // readLevelSet checks the checksum before OpenVDB reads the topology:

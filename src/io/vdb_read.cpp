@@ -6,6 +6,7 @@
 #include "io/vdb.h"
 
 #include "core/error.h"
+#include "core/math.h"
 #include "core/system.h"
 #include "io/leaf_layout.h"
 
@@ -420,6 +421,27 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                     fmt::format("{}: grid '{}' has {:.3g} active voxels in tiles, which as voxels",
                                 path, grid.getName(), voxels),
                     "not a narrow-band level set");
+    // Meshes and pictures hold positions in single precision, as the bake
+    // does (a sphere 1e7 from the origin meshed with exit 0 to vertices on
+    // three x values, its volume negative).
+    const openvdb::CoordBBox active = grid.evalActiveVoxelBoundingBox();
+    if (!active.empty()) {
+        double far = 0.0;
+        for (int c = 0; c < 8; ++c) {
+            const openvdb::Vec3d p =
+                grid.indexToWorld(openvdb::Vec3d((c & 1 ? active.max() : active.min()).x(),
+                                                 (c & 2 ? active.max() : active.min()).y(),
+                                                 (c & 4 ? active.max() : active.min()).z()));
+            far = std::max({far, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
+        }
+        if (!(far / v[0] < kMaxVoxelsFromOrigin))
+            throw InputError(
+                fmt::format("{}: grid '{}' reaches {:.4g} from the origin, {:.3g} voxels of {:g}: "
+                            "beyond {:.0f} "
+                            "voxels, {}",
+                            path, grid.getName(), far, far / v[0], v[0], kMaxVoxelsFromOrigin,
+                            kFloatPrecisionReason));
+    }
 }
 
 }  // namespace

@@ -330,6 +330,26 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     // (ShapeSurface checks the details themselves before it refines.)
     const BaseShape base = makeBase(spec.base, spec.source, req.device);
     checkSynthesisMemory(base.mesh, levels, req.input);
+    if (!levelSet) {
+        // A mesh's points are floats, synthesised and written: as far from
+        // the origin as a bake at the automatic voxel size may reach (a
+        // cube at 1e7 was written on two x values, exit 0).
+        glm::dvec3 lo(0.0), hi(0.0);
+        double far = 0.0;
+        for (size_t i = 0; i < base.mesh.points.size(); ++i) {
+            const glm::dvec3& p = base.mesh.points[i];
+            lo = i ? glm::min(lo, p) : p;
+            hi = i ? glm::max(hi, p) : p;
+            far = std::max({far, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+        }
+        const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+        const double h = std::max(extent / 512.0, kMinVoxelSize);
+        if (!(far / h < kMaxVoxelsFromOrigin))
+            throw InputError(fmt::format(
+                "{}: the shape's base lies {:.4g} from the origin and is {:.3g} across: beyond "
+                "{:.0f} of its 512ths, {}",
+                req.input, far, extent, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
+    }
     if (levelSet && req.voxelSize)
         checkBakeMemory(2.0 * surfaceArea(base.mesh), *req.voxelSize, req.halfWidth,
                         fmt::format("--voxel-size {}", *req.voxelSize));
