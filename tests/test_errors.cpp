@@ -572,9 +572,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "afar.json",
               R"({"root": {"type": "sphere", "center": [100000,0,0], "radius": 0.01}})");
-    writeText(in / "farcube.obj", "v 1e7 0 0\nv 1e7 0 1\nv 1e7 1 0\nv 1e7 1 1\nv 10000001 0 0\n"
-                                  "v 10000001 0 1\nv 10000001 1 0\nv 10000001 1 1\nf 1 3 4 2\n"
-                                  "f 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n");
+    writeText(in / "farcube.obj",
+              "v 1e7 0 0\nv 1e7 0 1\nv 1e7 1 0\nv 1e7 1 1\nv 10000001 0 0\n"
+              "v 10000001 0 1\nv 10000001 1 0\nv 10000001 1 1\nf 1 3 4 2\n"
+              "f 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n");
     writeText(in / "farshape.json", R"({"base": {"type": "mesh", "file": "farcube.obj"},
                                         "levels": 2})");
     writeText(in / "seed.json", R"({"base": {"type": "sphere"}, "levels": 2,

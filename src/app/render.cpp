@@ -20,6 +20,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <optional>
+#include <thread>
+#include <utility>
 
 namespace cambium {
 
@@ -45,6 +47,26 @@ int runRenderCommand(RenderRequest req)
     if (req.mesh.empty() && req.input.empty())
         throw InputError("nothing to render: give a .vdb file (or --mesh MESH.obj|ply)");
     const bool meshFile = !req.mesh.empty();
+    // A render estimated past ten seconds says so before it starts, after
+    // every check (4096 samples a pixel of the default picture ran an hour
+    // and more without a word).  Rays a second: the slowest path measured
+    // here, per core.
+    bool noted = false;
+    auto note = [&] {
+        if (std::exchange(noted, true))
+            return;
+        constexpr double kRaysPerCoreSecond = 0.3e6, kSaySeconds = 10.0;
+        const double frames = req.frames.empty() ? 1.0 : double(parseFrames(req.frames).size());
+        const double rays = double(req.width) * req.height * req.spp * frames;
+        const double seconds =
+            rays / (kRaysPerCoreSecond * std::max(1u, std::thread::hardware_concurrency()));
+        if (seconds > kSaySeconds)
+            printNotice(fmt::format(
+                "rendering {} rays ({} x {} pixels, {} sample{} each{}): roughly {} here",
+                formatCount(rays), req.width, req.height, req.spp, req.spp == 1 ? "" : "s",
+                frames > 1.0 ? fmt::format(", {} frames", formatCount(frames)) : "",
+                formatDuration(seconds)));
+    };
     // A sequence keeps one camera, framed on its last frame (a growing tree
     // grows into the picture instead of the camera backing away), and one
     // OpenCL marcher (its context and kernel built once, new grids each frame).
@@ -67,6 +89,7 @@ int runRenderCommand(RenderRequest req)
         },
         checkImageOutput,
         [&](const std::string& in, const std::string& out) {
+            note();
             const auto start = Clock::now();
             const double aspect = double(req.width) / double(req.height);
             double read = 0.0, readPeak = 0.0;
