@@ -167,6 +167,28 @@ TEST(LSystem, TheWorkOfContextSearchesCountsAgainstTheBound)
     }
 }
 
+TEST(LSystem, TheWorkOfParameterExpressionsCountsAgainstTheBound)
+{
+    // A string that does not grow, each module's parameter a 20-term sum:
+    // the rewrites alone stay far inside the bound (a million modules of
+    // 19-term sums ran 45 minutes within it); the expressions' nodes count
+    // a tenth of a rewrite each, before they are evaluated.
+    std::string sum = "x";
+    for (int k = 1; k < 20; ++k)
+        sum += "+x";
+    std::string axiom;
+    for (int k = 0; k < 100; ++k)
+        axiom += "A(1)";
+    const LSystem sys =
+        parseLSystem("Axiom: " + axiom + "\nA(x) --> A((" + sum + ") / 20)\n", "sums.l");
+    // Per step: 100 rewrites and 100 x 41 nodes, 510 rewrites' work in all.
+    EXPECT_NO_THROW(derive(sys, 150, 1, kDefaultMaxModules, {}, 1e5));
+    test::expectInputError([&] { derive(sys, 250, 1, kDefaultMaxModules, {}, 1e5); },
+                           "sums.l: 250 steps would rewrite more than 100000 modules' work in all "
+                           "(rewrites, context searches and parameter expressions",
+                           "20-term sums for 250 steps");
+}
+
 TEST(LSystem, ExpressionsNestedBeyondTheBoundAreRefusedWithTheirLine)
 {
     // Sums of 200,000 terms, 10,000 nested parentheses, 200,000 unary

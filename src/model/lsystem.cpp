@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/random.h"
 #include "core/math.h"
+#include "core/system.h"
 
 #include <fmt/format.h>
 
@@ -11,6 +12,7 @@
 #include <cctype>
 #include <cstring>
 #include <cmath>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -766,7 +768,18 @@ bool matches(const Module& m, const ModulePattern& p)
 
 class Deriver {
 public:
-    Deriver(const LSystem& sys, uint64_t seed) : sys_(sys), rng_(seed) {}
+    Deriver(const LSystem& sys, uint64_t seed) : sys_(sys), rng_(seed)
+    {
+        std::map<const Expr*, double> memo;
+        for (const Production& p : sys.productions) {
+            double args = 0.0;
+            for (const ModuleTemplate& t : p.successor)
+                for (const ExprPtr& e : t.args)
+                    args += nodes(e.get(), memo);
+            conditionNodes_.push_back(p.condition ? nodes(p.condition.get(), memo) : 0.0);
+            argumentNodes_.push_back(args);
+        }
+    }
 
     /// The modules that bind the left context, nearest last, or false.
     bool leftContext(const ModuleString& s, const std::vector<long>& match, size_t i,
@@ -848,6 +861,11 @@ public:
         chosen.clear();
         chosen.resize(s.size());
         size_t total = 0;
+        // The string now, the bindings and the next string, in bytes; the
+        // expression nodes the next string's parameters evaluate.
+        double held = 0.0, made = 0.0, work = 0.0;
+        for (const Module& m : s)
+            held += double(m.params.size()) * sizeof(double) + kModuleBytes;
         std::vector<const Production*> applicable;
         std::vector<std::vector<double>> bindings;
         for (size_t i = 0; i < s.size(); ++i) {
@@ -865,8 +883,14 @@ public:
                 vars.insert(vars.end(), s[i].params.begin(), s[i].params.end());
                 for (const Module* m : right)
                     vars.insert(vars.end(), m->params.begin(), m->params.end());
-                if (p.condition && evaluate(*p.condition, vars, rng_) == 0.0)
-                    continue;
+                if (p.condition) {
+                    budget_ -=
+                        kNodeRewrites * conditionNodes_[size_t(&p - sys_.productions.data())];
+                    if (budget_ < 0.0)
+                        spend();
+                    if (evaluate(*p.condition, vars, rng_) == 0.0)
+                        continue;
+                }
                 applicable.push_back(&p);
                 bindings.push_back(std::move(vars));
                 if (p.probability < 0.0)
@@ -889,14 +913,34 @@ public:
                         break;
                 }
             }
-            chosen[i] = {applicable[pick], std::move(bindings[pick])};
-            total += applicable[pick]->successor.size();
+            const Production* chosenProduction = applicable[pick];
+            const size_t index = size_t(chosenProduction - sys_.productions.data());
+            work += argumentNodes_[index];
+            held += double(bindings[pick].size()) * sizeof(double) + kModuleBytes;
+            for (const ModuleTemplate& t : chosenProduction->successor)
+                made += double(t.args.size()) * sizeof(double) + kModuleBytes;
+            chosen[i] = {chosenProduction, std::move(bindings[pick])};
+            total += chosenProduction->successor.size();
+            // The step's memory as it grows: the modules' parameters are
+            // held too (--max-modules counts modules; 600 parameters each
+            // reached 8 GB under the limit, then ran out of memory).
+            if ((i & 4095) == 0 || i + 1 == s.size())
+                checkStepMemory(stepNo, total, held + made);
         }
         if (total > maxModules)
             throw InputError(fmt::format(
                 "{}: derivation step {} would make {} modules, more than the limit of {} "
                 "(--max-modules; fewer --steps?)",
                 sys_.source, stepNo, total, maxModules));
+        // Its parameters' expressions, before they are evaluated (a million
+        // modules of 19-term sums ran 45 minutes within the rewrite limit).
+        budget_ -= kNodeRewrites * work;
+        if (budget_ < 0.0)
+            throw InputError(fmt::format(
+                "{}: derivation step {}: its parameters' expressions, with the rewrites and "
+                "context searches before, are more than {:g} modules' work in all (minutes of "
+                "work): fewer --steps, or fewer or simpler parameters",
+                sys_.source, stepNo, limit_));
         ModuleString out = std::move(spare_);
         out.clear();
         if (out.capacity() < total)  // (grown by doubling: a string growing a module a step
@@ -943,6 +987,35 @@ public:
     }
 
 private:
+    /// A module's bytes beside its parameters (its name, its vector and the
+    /// vector's heap block); an expression node's evaluation in rewrites.
+    static constexpr double kModuleBytes = sizeof(Module) + 32.0, kNodeRewrites = 0.1;
+
+    /// Expression nodes an evaluation of `e` visits (a shared subtree, as
+    /// `#define` folds make, counts each time it is reached), saturating.
+    static double nodes(const Expr* e, std::map<const Expr*, double>& memo)
+    {
+        if (const auto f = memo.find(e); f != memo.end())
+            return f->second;
+        double n = 1.0;
+        for (const ExprPtr& k : e->kids)
+            n = std::min(n + nodes(k.get(), memo), 1e18);
+        memo[e] = n;
+        return n;
+    }
+
+    void checkStepMemory(int stepNo, size_t modules, double bytes)
+    {
+        if (room_ < 0.0)
+            room_ = availableMemoryBytes();
+        if (bytes > 0.5 * room_)  // (what else a step holds: its bindings, spare room)
+            throw InputError(fmt::format(
+                "{}: derivation step {} would hold {} or more of modules and their parameters "
+                "({} modules so far), more than the {} this process has: fewer --steps, "
+                "--max-modules or parameters",
+                sys_.source, stepNo, formatBytes(bytes), modules, formatBytes(room_)));
+    }
+
     void spend() const
     {
         if (--budget_ < 0.0)
@@ -959,6 +1032,8 @@ private:
     int stepNo_ = 0;
     double limit_ = kMaxRewrites;
     std::vector<std::pair<const Production*, std::vector<double>>> chosen_;
+    std::vector<double> conditionNodes_, argumentNodes_;  ///< each production's
+    double room_ = -1.0;                                  ///< memory available (once)
     ModuleString spare_;  ///< the string before last, its room for the next
     std::vector<long> match_, stack_;
 };
@@ -996,7 +1071,8 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
         rewrites += double(s.size());
         if (rewrites > maxRewrites)
             throw InputError(
-                fmt::format("{}: {} steps would rewrite more than {:g} modules in all (minutes of "
+                fmt::format("{}: {} steps would rewrite more than {:g} modules' work in all "
+                            "(rewrites, context searches and parameter expressions: minutes of "
                             "work): fewer --steps",
                             system.source, steps, maxRewrites));
         d.setBudget(maxRewrites - rewrites, i, maxRewrites);
