@@ -238,6 +238,15 @@ TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
     EXPECT_EQ(renamedCheck.status, 2);
     EXPECT_NE(renamedCheck.err.find("cambium's metadata without its checksum"), std::string::npos)
         << renamedCheck.err;
+    // mesh and render refuse it too (it was decoded as another tool's file,
+    // its trees unchecked)
+    for (const char* command : {"mesh", "render"}) {
+        const Result used = run(std::string(command) + " " + grown + " -o " + dir.string() + "/x." +
+                                (command[0] == 'm' ? "obj" : "png"));
+        EXPECT_EQ(used.status, 2) << command;
+        EXPECT_NE(used.err.find("cambium's metadata without its checksum"), std::string::npos)
+            << used.err;
+    }
     std::filesystem::remove_all(dir);
 }
 

@@ -63,18 +63,8 @@ int runVdbInfo(const std::string& path, bool check)
     };
     // The checksum's verdict first: a file --check refuses prints nothing
     // (its "file" line came before the error).
-    // (cambium writes the checksum with its other metadata: a file with
-    // those but without it was edited or damaged, not another tool's)
-    const bool cambiums = text("creator").rfind("cambium", 0) == 0 ||
-                          std::any_of(s.strings.begin(), s.strings.end(), [](const auto& kv) {
-                              return kv.first.rfind("cambium_", 0) == 0;
-                          });
     std::string checksum;
-    if (s.checksumEnd == 0 && cambiums) {
-        const std::string missing = fmt::format(
-            "{}: cambium's metadata without its checksum (cambium_checksum): the file "
-            "was edited or damaged (or written by a cambium before checksums, 8e5b3d3)",
-            path);
+    if (const std::string missing = missingChecksum(path, s); !missing.empty()) {
         if (check)
             throw InputError(missing);
         checksum = "missing: " + missing;

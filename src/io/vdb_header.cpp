@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstring>
@@ -290,6 +291,21 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
             "into it (changed or corrupted since)",
             path));
     return true;
+}
+
+std::string missingChecksum(const std::string& path, const VdbSummary& s)
+{
+    const auto creator = s.strings.find("creator");
+    const bool cambiums =
+        (creator != s.strings.end() && creator->second.rfind("cambium", 0) == 0) ||
+        std::any_of(s.strings.begin(), s.strings.end(),
+                    [](const auto& kv) { return kv.first.rfind("cambium_", 0) == 0; });
+    if (s.checksumEnd != 0 || !cambiums)
+        return {};
+    return fmt::format(
+        "{}: cambium's metadata without its checksum (cambium_checksum): the file was edited or "
+        "damaged (or written by a cambium before checksums, 8e5b3d3)",
+        path);
 }
 
 std::string framePart(long long frame)

@@ -69,6 +69,11 @@ VdbSummary inspectVdb(const std::string& path);
 /// Returns false for a file without one (written by other software).
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
 
+/// The message for a file with cambium's metadata (its creator, a
+/// `cambium_` key) but no `cambium_checksum`, which cambium writes with the
+/// rest: edited or damaged, not another tool's.  Empty for any other file.
+std::string missingChecksum(const std::string& path, const VdbSummary& summary);
+
 /// Whether `path` begins with OpenVDB's magic number (a .vdb file whatever
 /// its name); false for a file that cannot be read.
 bool looksLikeVdbFile(const std::string& path);

@@ -479,6 +479,10 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, b
     // render with "malloc(): corrupted top size"; beside the read, the
     // verdict came too late).
     verifyVdbChecksum(path, summary);
+    // (a cambium file whose checksum key was damaged was decoded as another
+    // tool's, unchecked)
+    if (const std::string missing = missingChecksum(path, summary); !missing.empty())
+        throw InputError(missing);
     // The trees' types from the file's descriptors, before any is decoded
     // (a surface grid relabelled Tree_vec3s was decoded as vectors from a
     // float tree's bytes, and the tools after that spun forever).
