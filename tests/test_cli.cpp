@@ -238,6 +238,10 @@ TEST(Cli, InfoDescribesAVdbFileAndChecksIt)
     EXPECT_EQ(renamedCheck.status, 2);
     EXPECT_NE(renamedCheck.err.find("cambium's metadata without its checksum"), std::string::npos)
         << renamedCheck.err;
+    // A report that cannot be written is a failure (exit 0 lost it).
+    const Result full = run("info " + grown + " >/dev/full");
+    EXPECT_EQ(full.status, 1);
+    EXPECT_NE(full.err.find("cannot write to standard output"), std::string::npos) << full.err;
     // mesh and render refuse it too (it was decoded as another tool's file,
     // its trees unchecked)
     for (const char* command : {"mesh", "render"}) {

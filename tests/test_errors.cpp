@@ -925,6 +925,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "a whole number from 1 to 1000000 and a decimal number"},  // (no IN: substituted)
         {"bench render --width 0 --internodes 10", "--width: Value 0 not in range"},
         {"bench mesh --voxel-size 0", "--voxel-size: Value 0 not in range"},
+        // (refused after the year table was printed)
+        {"bench growth --fps-per-year 1e9",
+         "--fps-per-year must be a positive number of at most 1e6 (got 1000000000)"},
         // ... and their memory, before any work (they ran into the limit)
         {"bench bake --case 20000:0.0001 --skip-cpu --repeat 1",
          "tree of 20000 internodes: a voxel size of 0.0001"},

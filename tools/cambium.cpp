@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <openvdb/openvdb.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -79,7 +80,15 @@ int main(int argc, char** argv)
     }
     openvdb::initialize();
     try {
-        return action ? action() : 0;
+        const int status = action ? action() : 0;
+        // What the command printed, written to the end (`info > /dev/full`
+        // lost its report with exit 0).
+        if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+            std::fprintf(stderr, "cambium: failed: cannot write to standard output: %s\n",
+                         std::strerror(errno));
+            return 1;
+        }
+        return status;
     } catch (const cambium::InputError& e) {
         say("error", e.what());
         return 2;

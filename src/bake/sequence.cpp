@@ -27,6 +27,13 @@
 
 namespace cambium {
 
+void checkFpsPerYear(double fpsPerYear)
+{
+    if (!(std::isfinite(fpsPerYear) && fpsPerYear > 0.0 && fpsPerYear <= 1e6))
+        throw InputError(fmt::format(
+            "--fps-per-year must be a positive number of at most 1e6 (got {})", fpsPerYear));
+}
+
 namespace {
 
 /// Frames in runs of one growth year: a worker takes a run and bakes it in
@@ -113,11 +120,7 @@ SequencePlan planSequence(const SequenceRequest& request)
                         "docs/growth-format.md)",
                         req.input));
     checkGrowthOptions(req.input, req.model);
-    if (!(std::isfinite(request.fpsPerYear) && request.fpsPerYear > 0.0 &&
-          request.fpsPerYear <= 1e6))
-        throw InputError(
-            fmt::format("--fps-per-year must be a positive number of at most 1e6 (got {})",
-                        request.fpsPerYear));
+    checkFpsPerYear(request.fpsPerYear);
     plan.frames = parseFrames(request.frames);
     plan.paths = sequencePaths(req.output, plan.frames, "out/tree.####.vdb", bakeInputFiles(req));
     const std::string text = readTextFile(req.input, "growth parameter file");

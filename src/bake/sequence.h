@@ -20,6 +20,10 @@
 
 namespace cambium {
 
+/// InputError unless `fpsPerYear` (--fps-per-year) is a positive number of
+/// at most 1e6.
+void checkFpsPerYear(double fpsPerYear);
+
 struct SequenceRequest {
     /// The growth parameter file, the output pattern (a run of '#' for the
     /// frame number), voxel size (default: 512 voxels across the last

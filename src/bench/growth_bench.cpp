@@ -24,6 +24,9 @@ namespace cambium {
 void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
                     const GrowthBenchCallbacks& callbacks)
 {
+    // (a bad --fps-per-year was refused after the year table was printed)
+    if (req.fpsPerYear != 0.0)
+        checkFpsPerYear(req.fpsPerYear);
     std::vector<int> years = req.years;
     std::sort(years.begin(), years.end());
     auto t0 = Clock::now();
