@@ -303,6 +303,35 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
     }
 }
 
+/// The first voxel, in the tree's order, of a float or colour grid read
+/// whole whose value is not finite, named (as LeafDecoder names it).
+void checkFiniteLeaves(openvdb::GridBase& base, const std::string& path)
+{
+    base.apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& grid) {
+        using LeafT = typename std::decay_t<decltype(grid)>::TreeType::LeafNodeType;
+        std::vector<const LeafT*> leaves;
+        for (auto it = grid.tree().cbeginLeaf(); it; ++it)
+            leaves.push_back(it.getLeaf());
+        std::atomic<size_t> first{leaves.size()};
+        tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) {
+            const auto* v = leaves[i]->buffer().data();
+            for (size_t k = 0; k < LeafT::SIZE; ++k)
+                if (!finite(v[k])) {
+                    size_t seen = first.load();
+                    while (i < seen && !first.compare_exchange_weak(seen, i))
+                        ;
+                    return;
+                }
+        });
+        if (first < leaves.size())
+            for (auto v = leaves[first]->cbeginValueAll(); v; ++v)
+                if (!finite(*v))
+                    throw InputError(
+                        fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number",
+                                    path, grid.getName(), coordText(v.getCoord())));
+    });
+}
+
 }  // namespace
 
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
@@ -314,6 +343,17 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
             grid = &g;
     if (!grid)
         throw InputError(fmt::format("{}: no grid named '{}'", path, name));
+    // Another program's file is read by OpenVDB whole, in one pass: a
+    // delayed read trusts the grid's delayed-load metadata (a mask byte for
+    // each leaf), which nothing vouches for there (a byte changed in a
+    // foreign file's topology, a leaf more than the metadata counts, aborted
+    // mesh on OpenVDB's assertion `index < mMask.size()`); cambium's own
+    // files carry a checksum, verified before this.
+    if (summary.checksumEnd == 0) {
+        openvdb::GridBase::Ptr whole = readWithOpenVdb(path, name, false);
+        checkFiniteLeaves(*whole, path);
+        return whole;
+    }
     if (!grid->instanceOf.empty())
         return readWithOpenVdb(path, name, lazy);
     // The topology, each leaf's values left in the file.
@@ -329,7 +369,9 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
             return g;
     } catch (const NotParallel&) {
     }
-    return readWithOpenVdb(path, name, false);
+    openvdb::GridBase::Ptr whole = readWithOpenVdb(path, name, false);
+    checkFiniteLeaves(*whole, path);
+    return whole;
 }
 
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy)
