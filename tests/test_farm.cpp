@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -543,4 +544,34 @@ TEST(FarmArray, ACacheThatHoldsTheFarmIsNotCopiedIntoIt)
     EXPECT_LT(entries, 40u) << "the cache was copied into itself";
     EXPECT_TRUE(fs::exists(cache / "out" / "s.frames.vdb.farm" / "plan.json"));
     EXPECT_FALSE(fs::exists(cache / "out" / "s.frames.vdb.farm" / "cache" / "pocl" / "out"));
+}
+
+TEST(FarmArray, ASlurmThatDoesNotAnswerIsStoppedAndNamed)
+{
+    // A hung sbatch held `bake --slurm` silently for ever; each Slurm
+    // command now has a time limit (two minutes; a test sets one second).
+    namespace fs = std::filesystem;
+    const fs::path dir = cambium::test::freshDir("cambium_farm_hung");
+    const fs::path bin = dir / "bin";
+    fs::create_directories(bin);
+    for (const auto& [name, body] :
+         {std::pair{"sinfo", "echo 2 4000"}, std::pair{"sbatch", "sleep 30; echo 4242"}}) {
+        std::ofstream(bin / name) << "#!/bin/sh\n" << body << "\n";
+        fs::permissions(bin / name, fs::perms::owner_all);
+    }
+    const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "/usr/bin:/bin";
+    ::setenv("PATH", (bin.string() + ":" + path).c_str(), 1);
+    ::setenv("CAMBIUM_SLURM_SECONDS", "1", 1);
+    const auto start = std::chrono::steady_clock::now();
+    const auto r =
+        cambium::test::run("bake " + kPopulus + " --frames 1-2 --voxel-size 0.05 --slurm -o " +
+                           (dir / "s.####.vdb").string());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ::setenv("PATH", path.c_str(), 1);
+    ::unsetenv("CAMBIUM_SLURM_SECONDS");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("sbatch did not answer in 1 s and was stopped"), std::string::npos)
+        << r.err;
+    EXPECT_LT(seconds, 25.0) << "the hung sbatch was waited for";
 }

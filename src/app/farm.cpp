@@ -23,6 +23,7 @@
 #include <cctype>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -40,20 +41,31 @@ namespace {
 
 /// A shell command's standard output, standard error and exit status, kept
 /// apart: what is parsed is the output alone (a site's submit plugin or a
-/// warning writes to standard error).
+/// warning writes to standard error).  A command that does not end within
+/// two minutes is stopped, its status 124 and its standard error saying so
+/// (a hung sbatch held `bake --slurm` silently for ever).
 struct Output {
     std::string text, err;
     int status = -1;
 };
+/// (CAMBIUM_SLURM_SECONDS sets another limit: a test's, or a slow site's.)
+int slurmSeconds()
+{
+    const char* env = std::getenv("CAMBIUM_SLURM_SECONDS");
+    const int given = env ? std::atoi(env) : 0;
+    return given > 0 ? given : 120;
+}
 Output capture(const std::string& command)
 {
+    const int seconds = slurmSeconds();
     Output out;
     std::string errPath = (fs::temp_directory_path() / "cambium-farm-XXXXXX").string();
     const int fd = ::mkstemp(errPath.data());
     if (fd < 0)
         throw std::runtime_error("cannot make a temporary file for " + command);
     ::close(fd);
-    FILE* p = ::popen((command + " 2>" + shellQuote(errPath)).c_str(), "r");
+    FILE* p = ::popen(
+        fmt::format("timeout -k 5 {} {} 2>{}", seconds, command, shellQuote(errPath)).c_str(), "r");
     if (p) {
         char buf[4096];
         size_t n;
@@ -65,6 +77,8 @@ Output capture(const std::string& command)
     std::ifstream in(errPath);
     out.err.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
     ::unlink(errPath.c_str());
+    if (out.status == 124 || out.status == 137)
+        out.err += fmt::format(" (it did not answer in {} s and was stopped)", seconds);
     return out;
 }
 
@@ -145,6 +159,11 @@ std::string sbatch(const std::string& script, const std::vector<std::string>& ar
     }
     while (!id.empty() && id.back() == '\r')
         id.pop_back();
+    if (sub.status == 124 || sub.status == 137)
+        throw std::runtime_error(fmt::format(
+            "sbatch did not answer in {} s and was stopped ({}; squeue tells whether it was "
+            "submitted)",
+            slurmSeconds(), script));
     if (sub.status != 0 || id.empty() || !std::isdigit((unsigned char)id.front()))
         throw std::runtime_error("sbatch refused " + script + ": " + sub.err + sub.text);
     return id.substr(0, id.find(';'));
