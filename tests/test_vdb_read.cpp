@@ -85,6 +85,23 @@ void expectReadsAsOpenVdb(const std::string& path, const std::string& what)
     }
 }
 
+/// A level-set sphere of radius 1 named "surface", written by OpenVDB's
+/// io::File (no cambium checksum: another program's file) as `file` in a
+/// fresh directory `dir`; its path.
+std::string writeForeignSphere(const std::string& dir, const std::string& file,
+                               const openvdb::Vec3f& centre, float voxelSize)
+{
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, centre, voxelSize);
+    sphere->setName("surface");
+    const std::string path = freshDir(dir).string() + "/" + file;
+    openvdb::io::File f(path);
+    f.write({sphere});
+    f.close();
+    return path;
+}
+
 }  // namespace
 
 TEST(VdbRead, CambiumsOwnFilesReadAsOpenVdbReadsThem)
@@ -179,15 +196,8 @@ TEST(VdbRead, AForeignFileIsReadWholeAsOpenVdbReadsIt)
     // read trusts its delayed-load metadata, which nothing vouches for.
     // (1) The first leaf's value mask changed in its value block: read as
     // OpenVDB reads it (the buffer's mask), not named as damage.
-    openvdb::initialize();
-    openvdb::FloatGrid::Ptr sphere =
-        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
-    sphere->setName("surface");
-    const std::string path = freshDir("cambium_vdb_read_damaged").string() + "/d.vdb";
-    {
-        openvdb::io::File f(path);
-        f.write({sphere});
-    }
+    const std::string path =
+        writeForeignSphere("cambium_vdb_read_damaged", "d.vdb", openvdb::Vec3f(0.0f), 0.05f);
     const VdbSummary s = inspectVdb(path);
     ASSERT_EQ(s.grids.size(), 1u);
     {
@@ -221,15 +231,8 @@ TEST(VdbRead, ARootClaimingMoreNodesThanItsTreeHoldsIsNamed)
     // OpenVDB makes each node its root claims before reading it: a changed
     // byte of a foreign 1.2 MB file claimed 58,000 children, 16 GB made
     // before the read failed (and the unwinding aborted).
-    openvdb::initialize();
-    openvdb::FloatGrid::Ptr sphere =
-        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
-    sphere->setName("surface");
-    const std::string path = freshDir("cambium_vdb_read_root").string() + "/r.vdb";
-    {
-        openvdb::io::File f(path);
-        f.write({sphere});
-    }
+    const std::string path =
+        writeForeignSphere("cambium_vdb_read_root", "r.vdb", openvdb::Vec3f(0.0f), 0.05f);
     EXPECT_NO_THROW(inspectVdb(path));
     std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(io)), {});
@@ -257,15 +260,8 @@ TEST(VdbRead, ATransformWhoseScaleIsNotItsVoxelSizeIsNamed)
     // A uniform scale map stores its scale and its voxel size apart, and
     // OpenVDB reads both as they are: a scale of 3.6e307 under a stored 0.2
     // passed as 0.2 voxels and meshed to vertices at -inf, exit 0.
-    openvdb::initialize();
-    openvdb::FloatGrid::Ptr sphere =
-        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.2f);
-    sphere->setName("surface");
-    const std::string path = freshDir("cambium_vdb_read_map").string() + "/m.vdb";
-    {
-        openvdb::io::File f(path);
-        f.write({sphere});
-    }
+    const std::string path =
+        writeForeignSphere("cambium_vdb_read_map", "m.vdb", openvdb::Vec3f(0.0f), 0.2f);
     EXPECT_NO_THROW(readLevelSet(path));
     std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(io)), {});
@@ -285,15 +281,8 @@ TEST(VdbRead, ALevelSetBeyondFloatPrecisionIsRefused)
 {
     // Meshes and pictures hold positions as floats: a sphere 1e7 from the
     // origin meshed with exit 0 to vertices on three x values.
-    openvdb::initialize();
-    openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
-        1.0f, openvdb::Vec3f(1e7f, 0.0f, 0.0f), 0.05f);
-    sphere->setName("surface");
-    const std::string path = freshDir("cambium_vdb_read_far").string() + "/far.vdb";
-    {
-        openvdb::io::File f(path);
-        f.write({sphere});
-    }
+    const std::string path = writeForeignSphere("cambium_vdb_read_far", "far.vdb",
+                                                openvdb::Vec3f(1e7f, 0.0f, 0.0f), 0.05f);
     expectInputError([&] { readLevelSet(path); },
                      "grid 'surface' reaches 1e+07 from the origin, 2e+08 voxels of 0.05: beyond "
                      "1048576 voxels",

@@ -80,6 +80,36 @@ std::string coordText(const openvdb::Coord& c)
     return fmt::format("({}, {}, {})", c.x(), c.y(), c.z());
 }
 
+/// Whether any of a leaf's SIZE values is not finite.
+template <class ValueT>
+bool anyNonFinite(const ValueT* values, size_t count)
+{
+    for (size_t k = 0; k < count; ++k)
+        if (!finite(values[k]))
+            return true;
+    return false;
+}
+
+/// `first` lowered to `index` (leaves found in parallel: the first in the
+/// tree's order is named).
+void lowerTo(std::atomic<size_t>& first, size_t index)
+{
+    size_t seen = first.load();
+    while (index < seen && !first.compare_exchange_weak(seen, index))
+        ;
+}
+
+/// InputError naming the first voxel of `leaf` whose value is not finite.
+template <class LeafT>
+void nameNonFinite(const LeafT& leaf, const std::string& path, const std::string& grid)
+{
+    for (auto v = leaf.cbeginValueAll(); v; ++v)
+        if (!finite(*v))
+            throw InputError(
+                fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number", path,
+                            grid, coordText(v.getCoord())));
+}
+
 /// A file read with pread, closed with its owner.
 class ReadFile {
 public:
@@ -146,11 +176,7 @@ public:
             throw NotParallel{};
         decode(f);
         if (const size_t bad = firstNonFinite_.load(); bad < leaves_.size())
-            for (auto v = leaves_[bad]->cbeginValueAll(); v; ++v)
-                if (!finite(*v))
-                    throw InputError(
-                        fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number",
-                                    path, grid.name, coordText(v.getCoord())));
+            nameNonFinite(*leaves_[bad], path, grid.name);
     }
 
 private:
@@ -263,14 +289,8 @@ private:
                     fmt::format("{}: a damaged .vdb file: grid '{}' has a leaf whose "
                                 "values cannot be decoded",
                                 owner.path_, owner.grid_.name));
-            for (size_t k = 0; k < LeafT::SIZE; ++k)
-                if (!finite(values.data()[k])) {  // (the first in the tree's order is named)
-                    size_t seen = owner.firstNonFinite_.load();
-                    while (index < seen &&
-                           !owner.firstNonFinite_.compare_exchange_weak(seen, index))
-                        ;
-                    break;
-                }
+            if (anyNonFinite(values.data(), LeafT::SIZE))
+                lowerTo(owner.firstNonFinite_, index);
             leaf.swap(values);  // (the leaf's delayed-load record goes with `values`)
         }
         const LeafDecoder& owner;
@@ -314,21 +334,11 @@ void checkFiniteLeaves(openvdb::GridBase& base, const std::string& path)
             leaves.push_back(it.getLeaf());
         std::atomic<size_t> first{leaves.size()};
         tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) {
-            const auto* v = leaves[i]->buffer().data();
-            for (size_t k = 0; k < LeafT::SIZE; ++k)
-                if (!finite(v[k])) {
-                    size_t seen = first.load();
-                    while (i < seen && !first.compare_exchange_weak(seen, i))
-                        ;
-                    return;
-                }
+            if (anyNonFinite(leaves[i]->buffer().data(), LeafT::SIZE))
+                lowerTo(first, i);
         });
         if (first < leaves.size())
-            for (auto v = leaves[first]->cbeginValueAll(); v; ++v)
-                if (!finite(*v))
-                    throw InputError(
-                        fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number",
-                                    path, grid.getName(), coordText(v.getCoord())));
+            nameNonFinite(*leaves[first], path, grid.getName());
     });
 }
 
