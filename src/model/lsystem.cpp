@@ -869,6 +869,12 @@ public:
         std::vector<const Production*> applicable;
         std::vector<std::vector<double>> bindings;
         for (size_t i = 0; i < s.size(); ++i) {
+            // The step's memory as it grows, whichever way each module
+            // goes: the modules' parameters are held too (--max-modules
+            // counts modules; 600 parameters each reached 8 GB under the
+            // limit, then ran out of memory).
+            if ((i & 4095) == 4095)
+                checkStepMemory(stepNo, total, held + made);
             applicable.clear();
             bindings.clear();
             for (const Production& p : sys_.productions) {
@@ -921,12 +927,8 @@ public:
                 made += double(t.args.size()) * sizeof(double) + kModuleBytes;
             chosen[i] = {chosenProduction, std::move(bindings[pick])};
             total += chosenProduction->successor.size();
-            // The step's memory as it grows: the modules' parameters are
-            // held too (--max-modules counts modules; 600 parameters each
-            // reached 8 GB under the limit, then ran out of memory).
-            if ((i & 4095) == 0 || i + 1 == s.size())
-                checkStepMemory(stepNo, total, held + made);
         }
+        checkStepMemory(stepNo, total, held + made);
         if (total > maxModules)
             throw InputError(fmt::format(
                 "{}: derivation step {} would make {} modules, more than the limit of {} "
