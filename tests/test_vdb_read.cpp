@@ -255,6 +255,189 @@ TEST(VdbRead, ARootClaimingMoreNodesThanItsTreeHoldsIsNamed)
                      "a root of 58,376 children");
 }
 
+namespace {
+
+/// A grid of type GridT with an active tile and one voxel under `xform`,
+/// written by io::File to `path`; the root's child count at `offset` (after
+/// the map's type: its values, the buffer count, the background and the
+/// tile count) changed to 58376, the damaged file's message.
+template <class GridT>
+std::string rootClaimMessage(const std::string& path, openvdb::math::Transform::Ptr xform,
+                             const std::string& mapName, size_t mapBytes)
+{
+    using ValueT = typename GridT::ValueType;
+    typename GridT::Ptr g = GridT::create();
+    g->setName("g");
+    g->setTransform(xform);
+    g->tree().addTile(3, openvdb::Coord(4096), ValueT(), true);
+    g->tree().setValueOn(openvdb::Coord(1, 2, 3));
+    openvdb::io::File f(path);
+    f.write({g});
+    f.close();
+    EXPECT_NO_THROW(inspectVdb(path)) << path;
+    std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(io)), {});
+    const size_t map = bytes.find(mapName);
+    EXPECT_NE(map, std::string::npos);
+    const size_t children = map + mapName.size() + mapBytes + 4 + sizeof(ValueT) + 4;
+    uint32_t count = 0;
+    std::memcpy(&count, bytes.data() + children, 4);
+    EXPECT_EQ(count, 1u) << path;
+    count = 58376;
+    io.seekp(std::streamoff(children));
+    io.write(reinterpret_cast<const char*>(&count), 4);
+    io.close();
+    try {
+        inspectVdb(path);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "(read)";
+}
+
+}  // namespace
+
+TEST(VdbRead, EveryTreeTypeUnderEveryMapHasItsRootClaimChecked)
+{
+    // The check knew the sizes of linear maps only: under a frustum map the
+    // 58,376-child claim went on to abort (sweep 10).
+    openvdb::initialize();
+    const std::string dir = freshDir("cambium_vdb_read_roots").string();
+    const std::string claim = "a damaged .vdb file: grid 'g' claims 1 tiles and 58376 nodes";
+    int n = 0;
+    for (bool frustum : {false, true}) {
+        auto xform = [&] {
+            return frustum ? openvdb::math::Transform::createFrustumTransform(
+                                 openvdb::BBoxd(openvdb::Vec3d(0.0), openvdb::Vec3d(100.0)), 0.5,
+                                 2.0, 0.1)
+                           : openvdb::math::Transform::createLinearTransform(0.1);
+        };
+        // (A frustum's box, taper and depth, then its affine map by name.)
+        const std::string mapName = frustum ? "AffineMap" : "UniformScaleMap";
+        const size_t mapBytes = frustum ? 128 : 120;
+        auto path = [&] { return dir + "/" + std::to_string(n++) + ".vdb"; };
+        const std::vector<std::string> messages = {
+            rootClaimMessage<openvdb::FloatGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::DoubleGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::Int32Grid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::Int64Grid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::BoolGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::MaskGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::Vec3SGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::Vec3DGrid>(path(), xform(), mapName, mapBytes),
+            rootClaimMessage<openvdb::Vec3IGrid>(path(), xform(), mapName, mapBytes)};
+        for (const std::string& m : messages)
+            EXPECT_NE(m.find(claim), std::string::npos) << m;
+    }
+}
+
+TEST(VdbRead, AColourGridOnAnotherOrAnUnusableTransformIsNamedByEveryReader)
+{
+    // The CPU render read Cd apart from the level set, unchecked: colours at
+    // voxels of 0.034 painted onto a surface at 0.05, exit 0; and OpenVDB's
+    // transform comparison takes NaN for any number, so a Cd whose matrix
+    // was all NaN passed everywhere (sweep 10).
+    openvdb::initialize();
+    const std::string dir = freshDir("cambium_vdb_read_cd").string();
+    auto write = [&](const std::string& file, double cdVoxel, bool nan) {
+        openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+            1.0f, openvdb::Vec3f(0.0f), 0.05f);
+        sphere->setName("surface");
+        openvdb::Vec3fGrid::Ptr colour = openvdb::Vec3fGrid::create(openvdb::Vec3f(0.0f));
+        colour->setName("Cd");
+        colour->setTransform(openvdb::math::Transform::createLinearTransform(cdVoxel));
+        colour->tree().setValueOn(openvdb::Coord(20, 0, 0), openvdb::Vec3f(1.0f, 0.0f, 0.0f));
+        const std::string path = dir + "/" + file;
+        openvdb::io::File f(path);
+        f.write({sphere, colour});
+        f.close();
+        if (nan) {
+            // The second map's 15 values (after its name) all NaN.
+            std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+            const std::string bytes((std::istreambuf_iterator<char>(io)), {});
+            const size_t map = bytes.find("UniformScaleMap", bytes.find("UniformScaleMap") + 1);
+            EXPECT_NE(map, std::string::npos);
+            io.seekp(std::streamoff(map + 15));
+            const double q = std::numeric_limits<double>::quiet_NaN();
+            for (int i = 0; i < 15; ++i)
+                io.write(reinterpret_cast<const char*>(&q), sizeof q);
+        }
+        return path;
+    };
+    const std::string same = write("same.vdb", 0.05, false);
+    const LevelSetGrids ok = readLevelSet(same);
+    ASSERT_TRUE(ok.color);
+    EXPECT_TRUE(readColourGrid(same, *ok.surface, true));
+    const std::string otherFile = write("other.vdb", 0.0344828, false);
+    const std::string nan = write("nan.vdb", 0.05, true);
+    const std::string other =
+        "grid 'Cd' has another transform than grid 'surface' (voxels of "
+        "0.0344828, not 0.05; row 0, column 0 of its matrix 0.0344828, "
+        "not 0.05)";
+    expectInputError([&] { readLevelSet(otherFile); }, other, "readLevelSet, another voxel size");
+    expectInputError([&] { readColourGrid(otherFile, *ok.surface, true); }, other,
+                     "readColourGrid, another voxel size");
+    const std::string unusable = "grid 'Cd' has a transform OpenVDB cannot use";
+    expectInputError([&] { readLevelSet(nan); }, unusable, "readLevelSet, a NaN matrix");
+    expectInputError([&] { readColourGrid(nan, *ok.surface, true); }, unusable,
+                     "readColourGrid, a NaN matrix");
+}
+
+TEST(VdbRead, AFrustumLevelSetAndAMapWhoseInverseDoesNotUndoItAreNamed)
+{
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.1f);
+    sphere->setName("surface");
+    sphere->setTransform(openvdb::math::Transform::createFrustumTransform(
+        openvdb::BBoxd(openvdb::Vec3d(-20.0), openvdb::Vec3d(20.0)), 0.5, 2.0, 0.1));
+    const std::string dir = freshDir("cambium_vdb_read_maps").string();
+    openvdb::io::File f(dir + "/frustum.vdb");
+    f.write({sphere});
+    f.close();
+    expectInputError([&] { readLevelSet(dir + "/frustum.vdb"); },
+                     "grid 'surface' has a NonlinearFrustumMap transform: not a usable level set",
+                     "a frustum");
+    // A uniform scale map stores its scale, voxel size and inverse apart:
+    // the inverse's x doubled moves every world point's index.
+    const std::string path =
+        writeForeignSphere("cambium_vdb_read_inverse", "i.vdb", openvdb::Vec3f(0.0f), 0.1f);
+    EXPECT_NO_THROW(readLevelSet(path));
+    std::fstream io(path, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(io)), {});
+    const size_t map = bytes.find("UniformScaleMap");
+    ASSERT_NE(map, std::string::npos);
+    const double inverse = 20.0;  // (1 / 0.1, doubled)
+    io.seekp(std::streamoff(map + 15 + 48));
+    io.write(reinterpret_cast<const char*>(&inverse), sizeof inverse);
+    io.close();
+    expectInputError([&] { readLevelSet(path); },
+                     "grid 'surface' has a transform whose stored inverse does not undo it",
+                     "a damaged inverse");
+}
+
+TEST(VdbRead, ABandWithoutAZeroCrossingIsNamed)
+{
+    // A foreign band of values all on one side meshed to nothing and drew an
+    // empty picture, exit 0 (sweep 10).
+    openvdb::initialize();
+    const std::string dir = freshDir("cambium_vdb_read_crossing").string();
+    for (float sign : {1.0f, -1.0f}) {
+        openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+            1.0f, openvdb::Vec3f(0.0f), 0.1f);
+        sphere->setName("surface");
+        for (auto v = sphere->tree().beginValueOn(); v; ++v)
+            v.setValue(sign * (std::abs(*v) + 0.01f));
+        const std::string path = dir + (sign > 0.0f ? "/out.vdb" : "/in.vdb");
+        openvdb::io::File f(path);
+        f.write({sphere});
+        f.close();
+        expectInputError(
+            [&] { readLevelSet(path); },
+            fmt::format("active voxels, every one {}", sign > 0.0f ? "outside" : "inside"), path);
+    }
+}
+
 TEST(VdbRead, ATransformWhoseScaleIsNotItsVoxelSizeIsNamed)
 {
     // A uniform scale map stores its scale and its voxel size apart, and

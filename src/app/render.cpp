@@ -124,12 +124,15 @@ int runRenderCommand(RenderRequest req)
                                            req.height, req.spp);
                     how = "Embree on the volumeToMesh triangles, meshing included";
                 } else if (device == Device::Cpu) {
+                    // (its transform and name, to check the colours' against)
+                    const openvdb::FloatGrid::Ptr frame =
+                        openvdb::gridPtrCast<openvdb::FloatGrid>(f.surface->copyGridWithNewTree());
                     img = renderLevelSetCpu(
                         std::move(f.surface),
                         [&] {
                             // (the picture's writer loads while the colours are found)
                             preloadImageCodec();
-                            return readColourGrid(in, /*lazy=*/true);
+                            return readColourGrid(in, *frame, /*lazy=*/true);
                         },
                         cam, req.width, req.height, req.spp);
                     how = "OpenVDB's level-set ray intersector";

@@ -116,8 +116,11 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = 
                              bool tile = false);
 
 /// The `Cd` grid of a file readLevelSet has read (null when it has none),
-/// `lazy` as readVdbGrid's: a render's colour, read once its level set is gone.
-openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy);
+/// `lazy` as readVdbGrid's: a render's colour, read once its level set is
+/// gone.  InputError unless its transform is `surface`'s (as readLevelSet
+/// checks; `surface` may be an empty grid of the same transform and name).
+openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
+                                       bool lazy);
 
 /// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
 /// checked by the caller), equal voxel for voxel to what OpenVDB's io::File

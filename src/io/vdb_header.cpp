@@ -94,37 +94,66 @@ private:
     std::ifstream in_;
 };
 
-/// The counts of a grid's root node, from the start of its transform's
-/// values (after the map's type): OpenVDB makes a node for each it claims
-/// before it reads the node, whatever is left of the file (a changed byte of
-/// a 1.2 MB file's root claimed 58,000 children: 16 GB made before the read
-/// failed, and the unwinding aborted).  Each tile and child must fit in what
-/// is left of the grid's topology, before `block`.  Checked for the tree
-/// types and transforms whose sizes are known (the others are left to
-/// OpenVDB).
-void checkRootCounts(VdbReader& r, const VdbSummary::Grid& g, const std::string& map,
-                     uint64_t block)
+/// The longest name or type string read from a .vdb's framing, and the
+/// longest string metadata value kept.
+constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
+
+/// Moves past a transform's values, after its map's type; false where the
+/// map's size is unknown (OpenVDB refuses a map it has not registered).
+bool skipMap(VdbReader& r, const std::string& map, uint64_t block, const std::string& grid)
 {
     static const std::map<std::string, uint64_t> mapBytes = {
         {"UniformScaleMap", 120},   {"ScaleMap", 120},      {"UniformScaleTranslateMap", 144},
         {"ScaleTranslateMap", 144}, {"TranslationMap", 24}, {"AffineMap", 128},
         {"UnitaryMap", 128}};
+    uint64_t bytes = 0;
+    if (map == "NonlinearFrustumMap") {
+        // Its box (two vec3d), taper and depth, then the linear map it
+        // composes with, by type.
+        if (r.at() + 64 + 4 > block)
+            r.damaged(fmt::format("grid '{}' has no room for its transform", grid));
+        r.skip(64, "frustum");
+        const std::string inner = r.string("frustum's map type", kNameLimit);
+        const auto m = mapBytes.find(inner);
+        if (m == mapBytes.end())
+            return false;
+        bytes = m->second;
+    } else if (const auto m = mapBytes.find(map); m != mapBytes.end()) {
+        bytes = m->second;
+    } else {
+        return false;
+    }
+    if (r.at() + bytes > block)
+        r.damaged(fmt::format("grid '{}' has no room for its transform", grid));
+    r.skip(bytes, "transform");
+    return true;
+}
+
+/// The counts of a grid's root node, from the start of its transform's
+/// values (after the map's type): OpenVDB makes a node for each it claims
+/// before it reads the node, whatever is left of the file (a changed byte of
+/// a 1.2 MB file's root claimed 58,000 children: 16 GB made before the read
+/// failed, and the unwinding aborted).  Each tile and child must fit in what
+/// is left of the grid's topology, before `block`.  Checked for every map
+/// OpenVDB registers and every tree type it reads (the others it refuses).
+void checkRootCounts(VdbReader& r, const VdbSummary::Grid& g, const std::string& map,
+                     uint64_t block)
+{
     static const std::map<std::string, uint64_t> valueBytes = {
-        {"float", 4}, {"double", 8}, {"int32", 4},  {"int64", 8},
-        {"bool", 1},  {"vec3s", 12}, {"vec3d", 24}, {"vec3i", 12}};
-    const auto m = mapBytes.find(map);
+        {"float", 4},  {"double", 8}, {"int32", 4},  {"int64", 8},   {"bool", 1},       {"mask", 1},
+        {"vec3s", 12}, {"vec3d", 24}, {"vec3i", 12}, {"ptidx32", 4}, {"ptdataidx32", 4}};
     const std::string prefix = "Tree_", suffix = "_5_4_3";
     const size_t at = g.type.find(suffix);
-    if (m == mapBytes.end() || g.type.rfind(prefix, 0) != 0 || at == std::string::npos)
+    if (g.type.rfind(prefix, 0) != 0 || at == std::string::npos)
         return;
     const auto v = valueBytes.find(g.type.substr(prefix.size(), at - prefix.size()));
-    if (v == valueBytes.end())
+    if (v == valueBytes.end() || !skipMap(r, map, block, g.name))
         return;
-    // The map's values, the tree's buffer count, the root's background.
-    const uint64_t header = m->second + 4 + v->second;
+    // The tree's buffer count, the root's background.
+    const uint64_t header = 4 + v->second;
     if (r.at() + header + 8 > block)
         r.damaged(fmt::format("grid '{}' has no room for its tree", g.name));
-    r.skip(header, "transform and background");
+    r.skip(header, "buffer count and background");
     const uint64_t tiles = r.value<uint32_t>("root tile count");
     const uint64_t children = r.value<uint32_t>("root child count");
     // A tile: its origin, value and active flag; a child: its origin and at
@@ -159,7 +188,6 @@ VdbSummary inspectVdb(const std::string& path)
                         path));
     r.skip(36, "UUID");
 
-    constexpr uint32_t kNameLimit = 1 << 12, kValueLimit = 1 << 16;
     // A metadata block (the file's, or a grid's ending by `end`): every
     // entry's name, type and value within it; string values kept.
     auto metadata = [&](uint64_t end, std::map<std::string, std::string>* strings,

@@ -317,6 +317,9 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
         file.open(delayed);
         openvdb::GridBase::Ptr g = file.readGrid(grid);
         file.close();
+        // Named as the file indexes it: a grid's own name metadata may say
+        // otherwise (a Cd stored as 'grad_sphere' was named so in messages).
+        g->setName(grid);
         return g;
     } catch (const std::exception& e) {
         throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
@@ -384,17 +387,6 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     return whole;
 }
 
-openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, bool lazy)
-{
-    const VdbSummary summary = inspectVdb(path);
-    verifyVdbChecksum(path, summary);  // (as readGrids: before OpenVDB reads)
-    for (const VdbSummary::Grid& g : summary.grids)
-        if (g.name == kColorGrid)
-            return openvdb::gridPtrCast<openvdb::Vec3fGrid>(
-                readVdbGrid(path, summary, kColorGrid, lazy));
-    return nullptr;
-}
-
 namespace {
 
 /// What OpenVDB's tools take for granted of a level set, checked when it is
@@ -406,18 +398,22 @@ namespace {
 ///   as they are decoded);
 /// - active tiles (a few bytes in a file) that fit in memory as voxels, for
 ///   whatever meshes, resamples or converts the grid makes them voxels.
-void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
+/// A grid's transform checked usable, as OpenVDB reads it (each of a map's
+/// scale, voxel size and inverse is stored, and read as it is): linear, a
+/// matrix of numbers, each axis as long as the stored voxel size, and an
+/// inverse that undoes it.  Its matrix.
+openvdb::Mat4d checkTransform(const openvdb::GridBase& grid, const std::string& path)
 {
-    const openvdb::Vec3d v = grid.voxelSize();
-    // A voxel of no size, a mirrored or a sheared one, or one beyond what
-    // --voxel-size allows (volumeToMesh crashed on a voxel size of 0 and
-    // wrote infinities for 1e300; a mirrored grid meshed inside out).
-    const double det = grid.transform().baseMap()->determinant();
+    const openvdb::math::MapBase& map = *grid.transform().baseMap();
+    if (!map.isLinear())
+        throw InputError(fmt::format(
+            "{}: grid '{}' has a {} transform: not a usable level set (its voxels are not cubes)",
+            path, grid.getName(), map.type()));
     // (a NaN in the translation left the voxel size and determinant as they
     // were: meshed with exit 0, every vertex at -inf)
     openvdb::Mat4d m;
     try {
-        m = grid.transform().baseMap()->getAffineMap()->getMat4();
+        m = map.getAffineMap()->getMat4();
     } catch (const openvdb::Exception& e) {
         throw InputError(
             fmt::format("{}: grid '{}' has a transform OpenVDB cannot use ({}): not "
@@ -434,6 +430,7 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
     // The map's own voxel size is stored beside its scale, and read as it
     // is: the two must agree (a scale of 3.6e307 under a stored 0.2 passed
     // as 0.2 voxels and meshed to vertices at -inf, exit 0).
+    const openvdb::Vec3d v = grid.voxelSize();
     for (int k = 0; k < 3; ++k) {
         const double axis = std::hypot(m(k, 0), m(k, 1), m(k, 2));  // (no overflow)
         if (!(std::abs(axis - v[k]) <= 1e-6 * std::max(axis, v[k])))
@@ -442,6 +439,28 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                 "says {:g}: damaged, not a usable level set",
                 path, grid.getName(), "xyz"[k], axis, v[k]));
     }
+    // World to index goes through the stored inverse.
+    for (int k = 0; k < 4; ++k) {
+        const openvdb::Vec3d index(k == 1 ? 1000.0 : 0.0, k == 2 ? 1000.0 : 0.0,
+                                   k == 3 ? 1000.0 : 0.0);
+        const openvdb::Vec3d back = map.applyInverseMap(map.applyMap(index));
+        if (!((back - index).length() <= 1e-3))
+            throw InputError(fmt::format(
+                "{}: grid '{}' has a transform whose stored inverse does not undo it (index x {:g} "
+                "comes back as ({:g}, {:g}, {:g})): damaged, not a usable level set",
+                path, grid.getName(), index.x(), back.x(), back.y(), back.z()));
+    }
+    return m;
+}
+
+void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
+{
+    checkTransform(grid, path);
+    const openvdb::Vec3d v = grid.voxelSize();
+    // A voxel of no size, a mirrored or a sheared one, or one beyond what
+    // --voxel-size allows (volumeToMesh crashed on a voxel size of 0 and
+    // wrote infinities for 1e300; a mirrored grid meshed inside out).
+    const double det = grid.transform().baseMap()->determinant();
     if (!(v[0] >= 1e-9 && v[0] <= 1e9) || !std::isfinite(det) || !(det > 0.0))
         throw InputError(fmt::format(
             "{}: grid '{}' has voxels of {:g} x {:g} x {:g} (the transform's determinant "
@@ -494,6 +513,47 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                             path, grid.getName(), far, far / v[0], v[0], kMaxVoxelsFromOrigin,
                             kFloatPrecisionReason));
     }
+}
+
+/// A level set's surface: an active value inside (below zero) and one
+/// outside (zero or above), as volumeToMesh and the ray intersector find
+/// it (a foreign band of only positive values meshed to nothing and drew an
+/// empty picture, exit 0).  A real level set's first leaf has both.
+void checkZeroCrossing(const openvdb::FloatGrid& grid, const std::string& path)
+{
+    bool inside = false, outside = false;
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (auto v = grid.tree().cbeginValueOn(); v && !(inside && outside); ++v) {
+        lo = std::min(lo, *v);
+        hi = std::max(hi, *v);
+        inside = inside || *v < 0.0f;
+        outside = outside || *v >= 0.0f;
+    }
+    if ((inside || outside) && !(inside && outside))
+        throw InputError(fmt::format(
+            "{}: grid '{}' has {} active voxels, every one {} (values from {:g} to {:g}): no "
+            "zero crossing, no surface to see",
+            path, grid.getName(), grid.activeVoxelCount(), inside ? "inside" : "outside", lo, hi));
+}
+
+/// A colour grid's transform: usable, and the surface's, entry for entry
+/// (OpenVDB's transform comparison takes NaN for any number: a Cd whose
+/// matrix was all NaN passed as the surface's and painted nothing, exit 0).
+void checkColourTransform(const openvdb::Vec3fGrid& colour, const openvdb::FloatGrid& surface,
+                          const std::string& path)
+{
+    const openvdb::Mat4d c = checkTransform(colour, path);
+    const openvdb::Mat4d s = surface.transform().baseMap()->getAffineMap()->getMat4();
+    const double voxel = surface.voxelSize()[0];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            if (!(std::abs(c(i, j) - s(i, j)) <= 1e-6 * voxel))
+                throw InputError(fmt::format(
+                    "{}: grid '{}' has another transform than grid '{}' (voxels of {:g}, not "
+                    "{:g}; row {}, column {} of its matrix {:g}, not {:g}): its colours are not "
+                    "at the surface's voxels",
+                    path, colour.getName(), surface.getName(), colour.voxelSize()[0], voxel, i, j,
+                    c(i, j), s(i, j)));
 }
 
 }  // namespace
@@ -566,14 +626,14 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
                                      g->valueType(),
                                      openvdb::GridBase::gridClassToString(g->getGridClass())));
     checkLevelSet(*out.surface, path);
+    // (a tile's part of the band may lie on one side of the surface)
+    if (!tile)
+        checkZeroCrossing(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
-    if (out.color && out.color->transform() != out.surface->transform())
-        throw InputError(fmt::format(
-            "{}: grid '{}' has another transform than grid '{}' (voxels of {:g}, not {:g}): "
-            "its colours are not at the surface's voxels",
-            path, kColorGrid, grid, out.color->voxelSize()[0], out.surface->voxelSize()[0]));
+    if (out.color)
+        checkColourTransform(*out.color, *out.surface, path);
     return out;
 }
 
@@ -584,30 +644,43 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, Col
     return readGrids(path, grid, false, colour, /*tile=*/false);
 }
 
+openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
+                                       bool lazy)
+{
+    const VdbSummary summary = inspectVdb(path);
+    verifyVdbChecksum(path, summary);  // (as readGrids: before OpenVDB reads)
+    for (const VdbSummary::Grid& g : summary.grids)
+        if (g.name == kColorGrid) {
+            openvdb::Vec3fGrid::Ptr colour = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
+                readVdbGrid(path, summary, kColorGrid, lazy));
+            if (colour)
+                checkColourTransform(*colour, surface, path);
+            return colour;
+        }
+    return nullptr;
+}
+
 VdbDescription describeVdb(const std::string& path)
 {
     VdbDescription d;
     d.summary = inspectVdb(path);
-    openvdb::GridPtrVecPtr grids;
+    // Each grid's metadata by the name the file indexes it under, in the
+    // file's order (a grid's own name metadata may differ: looked up by it,
+    // such a file was refused as unreadable).
+    std::vector<openvdb::GridBase::Ptr> grids;
     try {
         openvdb::io::File file(path);
         file.setCopyMaxBytes(0);
         file.open(true);
-        grids = file.readAllGridMetadata();
+        for (const VdbSummary::Grid& s : d.summary.grids)
+            grids.push_back(file.readGridMetadata(s.name));
         file.close();
     } catch (const std::exception& e) {
         throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
     }
-    // (OpenVDB lists them by name; the file's order is the writer's)
-    std::map<std::string, const openvdb::GridBase*> byName;
-    for (const auto& g : *grids)
-        byName[g->getName()] = g.get();
-    for (const VdbSummary::Grid& s : d.summary.grids) {
-        const auto found = byName.find(s.name);
-        if (found == byName.end())
-            throw InputError(
-                fmt::format("{}: cannot read the metadata of its grid '{}'", path, s.name));
-        const openvdb::GridBase& g = *found->second;
+    for (size_t i = 0; i < grids.size(); ++i) {
+        const VdbSummary::Grid& s = d.summary.grids[i];
+        const openvdb::GridBase& g = *grids[i];
         VdbGridDescription out;
         out.name = s.name;
         out.valueType = g.valueType();
