@@ -125,7 +125,11 @@ constexpr const char* kByteUnits[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
 
 void checkMemoryFits(double bytes, const std::string& what, const std::string& remedy)
 {
-    const double have = availableMemoryBytes();
+    checkMemoryFits(bytes, availableMemoryBytes(), what, remedy);
+}
+
+void checkMemoryFits(double bytes, double have, const std::string& what, const std::string& remedy)
+{
     if (!(bytes <= have))
         throw InputError(fmt::format(
             "{} needs about {} of memory, and this machine has {} available{}", what,

@@ -29,6 +29,9 @@ double availableMemoryBytes();
 /// AVAILABLE available[: REMEDY]" unless `bytes` (an estimate; NaN fails)
 /// fits in availableMemoryBytes(): the one check before work that would not fit.
 void checkMemoryFits(double bytes, const std::string& what, const std::string& remedy = "");
+/// The same against `have` bytes, the room measured before the work began
+/// (for a total counted as it grows: the room now excludes what it holds).
+void checkMemoryFits(double bytes, double have, const std::string& what, const std::string& remedy);
 /// Peak resident memory of this process so far.
 double peakMemoryBytes();
 /// Seconds since this process started (the kernel's start time, to its

@@ -128,12 +128,32 @@ void GrowthModel::grow()
     branches_.push_back(std::move(trunk));
 
     // What the growth holds per internode, measured (about 190 bytes at 10
-    // million internodes), and as much again for what is made of it: the
+    // million internodes), and as much again for what is made of it; and
+    // beyond that, what its branches hold whatever their internodes (their
+    // vector, and the next it grows into, and each one's lengths): the
     // growth stops, with the numbers, before it would need more memory than
     // the machine has, whatever max_internodes (up to 10^9) allows.
+    // (Counted by internodes alone, a lateral at every bud made 10^7
+    // branches, 4.9 GB, and ran out of memory, exit 1.)
     constexpr double kBytesPerInternode = 400.0;
-    const double memoryInternodes = availableMemoryBytes() / kBytesPerInternode;
+    const double lengthBytes = 16.0 + 8.0 * (Y + 1);
+    const double room = availableMemoryBytes();
     long long internodes = 0;
+    auto checkMemory = [&](int order, int year) {
+        const double branch = sizeof(GrowthBranch), count = double(branches_.size()),
+                     capacity = double(branches_.capacity());
+        const double bytes = double(internodes) * kBytesPerInternode + capacity * branch +
+                             (count == capacity ? 2.0 * capacity * branch : 0.0) +
+                             count * lengthBytes;
+        if (bytes > room)
+            checkMemoryFits(
+                bytes, room,
+                fmt::format("{}: growing more than {} internodes in {} branches "
+                            "(reached at a branch of order {} in year {})",
+                            p_.source.empty() ? "the growth" : p_.source,
+                            formatCount(double(internodes)), formatCount(count), order, year),
+                "raise min_scale, lower Gss or Gm, or lower max_internodes");
+    };
     for (size_t bi = 0; bi < branches_.size(); ++bi) {
         {
             GrowthBranch& b = branches_[bi];
@@ -174,14 +194,7 @@ void GrowthModel::grow()
                                     : p_.name.empty()  ? "growth parameters"
                                                        : p_.name,
                                     p_.maxInternodes, b.order, y));
-                if (double(internodes) > memoryInternodes)
-                    checkMemoryFits(
-                        double(internodes) * kBytesPerInternode,
-                        fmt::format("{}: growing more than {} internodes (reached at a branch "
-                                    "of order {} in year {})",
-                                    p_.source.empty() ? "the growth" : p_.source,
-                                    formatCount(double(internodes)), b.order, y),
-                        "raise min_scale, lower Gss or Gm, or lower max_internodes");
+                checkMemory(b.order, y);
                 b.shoots.push_back(s);
             }
         }
@@ -219,6 +232,7 @@ void GrowthModel::grow()
                     c.length.push_back(std::max(ld, c.length.back() + p_.minShootLength));  // eq. 7
                 }
                 laterals.push_back(int(branches_.size()));
+                checkMemory(c.order, birth);
                 branches_.push_back(std::move(c));
             }
         branches_[bi].laterals = std::move(laterals);
