@@ -624,7 +624,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "reaches 7.031e+04 (3 voxels of 23437.5)"},
         // (written with exit 0 on two x values: floats 1e7 from the origin)
         {"shape IN/farshape.json -o OUT/out.obj",
-         "farshape.json: the shape's base lies 1e+07 from the origin and is 1 across"},
+         "farshape.json: the shape's base, 1 across (voxels of its 512th), reaches 1e+07 from the "
+         "origin, 5.12e+09 voxels of 0.00195312: beyond 1048576 voxels"},
         {"bake IN/heavy.json -o OUT/out.vdb",
          "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
         {"bake IN/type.json -o OUT/out.vdb",

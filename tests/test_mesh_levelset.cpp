@@ -206,6 +206,14 @@ TEST(MeshLevelSet, InwardFacesBakeTheSameAndBadPointsAreRefused)
     EXPECT_THROW(bakeMeshLevelSet(bad, opt, "bad"), InputError);
     bad.points[3].y() = 1e30f;
     EXPECT_THROW(bakeMeshLevelSet(bad, opt, "far"), InputError);
+    // 2^20 voxels out, less its band and a leaf's margin: floats an eighth
+    // of a voxel apart there.
+    bad.points[3].y() = float(0.05 * (double(1 << 20) - 3.0 - 16.0) + 0.01);
+    test::expectInputError([&] { bakeMeshLevelSet(bad, opt, "far"); },
+                           "far: point 3, with its band, reaches 5.243e+04 from the origin",
+                           "a point just past the float-precision bound");
+    bad.points[3].y() = float(0.05 * (double(1 << 20) - 3.0 - 16.0) - 0.01);
+    EXPECT_NO_THROW(checkMeshBake(bad, opt, "near"));
 }
 
 TEST(MeshLevelSet, ABandOfMoreLeavesThanFitIsRefusedWhileBinning)

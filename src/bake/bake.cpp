@@ -97,12 +97,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     checkHalfRange(req.half, h, req.halfWidth, req.input);
     // Positions in single precision a fraction of a voxel apart (and well
     // inside OpenVDB's 32-bit index space).
-    const double span = (far + req.halfWidth * h) / h;
-    if (!(span < kMaxVoxelsFromOrigin))
-        throw InputError(
-            fmt::format("{}: the surface reaches {:.4g} from the origin, {:.3g} "
-                        "voxels of {:g}: beyond {:.0f} voxels, {}",
-                        req.input, far, span, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
+    checkVoxelsFromOrigin(far + req.halfWidth * h, h, fmt::format("{}: the surface", req.input));
     // (A species file's bark photo, which the program does not tell, stops
     // the packing too: its frames need about 8 bytes a band voxel more.)
     plan.bytes = estimateBakeBytes(program, h, req.halfWidth, packs(req));

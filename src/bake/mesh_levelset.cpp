@@ -652,17 +652,14 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
                     fmt::format("{}: triangle {} uses point {} of {}", what, i, v, np));
     // Positions in single precision a fraction of a voxel apart (and index
     // coordinates well inside int and OpenVDB's index space).
-    const double far = kMaxVoxelsFromOrigin;
     for (size_t v = 0; v < np; ++v) {
         const openvdb::Vec3s& p = mesh.points[v];
         if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
             throw InputError(fmt::format("{}: point {} is not finite", what, v));
         const double r = double(std::max({std::fabs(p.x()), std::fabs(p.y()), std::fabs(p.z())}));
-        if (!(r / h + W + 16.0 < far))
-            throw InputError(
-                fmt::format("{}: point {} lies {:.3g} from the origin, {:.3g} voxels of "
-                            "{:g}: beyond {:.0f} voxels, {}",
-                            what, v, r, r / h, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
+        // (with the band and a leaf's margin)
+        checkVoxelsFromOrigin(r + (W + 16.0) * h, h,
+                              fmt::format("{}: point {}, with its band,", what, v));
     }
     // (a mesh a tiny fraction of a voxel across has index-space triangles
     // of no area in float: it was refused as "no triangles of any area")

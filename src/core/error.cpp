@@ -1,6 +1,8 @@
 // cambium — errors and input helpers.
 #include "core/error.h"
 
+#include "core/math.h"
+
 #include <fmt/format.h>
 
 #include <cerrno>
@@ -133,6 +135,15 @@ std::string readTextFile(const std::string& path, const char* what)
     if (text.rfind("\xEF\xBB\xBF", 0) == 0)
         text.erase(0, 3);
     return text;
+}
+
+void checkVoxelsFromOrigin(double far, double h, const std::string& what)
+{
+    if (!(far / h < kMaxVoxelsFromOrigin))
+        throw InputError(
+            fmt::format("{} reaches {:.4g} from the origin, {:.3g} voxels of {:g}: "
+                        "beyond {:.0f} voxels, {}",
+                        what, far, far / h, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
 }
 
 }  // namespace cambium

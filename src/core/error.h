@@ -43,6 +43,13 @@ private:
 size_t optionChoice(const std::string& value, const std::vector<std::string>& names,
                     const char* option);
 
+/// InputError "WHAT reaches FAR from the origin, N voxels of H: beyond
+/// 1048576 voxels, ..." unless `far` (a distance from the origin, in the
+/// model's units) is within kMaxVoxelsFromOrigin voxels of size `h`: the
+/// one float-precision bound of bakes, meshes baked to level sets, shape
+/// output and the level sets mesh and render read.
+void checkVoxelsFromOrigin(double far, double h, const std::string& what);
+
 /// `text` as a message may show it: each control character (a newline, an
 /// escape) written as \xHH, so that a line of output stays one line, and
 /// each bidirectional control as \u{HHHH}, so that it reads as written.

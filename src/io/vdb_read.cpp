@@ -505,13 +505,7 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                                                  (c & 4 ? active.max() : active.min()).z()));
             far = std::max({far, std::abs(p.x()), std::abs(p.y()), std::abs(p.z())});
         }
-        if (!(far / v[0] < kMaxVoxelsFromOrigin))
-            throw InputError(
-                fmt::format("{}: grid '{}' reaches {:.4g} from the origin, {:.3g} voxels of {:g}: "
-                            "beyond {:.0f} "
-                            "voxels, {}",
-                            path, grid.getName(), far, far / v[0], v[0], kMaxVoxelsFromOrigin,
-                            kFloatPrecisionReason));
+        checkVoxelsFromOrigin(far, v[0], fmt::format("{}: grid '{}'", path, grid.getName()));
     }
 }
 

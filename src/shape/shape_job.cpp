@@ -344,11 +344,10 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
         }
         const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
         const double h = std::max(extent / 512.0, kMinVoxelSize);
-        if (!(far / h < kMaxVoxelsFromOrigin))
-            throw InputError(fmt::format(
-                "{}: the shape's base lies {:.4g} from the origin and is {:.3g} across: beyond "
-                "{:.0f} of its 512ths, {}",
-                req.input, far, extent, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
+        checkVoxelsFromOrigin(
+            far, h,
+            fmt::format("{}: the shape's base, {:.3g} across (voxels of its 512th),", req.input,
+                        extent));
     }
     if (levelSet && req.voxelSize)
         checkBakeMemory(2.0 * surfaceArea(base.mesh), *req.voxelSize, req.halfWidth,
