@@ -20,6 +20,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <tuple>
 
 namespace {
 
@@ -272,18 +273,22 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
     // read, every field uninitialised (a 21-byte find of the photo fuzzer
     // was decoded with a channel count from the heap), sizes a palette from
     // its header and unpacks an RLE picture in open().
+    // (`masks`: the bytes after a 40-byte header, before any palette)
     auto bmp = [](uint32_t header, int32_t width, int32_t height, uint16_t bits,
-                  uint32_t compression, uint32_t colours, uint32_t pixelBytes) {
+                  uint32_t compression, uint32_t colours, uint32_t pixelBytes,
+                  const std::string& masks = "") {
         std::string b = "BM";
         auto put = [&](uint64_t v, int n) {
             for (int i = 0; i < n; ++i)
                 b.push_back(char(v >> (8 * i) & 0xff));
         };
-        const uint32_t palette =
-            bits <= 8 ? 4 * (colours ? std::min(colours, 256u) : 1u << bits) : 0;
-        put(14 + header + palette + pixelBytes, 4);
+        const uint32_t palette = 4 * (colours     ? std::min(colours, 256u)
+                                      : bits <= 8 ? 1u << bits
+                                                  : 0);
+        const uint32_t data = 14 + header + uint32_t(masks.size()) + palette;
+        put(data + pixelBytes, 4);
         put(0, 4);
-        put(14 + header + palette, 4);
+        put(data, 4);
         put(header, 4);
         put(uint32_t(width), 4);
         put(uint32_t(height), 4);
@@ -294,7 +299,7 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
         put(0, 8);
         put(colours, 4);
         put(0, 4);
-        b += std::string(header - 40 + palette + pixelBytes, '\x7f');
+        b += std::string(header - 40, '\0') + masks + std::string(palette + pixelBytes, '\x7f');
         return b;
     };
     refused("header.bmp", fromHex("424d 76020000 00210000 36000300 8880ffff 0000 00"),
@@ -309,8 +314,17 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
             "a damaged or unusual BMP: a palette of 2147483647 colours for 8 bits a pixel");
     refused("depth.bmp", bmp(40, 4, 2, 7, 0, 0, 16),
             "a damaged or unusual BMP: 7 bits a pixel, where a BMP has 1, 4, 8, 16, 24 or 32");
-    refused("masks.bmp", bmp(40, 4, 2, 16, 3, 0, 16),
-            "a damaged or unusual BMP: 16 bits a pixel with a 40-byte header");
+    // Colour masks OpenImageIO 2.4 would read otherwise than they say.
+    refused("masks.bmp", bmp(40, 4, 2, 16, 3, 0, 16, fromHex("00f80000 e0070000 ff000000")),
+            "a damaged or unusual BMP: colour masks 0xf800, 0x7e0, 0xff for 16 bits a pixel, "
+            "which OpenImageIO reads as 5-5-5 or 5-6-5 only");
+    refused("masks32.bmp", bmp(40, 4, 2, 32, 3, 0, 32, fromHex("000000ff 0000ff00 00ff0000")),
+            "a damaged or unusual BMP: colour masks 0xff000000, 0xff0000, 0xff00 for 32 bits a "
+            "pixel, which OpenImageIO reads as 8-8-8 only");
+    refused("masks108.bmp", bmp(108, 4, 2, 16, 0, 0, 16).replace(54, 4, fromHex("ffffffff")),
+            "a damaged or unusual BMP: colour masks 0xffffffff, 0x0, 0x0 for 16 bits a pixel");
+    refused("palette24.bmp", bmp(40, 4, 2, 24, 0, 257, 24),
+            "a damaged or unusual BMP: a palette of 257 colours for 24 bits a pixel");
     refused("cut.bmp", bmp(40, 4, 2, 24, 0, 0, 20),
             "a damaged or unusual BMP: 4 x 2 pixels of 24 bits need 24 bytes after byte 54, and "
             "the file has 20");
@@ -329,6 +343,26 @@ TEST(BarkPhoto, PhotosThatLieAreRefusedFromTheirBytesBeforeTheyCost)
         ASSERT_EQ(q.rgb.size(), 24u);
         EXPECT_EQ(q.rgb[0], 0.0f);   // the top row: the file's second
         EXPECT_EQ(q.rgb[12], 1.0f);  // the bottom row: the first
+        // 16 bits: 5-5-5 after a 40-byte header (no masks), 5-6-5 by its
+        // masks; 24 bits with a palette beside (for 256-colour displays).
+        std::string rgb555 = bmp(40, 2, 1, 16, 0, 0, 4);
+        rgb555.replace(54, 4, fromHex("007c 007c"));
+        std::string rgb565 = bmp(40, 2, 1, 16, 3, 0, 4, fromHex("00f80000 e0070000 1f000000"));
+        rgb565.replace(66, 4, fromHex("e007 e007"));
+        std::string palette24 = bmp(40, 4, 2, 24, 0, 4, 24);
+        for (const auto& [name, bytes, colour] :
+             {std::tuple{"rgb555.bmp", rgb555, glm::vec3(1.0f, 0.0f, 0.0f)},
+              std::tuple{"rgb565.bmp", rgb565, glm::vec3(0.0f, 1.0f, 0.0f)},
+              std::tuple{"palette24.bmp", palette24, glm::vec3(127.0f / 255.0f)}}) {
+            const Photo r = readPhoto(write(name, bytes));
+            ASSERT_GE(r.rgb.size(), 3u) << name;
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(r.rgb[size_t(c)],
+                            colour[c] <= 0.04045f ? colour[c] / 12.92f
+                                                  : std::pow((colour[c] + 0.055f) / 1.055f, 2.4f),
+                            1e-5)
+                    << name << c;
+        }
     }
     // 501 scans (each a pass over the picture; thousands are minutes).
     std::string scans = fromHex("ffd8");

@@ -121,7 +121,8 @@ void checkJpegScans(const std::string& path)
 /// read.
 void checkBmpHeader(const std::string& path, uint64_t size, size_t maxPixels)
 {
-    unsigned char h[54] = {};
+    // (the headers, and the three colour masks after a 40-byte one)
+    unsigned char h[66] = {};
     std::ifstream in(path, std::ios::binary);
     in.read(reinterpret_cast<char*>(h), sizeof h);
     const uint64_t got = uint64_t(in.gcount());
@@ -137,7 +138,7 @@ void checkBmpHeader(const std::string& path, uint64_t size, size_t maxPixels)
         throw bad("an OS/2 1.x header (12 bytes), which OpenImageIO reads wrong");
     if (header != 40 && header != 108 && header != 124)
         throw bad(fmt::format("a header of {} bytes, where a BMP's is 40, 108 or 124", header));
-    if (size < 14 + header || got < sizeof h)
+    if (size < 14 + header || got < 54)
         throw bad(fmt::format("the file ends at byte {}, inside its {}-byte header", size, header));
     const int32_t width = int32_t(u32(18)), height = int32_t(u32(22));
     const uint32_t planes = u16(26), bits = u16(28), compression = u32(30), colours = u32(46);
@@ -162,16 +163,34 @@ void checkBmpHeader(const std::string& path, uint64_t size, size_t maxPixels)
         throw bad(fmt::format("compression {} for {} bits a pixel", compression, bits));
     if (rle && height < 0)
         throw bad("a run-length encoded picture stored top down");
-    // A 16-bit picture's colour masks come after a 40-byte header, where
-    // OpenImageIO 2.4 does not read them: it would use uninitialised ones.
-    if (bits == 16 && header == 40)
-        throw bad(
-            "16 bits a pixel with a 40-byte header, whose colour masks OpenImageIO reads "
-            "wrong");
-    if ((bits <= 8 && colours > (1u << bits)) || (bits > 8 && colours != 0))
+    // Colour masks (after a 40-byte header, inside a longer one), as
+    // OpenImageIO 2.4 decodes them: 16 bits as 5-5-5 or 5-6-5 (other masks
+    // came out as other colours), 32 bits as 8-8-8 whatever they say (a
+    // picture with its red in the top byte came out black).
+    // (A longer header's masks are used for 16 bits even without bit fields,
+    // 5-5-5 where they are zero.)
+    const uint64_t maskBytes = header == 40 && compression == 3 ? 12 : 0;
+    if (compression == 3 || (bits == 16 && header > 40)) {
+        if (got < 66)
+            throw bad(fmt::format("the file ends at byte {}, inside its colour masks", got));
+        const uint32_t r = u32(54), g = u32(58), b = u32(62);
+        const bool known = bits == 16 ? (r == 0x7C00 && g == 0x03E0 && b == 0x001F) ||
+                                            (r == 0xF800 && g == 0x07E0 && b == 0x001F) ||
+                                            (compression == 0 && r == 0 && g == 0 && b == 0)
+                                      : r == 0x00FF0000 && g == 0x0000FF00 && b == 0x000000FF;
+        if (!known)
+            throw bad(fmt::format(
+                "colour masks {:#x}, {:#x}, {:#x} for {} bits a pixel, which OpenImageIO reads "
+                "as {}",
+                r, g, b, bits, bits == 16 ? "5-5-5 or 5-6-5 only" : "8-8-8 only"));
+    }
+    // (a palette beside true colour is allowed, for displays of 256 colours)
+    if ((bits <= 8 && colours > (1u << bits)) || (bits > 8 && colours > 256))
         throw bad(fmt::format("a palette of {} colours for {} bits a pixel", colours, bits));
-    const uint64_t palette = bits <= 8 ? uint64_t(4) * (colours ? colours : 1u << bits) : 0;
-    if (data < 14 + header + palette || data > size)
+    const uint64_t palette = uint64_t(4) * (colours     ? colours
+                                            : bits <= 8 ? uint32_t(1) << bits
+                                                        : 0);
+    if (data < 14 + header + maskBytes + palette || data > size)
         throw bad(fmt::format("its pixels at byte {}, outside the {}-byte file after its headers",
                               data, size));
     const uint64_t rowBytes = (uint64_t(width) * bits + 31) / 32 * 4;
