@@ -489,4 +489,20 @@ TEST(PreviewSession, AGrowthFilesBarkPhotoPaintsThePictureAsABakeDoes)
     EXPECT_TRUE(u.inputError);
     EXPECT_NE(u.error.find("bark.png"), std::string::npos) << u.error;
     EXPECT_EQ(fileContents(dir / "preview.png"), blue);
+    // With --frames, a frame baked in the background reads a changed photo
+    // first: the picture is baked again all the same (it read the new photo
+    // and took its stamp, and the update after it saw no change).
+    photo(0.8f, 0.02f, 0.02f);
+    PreviewSettings framed = settings;
+    framed.frames = {4.0};
+    PreviewSession background(framed);
+    ASSERT_EQ(background.update().outcome, O::Rendered);
+    EXPECT_GT(redness(), plain + 20.0) << plain;
+    photo(0.02f, 0.02f, 0.8f);
+    fs::last_write_time(dir / "bark.png",
+                        fs::last_write_time(dir / "bark.png") + std::chrono::seconds(4));
+    EXPECT_TRUE(background.prebake());
+    u = background.update();
+    ASSERT_EQ(u.outcome, O::Rendered) << u.error;
+    EXPECT_LT(redness(), plain - 20.0) << plain;
 }

@@ -230,6 +230,22 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     return grids;
 }
 
+/// A photo changed since it was last read: the picture and the frames baked
+/// in the background hold its old colours, and are baked again.  Checked
+/// before every bake, a background frame's too (it reads the new photo,
+/// and the update after it would see no change).
+void PreviewSession::forgetStalePhoto()
+{
+    State& s = *state_;
+    if (s.photoPath.empty() || fileStamp(s.photoPath) == s.photoStamp)
+        return;
+    s.baked.reset();
+    s.prebaked.clear();
+    s.prebakedText = 0;
+    s.prebakedBytes = 0.0;
+    s.prebakeFull = false;
+}
+
 bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
 {
     State& s = *state_;
@@ -237,6 +253,7 @@ bool PreviewSession::prebake(const std::atomic<bool>* interrupt)
     if (settings_.frames.empty() || !s.voxelSize || !s.camera)
         return false;
     try {
+        forgetStalePhoto();
         const std::string text = readTextFile(settings_.input, "model");
         if (s.prebakedText != fnv1a64(text)) {
             s.prebaked.clear();
@@ -315,14 +332,7 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         const uint64_t key = bakeKey(text, u.view.time);
         const bool moved =
             u.view.azimuth != s.pictured.azimuth || u.view.elevation != s.pictured.elevation;
-        if (!s.photoPath.empty() && fileStamp(s.photoPath) != s.photoStamp) {
-            // (the frames baked in the background hold the old photo's colours)
-            s.baked.reset();
-            s.prebaked.clear();
-            s.prebakedText = 0;
-            s.prebakedBytes = 0.0;
-            s.prebakeFull = false;
-        }
+        forgetStalePhoto();
         if (s.grids && s.baked == key && !moved) {
             u.outcome = PreviewUpdate::Outcome::Unchanged;
             u.pictures = s.pictures;

@@ -123,6 +123,10 @@ private:
     BakedGrids bakeText(const std::string& text, std::optional<double> time,
                         const std::atomic<bool>* interrupt, PreviewUpdate& u, bool& known);
 
+    /// A changed bark photo: the picture and the background frames that
+    /// hold its old colours are forgotten.  Before every bake.
+    void forgetStalePhoto();
+
     struct State;
     PreviewSettings settings_;
     std::unique_ptr<State> state_;
