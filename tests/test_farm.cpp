@@ -575,3 +575,55 @@ TEST(FarmArray, ASlurmThatDoesNotAnswerIsStoppedAndNamed)
         << r.err;
     EXPECT_LT(seconds, 25.0) << "the hung sbatch was waited for";
 }
+
+TEST(FarmArray, SlurmsAnswersAreCheckedAndAStoppedSubmissionLeavesNothingRunning)
+{
+    namespace fs = std::filesystem;
+    const fs::path dir = cambium::test::freshDir("cambium_farm_answers");
+    const fs::path bin = dir / "bin", log = dir / "scancel.log";
+    fs::create_directories(bin);
+    auto fake = [&](const std::string& name, const std::string& body) {
+        std::ofstream(bin / name) << "#!/bin/sh\n" << body << "\n";
+        fs::permissions(bin / name, fs::perms::owner_all);
+    };
+    const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "/usr/bin:/bin";
+    ::setenv("PATH", (bin.string() + ":" + path).c_str(), 1);
+    ::setenv("CAMBIUM_SLURM_SECONDS", "2", 1);
+    auto bake = [&](const std::string& name) {
+        return cambium::test::run("bake " + kPopulus +
+                                  " --frames 1-2 --voxel-size 0.05 --slurm -o " +
+                                  (dir / name / "s.####.vdb").string());
+    };
+    // (1) Nodes of 1 MB: no task fits, refused before anything is written
+    // (it was submitted).
+    fake("sinfo", "echo 1 1");
+    fake("sbatch", "echo 4242");
+    fs::create_directories(dir / "small");
+    auto r = bake("small");
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("MB of memory, and the largest node Slurm lists (sinfo) has 1 MB"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(dir / "small" / "s.frames.vdb.farm"));
+    // (2) An answer that is not a job id ("42 42" went into the job list).
+    fake("sinfo", "echo 2 4000");
+    fake("sbatch", "echo 42 42");
+    fs::create_directories(dir / "twice");
+    r = bake("twice");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("sbatch refused"), std::string::npos) << r.err;
+    // (3) The final job's sbatch stopped for its time after submitting it:
+    // the array and the final job waiting on it are both cancelled.
+    const fs::path count = dir / "sbatch.count";
+    fake("sbatch", "if [ -e " + count.string() + " ]; then sleep 30; fi; touch " + count.string() +
+                       "; echo 4242");
+    fake("squeue", "echo '4243 afterany:4242(unfulfilled)'; echo '5555 afterany:42420'");
+    fake("scancel", "echo \"$@\" >> " + log.string());
+    fs::create_directories(dir / "stopped");
+    r = bake("stopped");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("sbatch did not answer in 2 s"), std::string::npos) << r.err;
+    EXPECT_EQ(cambium::test::fileContents(log), "4242\n4243\n");
+    ::setenv("PATH", path.c_str(), 1);
+    ::unsetenv("CAMBIUM_SLURM_SECONDS");
+}

@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -55,9 +56,8 @@ int slurmSeconds()
     const int given = env ? std::atoi(env) : 0;
     return given > 0 ? given : 120;
 }
-Output capture(const std::string& command)
+Output capture(const std::string& command, int seconds = slurmSeconds())
 {
-    const int seconds = slurmSeconds();
     Output out;
     std::string errPath = (fs::temp_directory_path() / "cambium-farm-XXXXXX").string();
     const int fd = ::mkstemp(errPath.data());
@@ -99,14 +99,21 @@ std::string fileText(const fs::path& p, const char* what)
 /// not answer for ten seconds.
 std::string queuedJobs(const std::string& ids, const char* format = "%i")
 {
-    for (int attempt = 0;; ++attempt) {  // a busy slurmctld may not answer at once
+    // A busy slurmctld may not answer at once: asked again, each time for
+    // at most 20 s, until the Slurm limit has passed (a hung squeue was
+    // asked six times for two minutes each).
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(slurmSeconds());
+    for (;;) {
+        const double left =
+            std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
         const Output q =
-            capture(std::string("squeue -h -r -o ") + format + " -j " + shellQuote(ids));
+            capture(std::string("squeue -h -r -o ") + format + " -j " + shellQuote(ids),
+                    std::clamp(int(std::ceil(left)), 1, 20));
         if (q.status == 0)
             return q.text;
         if (q.err.find("Invalid job id") != std::string::npos)
             return {};
-        if (attempt == 5)
+        if (std::chrono::steady_clock::now() + std::chrono::seconds(2) >= deadline)
             throw std::runtime_error("squeue does not answer: " + q.err);
         std::this_thread::sleep_for(std::chrono::seconds(2));
     }
@@ -164,9 +171,12 @@ std::string sbatch(const std::string& script, const std::vector<std::string>& ar
             "sbatch did not answer in {} s and was stopped ({}; squeue tells whether it was "
             "submitted)",
             slurmSeconds(), script));
-    if (sub.status != 0 || id.empty() || !std::isdigit((unsigned char)id.front()))
+    id = id.substr(0, id.find(';'));
+    // (a job id is digits: "42 42" was written to the job list, and every
+    // later look at the farm refused the list as edited)
+    if (sub.status != 0 || !allDigits(id, 20))
         throw std::runtime_error("sbatch refused " + script + ": " + sub.err + sub.text);
-    return id.substr(0, id.find(';'));
+    return id;
 }
 
 /// Submits chunks `chunks` of the farm (all when empty) and the final job
@@ -193,7 +203,22 @@ std::pair<std::string, std::string> submitFarm(const FarmPlan& plan,
     try {
         final = sbatch(plan.finalScriptPath, {"--dependency=afterany:" + array});
     } catch (const std::exception&) {
+        // (an sbatch stopped for its time may have submitted the final job:
+        // whatever waits on the array is cancelled with it)
         capture("scancel " + shellQuote(array));
+        const Output waiting = capture("squeue -h -o '%i %E'");
+        std::istringstream lines(waiting.status == 0 ? waiting.text : std::string());
+        for (std::string line; std::getline(lines, line);) {
+            std::istringstream in(line);
+            std::string id, dependency;
+            const std::string on = "afterany:" + array;
+            if (in >> id >> dependency && allDigits(id, 20)) {
+                const size_t at = dependency.find(on), end = at + on.size();
+                if (at != std::string::npos &&
+                    (end == dependency.size() || !std::isdigit((unsigned char)dependency[end])))
+                    capture("scancel " + shellQuote(id));
+            }
+        }
         throw;
     }
     jobs += final + "\n";
@@ -299,6 +324,7 @@ SlurmOptions slurmOptions(const SlurmFlags& flags)
             }
         }
     }
+    o.nodesListed = cpus > 0;
     if (cpus == 0) {
         if (!flags.dryRun)
             throw std::runtime_error("Slurm does not answer (sinfo: " + nodes.err +
@@ -309,6 +335,23 @@ SlurmOptions slurmOptions(const SlurmFlags& flags)
     o.nodeCpus = cpus;
     o.nodeMemoryBytes = mb * (1 << 20);
     return o;
+}
+
+/// A task or final job larger than any node Slurm lists (sinfo): sbatch
+/// would refuse it, or queue it for ever (a node of 1 MB was given 300 MB
+/// tasks).  InputError before anything is written or submitted.
+void checkNodesFit(const SlurmArray& array, const SlurmOptions& o)
+{
+    if (!o.nodesListed)
+        return;
+    const double nodeMB = o.nodeMemoryBytes / (1 << 20);
+    const long long need = std::max(array.resources.memoryMB, array.finalMemoryMB);
+    if (double(need) > nodeMB)
+        throw InputError(fmt::format(
+            "the farm's {} needs {} MB of memory, and the largest node Slurm lists (sinfo) has "
+            "{:.0f} MB: no node could run it; bake in tiles (--max-memory), use a larger voxel "
+            "size, or a partition of larger nodes (--slurm-arg)",
+            need == array.resources.memoryMB ? "task" : "final job", need, nodeMB));
 }
 
 /// Submits a planned array (or prints it: --dry-run) and its final job, and
@@ -448,7 +491,9 @@ int runSlurmCommand(const SequenceRequest& asked, const SlurmFlags& flags)
         if (!path->empty())
             *path = fs::absolute(*path).string();
     const SequencePlan plan = planSequence(request);
-    const SlurmArray array = planSlurmArray(plan, slurmOptions(flags));
+    const SlurmOptions options = slurmOptions(flags);
+    const SlurmArray array = planSlurmArray(plan, options);
+    checkNodesFit(array, options);
     return submitArray(
         array, flags, request.bake.output,
         fmt::format("{} frames in {} chunks", plan.frames.size(), array.chunks.size()));
@@ -470,7 +515,10 @@ int runTileFarmCommand(const BakeRequest& asked, const TilePlan& tiles, const Sl
     if (tiles.tiles == 1)
         printNotice(fmt::format("the frame's estimate ({}) is within --max-memory: one task",
                                 formatBytes(tiles.frameBytes)));
-    return submitArray(planTileArray(t, slurmOptions(flags)), flags, t.request.output,
+    const SlurmOptions options = slurmOptions(flags);
+    const SlurmArray array = planTileArray(t, options);
+    checkNodesFit(array, options);
+    return submitArray(array, flags, t.request.output,
                        fmt::format("1 frame in {} tiles (voxel size {:g}, the frame's estimate {})",
                                    tiles.tiles, tiles.voxelSize, formatBytes(tiles.frameBytes)));
 }

@@ -22,6 +22,7 @@ struct SlurmOptions {
     std::string exe;                      ///< the cambium binary the tasks run (absolute)
     int nodeCpus = 1;                     ///< a node's cores and memory, for the task's share
     double nodeMemoryBytes = 0.0;
+    bool nodesListed = false;  ///< the node's from sinfo (else this machine's: --dry-run)
 };
 
 /// A sequence as a job array, decided before anything is written.
