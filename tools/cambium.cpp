@@ -83,9 +83,15 @@ int main(int argc, char** argv)
         const int status = action ? action() : 0;
         // What the command printed, written to the end (`info > /dev/full`
         // lost its report with exit 0).
-        if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-            std::fprintf(stderr, "cambium: failed: cannot write to standard output: %s\n",
-                         std::strerror(errno));
+        // (errno is the flush's own: a write that failed earlier, with
+        // nothing left to flush, says so rather than a stale error)
+        errno = 0;
+        const bool flushed = std::fflush(stdout) == 0;
+        const int error = errno;
+        if (!flushed || std::ferror(stdout)) {
+            std::fprintf(
+                stderr, "cambium: failed: cannot write to standard output: %s\n",
+                !flushed && error != 0 ? std::strerror(error) : "a write to it failed earlier");
             return 1;
         }
         return status;
