@@ -474,6 +474,13 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         openvdb::io::File((in / "empty.vdb").string()).write({sphere});
         sphere->tree().setValue(openvdb::Coord(0), -0.1f);
         openvdb::io::File((in / "twice.vdb").string()).write({sphere, sphere->deepCopy()});
+        {
+            // two colour grids beside one surface (one was picked)
+            auto cd = openvdb::Vec3SGrid::create();
+            cd->setName("Cd");
+            cd->setTransform(sphere->transform().copy());
+            openvdb::io::File((in / "twocd.vdb").string()).write({sphere, cd, cd->deepCopy()});
+        }
         // what OpenVDB's tools take for granted of a level set, broken
         openvdb::FloatGrid::Ptr nan = sphere->deepCopy();
         nan->tree().setValue(openvdb::Coord(3, 4, 5), std::nanf(""));
@@ -842,6 +849,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/empty.vdb -o OUT/out.png", "empty.vdb: the level set has no active voxels"},
         {"mesh IN/twice.vdb -o OUT/out.ply",
          "twice.vdb: more than one grid is named 'surface': which one is meant?"},
+        {"render IN/twocd.vdb -o OUT/out.png",
+         "twocd.vdb: more than one grid is named 'Cd': which one is meant?"},
         {"mesh IN/nan.vdb -o OUT/out.ply",
          "nan.vdb: grid 'surface' has a voxel at (3, 4, 5) whose value is not a number"},
         {"render IN/nan.vdb -o OUT/out.png", "nan.vdb: grid 'surface' has a voxel at (3, 4, 5)"},

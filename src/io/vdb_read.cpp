@@ -569,11 +569,13 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, b
     bool found = false;
     for (const VdbSummary::Grid& g : summary.grids) {
         names += (names.empty() ? "" : ", ") + printable(g.name);
-        // (OpenVDB stores a second grid of a name with a suffix of its own)
-        if (g.name != grid && openvdb::io::GridDescriptor::stripSuffix(g.name) == grid)
-            throw InputError(
-                fmt::format("{}: more than one grid is named '{}': which one is meant?", path,
-                            printable(grid)));
+        // (OpenVDB stores a second grid of a name with a suffix of its own;
+        // the colours read beside the surface are one grid too)
+        for (const std::string& name : {grid, std::string(kColorGrid)})
+            if (g.name != name && openvdb::io::GridDescriptor::stripSuffix(g.name) == name)
+                throw InputError(
+                    fmt::format("{}: more than one grid is named '{}': which one is meant?", path,
+                                printable(name)));
         found = found || g.name == grid;
     }
     if (!found)
