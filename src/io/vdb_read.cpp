@@ -389,15 +389,6 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
 
 namespace {
 
-/// What OpenVDB's tools take for granted of a level set, checked when it is
-/// read (else they fail unnamed, or work on garbage):
-/// - cubic voxels (the intersector and volumeToMesh refuse others);
-/// - a positive background, its band's half-width (a fog volume labelled a
-///   level set has 0);
-/// - every active tile's value a number (the leaves' values are checked
-///   as they are decoded);
-/// - active tiles (a few bytes in a file) that fit in memory as voxels, for
-///   whatever meshes, resamples or converts the grid makes them voxels.
 /// A grid's transform checked usable, as OpenVDB reads it (each of a map's
 /// scale, voxel size and inverse is stored, and read as it is): linear, a
 /// matrix of numbers, each axis as long as the stored voxel size, and an
@@ -453,6 +444,15 @@ openvdb::Mat4d checkTransform(const openvdb::GridBase& grid, const std::string& 
     return m;
 }
 
+/// What OpenVDB's tools take for granted of a level set, checked when it is
+/// read (else they fail unnamed, or work on garbage):
+/// - cubic voxels (the intersector and volumeToMesh refuse others);
+/// - a positive background, its band's half-width (a fog volume labelled a
+///   level set has 0);
+/// - every active tile's value a number (the leaves' values are checked
+///   as they are decoded);
+/// - active tiles (a few bytes in a file) that fit in memory as voxels, for
+///   whatever meshes, resamples or converts the grid makes them voxels.
 void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
 {
     checkTransform(grid, path);
