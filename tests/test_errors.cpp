@@ -945,6 +945,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "--width 16384 --height 16384: a picture this large needs about"},
         {"bench growth --years 27 --voxel-size 0.0001 --device cpu",
          "year 27: a voxel size of 0.0001"},
+        // (found by the preview it ran, after the table's header: exit 1)
+        {"bench preview --years 1 --width -5",
+         "--width and --height: from 1 to 16384 (got -5 x 480)"},
+        {"bench preview --years 0", "--years: 0 is not a year of the tree of"},
+        {"bench growth --years 28", "--years: 28 is not a year of the tree of"},
         {"shape IN/flat.json --voxel-size 0.05 -o OUT/out.vdb",
          "flat.json: the closed mesh encloses no volume"},
         {"bake " + P + " --frames 1-2 --fps-per-year 1e7 -o OUT/seq.####.vdb",

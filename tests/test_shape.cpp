@@ -14,7 +14,9 @@
 #include "core/random.h"
 
 #include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetSphere.h>
 
 #include <algorithm>
 #include <cmath>
@@ -579,6 +581,24 @@ TEST(ShapeDetails, RockAmplitudesThatWouldFoldAPlaneAreRefused)
         EXPECT_EQ(flipped, 0u) << form;
         test::report("{}: largest amplitude at frequency 4 on a plane of 0.5-long edges: {}", form,
                      safe);
+    }
+}
+
+TEST(ShapeCapture, ALevelSetOfAnyBackgroundIsCapturedAsAnother)
+{
+    // The coarse surface was resampled with the fine one's band width in
+    // voxels: a sphere whose background (its outside value) was 1000 made a
+    // band of 20,000 voxels and ran past a minute into the memory limit
+    // (sweep 11).  Any background gives the same base.
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
+    const BaseShape usual = captureLevelSet(sphere, 0.1, "usual");
+    for (float background : {1000.0f, 1e30f}) {
+        openvdb::FloatGrid::Ptr wide = sphere->deepCopy();
+        openvdb::tools::changeLevelSetBackground(wide->tree(), background);
+        const BaseShape captured = captureLevelSet(wide, 0.1, "wide");
+        EXPECT_EQ(captured.mesh.points.size(), usual.mesh.points.size()) << background;
+        EXPECT_EQ(captured.mesh.faceVerts, usual.mesh.faceVerts) << background;
     }
 }
 

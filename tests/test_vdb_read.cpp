@@ -383,6 +383,44 @@ TEST(VdbRead, AColourGridOnAnotherOrAnUnusableTransformIsNamedByEveryReader)
                      "readColourGrid, a NaN matrix");
 }
 
+TEST(VdbRead, AForeignColourGridOfNoColourIsNamed)
+{
+    // Finite colours of 1e30 in a foreign Cd made pictures of 1e30 and
+    // infinity, and meshes whose colours cambium's own reader refuses, exit 0
+    // (sweep 11): a colour's components are at most a half float's largest,
+    // as a bake paints them; in voxels, tiles and the background alike.
+    openvdb::initialize();
+    const std::string dir = freshDir("cambium_vdb_read_colours").string();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.1f);
+    sphere->setName("surface");
+    auto write = [&](const std::string& file, const openvdb::Vec3f& voxel,
+                     const openvdb::Vec3f& tile, const openvdb::Vec3f& background) {
+        openvdb::Vec3fGrid::Ptr cd = openvdb::Vec3fGrid::create(background);
+        cd->setName("Cd");
+        cd->setTransform(sphere->transform().copy());
+        cd->tree().setValueOn(openvdb::Coord(10, 0, 0), voxel);
+        cd->tree().addTile(1, openvdb::Coord(0, 0, 64), tile, true);
+        const std::string path = dir + "/" + file;
+        openvdb::io::File f(path);
+        f.write({sphere, cd});
+        f.close();
+        return path;
+    };
+    const openvdb::Vec3f red(1.0f, 0.0f, 0.0f), huge(1e30f, -1e30f, 3e38f);
+    const openvdb::Vec3f bright(65504.0f, 0.0f, 0.0f);  // (an HDR photo's brightest)
+    EXPECT_TRUE(readLevelSet(write("ok.vdb", bright, red, openvdb::Vec3f(0.0f))).color);
+    expectInputError([&] { readLevelSet(write("voxel.vdb", huge, red, openvdb::Vec3f(0.0f))); },
+                     "grid 'Cd' has a voxel at (10, 0, 0) whose colour (1e+30, -1e+30, 3e+38) is "
+                     "not one (a colour's components are numbers of magnitude at most 65504)",
+                     "a voxel");
+    expectInputError([&] { readLevelSet(write("tile.vdb", red, huge, openvdb::Vec3f(0.0f))); },
+                     "grid 'Cd' has a tile at (0, 0, 64) whose colour (1e+30", "a tile");
+    // (the background fills the leaf's inactive voxels too: named there)
+    expectInputError([&] { readLevelSet(write("background.vdb", red, red, huge)); },
+                     "grid 'Cd' has a voxel at (8, 0, 0) whose colour (1e+30", "the background");
+}
+
 TEST(VdbRead, AFrustumLevelSetAndAMapWhoseInverseDoesNotUndoItAreNamed)
 {
     openvdb::initialize();

@@ -8,11 +8,14 @@
 #include "bench/shape_bench.h"
 #include "bench/tree_generator.h"
 #include "bake/bake.h"
+#include "bake/options.h"
 #include "bench/use_bench.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/math.h"
+#include "core/system.h"
 #include "field/program.h"
+#include "model/growth_params.h"
 #include "model/skeleton.h"
 #include "preview/preview_bench.h"
 #include "use/render.h"
@@ -22,6 +25,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <thread>
 
 namespace cambium {
 
@@ -196,6 +200,7 @@ void printShapeTable(const ShapeBenchResult& r)
 
 int runPreviewBenchCommand(const PreviewBenchRequest& req)
 {
+    checkPreviewBench(req);  // (before the table's header)
     fmt::print(
         "{}: the live preview, {} x {}, device {}; {} edits a year as the page makes them (a point "
         "of Gs2 sent to the page server), medians [min-max] in seconds\n\n",
@@ -254,8 +259,7 @@ int runReadBenchCommand(const ReadBenchRequest& req)
 
 int runGrowthBenchCommand(const GrowthBenchRequest& req)
 {
-    if (req.years.empty())
-        throw InputError("--years: give at least one year");
+    checkGrowthYears(req.years, loadGrowthParameters(req.parameters), req.parameters);
     const int lastYear = *std::max_element(req.years.begin(), req.years.end());
     const char* paper =
         "\npaper 000, year 27: 181,692 primitives, 22,220 operators, 1.4 GB to ray trace the last "
@@ -359,6 +363,9 @@ void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
                 checkVoxelSize(h, fmt::format("--case {}: the voxel size", c));
                 parsed.emplace_back(int(n), h);
             }
+            constexpr double kBakesPerRepeat = 5.0;
+            const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+            double seconds = 0.0;
             for (const auto& [n, h] : parsed) {
                 BakeBenchCase bc;
                 BenchTree tree = benchTree(n);
@@ -366,9 +373,22 @@ void addBakeBench(CLI::App* bench, const std::shared_ptr<BenchOptions>& o, Actio
                 bc.skeleton = std::move(tree.skeleton);
                 bc.label = fmt::format("tree of {} internodes", n);
                 bc.voxelSize = h;
-                checkBakeFits(FieldProgram::compile(skeletonToBlend(bc.skeleton)), h, bc.label);
+                // (cambium's last grids, the bake in flight and the peer's
+                // rasterisation, counted as two, held at once: a case past
+                // memory ran silently to 5.6 GB and on)
+                const VoxelPlan plan = checkBakeFits(
+                    FieldProgram::compile(skeletonToBlend(bc.skeleton)), h, bc.label, 4.0);
+                seconds += estimateBakeSeconds(plan.bandVoxels, cores) * kBakesPerRepeat *
+                           double(o->repeats);
                 cases.push_back(std::move(bc));
             }
+            // Each case's bakes in turn, in process (two of cambium's, the
+            // peer's) and as whole processes (cambium's and the peer's).
+            if (seconds > 10.0)
+                printNotice(fmt::format("the {} case{} bake about {} times each: roughly {} here",
+                                        cases.size(), cases.size() == 1 ? "" : "s",
+                                        int(kBakesPerRepeat) * o->repeats,
+                                        formatDuration(seconds)));
             runBakeBench(cases, o->skipCpu, o->repeats, printBakeTable);
             return 0;
         };

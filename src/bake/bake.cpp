@@ -116,7 +116,6 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
 
 void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::string& what)
 {
-    constexpr double kLargestHalf = 65504.0;
     if (half && !(voxelSize * halfWidth <= kLargestHalf))
         throw InputError(fmt::format(
             "{}: --half stores distances as 16-bit floats, at most {:g}, and the band reaches "
@@ -124,13 +123,20 @@ void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::st
             what, kLargestHalf, voxelSize * halfWidth, halfWidth, voxelSize));
 }
 
-void checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what)
+VoxelPlan checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what,
+                        double held)
 {
     BakeRequest planned;
     planned.input = what;
     planned.voxelSize = voxelSize;
     planned.tilesOffered = false;
-    planVoxelSize(program, planned);
+    const VoxelPlan plan = planVoxelSize(program, planned);
+    if (held > 1.0)
+        checkMemoryFits(held * plan.bytes,
+                        fmt::format("{} at voxel size {:g}, {:g} bakes' grids held at once", what,
+                                    voxelSize, held),
+                        "use a larger voxel size");
+    return plan;
 }
 
 /// A bake estimated longer than this says how long before it starts.
@@ -291,6 +297,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     report.device = sampler->name();
 
     BakeOptions opt;
+    opt.source = req.input;
     opt.voxelSize = plan.voxelSize;
     opt.halfWidth = req.halfWidth;
     opt.fog = req.fog;

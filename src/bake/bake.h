@@ -115,9 +115,11 @@ constexpr double kMaxVoxelSize = 1e9;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
 /// planVoxelSize's checks of a bake of `program` at `voxelSize` alone
-/// (InputError naming `what` when it would not fit this machine's memory):
-/// what the benchmarks check before they bake.
-void checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what);
+/// (InputError naming `what` when it would not fit this machine's memory),
+/// and of `held` such bakes' memory at once (a benchmark keeps several
+/// methods' grids): what the benchmarks check before they bake.  The plan.
+VoxelPlan checkBakeFits(const FieldProgram& program, double voxelSize, const std::string& what,
+                        double held = 1.0);
 
 /// The band's options as every command that bakes checks them (bake, shape,
 /// preview, and the mesh bake under them): a voxel size from kMinVoxelSize

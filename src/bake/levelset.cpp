@@ -278,7 +278,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     // 1. Topology.
     auto t = Clock::now();
     BandTopology topo = findBandLeaves(
-        program, h, W, [&](double f) { progress("topology", f); }, opt.tile);
+        program, h, W, [&](double f) { progress("topology", f); }, opt.tile, opt.source);
     st.topologySeconds = secondsSince(t);
     st.boxesTested = topo.boxesTested;
     const size_t n = topo.leaves.size();

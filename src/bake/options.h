@@ -48,6 +48,7 @@ ColourExtent parseColourExtent(const std::string& name);
 const char* colourExtentName(ColourExtent extent);
 
 struct BakeOptions {
+    std::string source = "the model";  ///< its file, for messages
     double voxelSize = 0.0;  ///< world units per voxel (must be > 0 here; see autoVoxelSize)
     double halfWidth = 3.0;  ///< narrow-band half-width in voxels
     bool fog = false;        ///< also make a `density` fog volume

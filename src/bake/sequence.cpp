@@ -277,6 +277,7 @@ struct FrameBaker {
         const BakeRequest& req = plan.request.bake;
         const Skeleton sk = plan.model->skeleton(plan.times[i], req.model.leaves);
         BakeOptions opt;
+        opt.source = req.input;
         opt.voxelSize = plan.voxelSize;
         opt.halfWidth = req.halfWidth;
         opt.fog = req.fog;

@@ -2,6 +2,10 @@
 #include "bake/topology.h"
 
 #include "bake/stages.h"
+#include "core/error.h"
+#include "core/system.h"
+
+#include <fmt/format.h>
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -10,6 +14,8 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
+#include <string>
 
 namespace cambium {
 
@@ -21,6 +27,29 @@ struct Search {
     const FieldProgram& prog;
     double h, pad, T;
     std::atomic<size_t> boxes{0};
+    /// The leaves' programs so far, and the most they may hold.
+    std::atomic<size_t> instructions{0}, leavesFound{0};
+    size_t maxInstructions = 0;
+    double room = 0.0;
+    std::string source = {};
+
+    /// A leaf's program of `n` instructions counted; InputError past the
+    /// most.
+    void count(size_t n)
+    {
+        const size_t total = instructions += n, found = ++leavesFound;
+        if (total > maxInstructions)
+            throw InputError(fmt::format(
+                "{}: the band's leaves' programs would take more than half the {} this "
+                "process has available ({} leaves so far, {:.0f} instructions each, {} held; "
+                "the other half is the bake's): the model's operators keep many overlapping "
+                "children in every leaf (as PCM over a node's many children does): use a "
+                "larger voxel size, or fewer children under one operator",
+                source, formatBytes(room), found, double(total) / double(found),
+                formatBytes(kBytesPerInstruction * double(total))));
+    }
+    /// An instruction held in a tile's pool and copied into the whole one.
+    static constexpr double kBytesPerInstruction = 2.0 * sizeof(Instr);
 
     /// World box of the voxel centres of the cube [o, o + size)^3.
     Box centres(const int o[3], int size) const
@@ -48,6 +77,7 @@ struct Search {
             // The voxels' box and a surface sample's reach beyond it.
             prog.specialize(spec, centres(o, 8).padded(kSurfaceReach * h), &pool);
             job.codeLength = int32_t(pool.size()) - job.codeOffset;
+            count(size_t(job.codeLength));
             leaves.push_back(job);
             return;
         }
@@ -162,7 +192,8 @@ void keepTileRun(Search& search, std::vector<Coarse>& level,
 }  // namespace
 
 BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWidth,
-                            const std::function<void(double)>& progress, BandTile tile)
+                            const std::function<void(double)>& progress, BandTile tile,
+                            const std::string& source)
 {
     BandTopology out;
     if (program.positiveBounds().empty())
@@ -179,6 +210,12 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
     while (span < nt[0] || span < nt[1] || span < nt[2])
         span *= 2;
     Search search{program, h, halfWidth * h, program.threshold()};
+    // Half the room for the programs (the leaves' values and grids take the
+    // rest), and offsets within int32.
+    search.room = availableMemoryBytes();
+    search.maxInstructions = size_t(std::min(0.5 * search.room / Search::kBytesPerInstruction,
+                                             double(std::numeric_limits<int32_t>::max())));
+    search.source = source;
     std::vector<Coarse> level(1);
     for (int k = 0; k < 3; ++k)
         level[0].o[k] = int(t0[k] * kTile);

@@ -52,8 +52,15 @@ constexpr int kTileHalo = 16;
 /// halfWidth * h contains T.  Boxes that fail the test are never subdivided,
 /// so the work follows the surface, not the volume.  Each leaf's program is
 /// specialised to its voxel-centre box.
+/// The leaves' programs are counted as they are made: InputError naming
+/// `source` once they would take more than half the memory this process had
+/// when the search began, or more instructions than a leaf's offset holds
+/// (operators over many overlapping children, PCM over 2000 children, keep
+/// every child in every leaf's program: its memory grows with children
+/// times leaves, which no estimate from the primitives' areas sees).
 BandTopology findBandLeaves(const FieldProgram& program, double voxelSize, double halfWidth,
-                            const std::function<void(double)>& progress = {}, BandTile tile = {});
+                            const std::function<void(double)>& progress = {}, BandTile tile = {},
+                            const std::string& source = "the model");
 
 /// Index-space box (inclusive, leaf-aligned) that the search covers: the
 /// field's positive support grown by the band.

@@ -32,10 +32,7 @@ void runGrowthBench(const GrowthBenchRequest& req, const std::string& dir,
     auto t0 = Clock::now();
     const GrowthModel model(loadGrowthParameters(req.parameters));
     const double global = secondsSince(t0);
-    for (int y : years)
-        if (y < 1 || y > model.params().years)
-            throw InputError(fmt::format("--years: {} is outside the tree's 1 to {} years", y,
-                                         model.params().years));
+    checkGrowthYears(years, model.params(), req.parameters);
     // (the largest year's bake checked before any: a voxel size of 5e-4 ran
     // silently for minutes, 1e-4 into the memory limit)
     if (!years.empty())

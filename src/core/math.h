@@ -29,6 +29,10 @@ constexpr const char* kFloatPrecisionReason =
     "where single-precision positions (meshes, renders, the kernels) are more than an eighth "
     "of a voxel apart; move the model nearer the origin or use a larger voxel size";
 
+/// A half float's largest value: what `--half` stores, and the largest
+/// colour a bake paints (a photo's pixels are at most this).
+constexpr double kLargestHalf = 65504.0;
+
 /// The largest seed a file or an option takes (whole numbers from 0: a
 /// double holds each exactly).
 constexpr long long kMaxSeed = 9000000000000000LL;

@@ -2,6 +2,7 @@
 #include "io/image_file.h"
 
 #include "core/error.h"
+#include "core/math.h"
 #include "core/files.h"
 #include "core/system.h"
 #include "io/image_codec.h"
@@ -333,11 +334,11 @@ Photo readPhoto(const std::string& path, size_t maxPixels, double room)
             const float v =
                 img.pixels[c * i + (c >= 3 ? k : 0)];  // grey (and grey with alpha) made RGB
             // (beyond a half float's range a colour baked with --half is infinite)
-            if (!(std::abs(v) <= 65504.0f))
+            if (!(std::abs(v) <= float(kLargestHalf)))
                 throw InputError(fmt::format(
                     "{}: pixel {} (row {}, column {}) has the value {:g}, not a colour (a finite "
-                    "number of magnitude at most 65504)",
-                    path, i, i / size_t(img.width), i % size_t(img.width), v));
+                    "number of magnitude at most {:g})",
+                    path, i, i / size_t(img.width), i % size_t(img.width), v, kLargestHalf));
             // A linear pixel a little below 0 is a colour transform's ringing,
             // taken as black; one far below is no colour (a normal or
             // displacement map given as a photo).

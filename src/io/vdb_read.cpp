@@ -66,13 +66,30 @@ protected:
     }
 };
 
+/// A value a grid read may hold: any number for a distance; a colour's
+/// components numbers of magnitude at most a half float's largest, what a
+/// bake paints (a foreign Cd of 1e30 made pictures of 1e30 and infinity,
+/// and meshes whose colours cambium's own reader refuses, exit 0).
 bool finite(float v)
 {
     return std::isfinite(v);
 }
 bool finite(const openvdb::Vec3f& v)
 {
-    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+    const float most = float(kLargestHalf);
+    return std::abs(v[0]) <= most && std::abs(v[1]) <= most && std::abs(v[2]) <= most;
+}
+/// What is wrong with a value `finite` refuses.
+std::string notFinite(float)
+{
+    return "whose value is not a number";
+}
+std::string notFinite(const openvdb::Vec3f& v)
+{
+    return fmt::format(
+        "whose colour ({:g}, {:g}, {:g}) is not one (a colour's components are "
+        "numbers of magnitude at most {:g})",
+        v[0], v[1], v[2], kLargestHalf);
 }
 
 std::string coordText(const openvdb::Coord& c)
@@ -105,9 +122,8 @@ void nameNonFinite(const LeafT& leaf, const std::string& path, const std::string
 {
     for (auto v = leaf.cbeginValueAll(); v; ++v)
         if (!finite(*v))
-            throw InputError(
-                fmt::format("{}: grid '{}' has a voxel at {} whose value is not a number", path,
-                            grid, coordText(v.getCoord())));
+            throw InputError(fmt::format("{}: grid '{}' has a voxel at {} {}", path, grid,
+                                         coordText(v.getCoord()), notFinite(*v)));
 }
 
 /// A file read with pread, closed with its owner.
@@ -327,7 +343,8 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
 }
 
 /// The first voxel, in the tree's order, of a float or colour grid read
-/// whole whose value is not finite, named (as LeafDecoder names it).
+/// whole whose value is not finite, named (as LeafDecoder names it); then
+/// any such tile, and the background.
 void checkFiniteLeaves(openvdb::GridBase& base, const std::string& path)
 {
     base.apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& grid) {
@@ -342,6 +359,18 @@ void checkFiniteLeaves(openvdb::GridBase& base, const std::string& path)
         });
         if (first < leaves.size())
             nameNonFinite(*leaves[first], path, grid.getName());
+        // (and the tiles', and the background: a lookup between leaves
+        // reads them)
+        auto tile = grid.tree().cbeginValueAll();
+        tile.setMaxDepth(std::decay_t<decltype(tile)>::LEAF_DEPTH - 1);
+        for (; tile; ++tile)
+            if (!finite(*tile))
+                throw InputError(fmt::format("{}: grid '{}' has a tile at {} {}", path,
+                                             grid.getName(), coordText(tile.getCoord()),
+                                             notFinite(*tile)));
+        if (!finite(grid.background()))
+            throw InputError(fmt::format("{}: grid '{}' has a background {}", path, grid.getName(),
+                                         notFinite(grid.background())));
     });
 }
 

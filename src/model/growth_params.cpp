@@ -241,6 +241,17 @@ GrowthParameters loadGrowthParameters(const std::string& path)
     return parseGrowthParameters(readTextFile(path, "growth parameter file"), path);
 }
 
+void checkGrowthYears(const std::vector<int>& years, const GrowthParameters& p,
+                      const std::string& source)
+{
+    if (years.empty())
+        throw InputError("--years: give at least one year");
+    for (int y : years)
+        if (y < 1 || y > p.years)
+            throw InputError(fmt::format("--years: {} is not a year of the tree of {} (1 to {})", y,
+                                         source, p.years));
+}
+
 double timeOfLife(const GrowthParameters& p, std::optional<double> t, const std::string& source,
                   const std::string& option)
 {

@@ -74,6 +74,12 @@ struct GrowthParameters {
 GrowthParameters parseGrowthParameters(const std::string& text, const std::string& source);
 GrowthParameters loadGrowthParameters(const std::string& path);
 
+/// A benchmark's `--years`: each a year the tree of `params` grows, 1 to
+/// its years (year 0, before the trunk, has no tree to bake).  InputError
+/// naming the year, `source` and the range.
+void checkGrowthYears(const std::vector<int>& years, const GrowthParameters& params,
+                      const std::string& source);
+
 /// `t`, or the last year when it is not given.  InputError naming `source`
 /// and `option` unless it lies in [0, years].
 double timeOfLife(const GrowthParameters& params, std::optional<double> t,

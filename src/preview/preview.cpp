@@ -221,6 +221,7 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     if (!s.sampler)
         s.sampler = makeSampler(settings_.device);
     BakeOptions opt;
+    opt.source = settings_.input;
     opt.voxelSize = plan.voxelSize;
     opt.reuse = &s.cache;
     opt.interrupt = interrupt;

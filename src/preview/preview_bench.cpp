@@ -205,16 +205,22 @@ void benchYear(const PreviewBenchRequest& req, int yearNumber, const fs::path& d
 
 }  // namespace
 
+void checkPreviewBench(const PreviewBenchRequest& req)
+{
+    // (each was found by the preview it runs, after the table's header:
+    // exit 1, where a bad option is exit 2)
+    if (req.edits < 1 || req.edits > 1000000)
+        throw InputError(fmt::format("--edits: from 1 to 1000000 (got {})", req.edits));
+    if (req.width < 1 || req.width > 16384 || req.height < 1 || req.height > 16384)
+        throw InputError(fmt::format("--width and --height: from 1 to 16384 (got {} x {})",
+                                     req.width, req.height));
+    checkGrowthYears(req.years, loadGrowthParameters(req.parameters), req.parameters);
+}
+
 void runPreviewBench(const PreviewBenchRequest& req,
                      const std::function<void(const PreviewBenchYear&)>& year)
 {
-    if (req.years.empty() || req.edits < 1)
-        throw InputError("bench preview: give at least one year and one edit");
-    const GrowthParameters p = loadGrowthParameters(req.parameters);
-    for (int y : req.years)
-        if (y < 0 || y > p.years)
-            throw InputError(fmt::format("--years: {} is not a year of {} (0 to {})", y,
-                                         req.parameters, p.years));
+    checkPreviewBench(req);
     const ScratchDirectory scratch(ScratchDirectory::temporaryPath("bench_preview"));
     const fs::path dir = scratch.path();
     // The kernel cache warmed, as after `cambium prepare` or an earlier run.

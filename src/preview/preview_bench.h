@@ -42,6 +42,10 @@ struct PreviewBenchYear {
     PreviewBenchStage read, compile, bake, render, write, push, editToPicture;
 };
 
+/// The request's options checked before any work: edits, the picture's
+/// size, every year one of the growth's.  InputError naming the option.
+void checkPreviewBench(const PreviewBenchRequest& req);
+
 /// Measures each year in turn, calling `year` with each.  Throws
 /// std::runtime_error when a picture does not come (naming the year).
 void runPreviewBench(const PreviewBenchRequest& request,

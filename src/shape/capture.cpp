@@ -117,8 +117,11 @@ openvdb::FloatGrid::Ptr bakeModel(const FieldProgram& program, double h, Device 
 
 BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, const std::string& what)
 {
-    auto grid =
-        openvdb::FloatGrid::create(fine->background() * float(coarse / fine->voxelSize()[0]));
+    // The coarse surface resampled with OpenVDB's usual band of 3 voxels:
+    // its mesh needs the zero crossing only (resampled with the fine band's
+    // width in voxels, a level set whose background was 1000 made a band
+    // of 20,000 voxels and ran past a minute into the memory limit).
+    auto grid = openvdb::FloatGrid::create(float(openvdb::LEVEL_SET_HALF_WIDTH * coarse));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(coarse));
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*fine, *grid);
