@@ -375,6 +375,24 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "big.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 3e6}})");
     writeText(in / "heavy.json",
               R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": 1e39}})");
+    // (warps and operators past the kernels' float: sweep 12, each exit 0
+    // with a wrong surface on the default device)
+    const std::string cone =
+        R"({"type": "cone", "p0": [0, 0, 0], "p1": [0, 1, 0], "r0": 0.2, "r1": 0.1})";
+    writeText(in / "twist.json", R"({"root": {"type": "twist", "origin": [0, 0, 0], "axis": )"
+                                 R"([0, 1, 0], "rate": 1e20, "children": [)" +
+                                     cone + "]}}");
+    writeText(in / "taper.json", R"({"root": {"type": "taper", "origin": [0, 0, 0], "axis": )"
+                                 R"([0, 1, 0], "length": 1, "scale0": 1, "scale1": 1e-8, )"
+                                 R"("children": [)" +
+                                     cone + "]}}");
+    writeText(in / "ricci.json",
+              R"({"root": {"type": "ricci", "n": 256, "children": [{"type": "sphere", "center": )"
+              R"([0, 0, 0], "radius": 1}, {"type": "sphere", "center": [0.8, 0, 0], "radius": )"
+              R"(0.7}]}})");
+    writeText(in / "moved.json",
+              R"({"root": {"type": "transform", "translate": [-1e5, 0, 0], "children": [)"
+              R"({"type": "cone", "p0": [1e5, 0, 0], "p1": [1e5, 1, 0], "r0": 0.2, "r1": 0.1}]}})");
     writeText(in / "nul.json",
               R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
@@ -635,6 +653,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "origin, 5.12e+09 voxels of 0.00195312: beyond 1048576 voxels"},
         {"bake IN/heavy.json -o OUT/out.vdb",
          "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
+        {"bake IN/twist.json -o OUT/out.vdb",
+         "twist.json: root.rate: must be at most 1e+06 degrees a unit in magnitude (got 1e+20)"},
+        {"bake IN/taper.json -o OUT/out.vdb",
+         "taper.json: root.scale1: must be from 0.001 to 1000 (got 1e-08)"},
+        {"bake IN/ricci.json -o OUT/out.vdb", "ricci.json: root.n: must be at most 64 (got 256)"},
+        {"bake IN/moved.json -o OUT/out.vdb",
+         "moved.json: a primitive, in its own frame before the transforms above it, reaches "
+         "1e+05 from the origin"},
         {"bake IN/type.json -o OUT/out.vdb",
          "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
         // (the message ended at the NUL, its quote unclosed)

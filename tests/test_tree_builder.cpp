@@ -5,6 +5,7 @@
 #include "model/tree_builder.h"
 
 #include "bake_util.h"
+#include "core/math.h"
 #include "test_util.h"
 #include "model/turtle.h"
 #include "io/vdb.h"
@@ -411,6 +412,39 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
     const glm::dvec3 bark = ev.sample({0.1, 0.5, 0}).color, scar = ev.sample(c + 0.09 * u).color;
     EXPECT_NEAR(bark.x, 0.36, 1e-9);
     EXPECT_LT(scar.x, 0.9 * bark.x);
+}
+
+TEST(TreeBuilder, ALateralAtRightAnglesBendsAsOneJustShortOfThem)
+{
+    // At 90 degrees (ABOP's default angle) the direction off the basal axis
+    // was the lateral's own, which picks no bend plane: refused (sweep 12).
+    // It bends as the limit from below does: its middle below the chord.
+    auto middle = [](double degrees) {
+        const double a = degrees * kDegree;
+        Skeleton sk;
+        sk.internodes = {
+            internode(0, -1, {0, 0, 0}, {0, 1, 0}, 0.1, 0.08),
+            internode(1, 0, {0, 1, 0}, {std::sin(a), 1.0 + std::cos(a), 0}, 0.05, 0.04)};
+        TreeBuildOptions o;
+        o.bend = 0.4;
+        const BlobTree tree = buildTree(sk, o);
+        const ReferenceEvaluator ev(tree);
+        // The lateral's middle, across its chord in the plane: the mean offset
+        // of the inside along the chord's normal.
+        const glm::dvec3 mid(0.5 * std::sin(a), 1.0 + 0.5 * std::cos(a), 0),
+            normal(std::cos(a), -std::sin(a), 0);
+        double sum = 0.0;
+        int count = 0;
+        for (double t = -0.3; t <= 0.3; t += 0.0005)
+            if (ev.value(mid + t * normal) >= 0.5) {
+                sum += t;
+                ++count;
+            }
+        return count ? sum / count : 1e9;
+    };
+    const double right = middle(90.0), below = middle(89.99);
+    EXPECT_NEAR(right, below, 1e-3);
+    EXPECT_GT(std::abs(right), 0.01);  // bent, not straight
 }
 
 TEST(TreeBuilder, BentInternodesKeepTheirEnds)

@@ -81,6 +81,11 @@ cb_vec3 unitAxis(const glm::dvec3& axis)
 /// below that, a field a million times its threshold has no surface a
 /// voxel could resolve.
 constexpr double kMaxWeight = 1e6;
+/// A twist's largest rate (radians a unit: a million degrees) and a taper's
+/// least scale (its largest the inverse): the warps run in the kernels'
+/// float.
+constexpr double kMaxTwistRate = 1e6 * kDegree;
+constexpr double kLeastTaperScale = 1e-3;
 
 void requireWeight(double w)
 {
@@ -285,9 +290,14 @@ void BlobTree::validate(const Combiner& c) const
             requireFinite(c.n, "n");
             if (!(c.n >= 1.0))
                 throw ParameterError("n", fmt::format("must be at least 1 (got {})", c.n));
-            if (c.n > 256.0)
+            // (the kernels sample in float: f^n of a field near the surface
+            // left its range from n = 128, and n = 256 baked two spheres
+            // at a quarter of their volume, exit 0)
+            if (c.n > 64.0)
                 throw ParameterError(
-                    "n", fmt::format("must be at most 256 (got {}); a large n is a union", c.n));
+                    "n", fmt::format("must be at most 64 (got {}): beyond, f^n leaves single "
+                                     "precision, where the kernels sample; a large n is a union",
+                                     c.n));
             return;
         case NodeType::PCM:
             requirePositive(c.width, "width");
@@ -406,6 +416,12 @@ int BlobTree::twist(const glm::dvec3& origin, const glm::dvec3& axis, double rat
     checkChild(child, "children");
     requireFinite(origin, "origin");
     requireFinite(rate, "rate");
+    // (a rate of 1e20 degrees a unit was infinite in the kernels' float:
+    // the warped cone vanished, exit 0)
+    if (!(std::abs(rate) <= kMaxTwistRate))
+        throw ParameterError("rate", fmt::format("must be at most {:g} degrees a unit in magnitude "
+                                                 "(got {:g})",
+                                                 kMaxTwistRate / kDegree, rate / kDegree));
     return add(NodeType::TWIST, cb_twist{toCb(origin), unitAxis(axis), rate}, {child});
 }
 
@@ -417,6 +433,14 @@ int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double len
     requirePositive(length, "length");
     requirePositive(scale0, "scale0");
     requirePositive(scale1, "scale1");
+    // (a taper to 1e-8 divided by a scale that rounds to 0 in the kernels'
+    // float: an open, inside-out level set, exit 0)
+    for (const auto& [scale, name] : {std::pair{scale0, "scale0"}, std::pair{scale1, "scale1"}})
+        if (!(scale >= kLeastTaperScale && scale <= 1.0 / kLeastTaperScale))
+            throw ParameterError(name,
+                                 fmt::format("must be from {:g} to {:g} (got {:g}): a taper "
+                                             "divides the points it warps by its scale",
+                                             kLeastTaperScale, 1.0 / kLeastTaperScale, scale));
     return add(NodeType::TAPER, cb_taper{toCb(origin), unitAxis(axis), length, scale0, scale1},
                {child});
 }

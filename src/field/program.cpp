@@ -594,6 +594,15 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     const auto bounds = computeBounds(tree);
     prog.positive_ = bounds[size_t(tree.root())].positive;
     prog.support_ = bounds[size_t(tree.root())].support;
+    // Where the kernels compare points with the primitives: in each one's
+    // own frame, under the warps above it.
+    for (size_t i = 0; i < tree.size(); ++i)
+        if (kindOf(tree.node(int(i)).type) == NodeKind::Primitive && !bounds[i].positive.empty()) {
+            const Box& b = bounds[i].positive;
+            prog.farthestLocal_ =
+                std::max({prog.farthestLocal_, std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z),
+                          std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
+        }
     int stack = 0, warps = 0;
     depths(prog.code_, stack, warps);
     if (stack > CB_STACK_DEPTH || warps > CB_WARP_DEPTH)

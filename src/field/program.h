@@ -55,6 +55,10 @@ public:
     const std::vector<Instr>& code() const { return code_; }
     /// Where the root's field can be positive (the surface lies inside).
     const Box& positiveBounds() const { return positive_; }
+    /// The largest coordinate of any primitive's positive support in its
+    /// own frame (before the transforms and warps above it): where the
+    /// kernels' float positions must still tell voxels apart.
+    double farthestLocal() const { return farthestLocal_; }
     /// Where the root's field can be nonzero.
     const Box& supportBounds() const { return support_; }
     /// Where the field of the primitive or subtree that `in` heads can be
@@ -121,6 +125,7 @@ private:
     std::vector<Instr> code_;
     std::vector<Box> subtreeSupport_;  ///< indexed by OPEN.c / WARP.c
     Box positive_, support_;
+    double farthestLocal_ = 0.0;
     size_t primitives_ = 0;
     size_t bark_ = 0;
     std::optional<glm::dvec3> uniformColor_;

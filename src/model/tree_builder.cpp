@@ -368,8 +368,12 @@ void addInternodes(const Skeleton& sk, const TreeBuildOptions& o, const Topology
             const Internode& b = sk.internodes[size_t(g.parent[i])];
             const glm::dvec3 hA = glm::normalize(b.p1 - b.p0),
                              h = glm::normalize(s.p1[i] - s.p0[i]);
-            const glm::dvec3 away =
-                h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
+            glm::dvec3 away = h - glm::dot(h, hA) * hA;  // off the basal axis, in the plane of both
+            // (at right angles that is the lateral's own axis, which picks no
+            // plane, and ABOP's default 90 degrees was refused: the basal
+            // axis reversed picks the side a lateral just short of it bends to)
+            if (std::abs(glm::dot(h, hA)) < 1e-6)
+                away = -hA;
             if (glm::length(away) > 1e-3)
                 node = tree.bend(s.p0[i], s.p1[i], glm::normalize(away), o.bend, node);
         }
