@@ -880,13 +880,6 @@ TEST(Topology, LeafProgramsPastMemoryAreRefusedWhileTheyAreMade)
     // the estimate (from the primitives' areas) said 433 MB (sweep 11).
     // Under an address-space limit 600 MB above what the process maps: the
     // search refuses by name, not out of memory.
-#if defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#endif
-#endif
     std::string scene =
         R"({"threshold": 0.5, "root": {"type": "pcm", "children": [)"
         R"({"type": "cone", "p0": [0, 0, 0], "p1": [0, 10, 0], "r0": 0.5, "r1": 0.4})";
@@ -898,30 +891,10 @@ TEST(Topology, LeafProgramsPastMemoryAreRefusedWhileTheyAreMade)
             0.005 * i, 3.0 * u(rng), 1.0 + 0.005 * i, 3.0 * u(rng));
     scene += "]}}";
     const FieldProgram program = FieldProgram::compile(parseScene(scene, "fan.json"));
-    const pid_t child = ::fork();
-    if (child == 0) {
-        const MemoryLimits now = memoryLimits();
-        const rlimit limit{rlim_t(now.addressSpaceUsed + 600e6),
-                           rlim_t(now.addressSpaceUsed + 600e6)};
-        if (now.addressSpaceLimit < HUGE_VAL || ::setrlimit(RLIMIT_AS, &limit) != 0)
-            ::_exit(3);
-        try {
-            findBandLeaves(program, 0.01, 3.0, {}, {}, "fan.json");
-        } catch (const InputError& e) {
-            ::_exit(std::string(e.what()).rfind("fan.json: the band's leaves' programs would "
-                                                "take more than half the",
-                                                0) == 0
-                        ? 0
-                        : 4);
-        } catch (const std::bad_alloc&) {
-            ::_exit(5);
-        }
-        ::_exit(1);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
-    ASSERT_TRUE(WIFEXITED(status));
-    if (WEXITSTATUS(status) == 3)
-        GTEST_SKIP() << "an address-space limit is set already";
-    EXPECT_EQ(WEXITSTATUS(status), 0) << "4: another message, 5: out of memory, 1: it fitted";
+    expectRefusedUnderAddressSpaceLimit(
+        600e6, [&] { findBandLeaves(program, 0.01, 3.0, {}, {}, "fan.json"); },
+        [](const std::string& what) {
+            return what.rfind("fan.json: the band's leaves' programs would take more than half the",
+                              0) == 0;
+        });
 }

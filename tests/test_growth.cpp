@@ -392,43 +392,16 @@ TEST(Growth, ALateralAtEveryBudIsRefusedForItsBranchesBeforeMemoryRunsOut)
     // 400 bytes each, and the growth ran out of memory, exit 1 (sweep 10).
     // Here under an address-space limit 400 MB above what the process
     // maps: refused by name, not out of memory.
-#if defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#endif
-#endif
     GrowthParameters p = populus();
     p.Gss = Curve::constant(10.0);
     p.Gbs = Curve::constant(10.0);
     p.maxInternodes = 1e9;
-    const pid_t child = ::fork();
-    if (child == 0) {
-        const MemoryLimits now = memoryLimits();
-        const rlimit limit{rlim_t(now.addressSpaceUsed + 400e6),
-                           rlim_t(now.addressSpaceUsed + 400e6)};
-        if (now.addressSpaceLimit < HUGE_VAL || ::setrlimit(RLIMIT_AS, &limit) != 0)
-            ::_exit(3);
-        try {
-            GrowthModel m(p);
-        } catch (const InputError& e) {
-            const std::string what = e.what();
-            ::_exit(what.find("internodes in") != std::string::npos &&
-                            what.find("branches (reached at a branch of order") != std::string::npos
-                        ? 0
-                        : 4);
-        } catch (const std::bad_alloc&) {
-            ::_exit(5);
-        }
-        ::_exit(1);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
-    ASSERT_TRUE(WIFEXITED(status));
-    if (WEXITSTATUS(status) == 3)
-        GTEST_SKIP() << "an address-space limit is set already";
-    EXPECT_EQ(WEXITSTATUS(status), 0) << "4: another message, 5: out of memory, 1: it grew";
+    cambium::test::expectRefusedUnderAddressSpaceLimit(
+        400e6, [&] { GrowthModel m(p); },
+        [](const std::string& what) {
+            return what.find("internodes in") != std::string::npos &&
+                   what.find("branches (reached at a branch of order") != std::string::npos;
+        });
 }
 
 TEST(Growth, BadParametersAreNamedBeforeAnyWork)

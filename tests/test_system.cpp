@@ -5,6 +5,7 @@
 #include "core/files.h"
 #include "core/process.h"
 #include "core/system.h"
+#include "test_util.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -67,29 +68,13 @@ TEST(System, TheRoomLeftIsTheLeastOfTheMachineUlimitAndCgroup)
     // This process under an address-space limit 1 GB above what it maps:
     // about 1 GB of room, whatever the machine has (a shape past `ulimit -v`
     // was accepted, then ran out of memory after 27 s).
-#if defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    GTEST_SKIP() << "ASan's allocator reserves address space of its own";
-#endif
-#endif
-    const pid_t child = ::fork();
-    if (child == 0) {
-        const MemoryLimits now = memoryLimits();
-        const rlimit limit{rlim_t(now.addressSpaceUsed + 64e6 + 1e9),
-                           rlim_t(now.addressSpaceUsed + 64e6 + 1e9)};
-        if (now.addressSpaceLimit < HUGE_VAL || ::setrlimit(RLIMIT_AS, &limit) != 0)
-            ::_exit(3);
+    const int status = cambium::test::statusUnderAddressSpaceLimit(64e6 + 1e9, [] {
         const double room = availableMemoryBytes();
-        ::_exit(room > 0.7e9 && room < 1.3e9 ? 0 : 1);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
-    ASSERT_TRUE(WIFEXITED(status));
-    if (WEXITSTATUS(status) == 3)
-        GTEST_SKIP() << "an address-space limit is set already";
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+        return room > 0.7e9 && room < 1.3e9 ? 0 : 1;
+    });
+    if (status == -1)
+        GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
+    EXPECT_EQ(status, 0);
 }
 
 TEST(System, WorkThatWouldNotFitIsRefusedWithItsNumbers)

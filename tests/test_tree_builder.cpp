@@ -414,6 +414,21 @@ TEST(TreeBuilder, AShedOrgansScarIsAsDeepAsItsNegativeFieldMakesIt)
     EXPECT_LT(scar.x, 0.9 * bark.x);
 }
 
+/// An internode's inside across its chord at `mid`: the mean offset along
+/// `normal` (within 0.3) of the points at or above the threshold 0.5 (1e9
+/// where none is).
+double offChord(const ReferenceEvaluator& ev, const glm::dvec3& mid, const glm::dvec3& normal)
+{
+    double sum = 0.0;
+    int count = 0;
+    for (double t = -0.3; t <= 0.3; t += 0.0005)
+        if (ev.value(mid + t * normal) >= 0.5) {
+            sum += t;
+            ++count;
+        }
+    return count ? sum / count : 1e9;
+}
+
 TEST(TreeBuilder, ALateralAtRightAnglesBendsAsOneJustShortOfThem)
 {
     // At 90 degrees (ABOP's default angle) the direction off the basal axis
@@ -429,18 +444,9 @@ TEST(TreeBuilder, ALateralAtRightAnglesBendsAsOneJustShortOfThem)
         o.bend = 0.4;
         const BlobTree tree = buildTree(sk, o);
         const ReferenceEvaluator ev(tree);
-        // The lateral's middle, across its chord in the plane: the mean offset
-        // of the inside along the chord's normal.
-        const glm::dvec3 mid(0.5 * std::sin(a), 1.0 + 0.5 * std::cos(a), 0),
-            normal(std::cos(a), -std::sin(a), 0);
-        double sum = 0.0;
-        int count = 0;
-        for (double t = -0.3; t <= 0.3; t += 0.0005)
-            if (ev.value(mid + t * normal) >= 0.5) {
-                sum += t;
-                ++count;
-            }
-        return count ? sum / count : 1e9;
+        // The lateral's middle, across its chord in the plane.
+        return offChord(ev, glm::dvec3(0.5 * std::sin(a), 1.0 + 0.5 * std::cos(a), 0),
+                        glm::dvec3(std::cos(a), -std::sin(a), 0));
     };
     const double right = middle(90.0), below = middle(89.99);
     EXPECT_NEAR(right, below, 1e-3);
@@ -468,17 +474,7 @@ TEST(TreeBuilder, BentInternodesKeepTheirEnds)
     // Its middle moved off the chord, away from the trunk's axis: it first
     // grows more directly away from the trunk (towards +x, below the chord).
     const glm::dvec3 mid(0.35, 1.35, 0), normal = glm::normalize(glm::dvec3(0.7, -0.7, 0));
-    auto offCentre = [&](const ReferenceEvaluator& ev) {
-        double sum = 0.0;
-        int count = 0;
-        for (double t = -0.3; t <= 0.3; t += 0.0005)
-            if (ev.value(mid + t * normal) >= 0.5) {
-                sum += t;
-                ++count;
-            }
-        return count ? sum / count : 1e9;
-    };
-    const double shifted = offCentre(eb), centred = offCentre(es);
+    const double shifted = offChord(eb, mid, normal), centred = offChord(es, mid, normal);
     report("bend 0.4 rad: the internode's middle is {:.4f} off its chord (straight: {:.4f})",
            shifted, centred);
     EXPECT_NEAR(centred, 0.0, 0.002);

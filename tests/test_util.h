@@ -9,14 +9,21 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "core/error.h"
+#include "core/system.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
 #include <mutex>
+#include <new>
 #include <random>
 #include <string>
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace cambium::test {
 
@@ -132,6 +139,58 @@ void expectInputError(F&& f, const std::string& message, const std::string& what
         EXPECT_NE(std::string(e.what()).find(message), std::string::npos)
             << what << ": " << e.what();
     }
+}
+
+/// The exit status of `body()` (an int from 0 to 98) run in a forked child
+/// under an address-space limit `headroom` bytes above what the process
+/// maps; -1 where that cannot be tried (ASan's allocator reserves address
+/// space of its own, or a limit is set already): the caller skips.
+template <class F>
+int statusUnderAddressSpaceLimit(double headroom, F&& body)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    return -1;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+    return -1;
+#endif
+#endif
+    constexpr int kNoLimit = 99;
+    const pid_t child = ::fork();
+    if (child == 0) {
+        const MemoryLimits now = memoryLimits();
+        const rlimit limit{rlim_t(now.addressSpaceUsed + headroom),
+                           rlim_t(now.addressSpaceUsed + headroom)};
+        if (now.addressSpaceLimit < HUGE_VAL || ::setrlimit(RLIMIT_AS, &limit) != 0)
+            ::_exit(kNoLimit);
+        ::_exit(body());
+    }
+    int status = 0;
+    if (::waitpid(child, &status, 0) != child || !WIFEXITED(status))
+        return 128;  // (a signal: no exit status)
+    return WEXITSTATUS(status) == kNoLimit ? -1 : WEXITSTATUS(status);
+}
+
+/// `work()` under an address-space limit `headroom` bytes above what the
+/// process maps must throw InputError whose message `named` accepts, not
+/// run out of memory (skipped where the limit cannot be tried).
+template <class F>
+void expectRefusedUnderAddressSpaceLimit(double headroom, F&& work,
+                                         const std::function<bool(const std::string&)>& named)
+{
+    const int status = statusUnderAddressSpaceLimit(headroom, [&] {
+        try {
+            work();
+        } catch (const InputError& e) {
+            return named(e.what()) ? 0 : 4;
+        } catch (const std::bad_alloc&) {
+            return 5;
+        }
+        return 1;
+    });
+    if (status == -1)
+        GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
+    EXPECT_EQ(status, 0) << "4: another message, 5: out of memory, 1: it fitted, 128: a signal";
 }
 
 /// The root of f on [a, b] by bisection (f(a) and f(b) of opposite signs).
