@@ -78,6 +78,7 @@ typedef int cb_mask;
 #define CB_ATAN CB_MATH(atan)
 #define CB_ATAN2 CB_MATH(atan2)
 #define CB_POW CB_MATH(pow)
+#define CB_FMOD CB_MATH(fmod)
 #define CB_FABS CB_MATH(fabs)
 #define CB_SIN CB_MATH(sin)
 #define CB_COS CB_MATH(cos)

@@ -132,7 +132,8 @@
 #define CB_TWIST_ORIGIN 0 /* 3 */
 #define CB_TWIST_AXIS 3   /* 3, unit */
 #define CB_TWIST_RATE 6
-#define CB_TWIST_SIZE (CB_TWIST_RATE + 1)
+#define CB_TWIST_PHASE 7
+#define CB_TWIST_SIZE (CB_TWIST_PHASE + 1)
 
 /* `taper`: a cb_taper */
 #define CB_TAPER_ORIGIN 0 /* 3 */
@@ -140,7 +141,8 @@
 #define CB_TAPER_LEN 6
 #define CB_TAPER_SCALE0 7
 #define CB_TAPER_SCALE1 8
-#define CB_TAPER_SIZE (CB_TAPER_SCALE1 + 1)
+#define CB_TAPER_START 9
+#define CB_TAPER_SIZE (CB_TAPER_START + 1)
 
 /* A kernel that needs values only compiles with -D CB_GRADIENT=0 -D CB_COLOR=0:
  * the gradient and colour work below is then dead code the compiler removes. */
@@ -263,16 +265,29 @@ CB_FN void cb_acc_fold(cb_stack* s, int i, int j, CB_GLOBAL const cb_scalar* op,
         }
         cb_acc_color(s, i, j, CB_FABS(f));
     } else if (type == CB_RICCI) {
-        cb_real t = cb_ricci_term(f, op[CB_OP_N]);
-        cb_real gw = CB_POW(CB_FMAX(f, CB_R(0.0)), op[CB_OP_N] - CB_R(1.0));
-        gw = CB_SELECT(CB_R(0.0), gw, f > CB_R(0.0));
-        s->v[i] += t;
+        /* The sums are kept relative to the largest child so far (v2): sum
+         * (f_j / m)^n, which stays within [1, children] where f^n itself
+         * would overflow (weight 1e6, n 64).  A larger child rescales them. */
+        cb_real n = op[CB_OP_N], pos = CB_FMAX(f, CB_R(0.0));
+        cb_real m = CB_FMAX(s->v2[i], pos);
+        cb_real ka = cb_div0(s->v2[i], m), kb = cb_div0(pos, m);
+        cb_real kag = CB_SELECT(CB_R(0.0), CB_POW(ka, n - CB_R(1.0)), ka > CB_R(0.0));
+        cb_real kbg = CB_SELECT(CB_R(0.0), CB_POW(kb, n - CB_R(1.0)), kb > CB_R(0.0));
+        cb_real kav = kag * ka, kbv = kbg * kb;
+        s->v2[i] = m;
+        s->v[i] = s->v[i] * kav + kbv;
         if (CB_GRADIENT) {
-            s->gx[i] += gw * s->gx[j];
-            s->gy[i] += gw * s->gy[j];
-            s->gz[i] += gw * s->gz[j];
+            s->gx[i] = s->gx[i] * kag + kbg * s->gx[j];
+            s->gy[i] = s->gy[i] * kag + kbg * s->gy[j];
+            s->gz[i] = s->gz[i] * kag + kbg * s->gz[j];
         }
-        cb_acc_color(s, i, j, t);
+        if (CB_COLOR) {
+            s->cr[i] *= kav;
+            s->cg[i] *= kav;
+            s->cb[i] *= kav;
+            s->cw[i] *= kav;
+        }
+        cb_acc_color(s, i, j, kbv);
     } else if (type == CB_UNION) {
         cb_acc_pick(s, i, j, f > s->v[i], f, s->gx[j], s->gy[j], s->gz[j], 1);
     } else if (type == CB_INTERSECTION) {
@@ -312,9 +327,11 @@ CB_FN void cb_acc_close(cb_stack* s, int i, CB_GLOBAL const cb_scalar* op, cb_re
 {
     int type = (int)op[CB_OP_TYPE];
     if (type == CB_RICCI) {
-        cb_real F = cb_ricci_finish(s->v[i], op[CB_OP_N]);
-        cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(F, CB_TINY), CB_R(1.0) - op[CB_OP_N]),
-                              F > CB_R(0.0));
+        /* F = m sum^(1/n); dF = sum^((1 - n) / n) sum_j (f_j / m)^(n-1) df_j */
+        cb_real n = op[CB_OP_N], sum = s->v[i];
+        cb_real F = s->v2[i] * cb_ricci_finish(sum, n);
+        cb_real k = CB_SELECT(CB_R(0.0), CB_POW(CB_FMAX(sum, CB_TINY), (CB_R(1.0) - n) / n),
+                              sum > CB_R(0.0));
         s->v[i] = F;
         if (CB_GRADIENT) {
             s->gx[i] *= k;
@@ -382,6 +399,7 @@ CB_FN cb_vec3 cb_warp_apply(int type, CB_GLOBAL const cb_scalar* w, cb_vec3 p, c
         t.o = cb_load3(w, CB_TWIST_ORIGIN);
         t.a = cb_load3(w, CB_TWIST_AXIS);
         t.rate = w[CB_TWIST_RATE];
+        t.phase = w[CB_TWIST_PHASE];
         return cb_twist_apply(t, p, J);
     }
     {
@@ -391,6 +409,7 @@ CB_FN cb_vec3 cb_warp_apply(int type, CB_GLOBAL const cb_scalar* w, cb_vec3 p, c
         t.len = w[CB_TAPER_LEN];
         t.scale0 = w[CB_TAPER_SCALE0];
         t.scale1 = w[CB_TAPER_SCALE1];
+        t.start = w[CB_TAPER_START];
         return cb_taper_apply(t, p, J);
     }
 }

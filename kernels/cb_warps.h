@@ -105,17 +105,24 @@ CB_FN cb_vec3 cb_bend_apply(cb_bend b, cb_vec3 p, cb_real* J)
      * unused, and the guards below keep them finite. */
     cb_mask straight = b.theta <= CB_R(0.0);
     cb_real h = CB_R(0.5) * b.theta;
-    cb_real dx = x - CB_R(0.5) * b.len, dy = y + b.rho * b.ch;
-    cb_real r2 = dx * dx + dy * dy;
-    cb_real r = CB_SQRT(r2);
-    cb_real phi = CB_ATAN2(dx, dy);
+    /* On the arc: polar coordinates about its centre, scaled by the
+     * curvature kappa = 1 / rho so that nothing is of the arc's size: a bend
+     * of 1e-4 degrees has rho = 5.7e5 L, and r - rho in float lost 0.03 L.
+     * (X, Y) = kappa (x - L/2, y + rho cos(theta/2)), R = kappa r, and
+     * y' = r - rho = (r^2 - rho^2) / (r + rho), with rho sin(theta/2) = L/2:
+     * y' = (kappa (x (x - L) + y^2) + 2 y cos(theta/2)) / (R + 1). */
+    cb_real kappa = cb_div0(CB_R(2.0) * b.sh, b.len);
+    cb_real X = kappa * (x - CB_R(0.5) * b.len), Y = kappa * y + b.ch;
+    cb_real R2 = X * X + Y * Y;
+    cb_real R = CB_SQRT(R2);
+    cb_real phi = CB_ATAN2(X, Y);
     cb_mask before = phi < -h;
     cb_mask after = phi > h;
-    /* on the arc: polar coordinates about its centre */
     cb_real k = cb_div0(b.len, b.theta);
-    cb_real a = (phi + h) * k, yp = r - b.rho;
-    cb_real j00 = k * cb_div0(dy, r2), j01 = -k * cb_div0(dx, r2);
-    cb_real j10 = cb_div0(dx, r), j11 = cb_div0(dy, r);
+    cb_real a = (phi + h) * k;
+    cb_real yp = (kappa * (x * (x - b.len) + y * y) + CB_R(2.0) * y * b.ch) / (R + CB_R(1.0));
+    cb_real j00 = b.lscale * cb_div0(Y, R2), j01 = -b.lscale * cb_div0(X, R2);
+    cb_real j10 = cb_div0(X, R), j11 = cb_div0(Y, R);
     /* before p0: along the start tangent */
     a = CB_SELECT(a, b.lscale * (x * b.ch + y * b.sh), before);
     yp = CB_SELECT(yp, -x * b.sh + y * b.ch, before);
@@ -149,13 +156,31 @@ CB_FN cb_vec3 cb_bend_apply(cb_bend b, cb_vec3 p, cb_real* J)
  * (Rodrigues: d/dalpha R(alpha) v = a x R(alpha) v). */
 typedef struct cb_twist {
     cb_vec3 o, a;
-    cb_real rate; /* radians per unit length */
+    cb_real rate;  /* radians per unit length */
+    cb_real phase; /* the angle at o, in [-2 pi, 2 pi] (setup) */
 } cb_twist;
+
+#if CB_LANES == 1
+/* The origin moved along the axis to the point nearest the frame's origin
+ * and the angle it turned by kept as the phase: the same warp, whose
+ * heights a.(p - o) stay as small as the model.  (Twisting about an origin
+ * 1e7 away along the axis, the float angle lost 1000 degrees.)  a: unit. */
+CB_FN cb_twist cb_twist_setup(cb_vec3 o, cb_vec3 a, cb_real rate)
+{
+    cb_twist t;
+    cb_real along = cb_dot(o, a);
+    t.o = cb_madd(o, a, -along);
+    t.a = a;
+    t.rate = rate;
+    t.phase = CB_FMOD(rate * along, CB_R(6.283185307179586));
+    return t;
+}
+#endif
 
 CB_FN cb_vec3 cb_twist_apply(cb_twist t, cb_vec3 p, cb_real* J)
 {
     cb_vec3 d = cb_sub(p, t.o);
-    cb_real alpha = -t.rate * cb_dot(d, t.a);
+    cb_real alpha = t.phase - t.rate * cb_dot(d, t.a);
     cb_real c = CB_COS(alpha), s = CB_SIN(alpha), oc = CB_R(1.0) - c;
     cb_vec3 a = t.a;
     cb_real R[9];
@@ -190,13 +215,31 @@ CB_FN cb_vec3 cb_twist_apply(cb_twist t, cb_vec3 p, cb_real* J)
 typedef struct cb_taper {
     cb_vec3 o, a;
     cb_real len, scale0, scale1;
+    cb_real start; /* the height where the taper begins, from o (setup) */
 } cb_taper;
+
+#if CB_LANES == 1
+/* As a twist's, the origin moved along the axis to the point nearest the
+ * frame's origin, the taper's start kept as a height from it.  (With the
+ * origin 1.4e7 away, the float distance from the axis lost whole units.) */
+CB_FN cb_taper cb_taper_setup(cb_vec3 o, cb_vec3 a, cb_real len, cb_real scale0, cb_real scale1)
+{
+    cb_taper t;
+    t.start = cb_dot(o, a);
+    t.o = cb_madd(o, a, -t.start);
+    t.a = a;
+    t.len = len;
+    t.scale0 = scale0;
+    t.scale1 = scale1;
+    return t;
+}
+#endif
 
 CB_FN cb_vec3 cb_taper_apply(cb_taper t, cb_vec3 p, cb_real* J)
 {
     cb_vec3 d = cb_sub(p, t.o);
     cb_real h = cb_dot(d, t.a);
-    cb_real u = h / t.len;
+    cb_real u = (h - t.start) / t.len;
     cb_real s = t.scale0 + (t.scale1 - t.scale0) * cb_clamp01(u);
     cb_real ds =
         CB_SELECT(CB_R(0.0), (t.scale1 - t.scale0) / t.len, u > CB_R(0.0) && u < CB_R(1.0));

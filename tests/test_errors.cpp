@@ -393,6 +393,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "moved.json",
               R"({"root": {"type": "transform", "translate": [-1e5, 0, 0], "children": [)"
               R"({"type": "cone", "p0": [1e5, 0, 0], "p1": [1e5, 1, 0], "r0": 0.2, "r1": 0.1}]}})");
+    // (translations of -1e6 and +1e6 cancel in double, not in the kernels'
+    // float: the cone baked as a stepped slab, exit 0)
+    writeText(in / "nested.json",
+              R"({"root": {"type": "transform", "translate": [-1e6, 0, 0], "children": [)"
+              R"({"type": "transform", "translate": [1e6, 0, 0], "children": [)"
+              R"({"type": "cone", "p0": [0, 0, 0], "p1": [0, 1, 0], "r0": 0.1, "r1": 0.05}]}]}})");
     writeText(in / "nul.json",
               R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
@@ -419,6 +425,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "twice.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n1 -1 0 0 0 0 1 0 0.1 0.1\n");
     writeText(in / "point.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0 1 0 0.1 0.05\n");
     writeText(in / "orphan.txt", "1 7 0 0 0 0 1 0 0.1 0.1\n");
+    writeText(in / "stem.txt", "1 -1 0 0 0 0 1 0 0.1 0.1\n2 1 0 1 0 0.3 2 0 0.08 0.05\n");
     std::string growth = fileContents(kPopulus);
     writeText(in / "growth_dup.json", "{\"years\": 3, " + growth.substr(growth.find('{') + 1));
     writeText(in / "trunc100.vdb", good.substr(0, 100));
@@ -659,8 +666,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "taper.json: root.scale1: must be from 0.001 to 1000 (got 1e-08)"},
         {"bake IN/ricci.json -o OUT/out.vdb", "ricci.json: root.n: must be at most 64 (got 256)"},
         {"bake IN/moved.json -o OUT/out.vdb",
-         "moved.json: a primitive, in its own frame before the transforms above it, reaches "
-         "1e+05 from the origin"},
+         "moved.json: a primitive or warp, in its own frame before the transforms above it (in "
+         "world units), reaches 1e+05 from the origin"},
+        {"bake IN/nested.json -o OUT/out.vdb",
+         "nested.json: a primitive or warp, in its own frame before the transforms above it (in "
+         "world units), reaches 2e+06 from the origin"},
         {"bake IN/type.json -o OUT/out.vdb",
          "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
         // (the message ended at the NUL, its quote unclosed)
@@ -716,6 +726,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "point.txt:2: internode 2 has no length (its two points are the same)"},
         {"bake IN/orphan.txt -o OUT/out.vdb",
          "orphan.txt:1: internode 1 has parent 7, which is not in the file"},
+        // (a skeleton file's default junctions, blend, ignored both, exit 0)
+        {"bake IN/stem.txt -o OUT/out.vdb --bend 30",
+         "stem.txt: --bend needs --junctions pcm or smooth (a skeleton file's default junctions "
+         "are blend, which builds none)"},
+        {"bake IN/stem.txt -o OUT/out.vdb --primitives convolution",
+         "stem.txt: --primitives convolution or mixed needs --junctions pcm or smooth"},
         // growth parameter files and their options
         {"bake IN/growth_dup.json -o OUT/out.vdb", "growth_dup.json: duplicate key 'years'"},
         {"bake " + P + " --time -1 -o OUT/out.vdb", "--time must be between 0 and 27 years"},

@@ -199,11 +199,12 @@ TEST_F(KernelParity, Warps)
                                   cb_v3(pr[6], pr[7], pr[8]), pr[9]),
                     p, J);
             } else if (warp == 1) {
-                cb_twist t{cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6]};
+                const cb_twist t =
+                    cb_twist_setup(cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6]);
                 q = cb_twist_apply(t, p, J);
             } else {
-                cb_taper t{cb_v3(pr[0], pr[1], pr[2]), cb_v3(pr[3], pr[4], pr[5]), pr[6], pr[7],
-                           pr[8]};
+                const cb_taper t = cb_taper_setup(cb_v3(pr[0], pr[1], pr[2]),
+                                                  cb_v3(pr[3], pr[4], pr[5]), pr[6], pr[7], pr[8]);
                 q = cb_taper_apply(t, p, J);
             }
             const double host[3] = {q.x, q.y, q.z};

@@ -141,6 +141,7 @@ void expectWarpBlock(const double* w, const Node& n)
             expect3(w + CB_TWIST_ORIGIN, t.o, "twist origin");
             expect3(w + CB_TWIST_AXIS, t.a, "twist axis");
             EXPECT_EQ(w[CB_TWIST_RATE], t.rate);
+            EXPECT_EQ(w[CB_TWIST_PHASE], t.phase);
             break;
         }
         default: {
@@ -150,6 +151,7 @@ void expectWarpBlock(const double* w, const Node& n)
             EXPECT_EQ(w[CB_TAPER_LEN], t.len);
             EXPECT_EQ(w[CB_TAPER_SCALE0], t.scale0);
             EXPECT_EQ(w[CB_TAPER_SCALE1], t.scale1);
+            EXPECT_EQ(w[CB_TAPER_START], t.start);
             break;
         }
     }

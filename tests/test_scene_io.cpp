@@ -177,6 +177,35 @@ TEST(SceneIo, OperatorDefaultsFitALowThreshold)
     EXPECT_LT(tree.node(3).combiner().k, 0.2);
 }
 
+TEST(SceneIo, AGbbsDefaultPcmSideFitsALowThreshold)
+{
+    // (b1, unwritten, took width 0.25 at T = 0.2: "root.b1.width: must not
+    // exceed the threshold")
+    const BlobTree tree = parseScene(R"({"threshold": 0.2, "root": {"type": "gbb",
+        "bound": {"type": "sphere", "center": [0.4, 0, 0], "radius": 0.3}, "children": [
+        {"type": "sphere", "center": [0, 0, 0], "radius": 0.5},
+        {"type": "sphere", "center": [0.8, 0, 0], "radius": 0.5}]}})",
+                                     "gbb.json");
+    EXPECT_LE(tree.node(tree.root()).gbb().b1.width, 0.2);
+}
+
+TEST(SceneIo, ARotationAxisOfAnyFiniteLengthIsItsDirection)
+{
+    // (an axis of [1e300, 1e300, 0] overflowed its length: "root.matrix:
+    // must have finite entries", naming a matrix no one wrote)
+    auto forward = [](const char* axis) {
+        const BlobTree tree = parseScene(
+            std::string(R"({"root": {"type": "transform", "rotate": {"axis": )") + axis +
+                R"(, "angle": 90}, "children": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]}})",
+            "rotate.json");
+        const auto& m = std::get<TransformParams>(tree.node(tree.root()).params).forward;
+        return std::vector<double>(std::begin(m), std::end(m));
+    };
+    const std::vector<double> huge = forward("[1e300, 1e300, 0]"), unit = forward("[1, 1, 0]");
+    for (size_t i = 0; i < unit.size(); ++i)
+        EXPECT_NEAR(huge[i], unit[i], 1e-15) << i;
+}
+
 TEST(SceneIo, MissingFileIsNamed)
 {
     try {

@@ -98,12 +98,13 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     // Positions in single precision a fraction of a voxel apart (and well
     // inside OpenVDB's 32-bit index space).
     checkVoxelsFromOrigin(far + req.halfWidth * h, h, fmt::format("{}: the surface", req.input));
-    // ... and so in every primitive's own frame, where the kernels compare
-    // (a cone authored at x = 1e5 and moved to the origin baked grooved, its
-    // floats 0.008 apart at voxels of 0.003, exit 0).
+    // ... and so in every primitive's and warp's own frame, where the kernels
+    // compare (a cone authored at x = 1e5 and moved to the origin baked
+    // grooved, its floats 0.008 apart at voxels of 0.003, exit 0; so did a
+    // cone inside translations of +1e6 and -1e6).
     checkVoxelsFromOrigin(program.farthestLocal() + req.halfWidth * h, h,
-                          fmt::format("{}: a primitive, in its own frame before the transforms "
-                                      "above it,",
+                          fmt::format("{}: a primitive or warp, in its own frame before the "
+                                      "transforms above it (in world units),",
                                       req.input));
     // (A species file's bark photo, which the program does not tell, stops
     // the packing too: its frames need about 8 bytes a band voxel more.)

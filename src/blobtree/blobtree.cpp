@@ -70,10 +70,10 @@ cb_vec3 toCb(const glm::dvec3& v)
 cb_vec3 unitAxis(const glm::dvec3& axis)
 {
     requireFinite(axis, "axis");
-    const double l = glm::length(axis);
-    if (!(l > 0.0))
+    const glm::dvec3 unit = unitDirection(axis);
+    if (unit == glm::dvec3(0.0))
         throw ParameterError("axis", "must not be zero");
-    return toCb(axis / l);
+    return toCb(unit);
 }
 
 /// The largest weight a primitive may have: the kernels sample in float, and
@@ -290,13 +290,12 @@ void BlobTree::validate(const Combiner& c) const
             requireFinite(c.n, "n");
             if (!(c.n >= 1.0))
                 throw ParameterError("n", fmt::format("must be at least 1 (got {})", c.n));
-            // (the kernels sample in float: f^n of a field near the surface
-            // left its range from n = 128, and n = 256 baked two spheres
-            // at a quarter of their volume, exit 0)
+            // (the evaluators sum (f / max f)^n, which stays in range for any
+            // n; beyond 64 two equal children blend within 1 % of one)
             if (c.n > 64.0)
                 throw ParameterError(
-                    "n", fmt::format("must be at most 64 (got {}): beyond, f^n leaves single "
-                                     "precision, where the kernels sample; a large n is a union",
+                    "n", fmt::format("must be at most 64 (got {}): a larger n is a union (use "
+                                     "\"union\")",
                                      c.n));
             return;
         case NodeType::PCM:
@@ -400,15 +399,15 @@ int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3&
     if (!(len > 0.0))
         throw ParameterError("p1", "is equal to p0: a bend needs an internode to bend");
     const glm::dvec3 u = axis / len;
-    const double dl = glm::length(dir);
-    if (!(glm::length(dir - glm::dot(dir, u) * u) > 1e-9 * dl))
+    const glm::dvec3 d = unitDirection(dir);
+    if (!(glm::length(d - glm::dot(d, u) * u) > 1e-9))
         throw ParameterError("direction",
                              "must not be zero or parallel to p1 - p0: it picks the bend plane");
     if (!(std::abs(angle) < M_PI))
         throw ParameterError("angle", fmt::format("must be less than 180 degrees in magnitude (got "
                                                   "{} degrees)",
                                                   angle * 180.0 / M_PI));
-    return add(NodeType::BEND, cb_bend_setup(toCb(p0), toCb(p1), toCb(dir), angle), {child});
+    return add(NodeType::BEND, cb_bend_setup(toCb(p0), toCb(p1), toCb(d), angle), {child});
 }
 
 int BlobTree::twist(const glm::dvec3& origin, const glm::dvec3& axis, double rate, int child)
@@ -422,7 +421,7 @@ int BlobTree::twist(const glm::dvec3& origin, const glm::dvec3& axis, double rat
         throw ParameterError("rate", fmt::format("must be at most {:g} degrees a unit in magnitude "
                                                  "(got {:g})",
                                                  kMaxTwistRate / kDegree, rate / kDegree));
-    return add(NodeType::TWIST, cb_twist{toCb(origin), unitAxis(axis), rate}, {child});
+    return add(NodeType::TWIST, cb_twist_setup(toCb(origin), unitAxis(axis), rate), {child});
 }
 
 int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double length, double scale0,
@@ -441,8 +440,8 @@ int BlobTree::taper(const glm::dvec3& origin, const glm::dvec3& axis, double len
                                  fmt::format("must be from {:g} to {:g} (got {:g}): a taper "
                                              "divides the points it warps by its scale",
                                              kLeastTaperScale, 1.0 / kLeastTaperScale, scale));
-    return add(NodeType::TAPER, cb_taper{toCb(origin), unitAxis(axis), length, scale0, scale1},
-               {child});
+    return add(NodeType::TAPER,
+               cb_taper_setup(toCb(origin), unitAxis(axis), length, scale0, scale1), {child});
 }
 
 void BlobTree::setColor(int node, const glm::dvec3& rgb)

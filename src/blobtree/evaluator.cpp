@@ -92,13 +92,18 @@ FieldSample combine(const Combiner& c, const std::vector<FieldSample>& kids, dou
             }
             break;
         case NodeType::RICCI: {
-            double sum = 0.0;
+            // Relative to the largest child m: F = m (sum (f_i / m)^n)^(1/n),
+            // whose terms stay within [0, 1] where f^n would overflow.
+            double m = 0.0, sum = 0.0;
             for (const auto& k : kids)
-                sum += cb_ricci_term(k.value, c.n);
-            out.value = cb_ricci_finish(sum, c.n);
+                m = std::max(m, k.value);
+            if (m > 0.0)
+                for (const auto& k : kids)
+                    sum += cb_ricci_term(k.value / m, c.n);
+            out.value = m * cb_ricci_finish(sum, c.n);
             for (size_t i = 0; i < kids.size(); ++i) {
                 out.gradient += cb_ricci_partial(kids[i].value, out.value, c.n) * kids[i].gradient;
-                w[i] = cb_ricci_term(kids[i].value, c.n);
+                w[i] = m > 0.0 ? cb_ricci_term(kids[i].value / m, c.n) : 0.0;
             }
             break;
         }

@@ -241,10 +241,10 @@ private:
             if (!r.is_object())
                 fail(rpath, "must be an object {\"axis\": [x, y, z], \"angle\": degrees}");
             checkKeys(r, rpath, {"axis", "angle"});
-            const glm::dvec3 axis = reqVec3(r, "axis", rpath);
-            if (!(glm::length(axis) > 0.0))
+            const glm::dvec3 axis = unitDirection(reqVec3(r, "axis", rpath));
+            if (axis == glm::dvec3(0.0))
                 fail(jsonPath(rpath, "axis"), "must not be zero");
-            m = glm::rotate(m, reqNumber(r, "angle", rpath) * kDegree, glm::normalize(axis));
+            m = glm::rotate(m, reqNumber(r, "angle", rpath) * kDegree, axis);
         }
         if (j.contains("scale")) {
             const json& s = j["scale"];
@@ -318,6 +318,9 @@ private:
                         node(required(j, "bound", path, "a gbb needs a bounding field"),
                              jsonPath(path, "bound"));
                     Combiner b1{NodeType::PCM}, b2{NodeType::BLEND};
+                    // (the default PCM took its width 0.25 whatever the
+                    // threshold: refused at T = 0.2, naming an unwritten b1)
+                    combinerParams(json::object(), jsonPath(path, "b1"), b1);
                     if (j.contains("b1"))
                         b1 = combinerSpec(j["b1"], jsonPath(path, "b1"));
                     if (j.contains("b2"))

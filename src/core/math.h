@@ -63,6 +63,17 @@ inline double smoothstep(double e0, double e1, double x)
     return u * u * (3.0 - 2.0 * u);
 }
 
+/// The direction of a finite v as a unit vector, (0, 0, 0) for the zero
+/// vector: scaled by its largest component first, so that a direction
+/// written as [1e300, 1e300, 0] does not overflow its length.
+inline glm::dvec3 unitDirection(const glm::dvec3& v)
+{
+    const double big = std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)});
+    if (!(big > 0.0) || !std::isfinite(big))
+        return glm::dvec3(0.0);
+    return glm::normalize(v / big);
+}
+
 /// v rotated by `angle` radians about the unit `axis` (Rodrigues).
 inline glm::dvec3 rotateAbout(const glm::dvec3& v, const glm::dvec3& axis, double angle)
 {

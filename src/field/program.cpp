@@ -209,6 +209,7 @@ private:
                 put3(w + CB_TWIST_ORIGIN, t.o);
                 put3(w + CB_TWIST_AXIS, t.a);
                 w[CB_TWIST_RATE] = t.rate;
+                w[CB_TWIST_PHASE] = t.phase;
                 break;
             }
             default: {
@@ -220,6 +221,7 @@ private:
                 w[CB_TAPER_LEN] = t.len;
                 w[CB_TAPER_SCALE0] = t.scale0;
                 w[CB_TAPER_SCALE1] = t.scale1;
+                w[CB_TAPER_START] = t.start;
                 break;
             }
         }
@@ -320,12 +322,21 @@ Interval combine(const double* op, const std::vector<Interval>& iv, double T)
             }
             return r;
         case CB_RICCI: {
+            // Monotone in every child; relative to the largest bound, as the
+            // evaluators, so that f^n cannot overflow.
+            double m = 0.0;
+            for (const auto& i : iv)
+                m = std::max(m, i.hi);
+            if (!(m > 0.0))
+                return {0.0, 0.0};
+            if (!std::isfinite(m))
+                return {0.0, kInf};
             double slo = 0.0, shi = 0.0;
             for (const auto& i : iv) {
-                slo += std::pow(std::max(i.lo, 0.0), op[CB_OP_N]);
-                shi += std::pow(std::max(i.hi, 0.0), op[CB_OP_N]);
+                slo += cb_ricci_term(i.lo / m, op[CB_OP_N]);
+                shi += cb_ricci_term(i.hi / m, op[CB_OP_N]);
             }
-            return {std::pow(slo, 1.0 / op[CB_OP_N]), std::pow(shi, 1.0 / op[CB_OP_N])};
+            return {m * cb_ricci_finish(slo, op[CB_OP_N]), m * cb_ricci_finish(shi, op[CB_OP_N])};
         }
         case CB_UNION:
             r = {-kInf, -kInf};
@@ -577,6 +588,78 @@ bool FieldProgram::identical(const FieldProgram& other) const
            std::memcmp(code_.data(), other.code_.data(), code_.size() * sizeof(Instr)) == 0;
 }
 
+namespace {
+
+/// FieldProgram::farthestLocal(): where the kernels compare points with the
+/// primitives, in each one's own frame under the warps above it, and every
+/// number a warp computes on the way there (its input point, its origin, an
+/// affine map's terms: nested translations of +1e6 and -1e6 cancel in
+/// double, not in float).  Each in world units: a frame's coordinates times
+/// how much the transforms above it scale them (a bark ridge drawn 1000
+/// times larger and scaled down is as precise as one drawn to size).
+double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bounds)
+{
+    // World units per unit of each node's frame: the transforms above it.
+    std::vector<double> scale(tree.size(), 0.0);
+    scale[size_t(tree.root())] = 1.0;
+    for (size_t i = tree.size(); i-- > 0;) {  // parents follow their children
+        const Node& n = tree.node(int(i));
+        double f = 1.0;
+        if (n.type == NodeType::TRANSFORM) {
+            const double* m = std::get<TransformParams>(n.params).forward;
+            f = 0.0;
+            for (int c = 0; c < 3; ++c)  // a column's length: exact for a similarity
+                f = std::max(f, std::sqrt(m[c] * m[c] + m[4 + c] * m[4 + c] + m[8 + c] * m[8 + c]));
+        } else if (n.type == NodeType::TAPER) {
+            const cb_taper& t = std::get<cb_taper>(n.params);
+            f = std::max(t.scale0, t.scale1);
+        }
+        for (int c : n.children)
+            scale[size_t(c)] = std::max(scale[size_t(c)], scale[i] * f);
+    }
+    auto length = [](const cb_vec3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); };
+    double far = 0.0;
+    for (size_t i = 0; i < tree.size(); ++i) {
+        const Node& n = tree.node(int(i));
+        const Box& b = bounds[i].positive;
+        if (b.empty() || scale[i] == 0.0 || kindOf(n.type) == NodeKind::Operator)
+            continue;
+        // The node's box and parameters are in the frame it lives in.
+        const double P = std::max({std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z),
+                                   std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
+        double here = P;
+        switch (n.type) {
+            case NodeType::TRANSFORM: {
+                // q = A p + b in the child's frame, then in world units.
+                const auto& t = std::get<TransformParams>(n.params);
+                const double childToHere = scale[size_t(n.children[0])] / scale[i];
+                for (int r = 0; r < 3; ++r)
+                    here = std::max(here, childToHere * ((std::abs(t.inverse.m[4 * r]) +
+                                                          std::abs(t.inverse.m[4 * r + 1]) +
+                                                          std::abs(t.inverse.m[4 * r + 2])) *
+                                                             P +
+                                                         std::abs(t.inverse.m[4 * r + 3])));
+                break;
+            }
+            case NodeType::BEND:
+                here += length(std::get<cb_bend>(n.params).p0);
+                break;
+            case NodeType::TWIST:
+                here += length(std::get<cb_twist>(n.params).o);
+                break;
+            case NodeType::TAPER:
+                here += length(std::get<cb_taper>(n.params).o);
+                break;
+            default:
+                break;
+        }
+        far = std::max(far, here * scale[i]);
+    }
+    return far;
+}
+
+}  // namespace
+
 FieldProgram FieldProgram::compile(const BlobTree& tree)
 {
     FieldProgram prog;
@@ -594,15 +677,7 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     const auto bounds = computeBounds(tree);
     prog.positive_ = bounds[size_t(tree.root())].positive;
     prog.support_ = bounds[size_t(tree.root())].support;
-    // Where the kernels compare points with the primitives: in each one's
-    // own frame, under the warps above it.
-    for (size_t i = 0; i < tree.size(); ++i)
-        if (kindOf(tree.node(int(i)).type) == NodeKind::Primitive && !bounds[i].positive.empty()) {
-            const Box& b = bounds[i].positive;
-            prog.farthestLocal_ =
-                std::max({prog.farthestLocal_, std::abs(b.lo.x), std::abs(b.lo.y), std::abs(b.lo.z),
-                          std::abs(b.hi.x), std::abs(b.hi.y), std::abs(b.hi.z)});
-        }
+    prog.farthestLocal_ = farthestInFrames(tree, bounds);
     int stack = 0, warps = 0;
     depths(prog.code_, stack, warps);
     if (stack > CB_STACK_DEPTH || warps > CB_WARP_DEPTH)

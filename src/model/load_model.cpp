@@ -59,16 +59,32 @@ const char* primitivesName(ModelOptions::Primitives primitives)
     return kPrimitiveNames[size_t(primitives)].c_str();
 }
 
+namespace {
+
+/// --bend and --primitives build junctions: refused where the junctions are
+/// `blend`, given or (`defaulted`) a skeleton file's default.
+void checkBuildsJunctions(const ModelOptions& o, ModelOptions::Junctions junctions, bool defaulted)
+{
+    if (junctions != ModelOptions::Junctions::Blend)
+        return;
+    const char* why = defaulted ? "a skeleton file's default junctions are blend, which builds none"
+                                : "blend builds no junctions";
+    if (o.bendDegrees != 0.0)
+        throw InputError(fmt::format("--bend needs --junctions pcm or smooth ({})", why));
+    if (o.primitives != ModelOptions::Primitives::Cone)
+        throw InputError(fmt::format(
+            "--primitives convolution or mixed needs --junctions pcm or smooth ({})", why));
+}
+
+}  // namespace
+
 void checkModelOptions(const ModelOptions& o)
 {
-    const bool blend = o.junctions == ModelOptions::Junctions::Blend;
     if (!(std::abs(o.bendDegrees) < 90.0))
         throw InputError(
             fmt::format("--bend must be between -90 and 90 degrees (got {})", o.bendDegrees));
-    if (o.bendDegrees != 0.0 && blend)
-        throw InputError("--bend needs --junctions pcm or smooth (blend builds no junctions)");
-    if (o.primitives != ModelOptions::Primitives::Cone && blend)
-        throw InputError("--primitives convolution or mixed needs --junctions pcm or smooth");
+    if (o.junctions)
+        checkBuildsJunctions(o, *o.junctions, false);
     checkTreeBuildOptions(treeOptions(o, ModelOptions::Junctions::Pcm));
 }
 
@@ -124,8 +140,16 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
             "{}: a mesh file, not a model (scene .json, L-system .l, skeleton or growth file): "
             "`cambium render --mesh` draws it, a shape's \"mesh\" base bakes it",
             path));
-    Skeleton sk;
     const bool lsystem = fileExtension(path) == "l";
+    using J = ModelOptions::Junctions;
+    const J junctions = o.junctions.value_or(lsystem ? J::Pcm : J::Blend);
+    // (a skeleton file baked as if --bend 30 had not been given, exit 0)
+    try {
+        checkBuildsJunctions(o, junctions, !o.junctions);
+    } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: {}", path, e.what()));
+    }
+    Skeleton sk;
     if (lsystem) {
         const LSystem sys = loadLSystem(path);
         sk = interpretTurtle(
@@ -138,8 +162,6 @@ BlobTree loadModel(const std::string& path, const ModelOptions& o)
     } else {
         sk = loadSkeleton(path);
     }
-    using J = ModelOptions::Junctions;
-    const J junctions = o.junctions.value_or(lsystem ? J::Pcm : J::Blend);
     try {
         return junctions == J::Blend ? skeletonToBlend(sk)
                                      : buildTree(sk, treeOptions(o, junctions));

@@ -76,18 +76,12 @@ __kernel void warps(__global const float* points, int warp, __global const float
                                   cb_v3(prm[6], prm[7], prm[8]), prm[9]);
         q = cb_bend_apply(b, p, J);
     } else if (warp == 1) {
-        cb_twist t;
-        t.o = cb_v3(prm[0], prm[1], prm[2]);
-        t.a = cb_v3(prm[3], prm[4], prm[5]);
-        t.rate = prm[6];
+        cb_twist t =
+            cb_twist_setup(cb_v3(prm[0], prm[1], prm[2]), cb_v3(prm[3], prm[4], prm[5]), prm[6]);
         q = cb_twist_apply(t, p, J);
     } else {
-        cb_taper t;
-        t.o = cb_v3(prm[0], prm[1], prm[2]);
-        t.a = cb_v3(prm[3], prm[4], prm[5]);
-        t.len = prm[6];
-        t.scale0 = prm[7];
-        t.scale1 = prm[8];
+        cb_taper t = cb_taper_setup(cb_v3(prm[0], prm[1], prm[2]), cb_v3(prm[3], prm[4], prm[5]),
+                                    prm[6], prm[7], prm[8]);
         q = cb_taper_apply(t, p, J);
     }
     out[12 * i + 0] = q.x;
