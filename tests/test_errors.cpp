@@ -395,6 +395,13 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
               R"({"type": "cone", "p0": [1e5, 0, 0], "p1": [1e5, 1, 0], "r0": 0.2, "r1": 0.1}]}})");
     // (translations of -1e6 and +1e6 cancel in double, not in the kernels'
     // float: the cone baked as a stepped slab, exit 0)
+    {
+        // Nine warps in a row: one more than the kernels' frames hold.
+        std::string warps = R"({"type": "sphere", "center": [0, 0, 0], "radius": 1})";
+        for (int i = 0; i < 9; ++i)
+            warps = R"({"type": "transform", "translate": [0, 0, 0], "children": [)" + warps + "]}";
+        writeText(in / "warps.json", R"({"root": )" + warps + "}");
+    }
     writeText(in / "nested.json",
               R"({"root": {"type": "transform", "translate": [-1e6, 0, 0], "children": [)"
               R"({"type": "transform", "translate": [1e6, 0, 0], "children": [)"
@@ -668,6 +675,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/moved.json -o OUT/out.vdb",
          "moved.json: a primitive or warp, in its own frame before the transforms above it (in "
          "world units), reaches 1e+05 from the origin"},
+        // (the message named no file)
+        {"bake IN/warps.json -o OUT/out.vdb",
+         "warps.json: the BlobTree nests too deeply for the field kernels: it needs 1 stack "
+         "entries and 9 nested warps"},
         {"bake IN/nested.json -o OUT/out.vdb",
          "nested.json: a primitive or warp, in its own frame before the transforms above it (in "
          "world units), reaches 2e+06 from the origin"},

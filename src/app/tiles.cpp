@@ -42,7 +42,7 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
             "--tiles: bark coloured from a photo ({}) is drawn over the whole grid's values; bake "
             "it without --tiles or --max-memory",
             paint.photo));
-    const FieldProgram program = FieldProgram::compile(tree);
+    const FieldProgram program = FieldProgram::compile(tree, req.input);
     // The frame's voxel size and estimate (the machine's memory checked for
     // a tile's share below, once the tiles are known).
     BakeRequest probe = req;

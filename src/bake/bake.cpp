@@ -219,7 +219,7 @@ VoxelPlan planBake(const BakeRequest& req)
     checkOutputPath(req.output);
     const BlobTree tree = loadModel(req.input, req.model);
     barkPaint(req, tree);  // (its photo checked)
-    const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree), req);
+    const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree, req.input), req);
     checkDiskSpace(req.output, plan.fileBytes, req.output);
     return plan;
 }
@@ -256,7 +256,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     }
     const BlobTree tree = loading.get();
     const BarkPaint paint = barkPaint(req, tree);
-    const FieldProgram program = FieldProgram::compile(tree);
+    const FieldProgram program = FieldProgram::compile(tree, req.input);
     const VoxelPlan plan = planVoxelSize(program, req);
     // (--tiles bakes one tile a layer at most; a tile beyond that would be
     // empty, written with exit 0)

@@ -148,7 +148,7 @@ SequencePlan planSequence(const SequenceRequest& request)
                         req.input, plan.times.back()));
     const BlobTree lastTree = buildTree(last, build);
     plan.paint = barkPaint(req, lastTree);
-    const FieldProgram lastProgram = FieldProgram::compile(lastTree);
+    const FieldProgram lastProgram = FieldProgram::compile(lastTree, req.input);
     VoxelPlan voxels =
         planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
     BakeRequest fixed = req;
@@ -168,7 +168,8 @@ SequencePlan planSequence(const SequenceRequest& request)
             if (!sk.internodes.empty())
                 voxels.bytes = std::max(
                     voxels.bytes,
-                    planVoxelSize(FieldProgram::compile(buildTree(sk, build)), fixed).bytes);
+                    planVoxelSize(FieldProgram::compile(buildTree(sk, build), req.input), fixed)
+                        .bytes);
         }
     }
     // The files: estimated at up to kSampledFrames frames spread over the
@@ -182,7 +183,7 @@ SequencePlan planSequence(const SequenceRequest& request)
             bandAt.push_back(0.0);
             continue;
         }
-        const FieldProgram p = FieldProgram::compile(buildTree(sk, build));
+        const FieldProgram p = FieldProgram::compile(buildTree(sk, build), req.input);
         fileAt.push_back(
             estimateFileBytes(p, voxels.voxelSize, req.halfWidth, req.colour, req.half, req.fog));
         bandAt.push_back(estimateBandVoxels(p, voxels.voxelSize, req.halfWidth));

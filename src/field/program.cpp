@@ -688,6 +688,15 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     return prog;
 }
 
+FieldProgram FieldProgram::compile(const BlobTree& tree, const std::string& source)
+{
+    try {
+        return compile(tree);
+    } catch (const InputError& e) {  // (the nesting depth, named by no file)
+        throw InputError(fmt::format("{}: {}", source, e.what()));
+    }
+}
+
 double FieldProgram::threshold() const
 {
     return params_[CB_P_T];

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace cambium {
@@ -39,6 +40,8 @@ public:
     /// Compiles a finalized BlobTree.  Throws InputError when the tree nests
     /// deeper than the kernels' fixed stacks allow.
     static FieldProgram compile(const BlobTree& tree);
+    /// The same, its InputError naming `source` (the model's file).
+    static FieldProgram compile(const BlobTree& tree, const std::string& source);
 
     double threshold() const;
     /// The shortest wavelength of procedural detail (BlobTree::detailLimit).

@@ -195,7 +195,7 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     u.model = secondsSince(t);
     stop();
     t = Clock::now();
-    const FieldProgram program = FieldProgram::compile(*tree);
+    const FieldProgram program = FieldProgram::compile(*tree, settings_.input);
     // The voxel size: the first good model's, kept (its memory checked for
     // every model: a grown tree needs more).
     BakeRequest planned;

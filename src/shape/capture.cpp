@@ -206,7 +206,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         ModelOptions options;
         if (b.year >= 0.0)
             options.time = b.year;
-        const FieldProgram program = FieldProgram::compile(loadModel(b.file, options));
+        const FieldProgram program = FieldProgram::compile(loadModel(b.file, options), b.file);
         BakeRequest req;
         req.input = b.file;
         const double automatic = autoVoxelSize(program, 256.0);
