@@ -373,6 +373,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
               R"({"root": {"type": "cone", "p0": [0,0,0], "p1": [0,1,0], "r0": -1, "r1": 0.1}})");
     writeText(in / "type.json", R"({"root": {"type": "spehre", "center": [0,0,0], "radius": 1}})");
     writeText(in / "big.json", R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 3e6}})");
+    writeText(in / "sharp.json",
+              R"({"root": {"type": "convolution_segment", "p0": [0, 0, 0], "p1": [0, 1, 0], )"
+              R"("r0": 0.1, "r1": 0.1, "kernel_width": 1e9}})");
     writeText(in / "heavy.json",
               R"({"root": {"type": "sphere", "center": [0,0,0], "radius": 1, "weight": 1e39}})");
     // (warps and operators past the kernels' float: sweep 12, each exit 0
@@ -667,6 +670,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "origin, 5.12e+09 voxels of 0.00195312: beyond 1048576 voxels"},
         {"bake IN/heavy.json -o OUT/out.vdb",
          "heavy.json: root.weight: must be within -1e+06 and 1e+06 (got 1e+39)"},
+        // (a terraced surface in the kernels' float, exit 0)
+        {"bake IN/sharp.json -o OUT/out.vdb",
+         "sharp.json: root.kernel_width: must be at most 100 / max(r0, r1) = 1000 (got 1e+09)"},
         {"bake IN/twist.json -o OUT/out.vdb",
          "twist.json: root.rate: must be at most 1e+06 degrees a unit in magnitude (got 1e+20)"},
         {"bake IN/taper.json -o OUT/out.vdb",

@@ -85,6 +85,8 @@ constexpr double kMaxWeight = 1e6;
 /// least scale (its largest the inverse): the warps run in the kernels'
 /// float.
 constexpr double kMaxTwistRate = 1e6 * kDegree;
+/// The sharpest convolution kernel, as s max(r0, r1).
+constexpr double kMaxKernelWidthTimesRadius = 100.0;
 constexpr double kLeastTaperScale = 1e-3;
 
 void requireWeight(double w)
@@ -267,6 +269,17 @@ int BlobTree::convolutionSegment(const glm::dvec3& p0, const glm::dvec3& p1, dou
     const double rmax = std::max(r0, r1);
     p.kernelWidth = o.kernelWidth.value_or(1.0 / rmax);
     requirePositive(p.kernelWidth, "kernel_width");
+    // (s r of 1e3 and more drew a band of other voxels in the kernels' float
+    // than in double, 1e8 a terraced surface; at 100 the kernel is already
+    // a hundredth of the radius: a cylinder)
+    if (p.kernelWidth * rmax > kMaxKernelWidthTimesRadius)
+        throw ParameterError(
+            "kernel_width",
+            fmt::format(
+                "must be at most {:g} / max(r0, r1) = {:g} (got {:g}): beyond, the kernel is "
+                "narrower than a hundredth of the radius, draws the same cylinder, and "
+                "its field leaves the kernels' single precision",
+                kMaxKernelWidthTimesRadius, kMaxKernelWidthTimesRadius / rmax, p.kernelWidth));
     p.support = o.support.value_or(3.0 * rmax);
     requirePositive(p.support, "support");
     if (p.support < 2.0 * rmax)
