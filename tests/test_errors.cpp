@@ -612,6 +612,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(
         in / "near1.json",
         R"({"threshold": 0.999999, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
+    writeText(
+        in / "near0.json",
+        R"({"threshold": 1e-30, "root": {"type": "sphere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "afar.json",
               R"({"root": {"type": "sphere", "center": [100000,0,0], "radius": 0.01}})");
     writeText(in / "farcube.obj",
@@ -813,6 +816,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "file)"},
         {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
         {"bake IN/near1.json -o OUT/out.vdb", "threshold: must be at most 0.99 (got 0.999999)"},
+        // (the float kernels saw no surface: "thinner than a voxel")
+        {"bake IN/near0.json -o OUT/out.vdb", "threshold: must be at least 0.001 (got 1e-30)"},
         {"bake IN/afar.json --voxel-size 0.0002 -o OUT/out.vdb",
          "afar.json: the surface reaches 1e+05 from the origin, 5e+08 voxels of 0.0002: beyond "
          "1048576 voxels, where single-precision positions"},

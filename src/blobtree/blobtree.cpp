@@ -151,6 +151,15 @@ BlobTree::BlobTree(double threshold)
                                      "lies deep inside its support, 17 times its radius out at "
                                      "0.99, where bounds and voxel sizes come from",
                                      kMaxThreshold, threshold));
+    // Nearer 0 the surface lies where the field fades out at the edge of the
+    // support, flat there (a derivative of 6 T^(2/3)): at 1e-30 the float
+    // kernels saw no surface at all and called a crescent thinner than a
+    // voxel.
+    if (threshold < kMinThreshold)
+        throw ParameterError(
+            "threshold", fmt::format("must be at least {} (got {}): nearer 0 a primitive's surface "
+                                     "lies where its field fades out, too flat to place",
+                                     kMinThreshold, threshold));
     T_ = threshold;
     xT_ = cb_wyvill_inverse(threshold);
 }

@@ -124,8 +124,10 @@ struct ConvolutionOptions {
     std::optional<double> support;      ///< window radius; default 3 max(r0, r1)
 };
 
-/// The largest iso-value a BlobTree takes (BlobTree's constructor says why).
+/// The largest and smallest iso-values a BlobTree takes (its constructor
+/// says why).
 constexpr double kMaxThreshold = 0.99;
+constexpr double kMinThreshold = 0.001;
 
 class BlobTree {
 public:
