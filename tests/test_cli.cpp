@@ -468,6 +468,31 @@ TEST(Cli, BakeRefusesBadInputBeforeAnyWork)
     std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, TheTilesAdviceNeverAsksForMoreTilesThanTheFrameHasLayers)
+{
+    // 500,000 twigs nested in one point: a frame 6 layers of 128 voxels
+    // across whose estimate is hundreds of GB.  At one tile a layer the
+    // advice was "use a larger --voxel-size or more than 6 --tiles".
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("cambium_cli_tiles_advice_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const auto deep = dir / "deep.l";
+    {
+        std::ofstream f(deep);
+        f << "Axiom: ";
+        for (int i = 0; i < 500000; ++i)
+            f << "[F(0.001)+(1)";
+        f << std::string(500000, ']') << "\nderivation length: 0\n";
+    }
+    const Result r =
+        run("bake " + deep.string() + " --tiles 4096 -o " + (dir / "out.vdb").string());
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("of memory, and this machine has"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("more than 6 --tiles"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "out.vdb"));
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)
 {
     const auto dir = std::filesystem::temp_directory_path() /

@@ -86,6 +86,8 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
         BakeRequest tiled = req;
         tiled.voxelSize = whole.voxelSize;
         tiled.tile.count = tiles;
+        // (at one tile a layer, "use more than 6 --tiles" advised the impossible)
+        tiled.tilesOffered = tiles < layers;
         planVoxelSize(program, tiled);  // (a tile's share must fit this machine)
     }
     TilePlan plan;
