@@ -167,12 +167,32 @@ TEST(LSystem, TheWorkOfContextSearchesCountsAgainstTheBound)
     }
 }
 
+TEST(LSystem, AStringThatCannotShrinkIsRefusedBeforeItsFirstStep)
+{
+    // No successor is empty and none cuts: every step rewrites at least the
+    // string before, so 1,000 modules over 100,000 steps are 10^8 rewrites,
+    // known at once (a million modules kept by A --> A ran for minutes
+    // before the bound stopped it).
+    const LSystem sys = parseLSystem("Axiom: " + std::string(1000, 'A') + "\nA --> A\n", "keep.l");
+    int steps = 0;
+    const auto counted = [&](const char*, double) { ++steps; };
+    test::expectInputError(
+        [&] { derive(sys, 100000, 1, kDefaultMaxModules, counted, 1e7); },
+        "keep.l: 100000 steps would rewrite more than 1e+07 modules' work in all", "A --> A");
+    EXPECT_EQ(steps, 0);
+    // Within the bound it runs; and a system that may shrink (A --> %) is
+    // not refused on a guess.
+    EXPECT_EQ(derive(sys, 9000, 1, kDefaultMaxModules, {}, 1e7).size(), 1000u);
+    const LSystem cut = parseLSystem("Axiom: " + std::string(1000, 'A') + "\nA --> %\n", "cut.l");
+    EXPECT_NO_THROW(derive(cut, 100000, 1, kDefaultMaxModules, {}, 1e7));
+}
+
 TEST(LSystem, TheWorkOfParameterExpressionsCountsAgainstTheBound)
 {
     // A string that does not grow, each module's parameter a 20-term sum:
     // the rewrites alone stay far inside the bound (a million modules of
     // 19-term sums ran 45 minutes within it); the expressions' nodes count
-    // a tenth of a rewrite each, before they are evaluated.
+    // half a rewrite each, before they are evaluated.
     std::string sum = "x";
     for (int k = 1; k < 20; ++k)
         sum += "+x";
@@ -181,8 +201,8 @@ TEST(LSystem, TheWorkOfParameterExpressionsCountsAgainstTheBound)
         axiom += "A(1)";
     const LSystem sys =
         parseLSystem("Axiom: " + axiom + "\nA(x) --> A((" + sum + ") / 20)\n", "sums.l");
-    // Per step: 100 rewrites and 100 x 41 nodes, 510 rewrites' work in all.
-    EXPECT_NO_THROW(derive(sys, 150, 1, kDefaultMaxModules, {}, 1e5));
+    // Per step: 100 rewrites and 100 x 41 nodes, 2,150 rewrites' work in all.
+    EXPECT_NO_THROW(derive(sys, 40, 1, kDefaultMaxModules, {}, 1e5));
     test::expectInputError([&] { derive(sys, 250, 1, kDefaultMaxModules, {}, 1e5); },
                            "sums.l: 250 steps would rewrite more than 100000 modules' work in all "
                            "(rewrites, context searches and parameter expressions",
