@@ -3,6 +3,7 @@
 
 #include "blobtree/bounds.h"
 #include "core/error.h"
+#include "core/math.h"
 
 #include "cb_program.h"
 
@@ -849,24 +850,49 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
             z0 = std::min(z0, glm::dot(d, ax));
             z1 = std::max(z1, glm::dot(d, ax));
         }
-        // Child-space images, as (a, y') boxes in the same frame, of each of
-        // cb_bend_apply's three regions, each taken for the whole box.
+        // Child-space images, as (a, y') boxes in the same frame, of those of
+        // cb_bend_apply's three regions the box reaches: the arc for the
+        // angles about its centre that the box spans, the straight parts
+        // before p0 and after p1 where it reaches them.  (Each taken whole,
+        // a leaf beside the arc bounded the child over the internode's
+        // length, and a nested bend sampled 265 times the leaves it kept.)
         std::vector<std::array<double, 4>> parts;  // a0 a1 y0 y1
         if (theta <= 0.0) {
             parts.push_back({x0, x1, y0, y1});
         } else {
-            // Arc: a stays in [0, L]; y' = r - rho with r the distance from the
-            // arc's axis (through its centre, along ax).
+            const double h = 0.5 * theta;
             const glm::dvec3 centre = p0 + 0.5 * len * u - rho * ch * v;
-            const double reach = 1e3 * (1.0 + glm::length(box.size()) + glm::length(centre - p0));
-            const double rmin =
-                std::sqrt(segmentBoxDistance2(centre - reach * ax, centre + reach * ax, box));
-            double rmax = 0.0;
+            // The angles phi = atan2(x - L/2, y + rho cos(theta/2)) of the
+            // corners, as the kernel's: over the box's projection, a convex
+            // polygon, they are extreme at corners unless it surrounds the
+            // centre (a span of pi or more: then every angle).
+            double phi0 = kInf, phi1 = -kInf;
             for (const auto& c : box.corners()) {
                 const glm::dvec3 d = c - centre;
-                rmax = std::max(rmax, glm::length(d - glm::dot(d, ax) * ax));
+                const double phi = std::atan2(glm::dot(d, u), glm::dot(d, v));
+                phi0 = std::min(phi0, phi);
+                phi1 = std::max(phi1, phi);
             }
-            parts.push_back({0.0, len, rmin - rho, rmax - rho});
+            if (!(phi1 - phi0 < M_PI)) {
+                phi0 = -M_PI;
+                phi1 = M_PI;
+            }
+            if (phi1 >= -h && phi0 <= h) {
+                // Arc: a = (phi + theta/2) L / theta; y' = r - rho with r the
+                // distance from the arc's axis (through its centre, along ax).
+                const double reach =
+                    1e3 * (1.0 + glm::length(box.size()) + glm::length(centre - p0));
+                const double rmin =
+                    std::sqrt(segmentBoxDistance2(centre - reach * ax, centre + reach * ax, box));
+                double rmax = 0.0;
+                for (const auto& c : box.corners()) {
+                    const glm::dvec3 d = c - centre;
+                    rmax = std::max(rmax, glm::length(d - glm::dot(d, ax) * ax));
+                }
+                const double k = len / theta;
+                parts.push_back({(std::max(phi0, -h) + h) * k, (std::min(phi1, h) + h) * k,
+                                 rmin - rho, rmax - rho});
+            }
             // Before p0 and after p1: rigid motions (scaled along the tangent).
             auto linear = [&](double ox, double j00, double j01, double j10, double j11,
                               double a0) {
@@ -882,8 +908,10 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
                     }
                 parts.push_back({a[0], a[1], a[2], a[3]});
             };
-            linear(0.0, ls * ch, ls * sh, -sh, ch, 0.0);
-            linear(len, ls * ch, -ls * sh, sh, ch, len);
+            if (phi0 < -h)
+                linear(0.0, ls * ch, ls * sh, -sh, ch, 0.0);
+            if (phi1 > h)
+                linear(len, ls * ch, -ls * sh, sh, ch, len);
         }
         Box out;
         for (const auto& q : parts)
@@ -894,14 +922,40 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
         return out;
     }
     // Twist and taper keep the height along their axis and move points only
-    // across it: the image lies in a cylinder about the axis.
+    // across it.  (Bounded by the whole cylinder about the axis that the box
+    // spans, a leaf beside one twig of a twisted pair saw both.)
     static_assert(CB_TWIST_ORIGIN == CB_TAPER_ORIGIN && CB_TWIST_AXIS == CB_TAPER_AXIS);
     const glm::dvec3 o = load3(w + CB_TWIST_ORIGIN), a = load3(w + CB_TWIST_AXIS);
     double hmin, hmax, rmax;
     axialExtent(box, o, a, hmin, hmax, rmax);
-    if (in.b == CB_TAPER)
-        rmax /= std::min(w[CB_TAPER_SCALE0], w[CB_TAPER_SCALE1]);
-    return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
+    const auto corners = box.corners();
+    Box out;
+    if (in.b == CB_TWIST) {
+        // The box turned by the angle at the middle of its heights: every
+        // point's own angle is within half the span of it, so its image is
+        // within the chord 2 r sin(span / 4).
+        const double rate = w[CB_TWIST_RATE], phase = w[CB_TWIST_PHASE];
+        const double span = std::abs(rate) * (hmax - hmin);
+        if (!(span < M_PI))
+            return cylinderBox(o + hmin * a, o + hmax * a, a, rmax);
+        const double mid = phase - rate * 0.5 * (hmin + hmax);
+        for (const auto& c : corners)
+            out.expand(o + rotateAbout(c - o, a, mid));
+        return out.padded(2.0 * rmax * std::sin(0.25 * span));
+    }
+    // Taper: q = o + h a + k d_perp with k = 1 / s(h); for a fixed k an
+    // affine map, and q linear in k: the images of the corners at the
+    // least and the greatest k over the box's heights bound it.
+    const double len = w[CB_TAPER_LEN], s0 = w[CB_TAPER_SCALE0], s1 = w[CB_TAPER_SCALE1],
+                 start = w[CB_TAPER_START];
+    auto scale = [&](double h) { return s0 + (s1 - s0) * std::clamp((h - start) / len, 0.0, 1.0); };
+    for (double k : {1.0 / scale(hmin), 1.0 / scale(hmax)})
+        for (const auto& c : corners) {
+            const glm::dvec3 d = c - o;
+            const double h = glm::dot(d, a);
+            out.expand(o + h * a + k * (d - h * a));
+        }
+    return out;
 }
 
 namespace {
