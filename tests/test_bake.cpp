@@ -877,22 +877,22 @@ TEST(Topology, LeafProgramsPastMemoryAreRefusedWhileTheyAreMade)
     // PCM keeps every child whose field reaches a leaf in the leaf's program:
     // 2000 segments fanned out from one cone made programs of 3,900
     // instructions in 30,000 leaves, and the bake ran out of memory after
-    // the estimate (from the primitives' areas) said 433 MB (sweep 11).
-    // Under an address-space limit 600 MB above what the process maps: the
-    // search refuses by name, not out of memory.
-    std::string scene =
-        R"({"threshold": 0.5, "root": {"type": "pcm", "children": [)"
-        R"({"type": "cone", "p0": [0, 0, 0], "p1": [0, 10, 0], "r0": 0.5, "r1": 0.4})";
+    // the estimate (from the primitives' areas) said 433 MB (sweep 11).  (The
+    // fan now keeps only the segments that reach each leaf; a ball of 2000
+    // segments that all overlap still needs them all everywhere.)  Under an
+    // address-space limit 600 MB above what the process maps: the search
+    // refuses by name, not out of memory.
+    std::string scene = R"({"threshold": 0.5, "root": {"type": "pcm", "children": [)";
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    std::uniform_real_distribution<double> u(-0.3, 0.3);
     for (int i = 0; i < 2000; ++i)
         scene += fmt::format(
-            R"(, {{"type": "segment", "p0": [0, {:.6f}, 0], "p1": [{:.6f}, {:.6f}, {:.6f}], "radius": 0.05}})",
-            0.005 * i, 3.0 * u(rng), 1.0 + 0.005 * i, 3.0 * u(rng));
+            R"({}{{"type": "segment", "p0": [{:.6f}, {:.6f}, {:.6f}], "p1": [{:.6f}, {:.6f}, {:.6f}], "radius": 0.5}})",
+            i ? ", " : "", u(rng), u(rng), u(rng), u(rng), u(rng), u(rng));
     scene += "]}}";
     const FieldProgram program = FieldProgram::compile(parseScene(scene, "fan.json"));
     expectRefusedUnderAddressSpaceLimit(
-        600e6, [&] { findBandLeaves(program, 0.01, 3.0, {}, {}, "fan.json"); },
+        600e6, [&] { findBandLeaves(program, 0.005, 3.0, {}, {}, "fan.json"); },
         [](const std::string& what) {
             return what.rfind("fan.json: the band's leaves' programs would take more than half the",
                               0) == 0;
