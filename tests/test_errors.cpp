@@ -715,7 +715,7 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // (NaN coordinates were printed with exit 0, and the bake told
         // "internode 0: its two ends coincide", naming no file)
         {"lsystem IN/turnnan.l --print-skeleton",
-         "turnnan.l:1:11: '0/0' is -nan: a module's parameter must be a finite number"},
+         "turnnan.l:1:11: '0/0' is not a number: a module's parameter must be a finite number"},
         {"bake IN/far.l -o OUT/out.vdb",
          "far.l: module 0 of the derived string (f(1e+300)): the turtle reaches 1e+300 from the "
          "origin"},

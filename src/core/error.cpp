@@ -146,4 +146,9 @@ void checkVoxelsFromOrigin(double far, double h, const std::string& what)
                         what, far, far / h, h, kMaxVoxelsFromOrigin, kFloatPrecisionReason));
 }
 
+std::string numberText(double v)
+{
+    return std::isnan(v) ? std::string("not a number") : fmt::format("{:g}", v);
+}
+
 }  // namespace cambium

@@ -50,6 +50,10 @@ size_t optionChoice(const std::string& value, const std::vector<std::string>& na
 /// output and the level sets mesh and render read.
 void checkVoxelsFromOrigin(double far, double h, const std::string& what);
 
+/// A number as a message names it: "not a number" for a NaN (which {:g}
+/// writes as "nan" or "-nan" by its sign bit), else as {:g} writes it.
+std::string numberText(double v);
+
 /// `text` as a message may show it: each control character (a newline, an
 /// escape) written as \xHH, so that a line of output stays one line, and
 /// each bidirectional control as \u{HHHH}, so that it reads as written.

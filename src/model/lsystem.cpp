@@ -636,7 +636,7 @@ private:
                         fail(at.shifted(o), 0,
                              fmt::format("'{}' is {}: a module's parameter must be a finite "
                                          "number",
-                                         trim(a), v));
+                                         trim(a), numberText(v)));
                     m.params.push_back(v);
                 }
                 out.push_back(m);
@@ -962,7 +962,7 @@ public:
                     if (!std::isfinite(v))
                         throw InputError(
                             fmt::format("{}:{}: derivation step {}: a parameter of {} is {}",
-                                        sys_.source, p->line, stepNo, t.name, v));
+                                        sys_.source, p->line, stepNo, t.name, numberText(v)));
                     m.params.push_back(v);
                 }
                 out.push_back(std::move(m));
