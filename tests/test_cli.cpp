@@ -473,9 +473,7 @@ TEST(Cli, TheTilesAdviceNeverAsksForMoreTilesThanTheFrameHasLayers)
     // 500,000 twigs nested in one point: a frame 6 layers of 128 voxels
     // across whose estimate is hundreds of GB.  At one tile a layer the
     // advice was "use a larger --voxel-size or more than 6 --tiles".
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("cambium_cli_tiles_advice_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
+    const auto dir = cambium::test::freshDir("cambium_cli_tiles_advice");
     const auto deep = dir / "deep.l";
     {
         std::ofstream f(deep);
@@ -490,7 +488,6 @@ TEST(Cli, TheTilesAdviceNeverAsksForMoreTilesThanTheFrameHasLayers)
     EXPECT_NE(r.err.find("of memory, and this machine has"), std::string::npos) << r.err;
     EXPECT_EQ(r.err.find("more than 6 --tiles"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "out.vdb"));
-    std::filesystem::remove_all(dir);
 }
 
 TEST(Cli, InfoAndBakeReadTheBenchmarkSkeletonFormat)

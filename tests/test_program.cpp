@@ -134,26 +134,20 @@ TEST(FieldProgram, ALeafBesideOneWarpedTwigEvaluatesOnlyThatTwig)
     auto pair = [](BlobTree& t, glm::dvec3 a0, glm::dvec3 a1, glm::dvec3 b0, glm::dvec3 b1) {
         return t.op({NodeType::BLEND}, {t.cone(a0, a1, 0.05, 0.05), t.cone(b0, b1, 0.05, 0.05)});
     };
-    std::vector<std::pair<const char*, BlobTree>> trees;
-    auto add = [&](const char* name, auto build) {
-        BlobTree t;
-        t.setRoot(build(t));
-        t.finalize();
-        trees.emplace_back(name, std::move(t));
-    };
-    add("twist", [&](BlobTree& t) {
+    NamedTrees named;
+    named.add("twist", [&](BlobTree& t) {
         return t.twist({0, 0, 0}, {0, 1, 0}, 0.8,
                        pair(t, {0.3, 0, 0}, {0.3, 1, 0}, {-0.3, 0, 0}, {-0.3, 1, 0}));
     });
-    add("taper", [&](BlobTree& t) {
+    named.add("taper", [&](BlobTree& t) {
         return t.taper({0, 0, 0}, {0, 1, 0}, 1.0, 1.5, 0.7,
                        pair(t, {0.3, 0, 0}, {0.3, 1, 0}, {-0.3, 0, 0}, {-0.3, 1, 0}));
     });
-    add("bend", [&](BlobTree& t) {
+    named.add("bend", [&](BlobTree& t) {
         return t.bend({0, 0, 0}, {0, 1, 0}, {1, 0, 0}, 60 * deg,
                       pair(t, {0, 0.05, 0}, {0, 0.35, 0}, {0, 0.65, 0}, {0, 0.95, 0}));
     });
-    for (const auto& [name, tree] : trees) {
+    for (const auto& [name, tree] : named.trees) {
         SCOPED_TRACE(name);
         const FieldProgram prog = FieldProgram::compile(tree);
         std::mt19937 rng(5);

@@ -178,34 +178,28 @@ TEST_F(SamplerParity, WarpsFarFromTheirOriginsTinyBendsAndHeavyRicciBlends)
     // 1e-4 degrees (an arc radius of 5.7e5: r - rho lost 0.03), and Ricci's
     // n = 64 over weights of 1e6 (f^n overflowed: an infinite field).
     const double deg = M_PI / 180.0;
-    std::vector<std::pair<const char*, BlobTree>> trees;
-    auto add = [&](const char* name, auto build) {
-        BlobTree t;
-        t.setRoot(build(t));
-        t.finalize();
-        trees.emplace_back(name, std::move(t));
-    };
-    add("twist", [&](BlobTree& t) {
+    NamedTrees named;
+    named.add("twist", [&](BlobTree& t) {
         return t.twist({0, -1e7, 0}, {0, 1, 0}, 1000 * deg,
                        t.cone({0.1, 0, 0}, {0.1, 1, 0}, 0.05, 0.05));
     });
-    add("taper", [&](BlobTree& t) {
+    named.add("taper", [&](BlobTree& t) {
         return t.taper({-1e7, -1e7, 0}, {1, 1, 0}, 1e8, 1.0, 1.0001,
                        t.cone({0, 0, 0}, {0, 1, 0}, 0.1, 0.05));
     });
     for (double angle : {1e-4, 1e-3, 30.0})
-        add("bend", [&](BlobTree& t) {
+        named.add("bend", [&](BlobTree& t) {
             return t.bend({0, 0, 0}, {0, 1, 0}, {1, 0, 0}, angle * deg,
                           t.cone({0, 0, 0}, {0, 1, 0}, 0.1, 0.05));
         });
-    add("ricci", [&](BlobTree& t) {
+    named.add("ricci", [&](BlobTree& t) {
         PrimitiveOptions heavy;
         heavy.weight = 1e6;
         Combiner ricci{NodeType::RICCI};
         ricci.n = 64;
         return t.op(ricci, {t.sphere({0, 0, 0}, 1, heavy), t.sphere({0.8, 0, 0}, 0.7, heavy)});
     });
-    for (auto& [name, tree] : trees) {
+    for (auto& [name, tree] : named.trees) {
         SCOPED_TRACE(name);
         std::mt19937 rng(41);
         const Mismatch m = compare(*cl_, tree, probePoints(tree, rng, 3000));

@@ -20,6 +20,8 @@
 #include <new>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -77,6 +79,20 @@ inline Internode internode(long long id, long long parent, glm::dvec3 p0, glm::d
     n.age = age;
     return n;
 }
+
+/// Finalised BlobTrees, each named for a test's trace, each built by a
+/// function of an empty tree that returns its root.
+struct NamedTrees {
+    std::vector<std::pair<const char*, BlobTree>> trees;
+    template <class Build>
+    void add(const char* name, Build build)
+    {
+        BlobTree t;
+        t.setRoot(build(t));
+        t.finalize();
+        trees.emplace_back(name, std::move(t));
+    }
+};
 
 inline glm::dvec3 randomUnit(std::mt19937& rng)
 {
