@@ -623,7 +623,6 @@ double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bou
         for (int c : n.children)
             scale[size_t(c)] = std::max(scale[size_t(c)], scale[i] * f);
     }
-    auto length = [](const cb_vec3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); };
     double far = 0.0;
     for (size_t i = 0; i < tree.size(); ++i) {
         const Node& n = tree.node(int(i));
@@ -648,13 +647,13 @@ double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bou
                 break;
             }
             case NodeType::BEND:
-                here += length(std::get<cb_bend>(n.params).p0);
+                here += cb_length(std::get<cb_bend>(n.params).p0);
                 break;
             case NodeType::TWIST:
-                here += length(std::get<cb_twist>(n.params).o);
+                here += cb_length(std::get<cb_twist>(n.params).o);
                 break;
             case NodeType::TAPER:
-                here += length(std::get<cb_taper>(n.params).o);
+                here += cb_length(std::get<cb_taper>(n.params).o);
                 break;
             default:
                 break;
