@@ -409,6 +409,18 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
               R"({"root": {"type": "transform", "translate": [-1e6, 0, 0], "children": [)"
               R"({"type": "transform", "translate": [1e6, 0, 0], "children": [)"
               R"({"type": "cone", "p0": [0, 0, 0], "p1": [0, 1, 0], "r0": 0.1, "r1": 0.05}]}]}})");
+    // A unit sphere drawn 10 and 100 times larger by a transform or a taper:
+    // the memory estimate counted its own area (exit 1, out of memory, after
+    // half a minute), and a scale of [100, 1, 100] was said to reach 2e4.
+    writeText(in / "scaled.json", R"({"root": {"type": "transform", "scale": 10, "children": [)"
+                                  R"({"type": "sphere", "center": [0, 0, 0], "radius": 1}]}})");
+    writeText(in / "stretched.json",
+              R"({"root": {"type": "transform", "scale": [100, 1, 100], "children": [)"
+              R"({"type": "sphere", "center": [0, 0, 0], "radius": 1}]}})");
+    writeText(in / "tapered.json",
+              R"({"root": {"type": "taper", "origin": [0, 0, 0], "axis": [0, 1, 0], "length": 1,)"
+              R"( "scale0": 100, "scale1": 100, "children": [)"
+              R"({"type": "sphere", "center": [0, 0, 0], "radius": 1}]}})");
     writeText(in / "nul.json",
               R"({"root": {"type": "sph\u0000ere", "center": [0,0,0], "radius": 1}})");
     writeText(in / "far.json",
@@ -691,6 +703,15 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/nested.json -o OUT/out.vdb",
          "nested.json: a primitive or warp, in its own frame before the transforms above it (in "
          "world units), reaches 2e+06 from the origin"},
+        {"bake IN/scaled.json -o OUT/out.vdb --voxel-size 0.0001",
+         "scaled.json: a voxel size of 0.0001 for a surface 40 across (4e+05 voxels) needs about "
+         "9.68 TB of memory"},
+        {"bake IN/stretched.json -o OUT/out.vdb --voxel-size 0.001",
+         "stretched.json: a voxel size of 0.001 for a surface 400 across (4e+05 voxels) needs "
+         "about 9.68 TB of memory"},
+        {"bake IN/tapered.json -o OUT/out.vdb --voxel-size 0.001",
+         "tapered.json: a voxel size of 0.001 for a surface 565.7 across (5.66e+05 voxels) needs "
+         "about 9.68 TB of memory"},
         {"bake IN/type.json -o OUT/out.vdb",
          "root.type: unknown node type 'spehre' (did you mean 'sphere'?)"},
         // (the message ended at the NUL, its quote unclosed)

@@ -11,7 +11,9 @@ namespace cambium {
 
 double estimateBandVoxels(const FieldProgram& program, double h, double halfWidth)
 {
-    // Surface area of the primitives (an overestimate where they overlap).
+    // Surface area of the primitives in world units (an overestimate where
+    // they overlap; a primitive under a transform or taper that scales by s
+    // counts s^2 times its own).
     // Each is convex, so the part of it inside a box has at most the box's
     // area: the surface's bounds (a huge sphere that cuts, a saw cut, counts
     // so) and its support box in world space — its own, or under warps the
@@ -42,6 +44,7 @@ double estimateBandVoxels(const FieldProgram& program, double h, double halfWidt
                 q[CB_CONV_SUPPORT] / 3.0;  // its window is three times its largest radius
             a = 2.0 * M_PI * r * q[CB_CONV_LEN] + 2.0 * M_PI * r * r;
         }
+        a *= program.scaleOf(in) * program.scaleOf(in);  // in world units
         if (a >= 0.0)
             area += std::min(
                 {a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});

@@ -26,9 +26,16 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 class Compiler {
 public:
-    Compiler(const BlobTree& tree, std::vector<double>& params, std::vector<Instr>& code,
-             std::vector<Box>& boxes)
-        : tree_(tree), P_(params), code_(code), boxes_(boxes), bounds_(computeBounds(tree))
+    Compiler(const BlobTree& tree, const std::vector<NodeBounds>& bounds,
+             const std::vector<double>& scales, std::vector<double>& params,
+             std::vector<Instr>& code, std::vector<Box>& boxes, std::vector<double>& boxScales)
+        : tree_(tree),
+          bounds_(bounds),
+          scales_(scales),
+          P_(params),
+          code_(code),
+          boxes_(boxes),
+          boxScales_(boxScales)
     {
     }
 
@@ -151,6 +158,7 @@ private:
     int box(int index)
     {
         boxes_.push_back(bounds_[size_t(index)].support);
+        boxScales_.push_back(scales_[size_t(index)]);
         return int(boxes_.size()) - 1;
     }
 
@@ -232,11 +240,13 @@ private:
     }
 
     const BlobTree& tree_;
+    const std::vector<NodeBounds>& bounds_;
+    const std::vector<double>& scales_;
     int current_ = -1;
     std::vector<double>& P_;
     std::vector<Instr>& code_;
     std::vector<Box>& boxes_;
-    std::vector<NodeBounds> bounds_;
+    std::vector<double>& boxScales_;
 };
 
 double wyvill(double x)
@@ -596,26 +606,27 @@ bool FieldProgram::identical(const FieldProgram& other) const
 
 namespace {
 
-/// FieldProgram::farthestLocal(): where the kernels compare points with the
-/// primitives, in each one's own frame under the warps above it, and every
-/// number a warp computes on the way there (its input point, its origin, an
-/// affine map's terms: nested translations of +1e6 and -1e6 cancel in
-/// double, not in float).  Each in world units: a frame's coordinates times
-/// how much the transforms above it scale them (a bark ridge drawn 1000
-/// times larger and scaled down is as precise as one drawn to size).
-double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bounds)
+/// The length of column c of a row-major 3x4 matrix: how much it stretches
+/// axis c.
+double columnLength(const double* m, int c)
 {
-    // World units per unit of each node's frame: the transforms above it.
+    return std::sqrt(m[c] * m[c] + m[4 + c] * m[4 + c] + m[8 + c] * m[8 + c]);
+}
+
+/// World units per unit of the frame each node lives in: how much the
+/// transforms (a column's length: exact for a similarity) and tapers above it
+/// scale it.
+std::vector<double> frameScales(const BlobTree& tree)
+{
     std::vector<double> scale(tree.size(), 0.0);
     scale[size_t(tree.root())] = 1.0;
     for (size_t i = tree.size(); i-- > 0;) {  // parents follow their children
         const Node& n = tree.node(int(i));
         double f = 1.0;
         if (n.type == NodeType::TRANSFORM) {
-            const double* m = std::get<TransformParams>(n.params).forward;
             f = 0.0;
-            for (int c = 0; c < 3; ++c)  // a column's length: exact for a similarity
-                f = std::max(f, std::sqrt(m[c] * m[c] + m[4 + c] * m[4 + c] + m[8 + c] * m[8 + c]));
+            for (int c = 0; c < 3; ++c)
+                f = std::max(f, columnLength(std::get<TransformParams>(n.params).forward, c));
         } else if (n.type == NodeType::TAPER) {
             const cb_taper& t = std::get<cb_taper>(n.params);
             f = std::max(t.scale0, t.scale1);
@@ -623,6 +634,19 @@ double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bou
         for (int c : n.children)
             scale[size_t(c)] = std::max(scale[size_t(c)], scale[i] * f);
     }
+    return scale;
+}
+
+/// FieldProgram::farthestLocal(): where the kernels compare points with the
+/// primitives, in each one's own frame under the warps above it, and every
+/// number a warp computes on the way there (its input point, its origin, an
+/// affine map's terms: nested translations of +1e6 and -1e6 cancel in
+/// double, not in float).  Each in world units: a frame's coordinates times
+/// how much the transforms above it scale them (a bark ridge drawn 1000
+/// times larger and scaled down is as precise as one drawn to size).
+double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bounds,
+                        const std::vector<double>& scale)
+{
     double far = 0.0;
     for (size_t i = 0; i < tree.size(); ++i) {
         const Node& n = tree.node(int(i));
@@ -635,15 +659,17 @@ double farthestInFrames(const BlobTree& tree, const std::vector<NodeBounds>& bou
         double here = P;
         switch (n.type) {
             case NodeType::TRANSFORM: {
-                // q = A p + b in the child's frame, then in world units.
+                // q = A p + b in the child's frame, each coordinate in world
+                // units: times the length of the forward map's column for
+                // its axis (a scale of [100, 1, 100] leaves y as it is).
                 const auto& t = std::get<TransformParams>(n.params);
-                const double childToHere = scale[size_t(n.children[0])] / scale[i];
-                for (int r = 0; r < 3; ++r)
-                    here = std::max(here, childToHere * ((std::abs(t.inverse.m[4 * r]) +
-                                                          std::abs(t.inverse.m[4 * r + 1]) +
-                                                          std::abs(t.inverse.m[4 * r + 2])) *
-                                                             P +
-                                                         std::abs(t.inverse.m[4 * r + 3])));
+                const glm::dvec3 e = glm::max(glm::abs(b.lo), glm::abs(b.hi));
+                for (int r = 0; r < 3; ++r) {
+                    const double* row = t.inverse.m + 4 * r;
+                    const double q = std::abs(row[0]) * e.x + std::abs(row[1]) * e.y +
+                                     std::abs(row[2]) * e.z + std::abs(row[3]);
+                    here = std::max(here, q * columnLength(t.forward, r));
+                }
                 break;
             }
             case NodeType::BEND:
@@ -673,16 +699,18 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     prog.params_[CB_P_XT] = tree.xT();
     prog.params_[CB_P_ZERO] = 0.0;
     prog.params_[CB_P_DETAIL] = tree.detailLimit();
-    Compiler c(tree, prog.params_, prog.code_, prog.subtreeSupport_);
+    const auto bounds = computeBounds(tree);
+    const auto scales = frameScales(tree);
+    Compiler c(tree, bounds, scales, prog.params_, prog.code_, prog.subtreeSupport_,
+               prog.subtreeScale_);
     c.emit(tree.root());
     prog.primitives_ = c.primitives;
     prog.bark_ = c.bark;
     if (c.shades.size() == 1)
         prog.uniformColor_ = c.shades[0];
-    const auto bounds = computeBounds(tree);
     prog.positive_ = bounds[size_t(tree.root())].positive;
     prog.support_ = bounds[size_t(tree.root())].support;
-    prog.farthestLocal_ = farthestInFrames(tree, bounds);
+    prog.farthestLocal_ = farthestInFrames(tree, bounds, scales);
     int stack = 0, warps = 0;
     depths(prog.code_, stack, warps);
     if (stack > CB_STACK_DEPTH || warps > CB_WARP_DEPTH)
