@@ -235,12 +235,19 @@ CB_FN cb_taper cb_taper_setup(cb_vec3 o, cb_vec3 a, cb_real len, cb_real scale0,
 }
 #endif
 
+/* The taper's scale at height h along its axis, from its origin o (the
+ * host's bounds use it too). */
+CB_FN cb_real cb_taper_scale(cb_real scale0, cb_real scale1, cb_real len, cb_real start, cb_real h)
+{
+    return scale0 + (scale1 - scale0) * cb_clamp01((h - start) / len);
+}
+
 CB_FN cb_vec3 cb_taper_apply(cb_taper t, cb_vec3 p, cb_real* J)
 {
     cb_vec3 d = cb_sub(p, t.o);
     cb_real h = cb_dot(d, t.a);
     cb_real u = (h - t.start) / t.len;
-    cb_real s = t.scale0 + (t.scale1 - t.scale0) * cb_clamp01(u);
+    cb_real s = cb_taper_scale(t.scale0, t.scale1, t.len, t.start, h);
     cb_real ds =
         CB_SELECT(CB_R(0.0), (t.scale1 - t.scale0) / t.len, u > CB_R(0.0) && u < CB_R(1.0));
     cb_vec3 dp = cb_madd(d, t.a, -h);

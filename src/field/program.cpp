@@ -978,9 +978,10 @@ Box FieldProgram::warpChildBox(const Instr& in, const Box& box) const
     // Taper: q = o + h a + k d_perp with k = 1 / s(h); for a fixed k an
     // affine map, and q linear in k: the images of the corners at the
     // least and the greatest k over the box's heights bound it.
-    const double len = w[CB_TAPER_LEN], s0 = w[CB_TAPER_SCALE0], s1 = w[CB_TAPER_SCALE1],
-                 start = w[CB_TAPER_START];
-    auto scale = [&](double h) { return s0 + (s1 - s0) * std::clamp((h - start) / len, 0.0, 1.0); };
+    auto scale = [&](double h) {
+        return cb_taper_scale(w[CB_TAPER_SCALE0], w[CB_TAPER_SCALE1], w[CB_TAPER_LEN],
+                              w[CB_TAPER_START], h);
+    };
     for (double k : {1.0 / scale(hmin), 1.0 / scale(hmax)})
         for (const auto& c : corners) {
             const glm::dvec3 d = c - o;
