@@ -42,9 +42,10 @@ struct Search {
             throw InputError(fmt::format(
                 "{}: the band's leaves' programs would take more than half the {} this "
                 "process has available ({} leaves so far, {:.0f} instructions each, {} held; "
-                "the other half is the bake's): the model's operators keep many overlapping "
-                "children in every leaf (as PCM over a node's many children does): use a "
-                "larger voxel size, or fewer children under one operator",
+                "the other half is the bake's): many primitives reach every leaf (many "
+                "overlapping children under one operator, or nested warps whose bounds are "
+                "loose): use a larger voxel size, fewer children under one operator or fewer "
+                "nested warps",
                 source, formatBytes(room), found, double(total) / double(found),
                 formatBytes(kBytesPerInstruction * double(total))));
     }
