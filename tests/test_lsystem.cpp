@@ -208,6 +208,13 @@ TEST(LSystem, AModuleRewrittenAtEveryStepCountsItsProductionsWork)
                            "count.l: 2000 steps would rewrite more than 1e+07", "A(n) --> A(n+1)");
     EXPECT_EQ(steps, 0);
     EXPECT_EQ(derive(sys, 1000, 1, kDefaultMaxModules, {}, 1e7)[0].params[0], 1000.0);
+    // So does a cycle of them, at its cheaper production's cost.
+    const LSystem cycle =
+        parseLSystem("Axiom: " + axiom + "\nA(n) --> B(n)\nB(n) --> A(n+1)\n", "cycle.l");
+    test::expectInputError([&] { derive(cycle, 2000, 1, kDefaultMaxModules, counted, 1e7); },
+                           "cycle.l: 2000 steps would rewrite more than 1e+07", "A --> B --> A");
+    EXPECT_EQ(steps, 0);
+    EXPECT_EQ(derive(cycle, 1000, 1, kDefaultMaxModules, {}, 1e7)[0].params[0], 500.0);
     // A condition may stop the rewrites: no refusal on a guess.
     const LSystem stops =
         parseLSystem("Axiom: " + axiom + "\nA(n) : n < 3 --> A(n+1)\n", "stops.l");

@@ -782,39 +782,69 @@ public:
             conditionNodes_.push_back(p.condition ? nodes(p.condition.get(), memo) : 0.0);
             rewriteCost_.push_back(rewriteCost(p, memo));
         }
-        // The modules rewritten at every step, whatever the string: every
-        // production of their name and arity applies everywhere and keeps
-        // one of them (A(n) --> A(n+1)), and no cut (%) removes them.  Each
-        // costs at least its cheapest production at each step left.
-        for (const Production& p : sys.productions) {
-            const char name = p.strict.name;
-            const size_t arity = p.strict.formals.size();
-            bool sustained = !cuts;
-            double cheapest = std::numeric_limits<double>::infinity();
-            for (size_t k = 0; k < sys.productions.size(); ++k) {
-                const Production& q = sys.productions[k];
-                if (q.strict.name != name || q.strict.formals.size() != arity)
+        // The modules rewritten at every step, whatever the string: the
+        // largest set S of names and arities each of whose productions is
+        // unconditional and context-free (so one always applies) and makes
+        // a module of S (A(n) --> A(n+1), or A --> B and B --> A), where no
+        // cut (%) removes them.  Each module of S has a line of descendants
+        // in S, one at each step, and lines of different modules are apart.
+        using Key = std::pair<char, size_t>;
+        std::map<Key, std::vector<size_t>> of;  // each name and arity's productions
+        for (size_t k = 0; k < sys.productions.size(); ++k)
+            of[{sys.productions[k].strict.name, sys.productions[k].strict.formals.size()}]
+                .push_back(k);
+        std::map<Key, double> least;  // S, and what each line costs a step at least
+        if (!cuts)
+            for (const auto& [key, prods] : of)
+                if (std::all_of(prods.begin(), prods.end(), [&](size_t k) {
+                        const Production& p = sys.productions[k];
+                        return !p.condition && p.left.empty() && p.right.empty();
+                    })) {
+                    double cheapest = std::numeric_limits<double>::infinity();
+                    for (size_t k : prods)
+                        cheapest = std::min(cheapest, rewriteCost_[k]);
+                    least[key] = 1.0 + cheapest;  // the rewrite and its work
+                }
+        // A production's best line: the most a module of S it makes costs
+        // (-1 when it makes none).
+        auto best = [&](size_t k) {
+            double most = -1.0;
+            for (const ModuleTemplate& m : sys.productions[k].successor)
+                if (const auto f = least.find({m.name, m.args.size()}); f != least.end())
+                    most = std::max(most, f->second);
+            return most;
+        };
+        // Take out of S what may make none of S, and lower each cost to its
+        // productions' worst best line, until nothing changes (each pass
+        // takes a key out or lowers a cost to another's: at most |S|^2).
+        for (bool changed = true; changed;) {
+            changed = false;
+            for (auto it = least.begin(); it != least.end();) {
+                double worst = it->second;
+                for (size_t k : of[it->first])
+                    worst = std::min(worst, best(k));
+                if (worst < 0.0) {
+                    it = least.erase(it);
+                    changed = true;
                     continue;
-                sustained = sustained && !q.condition && q.left.empty() && q.right.empty() &&
-                            std::any_of(q.successor.begin(), q.successor.end(),
-                                        [&](const ModuleTemplate& m) {
-                                            return m.name == name && m.args.size() == arity;
-                                        });
-                cheapest = std::min(cheapest, rewriteCost_[k]);
+                }
+                changed = changed || worst < it->second;
+                it->second = worst;
+                ++it;
             }
-            if (!sustained)
-                continue;
-            auto& costs = sustained_[size_t(static_cast<unsigned char>(name))];
-            if (costs.size() <= arity)
-                costs.resize(arity + 1, 0.0);
-            costs[arity] = 1.0 + cheapest;
+        }
+        for (const auto& [key, cost] : least) {
+            auto& costs = sustained_[size_t(static_cast<unsigned char>(key.first))];
+            if (costs.size() <= key.second)
+                costs.resize(key.second + 1, 0.0);
+            costs[key.second] = cost;
         }
     }
 
     /// What a step over `s` costs at least, in rewrites, whatever the string
-    /// has become by then: the modules rewritten at every step at their
-    /// cheapest production's cost, and where no string is shorter than the
-    /// one before, every module at one rewrite.
+    /// has become by then: each module rewritten at every step at the least
+    /// its line of descendants costs a step, and where no string is shorter
+    /// than the one before, every other module at one rewrite.
     double leastStepCost(const ModuleString& s) const
     {
         double cost = 0.0;
