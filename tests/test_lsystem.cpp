@@ -160,8 +160,8 @@ TEST(LSystem, TheWorkOfContextSearchesCountsAgainstTheBound)
     try {
         derive(sys, 200, 1, kDefaultMaxModules, {}, 1e6);
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find(": its context searches pass more than 1e+06 "
-                                             "modules in all"),
+        EXPECT_NE(std::string(e.what()).find(": its context searches and conditions, with the "
+                                             "rewrites, are more than 1e+06 modules' work"),
                   std::string::npos)
             << e.what();
     }
@@ -189,6 +189,29 @@ TEST(LSystem, AStringThatCannotShrinkIsRefusedBeforeItsFirstStep)
     EXPECT_EQ(steps, 0);
     const LSystem cut = parseLSystem("Axiom: " + std::string(1000, 'A') + "\nA --> %\n", "cut.l");
     EXPECT_NO_THROW(derive(cut, 100000, 1, kDefaultMaxModules, {}, 1e7));
+}
+
+TEST(LSystem, FunctionCallsCountAsTheirWorstCase)
+{
+    // sin of an argument beyond 1e15 costs 50-70 ns, seven times a small
+    // one's: 60 of them a module at half a rewrite a node ran 76 s within
+    // the bound.  A call counts seven rewrites, in a condition too.
+    std::string sines = "sin(n * 1e300)";
+    for (int k = 1; k < 60; ++k)
+        sines += " + sin(n * 1e300)";
+    std::string axiom;
+    for (int k = 0; k < 100; ++k)
+        axiom += "A(1)";
+    // Per step: 100 modules, each 60 calls (420), 60 products and their
+    // operands (90), 59 sums (29.5) and the rewrite's 6: 54,550.
+    const LSystem args =
+        parseLSystem("Axiom: " + axiom + "\nA(n) --> A(" + sines + ")\n", "args.l");
+    EXPECT_NO_THROW(derive(args, 18, 1, kDefaultMaxModules, {}, 1e6));
+    EXPECT_THROW(derive(args, 19, 1, kDefaultMaxModules, {}, 1e6), InputError);
+    const LSystem cond =
+        parseLSystem("Axiom: " + axiom + "\nA(n) : " + sines + " < 1e9 --> A(n)\n", "cond.l");
+    test::expectInputError([&] { derive(cond, 100, 1, kDefaultMaxModules, {}, 1e6); },
+                           "cond.l: derivation step ", "sums of 60 sines in a condition");
 }
 
 TEST(LSystem, AModuleRewrittenAtEveryStepCountsItsProductionsWork)

@@ -779,7 +779,7 @@ public:
                                [](const ModuleTemplate& m) { return m.name == '%'; });
         });
         for (const Production& p : sys.productions) {
-            conditionNodes_.push_back(p.condition ? nodes(p.condition.get(), memo) : 0.0);
+            conditionCost_.push_back(p.condition ? evaluationCost(p.condition.get(), memo) : 0.0);
             rewriteCost_.push_back(rewriteCost(p, memo));
         }
         // The modules rewritten at every step, whatever the string: the
@@ -965,8 +965,7 @@ public:
                 for (const Module* m : right)
                     vars.insert(vars.end(), m->params.begin(), m->params.end());
                 if (p.condition) {
-                    budget_ -=
-                        kNodeRewrites * conditionNodes_[size_t(&p - sys_.productions.data())];
+                    budget_ -= conditionCost_[size_t(&p - sys_.productions.data())];
                     if (budget_ < 0.0)
                         spend();
                     if (evaluate(*p.condition, vars, rng_) == 0.0)
@@ -1067,12 +1066,16 @@ public:
 
 private:
     /// A module's bytes beside its parameters (its name, its vector and the
-    /// vector's heap block); an expression node's evaluation in rewrites.
-    // (Measured here: about 2e8 expression nodes a second with calls of
-    // sin, atan2 and pow, against 1e8 rewrites; at a tenth of a rewrite a
-    // thousand modules of 3,300-node expressions ran past 100 s within the
-    // bound.)
-    static constexpr double kModuleBytes = sizeof(Module) + 32.0, kNodeRewrites = 0.5;
+    /// vector's heap block); an expression node's evaluation in rewrites,
+    /// and a function call's or power's.
+    // (Measured here: about 2e8 expression nodes a second, against 1e8
+    // rewrites; at a tenth of a rewrite a thousand modules of 3,300-node
+    // expressions ran past 100 s within the bound.  A call costs up to 70 ns:
+    // sin and tan of arguments beyond 1e15 take 50-70 ns against 10 for
+    // small ones, pow 15-18: sums of sin(n * 1e300) ran 76 and 82 s within
+    // the bound at half a rewrite a node.)
+    static constexpr double kModuleBytes = sizeof(Module) + 32.0, kNodeRewrites = 0.5,
+                            kCallRewrites = 7.0;
 
     /// What rewriting a module by `p` costs beyond the rewrite itself, in
     /// rewrites (a module kept as it is, moved to the next string: 13 ns
@@ -1092,20 +1095,21 @@ private:
         for (const ModuleTemplate& t : p.successor) {
             cost += double(t.args.size()) + (t.args.empty() ? 0.0 : 1.0);
             for (const ExprPtr& e : t.args)
-                cost += kNodeRewrites * nodes(e.get(), memo);
+                cost += evaluationCost(e.get(), memo);
         }
         return cost;
     }
 
-    /// Expression nodes an evaluation of `e` visits (a shared subtree, as
-    /// `#define` folds make, counts each time it is reached), saturating.
-    static double nodes(const Expr* e, std::map<const Expr*, double>& memo)
+    /// What an evaluation of `e` costs in rewrites: each node it visits (a
+    /// shared subtree, as `#define` folds make, counts each time it is
+    /// reached), saturating.
+    static double evaluationCost(const Expr* e, std::map<const Expr*, double>& memo)
     {
         if (const auto f = memo.find(e); f != memo.end())
             return f->second;
-        double n = 1.0;
+        double n = e->op == Expr::Call || e->op == Expr::Pow ? kCallRewrites : kNodeRewrites;
         for (const ExprPtr& k : e->kids)
-            n = std::min(n + nodes(k.get(), memo), 1e18);
+            n = std::min(n + evaluationCost(k.get(), memo), 1e18);
         memo[e] = n;
         return n;
     }
@@ -1126,9 +1130,9 @@ private:
     {
         if (--budget_ < 0.0)
             throw InputError(fmt::format(
-                "{}: derivation step {}: its context searches pass more than {:g} modules in "
-                "all, with the rewrites (minutes of work): fewer --steps, or contexts that skip "
-                "fewer branches",
+                "{}: derivation step {}: its context searches and conditions, with the "
+                "rewrites, are more than {:g} modules' work in all (minutes of work): fewer "
+                "--steps, simpler conditions, or contexts that skip fewer branches",
                 sys_.source, stepNo_, limit_));
     }
 
@@ -1138,7 +1142,7 @@ private:
     int stepNo_ = 0;
     double limit_ = kMaxRewrites;
     std::vector<std::pair<const Production*, std::vector<double>>> chosen_;
-    std::vector<double> conditionNodes_, rewriteCost_;  ///< each production's
+    std::vector<double> conditionCost_, rewriteCost_;  ///< each production's, in rewrites
     /// leastStepCost()'s modules: by name, then by arity (0: not one of them).
     std::array<std::vector<double>, 256> sustained_;
     bool neverShrinks_ = false;
