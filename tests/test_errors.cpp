@@ -642,6 +642,14 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
     writeText(in / "hex.obj",
               "v 0x10 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\n"
               "f 2 4 3\n");
+    // A sphere of radius 0.01 weighted 1000: its surface lies 28 out, and
+    // the estimate counted the 0.01 (a shape of it ran out of memory after
+    // 57 s, exit 1).
+    writeText(in / "weighted.json", R"({"root": {"type": "sphere", "center": [0, 0, 0], )"
+                                    R"("radius": 0.01, "support": 60, "weight": 1000}})");
+    writeText(in / "heavy_base.json", R"({"base": {"type": "model", "file": ")" +
+                                          (in / "weighted.json").string() +
+                                          R"(", "fine_voxel_size": 0.0001}, "levels": 1})");
     writeText(in / "year0.json", R"({"base": {"type": "model", "file": ")" + kPopulus +
                                      R"(", "year": 0, "voxel_size": 0.5}, "levels": 1})");
     ASSERT_EQ(run("bake " + kScene + " --tile 1/2 --voxel-size 0.05 --device cpu -o " +
@@ -849,6 +857,12 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"shape IN/span.json -o OUT/out.obj", "amplitude.keys[0][0]: must be between"},
         {"render --mesh IN/hex.obj -o OUT/out.png", "hex.obj:1: 'v' expects 3 numbers"},
         {"shape IN/year0.json -o OUT/out.obj", "at year 0 the tree has not begun to grow"},
+        {"bake IN/weighted.json -o OUT/out.vdb --voxel-size 0.0001",
+         "weighted.json: a voxel size of 0.0001 for a surface 60.02 across (6e+05 voxels) needs "
+         "about"},
+        {"shape IN/heavy_base.json -o OUT/out.obj",
+         "heavy_base.json: base IN/weighted.json: a voxel size of 0.0001 for a surface 60.02 "
+         "across (6e+05 voxels) needs about"},
         {"shape " + kExamples + "shapes/rock.json --frames 0-1 --time 1 -o OUT/r.#.vdb",
          "--time excludes --frames"},
         {"shape IN/tiled.json -o OUT/out.obj",

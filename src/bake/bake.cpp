@@ -115,10 +115,10 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
         plan.bytes * tileMemoryShare(req.tile.count),
         fmt::format("{}: a voxel size of {:g} for a surface {:.4g} across ({:.3g} voxels)",
                     req.input, h, plan.extent, plan.extent / h),
-        "use a larger --voxel-size" + (!req.tilesOffered ? std::string()
-                                       : req.tile.count > 0
-                                           ? fmt::format(" or more than {} --tiles", req.tile.count)
-                                           : std::string(" or --tiles")));
+        "use a larger " + req.voxelSizeName +
+            (!req.tilesOffered    ? std::string()
+             : req.tile.count > 0 ? fmt::format(" or more than {} --tiles", req.tile.count)
+                                  : std::string(" or --tiles")));
     return plan;
 }
 

@@ -41,6 +41,8 @@ struct BakeRequest {
     /// Whether the command offers --tiles (the memory check's advice names
     /// it): bake's, not preview's.
     bool tilesOffered = true;
+    /// What the command calls the voxel size (the memory check's advice).
+    std::string voxelSizeName = "--voxel-size";
     /// A farm's key for the file's metadata (`cambium_sequence`): what its
     /// final job checks a tile's file against (farm/slurm.h tileFarmKey).
     std::string key;

@@ -9,6 +9,24 @@
 
 namespace cambium {
 
+namespace {
+
+/// How far out a skeletal primitive's surface lies, in units of its radius
+/// r, when its weight is W (kernels/cb_primitives.h: F(d) = W w(u) with
+/// u = (xT / sigma)(d / r - 1 + sigma), so F = T at u = w^-1(T / |W|)): 1 at
+/// a weight of 1 and below (counted so: an overestimate), up to the
+/// support's reach at a weight of 1000 (a sphere of radius 0.01 weighted
+/// 1000 has its surface 60 out, where its area counted the 0.01).
+double isoScale(double weight, double sigma, double T, double xT)
+{
+    const double W = std::abs(weight);
+    if (!(W > 1.0))
+        return 1.0;
+    return 1.0 + sigma * (cb_wyvill_inverse(T / W) / xT - 1.0);
+}
+
+}  // namespace
+
 double estimateBandVoxels(const FieldProgram& program, double h, double halfWidth)
 {
     // Surface area of the primitives in world units (an overestimate where
@@ -25,6 +43,7 @@ double estimateBandVoxels(const FieldProgram& program, double h, double halfWidt
     const double boundsArea = boxArea(program.positiveBounds());
     double area = 0.0;
     const auto& P = program.params();
+    const double T = P[CB_P_T], xT = P[CB_P_XT];
     std::vector<const Box*> warps;
     for (const Instr& in : program.code()) {
         if (in.op == CB_I_WARP)
@@ -33,15 +52,19 @@ double estimateBandVoxels(const FieldProgram& program, double h, double halfWidt
             warps.pop_back();
         const double* q = P.data() + in.a;
         double a = -1.0;
-        if (in.op == CB_SPHERE)
-            a = 4.0 * M_PI * q[CB_SPHERE_RADIUS] * q[CB_SPHERE_RADIUS];
-        else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_I_BARK_CONE)
-            a = M_PI * (q[CB_CONE_R0] + q[CB_CONE_R1]) * q[CB_CONE_LEN] +
-                2.0 * M_PI * std::max(q[CB_CONE_R0], q[CB_CONE_R1]) *
-                    std::max(q[CB_CONE_R0], q[CB_CONE_R1]);
-        else if (in.op == CB_CONVOLUTION_SEGMENT) {
+        if (in.op == CB_SPHERE) {
             const double r =
-                q[CB_CONV_SUPPORT] / 3.0;  // its window is three times its largest radius
+                q[CB_SPHERE_RADIUS] * isoScale(q[CB_SPHERE_WEIGHT], q[CB_SPHERE_SIGMA], T, xT);
+            a = 4.0 * M_PI * r * r;
+        } else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_I_BARK_CONE) {
+            const double m = isoScale(q[CB_CONE_WEIGHT], q[CB_CONE_SIGMA], T, xT),
+                         r0 = m * q[CB_CONE_R0], r1 = m * q[CB_CONE_R1];
+            a = M_PI * (r0 + r1) * q[CB_CONE_LEN] +
+                2.0 * M_PI * std::max(r0, r1) * std::max(r0, r1);
+        } else if (in.op == CB_CONVOLUTION_SEGMENT) {
+            // Its window is three times its largest radius; a weight above
+            // 1 moves the surface out towards the window.
+            const double r = q[CB_CONV_SUPPORT] / (std::abs(q[CB_CONV_WEIGHT]) > 1.0 ? 1.0 : 3.0);
             a = 2.0 * M_PI * r * q[CB_CONV_LEN] + 2.0 * M_PI * r * r;
         }
         a *= program.scaleOf(in) * program.scaleOf(in);  // in world units

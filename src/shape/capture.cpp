@@ -208,7 +208,9 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
             options.time = b.year;
         const FieldProgram program = FieldProgram::compile(loadModel(b.file, options), b.file);
         BakeRequest req;
-        req.input = b.file;
+        req.input = what;
+        req.tilesOffered = false;
+        req.voxelSizeName = "fine_voxel_size";
         const double automatic = autoVoxelSize(program, 256.0);
         if (b.fineVoxelSize > 0.0)
             req.voxelSize = b.fineVoxelSize;
