@@ -30,26 +30,37 @@ double isoScale(double weight, double sigma, double T, double xT)
 double estimateBandVoxels(const FieldProgram& program, double h, double halfWidth)
 {
     // Surface area of the primitives in world units (an overestimate where
-    // they overlap; a primitive under a transform or taper that scales by s
-    // counts s^2 times its own).
-    // Each is convex, so the part of it inside a box has at most the box's
-    // area: the surface's bounds (a huge sphere that cuts, a saw cut, counts
-    // so) and its support box in world space — its own, or under warps the
-    // outermost warp's (a unit sphere mapped onto a leaf counts as the leaf).
+    // they overlap): a primitive under a transform or taper that scales by
+    // s counts s^2 times its own, under a twist its stretch along the turns
+    // too (FieldProgram::areaScaleOf).  Each is convex, and so is its image
+    // under affine maps, so the part of it inside a box has at most the
+    // box's area: the surface's bounds (a huge sphere that cuts, a saw cut,
+    // counts so) and its support box in world space, its own or under
+    // transforms the outermost one's.  Under a bend, twist or taper it may
+    // fold: then the band it makes is at most the outermost warp's box, as
+    // an area the box's volume over the band's width.
     auto boxArea = [](const Box& box) {
         const glm::dvec3 b = box.size();
         return 2.0 * (b.x * b.y + b.y * b.z + b.z * b.x);
+    };
+    auto bandArea = [&](const Box& box) {
+        const glm::dvec3 b = box.size() + glm::dvec3(2.0 * halfWidth * h);
+        return b.x * b.y * b.z / (2.0 * halfWidth * h);
     };
     const double boundsArea = boxArea(program.positiveBounds());
     double area = 0.0;
     const auto& P = program.params();
     const double T = P[CB_P_T], xT = P[CB_P_XT];
     std::vector<const Box*> warps;
+    int folding = 0;  // bends, twists and tapers among them
     for (const Instr& in : program.code()) {
-        if (in.op == CB_I_WARP)
+        if (in.op == CB_I_WARP) {
             warps.push_back(&program.supportOf(in));
-        else if (in.op == CB_I_UNWARP)
+            folding += in.b != CB_TRANSFORM;
+        } else if (in.op == CB_I_UNWARP) {
             warps.pop_back();
+            folding -= in.b != CB_TRANSFORM;
+        }
         const double* q = P.data() + in.a;
         double a = -1.0;
         if (in.op == CB_SPHERE) {
@@ -67,10 +78,13 @@ double estimateBandVoxels(const FieldProgram& program, double h, double halfWidt
             const double r = q[CB_CONV_SUPPORT] / (std::abs(q[CB_CONV_WEIGHT]) > 1.0 ? 1.0 : 3.0);
             a = 2.0 * M_PI * r * q[CB_CONV_LEN] + 2.0 * M_PI * r * r;
         }
-        a *= program.scaleOf(in) * program.scaleOf(in);  // in world units
-        if (a >= 0.0)
-            area += std::min(
-                {a, boundsArea, boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
+        if (!(a >= 0.0))
+            continue;
+        a *= program.areaScaleOf(in);  // in world units
+        area += folding > 0
+                    ? std::min(a, bandArea(*warps.front()))
+                    : std::min({a, boundsArea,
+                                boxArea(warps.empty() ? program.supportOf(in) : *warps.front())});
     }
     return area / (h * h) * 2.0 * halfWidth;
 }

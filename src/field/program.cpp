@@ -27,15 +27,15 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 class Compiler {
 public:
     Compiler(const BlobTree& tree, const std::vector<NodeBounds>& bounds,
-             const std::vector<double>& scales, std::vector<double>& params,
-             std::vector<Instr>& code, std::vector<Box>& boxes, std::vector<double>& boxScales)
+             const std::vector<double>& areaScales, std::vector<double>& params,
+             std::vector<Instr>& code, std::vector<Box>& boxes, std::vector<double>& boxAreaScales)
         : tree_(tree),
           bounds_(bounds),
-          scales_(scales),
+          areaScales_(areaScales),
           P_(params),
           code_(code),
           boxes_(boxes),
-          boxScales_(boxScales)
+          boxAreaScales_(boxAreaScales)
     {
     }
 
@@ -158,7 +158,7 @@ private:
     int box(int index)
     {
         boxes_.push_back(bounds_[size_t(index)].support);
-        boxScales_.push_back(scales_[size_t(index)]);
+        boxAreaScales_.push_back(areaScales_[size_t(index)]);
         return int(boxes_.size()) - 1;
     }
 
@@ -241,12 +241,12 @@ private:
 
     const BlobTree& tree_;
     const std::vector<NodeBounds>& bounds_;
-    const std::vector<double>& scales_;
+    const std::vector<double>& areaScales_;
     int current_ = -1;
     std::vector<double>& P_;
     std::vector<Instr>& code_;
     std::vector<Box>& boxes_;
-    std::vector<double>& boxScales_;
+    std::vector<double>& boxAreaScales_;
 };
 
 double wyvill(double x)
@@ -613,28 +613,67 @@ double columnLength(const double* m, int c)
     return std::sqrt(m[c] * m[c] + m[4 + c] * m[4 + c] + m[8 + c] * m[8 + c]);
 }
 
-/// World units per unit of the frame each node lives in: how much the
-/// transforms (a column's length: exact for a similarity) and tapers above it
-/// scale it.
-std::vector<double> frameScales(const BlobTree& tree)
+/// The largest distance of a box from the line through o along the unit
+/// axis a (0 for an empty box).
+double fromAxis(const Box& box, const cb_vec3& o, const cb_vec3& a)
 {
-    std::vector<double> scale(tree.size(), 0.0);
-    scale[size_t(tree.root())] = 1.0;
+    if (box.empty())
+        return 0.0;
+    double hmin, hmax, rmax;
+    axialExtent(box, glm::dvec3(o.x, o.y, o.z), glm::dvec3(a.x, a.y, a.z), hmin, hmax, rmax);
+    return rmax;
+}
+
+/// How much the warps above each node scale the frame it lives in.
+struct FrameScales {
+    /// World units per unit of the frame: the transforms (a column's
+    /// length: exact for a similarity) and tapers above it.
+    std::vector<double> length;
+    /// World area per unit of area in the frame, at most: the lengths'
+    /// squares, and a twist's stretch along its turns, sqrt(1 + (rate r)^2)
+    /// at the farthest r from its axis that its box reaches (a sphere
+    /// twisted at 1000 degrees a unit 3 from the axis is a sheet of 19
+    /// times its area).
+    std::vector<double> area;
+};
+
+FrameScales frameScales(const BlobTree& tree, const std::vector<NodeBounds>& bounds)
+{
+    FrameScales out{std::vector<double>(tree.size(), 0.0), std::vector<double>(tree.size(), 0.0)};
+    out.length[size_t(tree.root())] = out.area[size_t(tree.root())] = 1.0;
     for (size_t i = tree.size(); i-- > 0;) {  // parents follow their children
         const Node& n = tree.node(int(i));
-        double f = 1.0;
+        double f = 1.0, g = 1.0;
         if (n.type == NodeType::TRANSFORM) {
             f = 0.0;
             for (int c = 0; c < 3; ++c)
                 f = std::max(f, columnLength(std::get<TransformParams>(n.params).forward, c));
+            g = f * f;
         } else if (n.type == NodeType::TAPER) {
             const cb_taper& t = std::get<cb_taper>(n.params);
             f = std::max(t.scale0, t.scale1);
+            g = f * f;
+        } else if (n.type == NodeType::TWIST) {
+            // (its child's positive box: the twist keeps the distance from
+            // its axis, and the surface lies inside)
+            const cb_twist& t = std::get<cb_twist>(n.params);
+            const double r = fromAxis(bounds[size_t(n.children[0])].positive, t.o, t.a);
+            g = std::sqrt(1.0 + t.rate * t.rate * r * r);
+        } else if (n.type == NodeType::BEND) {
+            // Lengthened along the arc, and a point r from the internode
+            // lies up to rho + r from the arc's centre: at most
+            // (arc / chord) (1 + r / rho).
+            const cb_bend& b = std::get<cb_bend>(n.params);
+            const double r = fromAxis(bounds[size_t(n.children[0])].positive, b.p0, b.u);
+            if (b.theta != 0.0)
+                g = (1.0 + r / b.rho) / b.lscale;
         }
-        for (int c : n.children)
-            scale[size_t(c)] = std::max(scale[size_t(c)], scale[i] * f);
+        for (int c : n.children) {
+            out.length[size_t(c)] = std::max(out.length[size_t(c)], out.length[i] * f);
+            out.area[size_t(c)] = std::max(out.area[size_t(c)], out.area[i] * g);
+        }
     }
-    return scale;
+    return out;
 }
 
 /// FieldProgram::farthestLocal(): where the kernels compare points with the
@@ -700,9 +739,9 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
     prog.params_[CB_P_ZERO] = 0.0;
     prog.params_[CB_P_DETAIL] = tree.detailLimit();
     const auto bounds = computeBounds(tree);
-    const auto scales = frameScales(tree);
-    Compiler c(tree, bounds, scales, prog.params_, prog.code_, prog.subtreeSupport_,
-               prog.subtreeScale_);
+    const FrameScales scales = frameScales(tree, bounds);
+    Compiler c(tree, bounds, scales.area, prog.params_, prog.code_, prog.subtreeSupport_,
+               prog.subtreeAreaScale_);
     c.emit(tree.root());
     prog.primitives_ = c.primitives;
     prog.bark_ = c.bark;
@@ -710,7 +749,7 @@ FieldProgram FieldProgram::compile(const BlobTree& tree)
         prog.uniformColor_ = c.shades[0];
     prog.positive_ = bounds[size_t(tree.root())].positive;
     prog.support_ = bounds[size_t(tree.root())].support;
-    prog.farthestLocal_ = farthestInFrames(tree, bounds, scales);
+    prog.farthestLocal_ = farthestInFrames(tree, bounds, scales.length);
     int stack = 0, warps = 0;
     depths(prog.code_, stack, warps);
     if (stack > CB_STACK_DEPTH || warps > CB_WARP_DEPTH)

@@ -68,9 +68,10 @@ public:
     /// nonzero, in the space of the nearest warp above it (world space when
     /// there is none).
     const Box& supportOf(const Instr& in) const { return subtreeSupport_[size_t(in.c)]; }
-    /// World units per unit of that space: how much the transforms and
-    /// tapers above the primitive or subtree that `in` heads scale it.
-    double scaleOf(const Instr& in) const { return subtreeScale_[size_t(in.c)]; }
+    /// World area per unit of area of that space, at most: how much the
+    /// transforms, tapers and twists above the primitive or subtree that
+    /// `in` heads stretch its surface.
+    double areaScaleOf(const Instr& in) const { return subtreeAreaScale_[size_t(in.c)]; }
     /// Number of primitives in the whole program.
     size_t primitiveCount() const { return primitives_; }
     /// The colour of every primitive when they all have the same: then the
@@ -129,8 +130,8 @@ private:
 
     std::vector<double> params_;
     std::vector<Instr> code_;
-    std::vector<Box> subtreeSupport_;   ///< indexed by OPEN.c / WARP.c
-    std::vector<double> subtreeScale_;  ///< the same
+    std::vector<Box> subtreeSupport_;       ///< indexed by OPEN.c / WARP.c
+    std::vector<double> subtreeAreaScale_;  ///< the same
     Box positive_, support_;
     double farthestLocal_ = 0.0;
     size_t primitives_ = 0;
