@@ -781,6 +781,7 @@ public:
         for (const Production& p : sys.productions) {
             conditionCost_.push_back(p.condition ? evaluationCost(p.condition.get(), memo) : 0.0);
             rewriteCost_.push_back(rewriteCost(p, memo));
+            tryCost_.push_back(tryCost(p));
         }
         // The modules rewritten at every step, whatever the string: the
         // largest set S of names and arities each of whose productions is
@@ -800,10 +801,17 @@ public:
                         const Production& p = sys.productions[k];
                         return !p.condition && p.left.empty() && p.right.empty();
                     })) {
-                    double cheapest = std::numeric_limits<double>::infinity();
+                    // The rewrite, its work, and the productions tried: up
+                    // to the first deterministic one (all apply).
+                    double cheapest = std::numeric_limits<double>::infinity(), tries = 0.0;
                     for (size_t k : prods)
                         cheapest = std::min(cheapest, rewriteCost_[k]);
-                    least[key] = 1.0 + cheapest;  // the rewrite and its work
+                    for (size_t k : prods) {
+                        tries += tryCost_[k];
+                        if (sys.productions[k].probability < 0.0)
+                            break;
+                    }
+                    least[key] = 1.0 + cheapest + tries;
                 }
         // A production's best line: the most a module of S it makes costs
         // (-1 when it makes none).
@@ -839,19 +847,33 @@ public:
                 costs.resize(key.second + 1, 0.0);
             costs[key.second] = cost;
         }
+        // Modules no production matches are kept at every step, one rewrite
+        // each, unless a cut removes them (a string of 100,000 X beside one
+        // rewritten B(n) ran 50 s before the bound stopped it).
+        noCuts_ = !cuts;
+        for (const auto& [key, prods] : of) {
+            auto& arities = rewritten_[size_t(static_cast<unsigned char>(key.first))];
+            if (arities.size() <= key.second)
+                arities.resize(key.second + 1, false);
+            arities[key.second] = true;
+        }
     }
 
     /// What a step over `s` costs at least, in rewrites, whatever the string
     /// has become by then: each module rewritten at every step at the least
-    /// its line of descendants costs a step, and where no string is shorter
-    /// than the one before, every other module at one rewrite.
+    /// its line of descendants costs a step, and at one rewrite each module
+    /// no production matches where nothing cuts, and every other module
+    /// where no string is shorter than the one before.
     double leastStepCost(const ModuleString& s) const
     {
         double cost = 0.0;
         for (const Module& m : s) {
-            const auto& costs = sustained_[size_t(static_cast<unsigned char>(m.name))];
-            const double c = m.params.size() < costs.size() ? costs[m.params.size()] : 0.0;
-            cost += c > 0.0 ? c : neverShrinks_ ? 1.0 : 0.0;
+            const size_t name = size_t(static_cast<unsigned char>(m.name)), arity = m.params.size();
+            const auto& costs = sustained_[name];
+            const double c = arity < costs.size() ? costs[arity] : 0.0;
+            const bool kept =
+                noCuts_ && !(arity < rewritten_[name].size() && rewritten_[name][arity]);
+            cost += c > 0.0 ? c : neverShrinks_ || kept ? 1.0 : 0.0;
         }
         return cost;
     }
@@ -955,6 +977,12 @@ public:
             for (const Production& p : sys_.productions) {
                 if (!matches(s[i], p.strict))
                     continue;
+                // Each production tried binds its parameters, whether it
+                // applies or not (3,000 stochastic or falsely conditioned
+                // productions of A(n) ran for hours within the bound).
+                budget_ -= tryCost_[size_t(&p - sys_.productions.data())];
+                if (budget_ < 0.0)
+                    spend();
                 std::vector<const Module*> left(p.left.size()), right(p.right.size());
                 if (!leftContext(s, match, i, p, left) || !rightContext(s, match, i, p, right))
                     continue;
@@ -1081,23 +1109,33 @@ private:
     /// rewrites (a module kept as it is, moved to the next string: 13 ns
     /// here).  Measured over 4,000 modules and 20,000 steps: A --> A 27 ns
     /// a module, A(n) --> A(n+1) 77 ns, A(a,b,c,d) --> A(a+1,b,c,d) 142 ns.
-    /// So: each module made, each parameter value bound and made, each
-    /// vector of them allocated (the bindings, a module's parameters), and
-    /// the expressions' nodes.
+    /// So: each module made, each parameter value made and its vector, and
+    /// the expressions' nodes; the bindings count as the production's try
+    /// (tryCost).
     static double rewriteCost(const Production& p, std::map<const Expr*, double>& memo)
     {
-        double bound = double(p.strict.formals.size());
-        for (const auto& m : p.left)
-            bound += double(m.formals.size());
-        for (const auto& m : p.right)
-            bound += double(m.formals.size());
-        double cost = double(p.successor.size()) + bound + (bound > 0.0 ? 1.0 : 0.0);
+        double cost = double(p.successor.size());
         for (const ModuleTemplate& t : p.successor) {
             cost += double(t.args.size()) + (t.args.empty() ? 0.0 : 1.0);
             for (const ExprPtr& e : t.args)
                 cost += evaluationCost(e.get(), memo);
         }
         return cost;
+    }
+
+    /// What trying `p` on a module of its name and arity costs, in
+    /// rewrites, before its condition: the bindings of its parameters and
+    /// contexts' (a value each, a vector of them, the contexts' lists), and
+    /// one for the try (3,000 productions tried cost 33 ns each).
+    static double tryCost(const Production& p)
+    {
+        double bound = double(p.strict.formals.size());
+        for (const auto& m : p.left)
+            bound += double(m.formals.size());
+        for (const auto& m : p.right)
+            bound += double(m.formals.size());
+        return 1.0 + bound + (bound > 0.0 ? 1.0 : 0.0) + (p.left.empty() ? 0.0 : 1.0) +
+               (p.right.empty() ? 0.0 : 1.0);
     }
 
     /// What an evaluation of `e` costs in rewrites: each node it visits (a
@@ -1142,9 +1180,12 @@ private:
     int stepNo_ = 0;
     double limit_ = kMaxRewrites;
     std::vector<std::pair<const Production*, std::vector<double>>> chosen_;
-    std::vector<double> conditionCost_, rewriteCost_;  ///< each production's, in rewrites
+    std::vector<double> conditionCost_, rewriteCost_, tryCost_;  ///< each production's
     /// leastStepCost()'s modules: by name, then by arity (0: not one of them).
     std::array<std::vector<double>, 256> sustained_;
+    /// By name, then by arity: whether a production matches such modules.
+    std::array<std::vector<bool>, 256> rewritten_;
+    bool noCuts_ = false;
     bool neverShrinks_ = false;
     double room_ = -1.0;  ///< memory available (once)
     ModuleString spare_;  ///< the string before last, its room for the next
