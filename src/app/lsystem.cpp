@@ -36,8 +36,14 @@ int runLSystemCommand(const LSystemRequest& req)
                [&](const char* stage, double f) { bar(stage, f); });
     bar.clear();
     const Skeleton sk = interpretTurtle(sys, s);
-    if (req.printString)
-        fmt::print("{}\n", formatModules(s));
+    if (req.printString) {
+        formatModules(s, [&](std::string_view part, double f) {
+            fmt::print("{}", part);
+            bar("printing the string", f);
+        });
+        bar.clear();
+        fmt::print("\n");
+    }
     if (req.printSkeleton) {
         fmt::print("# {} after {} steps: {}  # order module [cut]\n", req.input, steps,
                    kSkeletonColumns);

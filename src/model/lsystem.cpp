@@ -1264,18 +1264,34 @@ size_t branchEnd(const ModuleString& s, size_t from)
     return s.size();
 }
 
+void formatModules(const ModuleString& s, const std::function<void(std::string_view, double)>& sink)
+{
+    std::string out;
+    for (size_t k = 0; k < s.size(); ++k) {
+        const Module& m = s[k];
+        out += m.name;
+        if (!m.params.empty()) {
+            out += '(';
+            for (size_t i = 0; i < m.params.size(); ++i) {
+                if (i)
+                    out += ',';
+                fmt::format_to(std::back_inserter(out), "{}", m.params[i]);
+            }
+            out += ')';
+        }
+        if (out.size() >= (1u << 16)) {
+            sink(out, double(k + 1) / double(s.size()));
+            out.clear();
+        }
+    }
+    if (!out.empty())
+        sink(out, 1.0);
+}
+
 std::string formatModules(const ModuleString& s)
 {
     std::string out;
-    for (const Module& m : s) {
-        out += m.name;
-        if (m.params.empty())
-            continue;
-        out += '(';
-        for (size_t i = 0; i < m.params.size(); ++i)
-            out += (i ? "," : "") + fmt::format("{}", m.params[i]);
-        out += ')';
-    }
+    formatModules(s, [&](std::string_view part, double) { out += part; });
     return out;
 }
 

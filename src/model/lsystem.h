@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace cambium {
@@ -105,5 +106,10 @@ size_t branchEnd(const ModuleString& s, size_t from);
 /// The string in the L-system notation: modules without parameters as their
 /// symbol, others as `F(1.5,2)`, numbers in their shortest exact form.
 std::string formatModules(const ModuleString& s);
+/// The same, handed to `sink` in parts of about 64 KB with the fraction of
+/// the modules written so far (a string of 13 million parameters is 2 GB of
+/// text: --print-string ran out of memory making it whole).
+void formatModules(const ModuleString& s,
+                   const std::function<void(std::string_view, double)>& sink);
 
 }  // namespace cambium
