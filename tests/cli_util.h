@@ -26,7 +26,9 @@ struct Result {
 /// texts.  `fileSizeLimit` >= 0 sets RLIMIT_FSIZE in the child with SIGXFSZ
 /// ignored: every write of a file past that many bytes fails with EFBIG
 /// (the pipes are not files, so the messages still arrive).
-inline Result run(const std::string& args, long long fileSizeLimit = -1)
+/// `addressSpaceLimit` >= 0 sets RLIMIT_AS (what `ulimit -v` sets, in bytes).
+inline Result run(const std::string& args, long long fileSizeLimit = -1,
+                  long long addressSpaceLimit = -1)
 {
     int out[2], err[2];
     if (::pipe(out) != 0 || ::pipe(err) != 0)
@@ -44,6 +46,10 @@ inline Result run(const std::string& args, long long fileSizeLimit = -1)
             ::signal(SIGXFSZ, SIG_IGN);
             const rlimit limit{rlim_t(fileSizeLimit), rlim_t(fileSizeLimit)};
             ::setrlimit(RLIMIT_FSIZE, &limit);
+        }
+        if (addressSpaceLimit >= 0) {
+            const rlimit limit{rlim_t(addressSpaceLimit), rlim_t(addressSpaceLimit)};
+            ::setrlimit(RLIMIT_AS, &limit);
         }
         ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
         ::_exit(127);

@@ -4,6 +4,7 @@
 // removes the temporary; one run at a time writes a sequence; --resume
 // cleans stale temporaries and bakes damaged frames again.
 #include "temp_dir.h"
+#include "test_util.h"
 #include "io/vdb.h"
 #include "cli_util.h"
 #include "core/files.h"
@@ -1135,3 +1136,28 @@ TEST(Determinism, TwoBakesAndTwoSequencesGiveTheSameFilesApartFromTheUuid)
 }
 
 }  // namespace
+
+TEST(BadInput, ABandLargerThanItsEstimateIsRefusedOnceItsTopologyIsKnown)
+{
+    // Two coincident spheres of radius 0.01 and support 30 sum to a surface
+    // 14 out: the primitives' areas estimated 3,770 voxels, and the bake
+    // made 463 M (3.7 GB; at 0.0015 past a minute).  Their topology search
+    // finds the band's 2.9 M leaves in 2 s: refused then, under 2.5 GB of
+    // address space, with nothing written.
+    if (test::addressSanitized())
+        GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+    const auto dir = test::freshDir("band_from_topology");
+    const std::string in = (dir / "two.json").string(), out = (dir / "two.vdb").string();
+    writeText(dir / "two.json",
+              R"({"root": {"type": "blend", "children": [)"
+              R"({"type": "sphere", "center": [0, 0, 0], "radius": 0.01, "support": 30},)"
+              R"({"type": "sphere", "center": [0, 0, 0], "radius": 0.01, "support": 30}]}})");
+    const Result r =
+        run("bake " + in + " --voxel-size 0.002 --device cpu -o " + out, -1, 2500LL << 20);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("two.json: sampling the band's 2,942,719 leaves (its topology search "
+                         "found them) needs about"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+}

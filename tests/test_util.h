@@ -157,6 +157,20 @@ void expectInputError(F&& f, const std::string& message, const std::string& what
     }
 }
 
+/// Whether this build runs under AddressSanitizer, whose allocator reserves
+/// terabytes of address space (no address-space limit can be tried).
+constexpr bool addressSanitized()
+{
+#if defined(__SANITIZE_ADDRESS__)
+    return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+    return true;
+#endif
+#endif
+    return false;
+}
+
 /// The exit status of `body()` (an int from 0 to 98) run in a forked child
 /// under an address-space limit `headroom` bytes above what the process
 /// maps; -1 where that cannot be tried (ASan's allocator reserves address
@@ -164,13 +178,8 @@ void expectInputError(F&& f, const std::string& message, const std::string& what
 template <class F>
 int statusUnderAddressSpaceLimit(double headroom, F&& body)
 {
-#if defined(__SANITIZE_ADDRESS__)
-    return -1;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    return -1;
-#endif
-#endif
+    if (addressSanitized())
+        return -1;
     constexpr int kNoLimit = 99;
     const pid_t child = ::fork();
     if (child == 0) {

@@ -107,7 +107,10 @@ constexpr double kFileSurface = 1.5, kFileHalfSurface = 1.0, kFileColour = 0.5,
 
 }  // namespace
 
-double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth, bool packed)
+namespace {
+
+/// estimateBakeBytes() for a band of `bandVoxels`.
+double bakeBytes(const FieldProgram& program, double bandVoxels, bool packed)
 {
     // Per band voxel: the output grid (a float leaf of 2 KB holds about 150
     // of them on a tree: 14 bytes; packed, its compressed bytes and a leaf of
@@ -122,7 +125,19 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
     // 150 MB).
     const double perVoxel = (packed ? 6.0 : 14.0) + (program.uniformColor() ? 0.0 : 41.0) +
                             250.0 * kSampledLeavesPerBandVoxel + 0.5 * 3.0 * 3.0;
-    return estimateBandVoxels(program, h, halfWidth) * perVoxel + 150e6;
+    return bandVoxels * perVoxel + 150e6;
+}
+
+}  // namespace
+
+double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth, bool packed)
+{
+    return bakeBytes(program, estimateBandVoxels(program, h, halfWidth), packed);
+}
+
+double estimateBakeBytesFromLeaves(const FieldProgram& program, size_t sampledLeaves, bool packed)
+{
+    return bakeBytes(program, double(sampledLeaves) / kSampledLeavesPerBandVoxel, packed);
 }
 
 double estimateFileBytes(const FieldProgram& program, double h, double halfWidth,
