@@ -276,7 +276,9 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     for (const Node& n : tree.nodes())
         if (kindOf(n.type) == NodeKind::Primitive && n.prim().weight > 0.0) {
             ++solid;
-            const double r = std::max(n.prim().r0, n.prim().r1);
+            const double r =
+                std::max(n.prim().r0, n.prim().r1) *
+                surfaceRadiusScale(n.prim().weight, n.prim().sigma, tree.threshold(), tree.xT());
             thinnest = std::min(thinnest, r);
             thin += 2.0 * r < plan.voxelSize;
         }

@@ -9,23 +9,15 @@
 
 namespace cambium {
 
-namespace {
-
-/// How far out a skeletal primitive's surface lies, in units of its radius
-/// r, when its weight is W (kernels/cb_primitives.h: F(d) = W w(u) with
-/// u = (xT / sigma)(d / r - 1 + sigma), so F = T at u = w^-1(T / |W|)): 1 at
-/// a weight of 1 and below (counted so: an overestimate), up to the
-/// support's reach at a weight of 1000 (a sphere of radius 0.01 weighted
-/// 1000 has its surface 60 out, where its area counted the 0.01).
-double isoScale(double weight, double sigma, double T, double xT)
+double surfaceRadiusScale(double weight, double sigma, double T, double xT)
 {
     const double W = std::abs(weight);
     if (!(W > 1.0))
         return 1.0;
+    // kernels/cb_primitives.h: F(d) = W w(u) with u = (xT / sigma)(d / r - 1
+    // + sigma), so F = T at u = w^-1(T / |W|).
     return 1.0 + sigma * (cb_wyvill_inverse(T / W) / xT - 1.0);
 }
-
-}  // namespace
 
 double estimateBandVoxels(const FieldProgram& program, double h, double halfWidth)
 {
@@ -64,11 +56,11 @@ double estimateBandVoxels(const FieldProgram& program, double h, double halfWidt
         const double* q = P.data() + in.a;
         double a = -1.0;
         if (in.op == CB_SPHERE) {
-            const double r =
-                q[CB_SPHERE_RADIUS] * isoScale(q[CB_SPHERE_WEIGHT], q[CB_SPHERE_SIGMA], T, xT);
+            const double r = q[CB_SPHERE_RADIUS] *
+                             surfaceRadiusScale(q[CB_SPHERE_WEIGHT], q[CB_SPHERE_SIGMA], T, xT);
             a = 4.0 * M_PI * r * r;
         } else if (in.op == CB_SEGMENT || in.op == CB_CONE || in.op == CB_I_BARK_CONE) {
-            const double m = isoScale(q[CB_CONE_WEIGHT], q[CB_CONE_SIGMA], T, xT),
+            const double m = surfaceRadiusScale(q[CB_CONE_WEIGHT], q[CB_CONE_SIGMA], T, xT),
                          r0 = m * q[CB_CONE_R0], r1 = m * q[CB_CONE_R1];
             a = M_PI * (r0 + r1) * q[CB_CONE_LEN] +
                 2.0 * M_PI * std::max(r0, r1) * std::max(r0, r1);

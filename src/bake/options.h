@@ -116,6 +116,13 @@ struct BakeStats {
 /// the surface bounds.
 double autoVoxelSize(const FieldProgram& program, double voxels = 512.0);
 
+/// How far out a skeletal primitive's surface lies, in units of its radius,
+/// at weight `weight` (sigma its support's width, T the threshold, xT =
+/// w^-1(T)): 1 at a weight of 1 and below (counted so: an overestimate), up
+/// to its support's reach at large weights (a sphere of radius 0.01, support
+/// 60 and weight 1000 has its surface 28 out).
+double surfaceRadiusScale(double weight, double sigma, double T, double xT);
+
 /// Estimated voxels within the band at this voxel size, from the
 /// primitives' surface area (an overestimate where they overlap).
 double estimateBandVoxels(const FieldProgram& program, double voxelSize, double halfWidth);
