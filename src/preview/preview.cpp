@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <new>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -407,6 +408,9 @@ PreviewUpdate PreviewSession::update(const std::atomic<bool>* interrupt)
         u.outcome = PreviewUpdate::Outcome::Failed;
         u.inputError = true;
         u.error = e.what();
+    } catch (const std::bad_alloc&) {  // (its what() is "std::bad_alloc")
+        u.outcome = PreviewUpdate::Outcome::Failed;
+        u.error = "out of memory";
     } catch (const std::exception& e) {
         u.outcome = PreviewUpdate::Outcome::Failed;
         u.error = e.what();
