@@ -134,9 +134,13 @@ void addPreviewCommand(CLI::App& app, Action& action)
                 for (long long year : parseFrames(o->frames, "--frames"))
                     s.frames.push_back(double(year));
             s.framesMemory = o->framesMemoryGB * 1e9;
+            ProgressBar bar;
+            if (o->once)
+                s.progress = [&](const char* stage, double f) { bar(stage, f); };
             PreviewSession session(s);
             if (o->once) {
                 const PreviewUpdate u = session.update();
+                bar.clear();
                 // (a failure is the command's error: exit 2 or 1)
                 if (u.outcome == PreviewUpdate::Outcome::Failed && u.inputError)
                     throw InputError(u.error);

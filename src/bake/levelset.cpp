@@ -290,7 +290,7 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     // the band itself, before any is sampled (two coincident spheres of
     // radius 0.01 and support 30 sum to a surface 14 out: estimated at 3,770
     // voxels, they made 463 M).
-    checkMemoryFits(estimateBakeBytesFromLeaves(program, n, opt.pack),
+    checkMemoryFits(estimateBakeBytesFromLeaves(n),
                     fmt::format("{}: sampling the band's {} leaves (its topology search found "
                                 "them)",
                                 opt.source, formatCount(double(n))),

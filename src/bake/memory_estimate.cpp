@@ -87,6 +87,18 @@ namespace {
 /// 512; about 1.4 times as many leaves are sampled as hold any).
 constexpr double kSampledLeavesPerBandVoxel = 1.4 / 150.0;
 
+/// A varying colour's bytes per band voxel in a packed bake (its leaves
+/// compressed as they are made).  Measured at 0.003 on two unit spheres of
+/// two colours (14.6 M voxels): 289 MB with the colour shell, 307 MB with
+/// the band's, 277 MB with none; it was counted as 41 bytes, the unpacked
+/// band's three floats, and a bake that needed 1.1 GB was refused as 8 GB.
+constexpr double kPackedColour = 3.0;
+
+/// Bytes a bake holds per leaf its topology search found to sample, set low
+/// so that the check refuses only what surely does not fit: measured 1.27 KB
+/// on two coincident spheres (2.9 M leaves, 3.7 GB), 1.65 KB with colours.
+constexpr double kBytesPerSampledLeaf = 1200.0;
+
 /// File bytes per estimated band voxel.  Measured on the examples, a file
 /// holds 5-7 bytes per active voxel (surface 3.5-5, the colour shell 0.4-1.8,
 /// the band's colour twice that; halves 0.65 of it), but the estimate's band
@@ -99,37 +111,30 @@ constexpr double kFileSurface = 1.5, kFileHalfSurface = 1.0, kFileColour = 0.5,
 
 }  // namespace
 
-namespace {
-
-/// estimateBakeBytes() for a band of `bandVoxels`.
-double bakeBytes(const FieldProgram& program, double bandVoxels, bool packed)
+double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth, bool packed)
 {
     // Per band voxel: the output grid (a float leaf of 2 KB holds about 150
     // of them on a tree: 14 bytes; packed, its compressed bytes and a leaf of
     // value mask only: 4.5 and 0.7 bytes on the benchmark trees, counted as
-    // 6; a colour that varies adds three floats per leaf voxel: 41 bytes,
-    // counted so packed too), the per-leaf tables (neighbours, inside bits,
+    // 6; a colour that varies adds three floats per leaf voxel, 41 bytes,
+    // and packed, kPackedColour), the per-leaf tables (neighbours, inside bits,
     // state, jobs: about 250 bytes per sampled leaf, 2.5 bytes) and the
     // stages' state streamed through the slabs (about three sampled voxels
     // per band voxel, 2 bytes of value and a share of the surface points
     // each, of which a slab and a quarter is held: on a tree a fifth,
     // counted as half); plus the libraries (OpenVDB and PoCL's LLVM, about
     // 150 MB).
-    const double perVoxel = (packed ? 6.0 : 14.0) + (program.uniformColor() ? 0.0 : 41.0) +
+    const double perVoxel = (packed ? 6.0 : 14.0) +
+                            (program.uniformColor() ? 0.0
+                             : packed               ? kPackedColour
+                                                    : 41.0) +
                             250.0 * kSampledLeavesPerBandVoxel + 0.5 * 3.0 * 3.0;
-    return bandVoxels * perVoxel + 150e6;
+    return estimateBandVoxels(program, h, halfWidth) * perVoxel + 150e6;
 }
 
-}  // namespace
-
-double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth, bool packed)
+double estimateBakeBytesFromLeaves(size_t sampledLeaves)
 {
-    return bakeBytes(program, estimateBandVoxels(program, h, halfWidth), packed);
-}
-
-double estimateBakeBytesFromLeaves(const FieldProgram& program, size_t sampledLeaves, bool packed)
-{
-    return bakeBytes(program, double(sampledLeaves) / kSampledLeavesPerBandVoxel, packed);
+    return double(sampledLeaves) * kBytesPerSampledLeaf + 150e6;
 }
 
 double estimateFileBytes(const FieldProgram& program, double h, double halfWidth,

@@ -142,10 +142,10 @@ double estimateFileBytes(const FieldProgram& program, double voxelSize, double h
 /// (what a plan reports, never a limit).
 double estimateBakeSeconds(double bandVoxels, int cores);
 
-/// estimateBakeBytes() from the leaves the band's topology search found to
-/// sample (a truer count where the primitives' areas miss the surface: sums
-/// of flat fields, folding warps).
-double estimateBakeBytesFromLeaves(const FieldProgram& program, size_t sampledLeaves, bool packed);
+/// Bytes a bake needs at least for the leaves the band's topology search
+/// found to sample (a truer count where the primitives' areas miss the
+/// surface: sums of flat fields, folding warps).
+double estimateBakeBytesFromLeaves(size_t sampledLeaves);
 
 /// Estimated bytes of the two leaf-value caches a sequence's bake holds
 /// besides (BakeOptions::reuse: the last frame's and the one being filled,

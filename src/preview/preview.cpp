@@ -226,6 +226,7 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     opt.voxelSize = plan.voxelSize;
     opt.reuse = &s.cache;
     opt.interrupt = interrupt;
+    opt.progress = settings_.progress;
     BakedGrids grids = bakeLevelSet(program, *s.sampler, opt);
     paintBark(grids, *tree, paint, ColourExtent::Shell);
     u.bake = secondsSince(t);

@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <memory>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,6 +31,9 @@ struct PreviewSettings {
     /// resolution as it grows).
     std::optional<double> voxelSize;
     Device device = Device::OpenCL;  ///< the bake's sampler
+    /// Hears each bake's stages (--once: its progress on stderr; a bake of
+    /// many summed primitives ran past a minute in silence).
+    std::function<void(const char* stage, double fraction)> progress;
     Device renderDevice =
         Device::Cpu;  ///< the march (the CPU's the faster here: docs/rendering.md)
     int width = 640, height = 480, spp = 1;

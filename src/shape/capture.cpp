@@ -104,10 +104,12 @@ glm::dvec3 project(const DistanceField& f, const glm::dvec3& q, const glm::dvec3
 /// subdivided points lie up to a few voxels from it.
 constexpr double kCaptureHalfWidth = 8.0;
 
-openvdb::FloatGrid::Ptr bakeModel(const FieldProgram& program, double h, Device device)
+openvdb::FloatGrid::Ptr bakeModel(const FieldProgram& program, double h, Device device,
+                                  const std::function<void(const char*, double)>& progress)
 {
     std::unique_ptr<FieldSampler> sampler = makeSampler(device);
     BakeOptions opt;
+    opt.progress = progress;
     opt.voxelSize = h;
     opt.halfWidth = kCaptureHalfWidth;
     return bakeLevelSet(program, *sampler, opt).surface;
@@ -178,7 +180,8 @@ ControlMesh readControlMesh(const std::string& path)
     return c;
 }
 
-BaseShape captureBase(const BaseSpec& b, const std::string& source, Device device)
+BaseShape captureBase(const BaseSpec& b, const std::string& source, Device device,
+                      const std::function<void(const char*, double)>& progress)
 {
     const std::string what = fmt::format("{}: base {}", source, b.file);
     // A given control mesh is read and checked before any bake.
@@ -218,7 +221,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
             req.voxelSize = automatic;
         const VoxelPlan plan = planVoxelSize(program, req);
         extent = plan.extent;
-        fine = bakeModel(program, plan.voxelSize, device);
+        fine = bakeModel(program, plan.voxelSize, device, progress);
     }
     if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
         // Points are projected where they lie in the fine surface's band:

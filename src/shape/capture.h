@@ -31,7 +31,9 @@ ControlMesh readControlMesh(const std::string& path);
 /// mesh file baked (bakeMeshLevelSet) or the model baked, at its fine voxel
 /// size on `device` (automatic: 256 voxels across); the coarse base is the
 /// `control` mesh when given, else the fine surface meshed at the base voxel
-/// size (automatic: 48 voxels across).
-BaseShape captureBase(const BaseSpec& base, const std::string& source, Device device);
+/// size (automatic: 48 voxels across).  `progress` hears the model's bake
+/// (a base of many summed primitives baked past a minute in silence).
+BaseShape captureBase(const BaseSpec& base, const std::string& source, Device device,
+                      const std::function<void(const char*, double)>& progress = {});
 
 }  // namespace cambium

@@ -221,7 +221,7 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
     const int levels = req.levels >= 0 ? req.levels : specs.front().levels;
     for (const ShapeSpec& s : specs)
         checkShapeLevels(s, levels);
-    const BaseShape base = makeBase(specs.front().base, req.input, req.device);
+    const BaseShape base = makeBase(specs.front().base, req.input, req.device, cb.progress);
     checkSynthesisMemory(base.mesh, levels, req.input);
     if (req.voxelSize) {
         checkHalfRange(req.half, *req.voxelSize, req.halfWidth, req.input);
@@ -328,7 +328,7 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     // Memory, before any work: synthesis from the base's faces, the bake
     // from its area (the limit surface's is smaller; details add some).
     // (ShapeSurface checks the details themselves before it refines.)
-    const BaseShape base = makeBase(spec.base, spec.source, req.device);
+    const BaseShape base = makeBase(spec.base, spec.source, req.device, cb.progress);
     checkSynthesisMemory(base.mesh, levels, req.input);
     if (!levelSet) {
         // A mesh's points are floats, synthesised and written: as far from

@@ -36,7 +36,8 @@ void checkSynthesisMemory(const ControlMesh& base, int levels, const std::string
         "use fewer levels");
 }
 
-BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
+BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device,
+                   const std::function<void(const char*, double)>& progress)
 {
     switch (b.type) {
         case BaseType::Cube:
@@ -51,7 +52,7 @@ BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
             return fuseBase(b.length, b.radius, b.terms, b.around, b.rings);
         case BaseType::Mesh: {
             if (b.analyse)
-                return captureBase(b, source, device);
+                return captureBase(b, source, device, progress);
             BaseShape s;
             s.mesh = readControlMesh(b.file);
             // Checked here to name the file (MultiresSurface knows the shape).
@@ -60,7 +61,7 @@ BaseShape makeBase(const BaseSpec& b, const std::string& source, Device device)
         }
         case BaseType::LevelSet:
         case BaseType::Model:
-            return captureBase(b, source, device);
+            return captureBase(b, source, device, progress);
     }
     throw std::logic_error("makeBase: unknown base type");
 }

@@ -117,6 +117,7 @@ void checkSynthesisMemory(const ControlMesh& base, int levels, const std::string
 /// The base of a shape file as a control mesh and the exact surface it is
 /// fitted to (mesh files read; built-in shapes made; level sets and models
 /// captured on `device`, shape/capture.h).
-BaseShape makeBase(const BaseSpec& base, const std::string& source, Device device);
+BaseShape makeBase(const BaseSpec& base, const std::string& source, Device device,
+                   const std::function<void(const char*, double)>& progress = {});
 
 }  // namespace cambium
