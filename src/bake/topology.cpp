@@ -42,13 +42,18 @@ struct Search {
             throw InputError(fmt::format(
                 "{}: the band's leaves' programs would take more than half the {} this "
                 "process has available ({} leaves so far, {:.0f} instructions each, {} held; "
-                "the other half is the bake's): many primitives reach every leaf (many "
-                "overlapping children under one operator, or nested warps whose bounds are "
-                "loose): use a larger voxel size, fewer children under one operator or fewer "
-                "nested warps",
+                "the other half is the bake's): {}",
                 source, formatBytes(room), found, double(total) / double(found),
-                formatBytes(kBytesPerInstruction * double(total))));
+                formatBytes(kBytesPerInstruction * double(total)),
+                double(total) / double(found) < kFewInstructions
+                    ? "the band is far larger than the primitives' sizes suggest (fields "
+                      "that sum reach far): use a larger voxel size"
+                    : "many primitives reach every leaf (many overlapping children under "
+                      "one operator, or nested warps whose bounds are loose): use a larger "
+                      "voxel size, fewer children under one operator or fewer nested warps"));
     }
+    /// Instructions a leaf below which its program is not the cause.
+    static constexpr double kFewInstructions = 64.0;
     /// An instruction held in a tile's pool and copied into the whole one.
     static constexpr double kBytesPerInstruction = 2.0 * sizeof(Instr);
 

@@ -1159,7 +1159,7 @@ private:
         if (bytes > 0.5 * room_)  // (what else a step holds: its bindings, spare room)
             throw InputError(fmt::format(
                 "{}: derivation step {} would hold {} or more of modules and their parameters "
-                "({} modules so far), more than the {} this process has: fewer --steps, "
+                "({} modules so far), more than half the {} this process has: fewer --steps, "
                 "--max-modules or parameters",
                 sys_.source, stepNo, formatBytes(bytes), modules, formatBytes(room_)));
     }
@@ -1241,8 +1241,8 @@ ModuleString derive(const LSystem& system, int steps, uint64_t seed, size_t maxM
             throw InputError(
                 fmt::format("{}: {} steps would rewrite more than {:g} modules' work in all "
                             "(rewrites, context searches and parameter expressions: minutes of "
-                            "work): fewer --steps",
-                            system.source, steps, maxRewrites));
+                            "work; known before step {}): fewer --steps",
+                            system.source, steps, maxRewrites, i));
         d.setBudget(maxRewrites - rewrites, i, maxRewrites);
         s = d.step(std::move(s), i, maxModules);
         rewrites = maxRewrites - d.budgetLeft();  // (with the context searches)
