@@ -13,6 +13,7 @@
 #include <charconv>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -223,14 +224,50 @@ VdbSummary inspectVdb(const std::string& path)
                 // OpenVDB sizes per-leaf arrays by the count it holds.
                 if (n < 8)
                     r.damaged(fmt::format("metadata '{}' of {} bytes", name, n));
+                // What OpenVDB reads of it is its own count of bytes, not n:
+                // the leaves' masks (a byte each) and compressed sizes (8
+                // bytes each), each a blosc block after its byte count, or
+                // raw after a count of 0 (the sizes absent after 2^32 - 1).
+                // Read past n, OpenVDB took the next name's length from the
+                // wrong place (2 GB from a 161 KB file); a blosc block's
+                // header sizes what OpenVDB reserves.
+                const uint64_t start = r.at();
                 const uint32_t count = r.value<uint32_t>("delayed-load count");
-                const uint32_t packed = r.value<uint32_t>("delayed-load size");
-                if (count > s.bytes || packed > n - 8)
-                    r.damaged(fmt::format("metadata '{}' counts {} leaves in {} bytes", name, count,
-                                          packed));
+                if (count > s.bytes)
+                    r.damaged(fmt::format("metadata '{}' counts {} leaves", name, count));
+                auto block = [&](uint64_t itemBytes, bool optional) {
+                    const uint32_t b = r.value<uint32_t>("delayed-load block size");
+                    if (optional && b == std::numeric_limits<uint32_t>::max())
+                        return;
+                    const uint64_t bytes = b > 0 ? b : count * itemBytes;
+                    if (r.at() + bytes > start + n)
+                        r.damaged(
+                            fmt::format("metadata '{}' of {} bytes holds a block of {} "
+                                        "bytes at byte {}",
+                                        name, n, bytes, r.at()));
+                    if (b > 0) {
+                        char header[16];
+                        if (b < sizeof header)
+                            r.damaged(
+                                fmt::format("metadata '{}' has a block of {} bytes", name, b));
+                        r.bytes(header, sizeof header, "blosc header");
+                        uint32_t nbytes;
+                        std::memcpy(&nbytes, header + 4, 4);
+                        if (nbytes > 2 * count * itemBytes + 1024)  // (writers pad a little)
+                            r.damaged(fmt::format("metadata '{}' unpacks {} bytes for {} leaves",
+                                                  name, nbytes, count));
+                        r.skip(b - sizeof header, "delayed-load block");
+                    } else {
+                        r.skip(bytes, "delayed-load block");
+                    }
+                };
+                if (n < 12)
+                    r.damaged(fmt::format("metadata '{}' of {} bytes", name, n));
+                block(1, false);
+                block(8, true);
                 if (leaves)
                     *leaves = count;
-                r.skip(n - 8, "metadata value");
+                r.skip(start + n - r.at(), "metadata value");
                 continue;
             }
             if (strings && type == "string" && n <= kValueLimit) {
