@@ -25,6 +25,16 @@ std::string run(const std::string& text, int steps, uint64_t seed = 1, size_t ma
     return formatModules(derive(sys, steps, seed, maxModules));
 }
 
+/// `text` n times, `separator` between them (axioms of many modules, long
+/// sums).
+std::string repeated(const std::string& text, int n, const std::string& separator = "")
+{
+    std::string out;
+    for (int k = 0; k < n; ++k)
+        out += (k ? separator : "") + text;
+    return out;
+}
+
 TEST(LSystem, AlgaeGrowsAsInABOP)
 {
     // ABOP 1.1: the lengths are Fibonacci numbers.
@@ -196,12 +206,8 @@ TEST(LSystem, FunctionCallsCountAsTheirWorstCase)
     // sin of an argument beyond 1e15 costs 50-70 ns, seven times a small
     // one's: 60 of them a module at half a rewrite a node ran 76 s within
     // the bound.  A call counts seven rewrites, in a condition too.
-    std::string sines = "sin(n * 1e300)";
-    for (int k = 1; k < 60; ++k)
-        sines += " + sin(n * 1e300)";
-    std::string axiom;
-    for (int k = 0; k < 100; ++k)
-        axiom += "A(1)";
+    const std::string sines = repeated("sin(n * 1e300)", 60, " + ");
+    const std::string axiom = repeated("A(1)", 100);
     // Per step: 100 modules, each 60 calls (420), 60 products and their
     // operands (90), 59 sums (29.5), and the module kept, tried and made
     // (7): 54,650.
@@ -242,11 +248,10 @@ TEST(LSystem, EveryProductionTriedCountsItsBindings)
     // falsely conditioned ones are all tried): 33 ns each, hours within the
     // bound when only the one chosen counted.  The stochastic ones are
     // known before the first step.
-    std::string axiom, stochastic, conditioned;
-    for (int k = 0; k < 20; ++k)
-        axiom += "A(0)";
+    const std::string axiom = repeated("A(0)", 20),
+                      stochastic = repeated("A(n) --> A(n+1) : 1\n", 3000);
+    std::string conditioned;
     for (int k = 0; k < 3000; ++k) {
-        stochastic += "A(n) --> A(n+1) : 1\n";
         conditioned += "A(n) : n < -" + std::to_string(k) + " --> A(n+1)\n";
     }
     int steps = 0;
@@ -269,9 +274,7 @@ TEST(LSystem, AModuleRewrittenAtEveryStepCountsItsProductionsWork)
     // (measured: 77 ns against 27 for A --> A): 8,000 of them over 100,000
     // steps ran past a minute inside the bound when each counted one
     // rewrite.  Now they are refused before the first step.
-    std::string axiom;
-    for (int k = 0; k < 1000; ++k)
-        axiom += "A(0)";
+    const std::string axiom = repeated("A(0)", 1000);
     const LSystem sys = parseLSystem("Axiom: " + axiom + "\nA(n) --> A(n+1)\n", "count.l");
     int steps = 0;
     const auto counted = [&](const char*, double) { ++steps; };
@@ -298,12 +301,8 @@ TEST(LSystem, TheWorkOfParameterExpressionsCountsAgainstTheBound)
     // the rewrites alone stay far inside the bound (a million modules of
     // 19-term sums ran 45 minutes within it); the expressions' nodes count
     // half a rewrite each, before they are evaluated.
-    std::string sum = "x";
-    for (int k = 1; k < 20; ++k)
-        sum += "+x";
-    std::string axiom;
-    for (int k = 0; k < 100; ++k)
-        axiom += "A(1)";
+    const std::string sum = repeated("x", 20, "+");
+    const std::string axiom = repeated("A(1)", 100);
     const LSystem sys =
         parseLSystem("Axiom: " + axiom + "\nA(x) --> A((" + sum + ") / 20)\n", "sums.l");
     // Per step: 100 rewrites and 100 x 41 nodes at half a rewrite, and the
