@@ -17,11 +17,16 @@
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace {
@@ -344,6 +349,80 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
         EXPECT_EQ(run(bad, "bad.vdb"), 2) << bad << ": " << fileContents(dir / "bad.vdb.txt");
         EXPECT_FALSE(fs::exists(dir / "bad.vdb")) << bad;
     }
+}
+
+/// The pids of the processes whose command line holds `text`.
+std::vector<pid_t> processesWith(const std::string& text)
+{
+    std::vector<pid_t> found;
+    for (const auto& e : std::filesystem::directory_iterator("/proc")) {
+        const std::string name = e.path().filename().string();
+        if (name.find_first_not_of("0123456789") != std::string::npos)
+            continue;
+        std::string cmd = fileContents(e.path() / "cmdline");
+        std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+        if (cmd.find(text) != std::string::npos)
+            found.push_back(pid_t(std::stoi(name)));
+    }
+    return found;
+}
+
+TEST(FarmTiles, AKilledTiledBakesTileEndsAndItsTilesGoNextTime)
+{
+    // kill -9 of a local tiled bake left its tile baking on as an orphan and
+    // its directory of tiles beside the output for good (sweep 18): the tile
+    // ends itself once its parent is gone, and the next tiled bake of the
+    // output removes the directory.  (Waits are bounded polls.)
+    namespace fs = std::filesystem;
+    const fs::path dir = cambium::test::freshDir("cambium_tiles_killed");
+    const std::string out = (dir / "killed.vdb").string(), scratch = ".killed.vdb.tiles-";
+    const pid_t parent = ::fork();
+    if (parent == 0) {
+        const int null = ::open("/dev/null", O_WRONLY);
+        ::dup2(null, 1);
+        ::dup2(null, 2);
+        ::execl(CAMBIUM_EXE, "cambium", "bake", kPopulus.c_str(), "--time", "8", "--voxel-size",
+                "0.0025", "--device", "cpu", "--tiles", "2", "-o", out.c_str(),
+                static_cast<char*>(nullptr));
+        ::_exit(127);
+    }
+    ASSERT_GT(parent, 0);
+    const auto waitFor = [](const std::function<bool()>& done, double seconds) {
+        const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+        while (!done() && std::chrono::steady_clock::now() < end)
+            ::usleep(50000);
+        return done();
+    };
+    int status = 0;
+    bool ended = false;
+    waitFor(
+        [&] {
+            ended = ended || ::waitpid(parent, &status, WNOHANG) == parent;
+            return ended ||
+                   !processesWith(scratch + std::to_string(parent) + "/tile-1.vdb").empty();
+        },
+        120.0);
+    ASSERT_FALSE(ended) << "the tiled bake ended before its first tile was seen (status " << status
+                        << ")";
+    ::kill(parent, SIGKILL);
+    ::waitpid(parent, &status, 0);
+    EXPECT_TRUE(
+        waitFor([&] { return processesWith(scratch + std::to_string(parent)).empty(); }, 60.0))
+        << "a tile of the killed bake still runs";
+    // (its tile takes seconds; an orphan would have finished and written it)
+    EXPECT_TRUE(fs::exists(dir / (scratch + std::to_string(parent))));
+    EXPECT_FALSE(fs::exists(dir / (scratch + std::to_string(parent)) / "tile-1.vdb"))
+        << "the killed bake's tile went on and wrote its file";
+    const test::Result next =
+        test::run("bake " + kPopulus + " --time 8 --voxel-size 0.02 --device cpu --tiles 2 -o " +
+                  shellQuote(out));
+    ASSERT_EQ(next.status, 0) << next.err;
+    EXPECT_NE((next.out + next.err)
+                  .find("removed " + (dir / scratch).string() + std::to_string(parent) +
+                        ", the tiles an interrupted run left"),
+              std::string::npos)
+        << next.out << next.err;
+    EXPECT_FALSE(fs::exists(dir / (scratch + std::to_string(parent))));
 }
 
 TEST(FarmTiles, AnArraysTilesMergedByItsFinalJobAreTheSingleBake)

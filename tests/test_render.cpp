@@ -537,11 +537,23 @@ TEST(Render, OneGridAtATimeGivesTheSamePicture)
         const Camera cam = framingCamera(b, 4.0 / 3.0, 35.0 + turn, 20.0);
         const RenderImage both = renderLevelSetCpu(*g.surface, g.color.get(), cam, 120, 90, 2);
         bool asked = false;
+        // (the colour of every leaf the render does not ask for is wrong:
+        // a lookup in one would change the picture)
         const RenderImage apart = renderLevelSetCpu(
             g.surface->deepCopy(),
-            [&] {
+            [&](const std::vector<openvdb::Coord>& leaves) {
                 asked = true;
-                return g.color->deepCopy();
+                EXPECT_TRUE(std::is_sorted(leaves.begin(), leaves.end()));
+                EXPECT_FALSE(leaves.empty());
+                openvdb::Vec3fGrid::Ptr c = g.color->deepCopy();
+                size_t wrong = 0;
+                for (auto leaf = c->tree().beginLeaf(); leaf; ++leaf)
+                    if (!std::binary_search(leaves.begin(), leaves.end(), leaf->origin())) {
+                        leaf->fill(openvdb::Vec3f(1.0f, 0.0f, 1.0f));
+                        ++wrong;
+                    }
+                EXPECT_GT(wrong, 0u) << "every leaf looked up: the test shows nothing";
+                return c;
             },
             cam, 120, 90, 2);
         EXPECT_TRUE(asked);

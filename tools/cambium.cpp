@@ -3,6 +3,7 @@
 #include "app/app.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/process.h"
 #include "core/versions.h"
 
 #include <CLI/CLI.hpp>
@@ -42,6 +43,7 @@ int main(int argc, char** argv)
     // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
     // any work (a farm must not retry); 1 a failure during the work.
     cambium::installCleanupOnSignals();
+    cambium::endWithParent();
     std::string names;
     bool known = false;
     for (const CLI::App* c : app.get_subcommands({})) {

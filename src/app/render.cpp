@@ -104,7 +104,7 @@ int runRenderCommand(RenderRequest req)
                 // (the CPU march reads the colour once the level set is gone)
                 const bool cpu = device == Device::Cpu && !req.viaMesh;
                 LevelSetGrids f =
-                    readLevelSet(in, req.grid, cpu ? ColourRead::None : ColourRead::Lazy);
+                    readLevelSet(in, req.grid, cpu ? ColourRead::None : ColourRead::Whole);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
@@ -129,10 +129,10 @@ int runRenderCommand(RenderRequest req)
                         openvdb::gridPtrCast<openvdb::FloatGrid>(f.surface->copyGridWithNewTree());
                     img = renderLevelSetCpu(
                         std::move(f.surface),
-                        [&] {
+                        [&](const std::vector<openvdb::Coord>& leaves) {
                             // (the picture's writer loads while the colours are found)
                             preloadImageCodec();
-                            return readColourGrid(in, *frame, /*lazy=*/true);
+                            return readColourGrid(in, *frame, &leaves);
                         },
                         cam, req.width, req.height, req.spp);
                     how = "OpenVDB's level-set ray intersector";

@@ -107,6 +107,16 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
 int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, bool timings)
 {
     const auto start = Clock::now();
+    // What a killed tiled bake of this output left (SIGKILL: no handler
+    // ran), removed.
+    const fs::path output = fs::absolute(req.output);
+    const std::string prefix =
+        (output.parent_path() / fmt::format(".{}.tiles-", output.filename().string())).string();
+    for (const std::string& stale : staleDirectories(prefix)) {
+        std::error_code ec;
+        if (fs::remove_all(stale, ec) > 0 && !ec)
+            printNotice(fmt::format("removed {}, the tiles an interrupted run left", stale));
+    }
     const TilePlan plan = planTiles(req, tiles, maxMemory, true);
     tiles = plan.tiles;
     if (tiles == 1) {
@@ -119,10 +129,7 @@ int runTiledBakeCommand(const BakeRequest& req, int tiles, double maxMemory, boo
     }
     // The tiles' files in a directory beside the output, removed whatever
     // happens.
-    const fs::path output = fs::absolute(req.output);
-    const ScratchDirectory scratch(
-        (output.parent_path() / fmt::format(".{}.tiles-{}", output.filename().string(), ::getpid()))
-            .string());
+    const ScratchDirectory scratch(prefix + std::to_string(::getpid()));
     const fs::path dir = scratch.path();
     const std::string exe = (fs::path(executableDirectory()) / "cambium").string();
     std::vector<std::string> files;

@@ -6,7 +6,12 @@
 #include "core/error.h"
 
 #include <fmt/format.h>
-#include <tbb/parallel_for.h>
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <optional>
+#include <utility>
+#include <vector>
 
 namespace cambium {
 
@@ -30,10 +35,11 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
     std::shared_ptr<PackedLeaves> surfacePack, colorPack;
     double h = 0.0;
     for (const std::string& file : files) {
-        // A leaf at a time: each leaf's values read when packed, then
-        // dropped (delayed loading), so that the merge holds the packed
+        // A piece of the file at a time: each leaf's values decoded, packed,
+        // then dropped (decodeLeaves), so that the merge holds the packed
         // bytes, not a tile's values.
-        const LevelSetGrids g = readLevelSetDelayed(file);
+        VdbSummary summary;
+        const LevelSetGrids g = readLevelSetDelayed(file, summary);
         const double voxel = g.surface->voxelSize()[0];
         const float background = g.surface->background();
         if (!out.surface) {
@@ -50,49 +56,71 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
                 "and {})",
                 file, files.front(), voxel, background, h, out.surface->background()));
         }
-        // Its leaves packed in parallel, each into the slot that names it.
-        std::vector<openvdb::FloatTree::LeafNodeType*> tileLeaves;
-        tileLeaves.reserve(g.surface->tree().leafCount());
-        for (auto it = g.surface->tree().beginLeaf(); it; ++it)
-            tileLeaves.push_back(it.getLeaf());
-        const size_t first = surfacePack->addSlots(tileLeaves.size());
-        colorPack->addSlots(tileLeaves.size());
-        const size_t n = first + tileLeaves.size();
+        // Its leaves get the next slots, in the tree's order; a colour leaf
+        // the slot of the surface leaf at its origin (a leaf of one colour
+        // is a tile of its tree, bake/colour_shell.cpp: its topology holds
+        // it).
+        const size_t count = g.surface->tree().leafCount();
+        const size_t first = surfacePack->addSlots(count);
+        colorPack->addSlots(count);
+        const size_t n = first + count;
         leaves.surface.resize(n, nullptr);
         leaves.color.resize(n, nullptr);
         leaves.active.resize(n, 0);
         leaves.ends.resize(n, 0);
         leaves.colorTile.resize(n);
         openvdb::Vec3fTree* colors = g.color ? &g.color->tree() : nullptr;
-        tbb::parallel_for(
-            tbb::blocked_range<size_t>(0, tileLeaves.size(), 256),
-            [&](const tbb::blocked_range<size_t>& r) {
-                PackedLeaves::Block surfaceBlock(*surfacePack), colorBlock(*colorPack);
-                for (size_t k = r.begin(); k < r.end(); ++k) {
-                    auto& leaf = *tileLeaves[k];
-                    const uint32_t slot = uint32_t(first + k);
-                    surfaceBlock.add(slot, leaf);
-                    leaves.surface[slot] = maskLeaf(leaf, leaf.origin(), background, slot);
-                    leaves.active[slot] = leaf.onVoxelCount();
-                    leaves.ends[slot] =
-                        leafEnds(leaf.getValue(0),
-                                 leaf.getValue(openvdb::FloatTree::LeafNodeType::SIZE - 1));
-                    dropValues(leaf);
-                    if (auto* c = colors ? colors->probeLeaf(leaf.origin()) : nullptr) {
-                        colorBlock.add(slot, *c);
-                        leaves.color[slot] =
-                            maskLeaf(*c, c->origin(), out.color->background(), slot);
-                        dropValues(*c);
-                    } else if (colors && colors->isValueOn(leaf.origin()) &&
-                               colors->getValueDepth(leaf.origin()) ==
-                                   int(colors->treeDepth()) - 2) {
-                        // (a leaf of one colour: a tile, bake/colour_shell.cpp)
-                        leaves.colorTile[slot] = colors->getValue(leaf.origin());
-                    }
-                }
-                surfaceBlock.keep();
-                colorBlock.keep();
+        std::vector<std::pair<openvdb::Coord, uint32_t>> colourSlots;
+        size_t k = 0;
+        for (auto it = g.surface->tree().cbeginLeaf(); it; ++it, ++k) {
+            const openvdb::Coord o = it->origin();
+            if (!colors)
+                continue;
+            if (colors->probeConstLeaf(o))
+                colourSlots.emplace_back(o, uint32_t(first + k));
+            else if (colors->isValueOn(o) &&
+                     colors->getValueDepth(o) == int(colors->treeDepth()) - 2)
+                leaves.colorTile[first + k] = colors->getValue(o);
+        }
+        std::sort(colourSlots.begin(), colourSlots.end());
+        auto slotOf = [&](const openvdb::Coord& o) -> const std::pair<openvdb::Coord, uint32_t>* {
+            const auto at = std::lower_bound(colourSlots.begin(), colourSlots.end(),
+                                             std::make_pair(o, uint32_t(0)));
+            return at != colourSlots.end() && at->first == o ? &*at : nullptr;
+        };
+        // Each leaf decoded, packed and its values dropped, on all cores.
+        tbb::enumerable_thread_specific<std::optional<PackedLeaves::Block>> surfaceBlocks,
+            colourBlocks;
+        decodeLeaves(
+            file, summary, *g.surface, {}, [&](size_t i, openvdb::FloatTree::LeafNodeType& leaf) {
+                std::optional<PackedLeaves::Block>& block = surfaceBlocks.local();
+                if (!block)
+                    block.emplace(*surfacePack);
+                const uint32_t slot = uint32_t(first + i);
+                block->add(slot, leaf);
+                leaves.surface[slot] = maskLeaf(leaf, leaf.origin(), background, slot);
+                leaves.active[slot] = leaf.onVoxelCount();
+                leaves.ends[slot] = leafEnds(
+                    leaf.getValue(0), leaf.getValue(openvdb::FloatTree::LeafNodeType::SIZE - 1));
+                dropValues(leaf);
             });
+        if (g.color)
+            decodeLeaves(
+                file, summary, *g.color,
+                [&](const openvdb::Coord& o) { return slotOf(o) != nullptr; },
+                [&](size_t, openvdb::Vec3fTree::LeafNodeType& c) {
+                    std::optional<PackedLeaves::Block>& block = colourBlocks.local();
+                    if (!block)
+                        block.emplace(*colorPack);
+                    const uint32_t slot = slotOf(c.origin())->second;
+                    block->add(slot, c);
+                    leaves.color[slot] = maskLeaf(c, c.origin(), out.color->background(), slot);
+                    dropValues(c);
+                });
+        for (auto* blocks : {&surfaceBlocks, &colourBlocks})
+            for (std::optional<PackedLeaves::Block>& block : *blocks)
+                if (block)
+                    block->keep();
     }
     if (!out.surface)
         throw std::logic_error("mergeTiles: no tile files");

@@ -567,6 +567,48 @@ void installCleanupOnSignals()
     }
 }
 
+namespace {
+
+/// Whether process `pid` (decimal digits) runs and is a cambium other than
+/// this one.
+bool anotherCambiumRuns(const std::string& pid)
+{
+    if (pid.empty() || pid.size() >= 10 || std::stoll(pid) == ::getpid())
+        return false;
+    std::ifstream comm("/proc/" + pid + "/comm");
+    std::string command;
+    return comm >> command && command == "cambium";
+}
+
+}  // namespace
+
+std::vector<std::string> staleDirectories(const std::string& prefix)
+{
+    const std::string dir = directoryOf(prefix);
+    const std::string name =
+        prefix.substr(prefix.rfind('/') == std::string::npos ? 0 : prefix.rfind('/') + 1);
+    std::vector<std::string> found;
+    DIR* d = ::opendir(dir.c_str());
+    if (!d)
+        return found;
+    while (const dirent* e = ::readdir(d)) {
+        const std::string f = e->d_name;
+        if (f.size() <= name.size() || f.compare(0, name.size(), name) != 0 ||
+            !std::all_of(f.begin() + long(name.size()), f.end(),
+                         [](unsigned char c) { return std::isdigit(c); }))
+            continue;
+        struct stat st;
+        const std::string path = dir + "/" + f;
+        if (::lstat(path.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
+            anotherCambiumRuns(f.substr(name.size())))
+            continue;
+        found.push_back(path);
+    }
+    ::closedir(d);
+    std::sort(found.begin(), found.end());
+    return found;
+}
+
 std::vector<std::string> staleTemporaries(const std::string& pattern)
 {
     const std::string dir = directoryOf(pattern);
@@ -598,11 +640,7 @@ std::vector<std::string> staleTemporaries(const std::string& pattern)
             !digits(f, tmp + suffix.size(), f.size()))
             continue;
         // A process that is still running and is a cambium may still be writing it.
-        const std::string pid = f.substr(tmp + suffix.size());
-        std::ifstream comm("/proc/" + pid + "/comm");
-        std::string command;
-        if (pid.size() < 10 && std::stoll(pid) != ::getpid() && comm >> command &&
-            command == "cambium")
+        if (anotherCambiumRuns(f.substr(tmp + suffix.size())))
             continue;
         found.push_back(dir + "/" + f);
     }

@@ -109,6 +109,11 @@ void installCleanupOnSignals();
 /// temporaries of a cambium process that is running.
 std::vector<std::string> staleTemporaries(const std::string& pattern);
 
+/// Directories "PREFIX<pid>" (`prefix` a path; the pid decimal) that a
+/// cambium since killed left, by SIGKILL say (a tiled bake's scratch
+/// directory of tiles): not those of a cambium process that is running.
+std::vector<std::string> staleDirectories(const std::string& prefix);
+
 /// Registers a path to be removed if a signal ends the process while the
 /// guard lives (installCleanupOnSignals); release() when it is no longer ours.
 class RemoveOnSignal {

@@ -7,16 +7,21 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -42,7 +47,47 @@ double readGnuTimePeak(const std::string& path)
     return kb * 1024.0;
 }
 
+constexpr const char* kParentFd = "CAMBIUM_PARENT_FD";
+
+/// The pipe runChild's commands watch: its read end inherited, its write
+/// end this process's alone (close-on-exec), open while the process lives.
+int lifelineReadEnd()
+{
+    static const int fd = [] {
+        int p[2];
+        if (::pipe2(p, O_CLOEXEC) != 0)
+            return -1;
+        ::fcntl(p[0], F_SETFD, 0);  // (the read end goes to the children)
+        return p[0];
+    }();
+    return fd;
+}
+
 }  // namespace
+
+void endWithParent()
+{
+    const char* value = std::getenv(kParentFd);
+    if (!value)
+        return;
+    const int fd = std::atoi(value);
+    ::unsetenv(kParentFd);
+    struct stat st;
+    if (fd <= 2 || ::fstat(fd, &st) != 0 || !S_ISFIFO(st.st_mode))
+        return;
+    ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+    std::thread([fd] {
+        char c;
+        for (;;) {
+            const ssize_t n = ::read(fd, &c, 1);
+            if (n == 0)
+                break;  // end of file: no writer is left
+            if (n < 0 && errno != EINTR)
+                return;
+        }
+        ::kill(::getpid(), SIGTERM);
+    }).detach();
+}
 
 bool measuresOwnPeak()
 {
@@ -84,7 +129,18 @@ ChildRun runChild(const std::vector<std::string>& argv, const ChildOutput& outpu
     posix_spawnattr_init(&attr);
     posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
     posix_spawnattr_setpgroup(&attr, 0);
-    const int err = ::posix_spawn(&pid, args[0], &actions, &attr, args.data(), environ);
+    // Its environment names the lifeline's read end (endWithParent).
+    std::vector<std::string> env;
+    for (char** e = environ; *e; ++e)
+        if (std::strncmp(*e, kParentFd, std::strlen(kParentFd)) != 0)
+            env.emplace_back(*e);
+    if (const int fd = lifelineReadEnd(); fd >= 0)
+        env.push_back(fmt::format("{}={}", kParentFd, fd));
+    std::vector<char*> envp;
+    for (std::string& e : env)
+        envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const int err = ::posix_spawn(&pid, args[0], &actions, &attr, args.data(), envp.data());
     posix_spawnattr_destroy(&attr);
     posix_spawn_file_actions_destroy(&actions);
     if (err != 0)

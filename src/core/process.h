@@ -36,7 +36,15 @@ bool measuresOwnPeak();
 /// group of its own, under GNU time (/usr/bin/time) where that is
 /// installed; a signal that ends this process reaches the whole group first
 /// (RemoveOnSignal), and waits for it.  Throws std::runtime_error when it
-/// cannot be started.
+/// cannot be started.  A cambium it runs ends itself when this process is
+/// gone, however it ended (endWithParent).
 ChildRun runChild(const std::vector<std::string>& argv, const ChildOutput& output);
+
+/// In a cambium that runChild started: ends this process by SIGTERM (its
+/// cleanup, installCleanupOnSignals, removes its temporaries) once the
+/// process that started it is gone, killed by SIGKILL too (a tiled bake's
+/// tile went on baking as an orphan).  It watches a pipe whose only writer
+/// is that process (`CAMBIUM_PARENT_FD`).  Nothing elsewhere.
+void endWithParent();
 
 }  // namespace cambium

@@ -92,9 +92,9 @@ private:
 enum class ColourRead {
     None,   ///< none
     Whole,  ///< every leaf, now
-    /// Each leaf from the file when it is first touched (OpenVDB's delayed
-    /// loading; thread-safe): a renderer loads the leaves its rays hit.  The
-    /// file must stay as it is while the grid lives.
+    /// Its topology, each leaf's values left in the file for decodeLeaves
+    /// (no leaf of it may be touched before: OpenVDB's delayed loading
+    /// would read it, unchecked).
     Lazy,
 };
 
@@ -116,28 +116,46 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = 
                              bool tile = false);
 
 /// The `Cd` grid of a file readLevelSet has read (null when it has none),
-/// `lazy` as readVdbGrid's: a render's colour, read once its level set is
-/// gone.  InputError unless its transform is `surface`'s (as readLevelSet
-/// checks; `surface` may be an empty grid of the same transform and name).
+/// with the values of the leaves at `leaves` (sorted origins; null: all): a
+/// render's colour, read once its level set is gone, for the leaves its
+/// hits look up.  Only those leaves may be touched.  InputError unless its
+/// transform is `surface`'s (as readLevelSet checks; `surface` may be an
+/// empty grid of the same transform and name).
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
-                                       bool lazy);
+                                       const std::vector<openvdb::Coord>* leaves);
 
 /// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
 /// checked by the caller), equal voxel for voxel to what OpenVDB's io::File
-/// reads: metadata, transform and topology by OpenVDB, then the leaves'
-/// values read from the file a few megabytes at a time and decoded on all
-/// cores (OpenVDB's own decoder, io::readCompressedValues).  Float and Vec3f
-/// grids; other types and instanced grids through io::File.  `lazy`: the
-/// leaves left to OpenVDB's delayed loading instead.  InputError naming the
+/// reads: its tree's structure checked first (checkTreeStructure), then
+/// metadata, transform and topology by OpenVDB, then the leaves' values read
+/// from the file a few megabytes at a time and decoded on all cores
+/// (OpenVDB's own decoder, io::readCompressedValues, on blocks checked to be
+/// the size of their values).  Float and Vec3f grids of cambium's files;
+/// other types, instanced grids and other tools' files through io::File,
+/// whole.  `lazy`: the topology only, each leaf's values left in the file
+/// for decodeLeaves (a grid read whole has them all).  InputError naming the
 /// file for damage.
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
                                    const std::string& grid, bool lazy = false);
 
-/// readLevelSet with OpenVDB's delayed loading (and no private copy of the
-/// file): the grids' topology now, each leaf's values from the file when it
-/// is first touched, so that a reader going a leaf at a time and dropping
-/// each leaf's values after holds about one leaf's values (the file must
-/// stay as it is while the grids live).
-LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid = kSurfaceGrid);
+/// The leaves of `grid` (read by readVdbGrid with `lazy` from `path`) that
+/// `want` selects (all when empty), decoded on all cores, each handed to
+/// `visit` (when set; on any thread, with its index in the tree's order)
+/// once its values are in: the caller may drop them then.  A leaf not
+/// decoded must not be touched.  InputError naming the file and the leaf
+/// for one that cannot be decoded (the others are left as they were).
+void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid,
+                  const std::function<bool(const openvdb::Coord&)>& want,
+                  const std::function<void(size_t, openvdb::FloatTree::LeafNodeType&)>& visit);
+void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::Vec3fGrid& grid,
+                  const std::function<bool(const openvdb::Coord&)>& want,
+                  const std::function<void(size_t, openvdb::Vec3fTree::LeafNodeType&)>& visit);
+
+/// readLevelSet's grids of a tile (its topology only: `Cd` and `surface` as
+/// ColourRead::Lazy leaves them) and the file's summary, for decodeLeaves:
+/// a reader going a leaf at a time and dropping each leaf's values after
+/// holds about a piece of the file's values (the file must stay as it is
+/// while the grids live).
+LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary);
 
 }  // namespace cambium

@@ -137,21 +137,33 @@ bool skipMap(VdbReader& r, const std::string& map, uint64_t block, const std::st
 /// failed, and the unwinding aborted).  Each tile and child must fit in what
 /// is left of the grid's topology, before `block`.  Checked for every map
 /// OpenVDB registers and every tree type it reads (the others it refuses).
-void checkRootCounts(VdbReader& r, const VdbSummary::Grid& g, const std::string& map,
-                     uint64_t block)
+void checkRootCounts(VdbReader& r, VdbSummary::Grid& g, const std::string& map, uint64_t block)
 {
-    static const std::map<std::string, uint64_t> valueBytes = {
-        {"float", 4},  {"double", 8}, {"int32", 4},  {"int64", 8},   {"bool", 1},       {"mask", 1},
-        {"vec3s", 12}, {"vec3d", 24}, {"vec3i", 12}, {"ptidx32", 4}, {"ptdataidx32", 4}};
+    // A value's bytes, and its real numbers (0: integers, bool, masks and
+    // points, whose leaves checkTreeStructure does not walk).
+    struct Value {
+        uint32_t bytes, reals;
+        bool walked;
+    };
+    static const std::map<std::string, Value> values = {
+        {"float", {4, 1, true}},    {"double", {8, 1, true}},      {"int32", {4, 0, true}},
+        {"int64", {8, 0, true}},    {"bool", {1, 0, false}},       {"mask", {1, 0, false}},
+        {"vec3s", {12, 3, true}},   {"vec3d", {24, 3, true}},      {"vec3i", {12, 0, true}},
+        {"ptidx32", {4, 0, false}}, {"ptdataidx32", {4, 0, false}}};
     const std::string prefix = "Tree_", suffix = "_5_4_3";
     const size_t at = g.type.find(suffix);
     if (g.type.rfind(prefix, 0) != 0 || at == std::string::npos)
         return;
-    const auto v = valueBytes.find(g.type.substr(prefix.size(), at - prefix.size()));
-    if (v == valueBytes.end() || !skipMap(r, map, block, g.name))
+    const auto v = values.find(g.type.substr(prefix.size(), at - prefix.size()));
+    if (v == values.end() || !skipMap(r, map, block, g.name))
         return;
+    if (v->second.walked) {
+        g.tree = int64_t(r.at());
+        g.valueBytes = v->second.bytes;
+        g.reals = v->second.reals;
+    }
     // The tree's buffer count, the root's background.
-    const uint64_t header = 4 + v->second;
+    const uint64_t header = 4 + v->second.bytes;
     if (r.at() + header + 8 > block)
         r.damaged(fmt::format("grid '{}' has no room for its tree", g.name));
     r.skip(header, "buffer count and background");
@@ -159,7 +171,7 @@ void checkRootCounts(VdbReader& r, const VdbSummary::Grid& g, const std::string&
     const uint64_t children = r.value<uint32_t>("root child count");
     // A tile: its origin, value and active flag; a child: its origin and at
     // least its two masks of 32^3 bits.
-    const uint64_t least = tiles * (12 + v->second + 1) + children * (12 + 2 * 4096);
+    const uint64_t least = tiles * (12 + v->second.bytes + 1) + children * (12 + 2 * 4096);
     if (least > block - r.at())
         r.damaged(fmt::format(
             "grid '{}' claims {} tiles and {} nodes at its root, at least {} bytes, and its "
@@ -308,7 +320,7 @@ VdbSummary inspectVdb(const std::string& path)
                             path, g.name, g.end, s.bytes));
         // The grid's compression word, metadata and transform's map type,
         // within its block.
-        r.skip(4, "grid compression flags");
+        g.compression = r.value<uint32_t>("grid compression flags");
         metadata(uint64_t(block), nullptr, &g.leaves);
         if (r.at() + 4 > uint64_t(block))
             r.damaged(fmt::format("grid '{}' has no room for its transform", g.name));

@@ -51,6 +51,12 @@ struct VdbSummary {
         /// Leaves, from OpenVDB's delayed-load metadata (-1 where the grid
         /// has none: files written without compression or before OpenVDB 6).
         int64_t leaves = -1;
+        uint32_t compression = 0;  ///< its openvdb::io::COMPRESS_* flags
+        /// Where its tree begins (0: a tree of a type checkTreeStructure
+        /// does not walk, or an instance), a value's bytes and how many
+        /// real numbers it holds (0: integers, never stored as halves).
+        int64_t tree = 0;
+        uint32_t valueBytes = 0, reals = 0;
         /// Whether its floats are stored as halves (the type's _HalfFloat).
         bool half() const;
     };
@@ -63,6 +69,17 @@ struct VdbSummary {
 /// the file and the first problem (not a regular file, not a .vdb, truncated,
 /// damaged) in one line.
 VdbSummary inspectVdb(const std::string& path);
+
+/// Walks grid `g`'s tree in `path` (inspectVdb's summary) as OpenVDB reads
+/// it, before OpenVDB does: the root's children in order, every internal
+/// node's masks and values, every leaf's value mask, and with `buffers` every
+/// leaf's values after the topology; each node's block of values the size
+/// its values can have.  OpenVDB reads the size a block claims into a buffer
+/// of the values it expects before it compares the two: a byte changed in
+/// another tool's file overflowed the heap.  InputError naming the file,
+/// the grid and the first fault, and where it lies.  Returns the leaves it
+/// found.  Trees of other value types (bool, masks, points) are not walked.
+size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bool buffers);
 
 /// Checks the `cambium_checksum` a file written by cambium carries (inspectVdb
 /// first) by reading the bytes it covers; InputError when they changed.

@@ -9,6 +9,7 @@
 #include "core/math.h"
 #include "core/system.h"
 #include "io/leaf_layout.h"
+#include "io/read_file.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/File.h>
@@ -20,11 +21,13 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <istream>
 #include <limits>
 #include <map>
@@ -126,44 +129,12 @@ void nameNonFinite(const LeafT& leaf, const std::string& path, const std::string
                                          coordText(v.getCoord()), notFinite(*v)));
 }
 
-/// A file read with pread, closed with its owner.
-class ReadFile {
-public:
-    explicit ReadFile(const std::string& path) : path_(path), fd_(::open(path.c_str(), O_RDONLY))
-    {
-        if (fd_ < 0)
-            throw InputError(
-                fmt::format("{}: cannot read the .vdb file: {}", path, std::strerror(errno)));
-    }
-    ~ReadFile() { ::close(fd_); }
-    ReadFile(const ReadFile&) = delete;
-    ReadFile& operator=(const ReadFile&) = delete;
-
-    /// Exactly n bytes at `offset` (the structure check found the file this long).
-    void read(uint64_t offset, char* out, size_t n) const
-    {
-        while (n > 0) {
-            const ssize_t got = ::pread(fd_, out, n, off_t(offset));
-            if (got < 0 && errno == EINTR)
-                continue;
-            if (got <= 0)
-                throw InputError(fmt::format("{}: cannot read the .vdb file at byte {}: {}", path_,
-                                             offset, got < 0 ? std::strerror(errno) : "it ended"));
-            out += got;
-            n -= size_t(got);
-            offset += uint64_t(got);
-        }
-    }
-
-private:
-    std::string path_;
-    int fd_;
-};
-
 /// Decodes a grid's leaf values in parallel: the leaves are stored one after
 /// another in the tree's order from the grid's block offset, each as its
 /// value mask, a byte saying which inactive values and selection mask
-/// follow, those, and the (compressed) active values.
+/// follow, those, and the (compressed) active values.  Those `want` selects
+/// (all when empty) are decoded, and each handed to `visit` (when set) once
+/// its values are in.
 template <class GridT>
 class LeafDecoder {
 public:
@@ -171,32 +142,34 @@ public:
     using ValueT = typename GridT::ValueType;
     using HalfT = typename openvdb::io::RealToHalf<ValueT>::HalfT;
     using MaskT = typename LeafT::NodeMaskType;
+    using Want = std::function<bool(const openvdb::Coord&)>;
+    using Visit = std::function<void(size_t, LeafT&)>;
 
     LeafDecoder(const std::string& path, const VdbSummary& file, const VdbSummary::Grid& grid,
-                GridT& target)
+                GridT& target, const Want& want = {}, const Visit& visit = {})
         : path_(path),
           grid_(grid),
           fileVersion_(file.fileVersion),
-          half_(grid.half()),
-          background_(target.background())
+          background_(target.background()),
+          want_(want),
+          visit_(visit)
     {
         for (auto it = target.tree().beginLeaf(); it; ++it)
             leaves_.push_back(it.getLeaf());
-        ReadFile f(path);
-        uint32_t compression = 0;  // the grid's, written first in its block
-        f.read(uint64_t(grid.begin), reinterpret_cast<char*>(&compression), sizeof compression);
-        compression_ = compression;
         namespace io = openvdb::io;
-        if (compression_ &
+        if (grid.compression &
             ~uint32_t(io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK | io::COMPRESS_BLOSC))
             throw NotParallel{};
-        decode(f);
+        stored_.compression = grid.compression;
+        stored_.half = grid.half();
+        stored_.storedBytes = stored_.half ? sizeof(HalfT) : sizeof(ValueT);
+        decode(ReadFile(path));
         if (const size_t bad = firstNonFinite_.load(); bad < leaves_.size())
             nameNonFinite(*leaves_[bad], path, grid.name);
     }
 
 private:
-    [[noreturn]] void damaged(size_t leaf, const char* why) const
+    [[noreturn]] void damaged(size_t leaf, const std::string& why) const
     {
         throw InputError(fmt::format("{}: a damaged .vdb file: grid '{}', leaf {} of {}: {}", path_,
                                      grid_.name, leaf, leaves_.size(), why));
@@ -209,33 +182,25 @@ private:
         namespace io = openvdb::io;
         const MaskT& mask = leaves_[i]->getValueMask();
         const LeafHeader h = readLeafHeader<ValueT>(p, left, mask);
-        if (h.fault == LeafHeader::Fault::Short)
+        if (h.fault == LeafHeader::Fault::Short || h.length > left)
             return 0;
         if (h.fault == LeafHeader::Fault::MaskDiffers)
             damaged(i, "its value mask is not the topology's");
         if (h.fault == LeafHeader::Fault::UnknownCode)
             damaged(i, "an unknown inactive-value code");
-        const int8_t flag = h.code;
-        size_t at = h.length;
-        const bool maskCompressed = compression_ & io::COMPRESS_ACTIVE_MASK;
+        const bool maskCompressed = stored_.compression & io::COMPRESS_ACTIVE_MASK;
         const size_t count =
-            maskCompressed && flag != io::NO_MASK_AND_ALL_VALS ? mask.countOn() : LeafT::SIZE;
-        if (half_ && count == 0)  // (halves: nothing at all is written for no values)
-            return left >= at ? at : 0;
-        if (compression_ & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP)) {
-            int64_t n;
-            if (left < at + sizeof n)
+            maskCompressed && h.code != io::NO_MASK_AND_ALL_VALS ? mask.countOn() : LeafT::SIZE;
+        size_t length;
+        switch (valuesBlock(p + h.length, left - h.length, stored_, count, length)) {
+            case BlockFault::None:
+                return h.length + length;
+            case BlockFault::Short:
                 return 0;
-            std::memcpy(&n, p + at, sizeof n);
-            const uint64_t raw = count * (half_ ? sizeof(HalfT) : sizeof(ValueT));
-            // (n <= 0: stored uncompressed, -n bytes)
-            if (n < -int64_t(raw) || (n <= 0 && uint64_t(-n) != raw) || n > int64_t(1) << 30)
+            case BlockFault::Size:
                 damaged(i, "its compressed size does not fit its values");
-            at += sizeof n + uint64_t(n < 0 ? -n : n);
-        } else {
-            at += count * (half_ ? sizeof(HalfT) : sizeof(ValueT));
         }
-        return left >= at ? at : 0;
+        return 0;
     }
 
     /// The block read a few megabytes at a time: each piece's whole leaves
@@ -245,7 +210,7 @@ private:
         constexpr size_t kPiece = size_t(1) << 20;
         const uint64_t end = uint64_t(grid_.end);
         std::vector<char> piece(kPiece);
-        std::vector<size_t> starts;
+        std::vector<size_t> starts, picked;
         uint64_t at = uint64_t(grid_.block);
         size_t next = 0;
         tbb::enumerable_thread_specific<std::unique_ptr<Stream>> streams;
@@ -255,12 +220,15 @@ private:
                 damaged(next, "the grid ends before its leaves");
             f.read(at, piece.data(), n);
             starts.clear();
+            picked.clear();
             size_t used = 0;
             const size_t first = next;
             while (next < leaves_.size()) {
                 const size_t len = leafBytes(next, piece.data() + used, n - used);
                 if (len == 0)
                     break;
+                if (!want_ || want_(leaves_[next]->origin()))
+                    picked.push_back(next - first);
                 starts.push_back(used);
                 used += len;
                 ++next;
@@ -268,7 +236,8 @@ private:
             if (next == first)
                 damaged(next, "it runs past the end of its grid");
             starts.push_back(used);
-            tbb::parallel_for(size_t(0), next - first, [&](size_t k) {
+            tbb::parallel_for(size_t(0), picked.size(), [&](size_t j) {
+                const size_t k = picked[j];
                 std::unique_ptr<Stream>& s = streams.local();
                 if (!s)
                     s = std::make_unique<Stream>(*this);
@@ -287,7 +256,7 @@ private:
                            openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
                                               OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
                            d.fileVersion_);
-            io::setDataCompression(is, d.compression_);
+            io::setDataCompression(is, d.stored_.compression);
             io::setGridBackgroundValuePtr(is, &d.background_);
         }
         void leaf(size_t index, const char* bytes, size_t n)
@@ -298,16 +267,21 @@ private:
             is.clear();
             typename LeafT::Buffer values(openvdb::PartialCreate(), owner.background_);
             values.allocate();
-            openvdb::io::readCompressedValues(is, values.data(), LeafT::SIZE, leaf.getValueMask(),
-                                              owner.half_);
+            try {
+                openvdb::io::readCompressedValues(is, values.data(), LeafT::SIZE,
+                                                  leaf.getValueMask(), owner.stored_.half);
+            } catch (const std::exception& e) {
+                // (a compressed block whose sizes fit and whose bytes do not
+                // unpack: blosc or zlib says so)
+                owner.damaged(index, fmt::format("its values cannot be decoded ({})", e.what()));
+            }
             if (!is)
-                throw InputError(
-                    fmt::format("{}: a damaged .vdb file: grid '{}' has a leaf whose "
-                                "values cannot be decoded",
-                                owner.path_, owner.grid_.name));
+                owner.damaged(index, "its values cannot be decoded");
             if (anyNonFinite(values.data(), LeafT::SIZE))
                 lowerTo(owner.firstNonFinite_, index);
             leaf.swap(values);  // (the leaf's delayed-load record goes with `values`)
+            if (owner.visit_)
+                owner.visit_(index, leaf);
         }
         const LeafDecoder& owner;
         ViewBuf buf;
@@ -316,9 +290,11 @@ private:
 
     const std::string& path_;
     const VdbSummary::Grid& grid_;
-    uint32_t fileVersion_, compression_ = 0;
-    bool half_;
+    uint32_t fileVersion_;
+    StoredValues stored_;
     ValueT background_;
+    Want want_;
+    Visit visit_;
     std::vector<LeafT*> leaves_;
     mutable std::atomic<size_t> firstNonFinite_{std::numeric_limits<size_t>::max()};
 };
@@ -376,29 +352,46 @@ void checkFiniteLeaves(openvdb::GridBase& base, const std::string& path)
 
 }  // namespace
 
+namespace {
+
+const VdbSummary::Grid& gridNamed(const std::string& path, const VdbSummary& summary,
+                                  const std::string& name)
+{
+    for (const VdbSummary::Grid& g : summary.grids)
+        if (g.name == name)
+            return g;
+    throw InputError(fmt::format("{}: no grid named '{}'", path, name));
+}
+
+}  // namespace
+
 openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& summary,
                                    const std::string& name, bool lazy)
 {
-    const VdbSummary::Grid* grid = nullptr;
-    for (const VdbSummary::Grid& g : summary.grids)
-        if (g.name == name)
-            grid = &g;
-    if (!grid)
-        throw InputError(fmt::format("{}: no grid named '{}'", path, name));
+    const VdbSummary::Grid* grid = &gridNamed(path, summary, name);
+    // Its tree (an instance's, the grid it shares) walked as OpenVDB reads
+    // it, before OpenVDB reads a byte of it: its topology always (a byte of
+    // another tool's file changed the size of an internal node's values,
+    // and OpenVDB's reader overflowed the heap), and the leaves' values
+    // where OpenVDB decodes them (another tool's file, an instance), not
+    // where cambium's decoder does, which checks each block as it goes.
+    const bool instance = !grid->instanceOf.empty();
+    const VdbSummary::Grid& tree = instance ? gridNamed(path, summary, grid->instanceOf) : *grid;
+    const bool openVdbDecodes = summary.checksumEnd == 0 || instance;
+    checkTreeStructure(path, tree, openVdbDecodes);
     // Another program's file is read by OpenVDB whole, in one pass: a
     // delayed read trusts the grid's delayed-load metadata (a mask byte for
     // each leaf), which nothing vouches for there (a byte changed in a
     // foreign file's topology, a leaf more than the metadata counts, aborted
     // mesh on OpenVDB's assertion `index < mMask.size()`); cambium's own
     // files carry a checksum, verified before this.
-    if (summary.checksumEnd == 0) {
+    if (openVdbDecodes) {
         openvdb::GridBase::Ptr whole = readWithOpenVdb(path, name, false);
         checkFiniteLeaves(*whole, path);
         return whole;
     }
-    if (!grid->instanceOf.empty())
-        return readWithOpenVdb(path, name, lazy);
-    // The topology, each leaf's values left in the file.
+    // The topology, each leaf's values left in the file (`lazy`: for
+    // decodeLeaves).
     openvdb::GridBase::Ptr g = readWithOpenVdb(path, name, true);
     if (lazy)
         return g;
@@ -411,9 +404,55 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
             return g;
     } catch (const NotParallel&) {
     }
+    checkTreeStructure(path, tree, true);
     openvdb::GridBase::Ptr whole = readWithOpenVdb(path, name, false);
     checkFiniteLeaves(*whole, path);
     return whole;
+}
+
+namespace {
+
+/// decodeLeaves for either grid type.
+template <class GridT, class Visit>
+void decodeSome(const std::string& path, const VdbSummary& summary, GridT& grid,
+                const std::function<bool(const openvdb::Coord&)>& want, const Visit& visit)
+{
+    auto first = grid.tree().beginLeaf();
+    if (!first || !first->buffer().isOutOfCore()) {
+        // (read whole: another tool's file)
+        std::vector<typename GridT::TreeType::LeafNodeType*> leaves;
+        for (auto it = grid.tree().beginLeaf(); it; ++it)
+            if (!want || want(it->origin()))
+                leaves.push_back(it.getLeaf());
+        if (visit)
+            tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) { visit(i, *leaves[i]); });
+        return;
+    }
+    try {
+        LeafDecoder<GridT>(path, summary, gridNamed(path, summary, grid.getName()), grid, want,
+                           visit);
+    } catch (const NotParallel&) {
+        throw InputError(fmt::format(
+            "{}: grid '{}' has a compression cambium does not read "
+            "(flags {})",
+            path, grid.getName(), gridNamed(path, summary, grid.getName()).compression));
+    }
+}
+
+}  // namespace
+
+void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid,
+                  const std::function<bool(const openvdb::Coord&)>& want,
+                  const std::function<void(size_t, openvdb::FloatTree::LeafNodeType&)>& visit)
+{
+    decodeSome(path, summary, grid, want, visit);
+}
+
+void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::Vec3fGrid& grid,
+                  const std::function<bool(const openvdb::Coord&)>& want,
+                  const std::function<void(size_t, openvdb::Vec3fTree::LeafNodeType&)>& visit)
+{
+    decodeSome(path, summary, grid, want, visit);
 }
 
 namespace {
@@ -637,9 +676,9 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, b
 namespace {
 
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
-                        ColourRead colour, bool tile)
+                        ColourRead colour, bool tile, VdbSummary& summary)
 {
-    const VdbSummary summary = checkLevelSetFile(path, grid, tile);
+    summary = checkLevelSetFile(path, grid, tile);
     bool hasColour = false;
     for (const VdbSummary::Grid& g : summary.grids)
         hasColour = hasColour || g.name == kColorGrid;
@@ -666,20 +705,28 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
 
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour)
 {
-    return readGrids(path, grid, false, colour, /*tile=*/false);
+    VdbSummary summary;
+    return readGrids(path, grid, false, colour, /*tile=*/false, summary);
 }
 
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
-                                       bool lazy)
+                                       const std::vector<openvdb::Coord>* leaves)
 {
     const VdbSummary summary = inspectVdb(path);
     verifyVdbChecksum(path, summary);  // (as readGrids: before OpenVDB reads)
     for (const VdbSummary::Grid& g : summary.grids)
         if (g.name == kColorGrid) {
             openvdb::Vec3fGrid::Ptr colour = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
-                readVdbGrid(path, summary, kColorGrid, lazy));
-            if (colour)
-                checkColourTransform(*colour, surface, path);
+                readVdbGrid(path, summary, kColorGrid, leaves != nullptr));
+            if (!colour)
+                return colour;
+            checkColourTransform(*colour, surface, path);
+            if (leaves)
+                decodeLeaves(path, summary, *colour,
+                             [&](const openvdb::Coord& origin) {
+                                 return std::binary_search(leaves->begin(), leaves->end(), origin);
+                             },
+                             {});
             return colour;
         }
     return nullptr;
@@ -752,9 +799,9 @@ VdbDescription describeVdb(const std::string& path)
     return d;
 }
 
-LevelSetGrids readLevelSetDelayed(const std::string& path, const std::string& grid)
+LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary)
 {
-    return readGrids(path, grid, true, ColourRead::Lazy, /*tile=*/true);
+    return readGrids(path, kSurfaceGrid, true, ColourRead::Lazy, /*tile=*/true, summary);
 }
 
 }  // namespace cambium

@@ -17,6 +17,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/math/Ray.h>
 #include <openvdb/tools/RayIntersector.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -466,9 +467,51 @@ RenderImage renderBackground(const Camera& camera, int width, int height, int sp
     });
 }
 
-RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
-                              const std::function<openvdb::Vec3fGrid::Ptr()>& colour,
-                              const Camera& camera, int width, int height, int spp)
+namespace {
+
+/// The origins of the leaves a trilinear lookup at each of `hits` reads (the
+/// voxels at the floor of its index point and one past on each axis),
+/// sorted, each once.
+std::vector<openvdb::Coord> leavesLookedUp(
+    const openvdb::math::Transform& xform,
+    const std::vector<std::vector<std::pair<uint32_t, TraceHit>>>& hits)
+{
+    tbb::enumerable_thread_specific<std::vector<openvdb::Coord>> found;
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, hits.size()), [&](const tbb::blocked_range<size_t>& r) {
+            std::vector<openvdb::Coord>& out = found.local();
+            for (size_t y = r.begin(); y < r.end(); ++y) {
+                for (const auto& [k, hit] : hits[y]) {
+                    const glm::dvec3& p = hit.position;
+                    const openvdb::Coord lo =
+                        openvdb::Coord::floor(xform.worldToIndex(openvdb::Vec3d(p.x, p.y, p.z)));
+                    const openvdb::Coord a(lo.x() & ~7, lo.y() & ~7, lo.z() & ~7),
+                        b((lo.x() + 1) & ~7, (lo.y() + 1) & ~7, (lo.z() + 1) & ~7);
+                    for (int c = 0; c < 8; ++c) {
+                        const openvdb::Coord o(c & 1 ? b.x() : a.x(), c & 2 ? b.y() : a.y(),
+                                               c & 4 ? b.z() : a.z());
+                        if (out.empty() || out.back() != o)
+                            out.push_back(o);
+                    }
+                }
+                std::sort(out.begin(), out.end());
+                out.erase(std::unique(out.begin(), out.end()), out.end());
+            }
+        });
+    std::vector<openvdb::Coord> all;
+    for (const std::vector<openvdb::Coord>& part : found)
+        all.insert(all.end(), part.begin(), part.end());
+    std::sort(all.begin(), all.end());
+    all.erase(std::unique(all.begin(), all.end()), all.end());
+    return all;
+}
+
+}  // namespace
+
+RenderImage renderLevelSetCpu(
+    openvdb::FloatGrid::Ptr surface,
+    const std::function<openvdb::Vec3fGrid::Ptr(const std::vector<openvdb::Coord>&)>& colour,
+    const Camera& camera, int width, int height, int spp)
 {
     spp = std::max(1, spp);
     const size_t rowRays = size_t(width) * size_t(spp);
@@ -513,10 +556,13 @@ RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
                           });
     }
     // 2. The level set goes (with the memory the allocator keeps), then the
-    //    colour comes, and each hit's albedo is looked up.
+    //    colour comes, the leaves the hits look up, and each hit's albedo is
+    //    looked up.
+    const std::vector<openvdb::Coord> leaves =
+        colour ? leavesLookedUp(surface->transform(), hits) : std::vector<openvdb::Coord>();
     surface.reset();
     ::malloc_trim(0);
-    const openvdb::Vec3fGrid::Ptr color = colour ? colour() : nullptr;
+    const openvdb::Vec3fGrid::Ptr color = colour ? colour(leaves) : nullptr;
     RenderImage img = blankImage(width, height);
     tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> sample;

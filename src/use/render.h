@@ -130,13 +130,16 @@ RenderImage renderBackground(const Camera& camera, int width, int height, int sp
 
 /// The same picture holding one grid at a time: every ray traced against
 /// `surface` (its hits kept, a few bytes each), the level set then dropped
-/// and its memory given back, then `colour()` asked for the grid the hits'
-/// colours are looked up in (null: none; a file's Cd, read lazily).  What
+/// and its memory given back, then `colour(leaves)` asked for the grid the
+/// hits' colours are looked up in, with the values of the leaves at
+/// `leaves` (the origins the lookups read, sorted; null: none; a file's Cd,
+/// those leaves decoded: readColourGrid).  What
 /// `cambium render` runs: its peak is the level set's, not the level set's
 /// and the colour's.
-RenderImage renderLevelSetCpu(openvdb::FloatGrid::Ptr surface,
-                              const std::function<openvdb::Vec3fGrid::Ptr()>& colour,
-                              const Camera& camera, int width, int height, int spp);
+RenderImage renderLevelSetCpu(
+    openvdb::FloatGrid::Ptr surface,
+    const std::function<openvdb::Vec3fGrid::Ptr(const std::vector<openvdb::Coord>&)>& colour,
+    const Camera& camera, int width, int height, int spp);
 
 /// Ray marches a level set with OpenCL (kernels/march.cl): a NanoVDB copy of
 /// the grid (and of `color`, when given) made once, read through PNanoVDB.h,
