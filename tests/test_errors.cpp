@@ -741,6 +741,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"eval " + S + " 1e160 0 0",
          "eval: the point (1e+160, 0, 0) must have finite coordinates within 1e+15"},
         {"eval " + S + " -- 0 0", "point"},
+        // (the model within cambium's coordinates too, as bake checks it: a
+        // cone to z = 1e300 evaluated to a NaN gradient, exit 0; sweep 18)
+        {"eval IN/far.json 0 0 0.05", "far.json: the model reaches 1e+300 from the origin"},
         // L-systems
         // (NaN coordinates were printed with exit 0, and the bake told
         // "internode 0: its two ends coincide", naming no file)

@@ -2,6 +2,7 @@
 // loaded from its binary, keyed by the whole source and options, and a
 // damaged or foreign file costs a rebuild, never a wrong kernel.
 #include "cl/runtime.h"
+#include "core/hash.h"
 
 #include <gtest/gtest.h>
 
@@ -57,7 +58,8 @@ void write(const fs::path& p, const std::string& bytes)
     std::ofstream(p, std::ios::binary | std::ios::trunc) << bytes;
 }
 
-/// A cache file split into its stored key and its binary.
+/// A cache file split into its stored key and its binary (between them the
+/// binary's length and checksum, made again by bytes()).
 struct CacheFile {
     std::string key, binary;
     explicit CacheFile(const std::string& bytes)
@@ -65,12 +67,15 @@ struct CacheFile {
         uint64_t n = 0;
         std::memcpy(&n, bytes.data(), sizeof n);
         key = bytes.substr(sizeof n, n);
-        binary = bytes.substr(sizeof n + n);
+        binary = bytes.substr(sizeof n + n + 16);
     }
     std::string bytes() const
     {
-        const uint64_t n = key.size();
-        return std::string(reinterpret_cast<const char*>(&n), sizeof n) + key + binary;
+        Checksum64 sum;
+        sum.update(binary.data(), binary.size());
+        const uint64_t n = key.size(), tail[] = {binary.size(), sum.value()};
+        return std::string(reinterpret_cast<const char*>(&n), sizeof n) + key +
+               std::string(reinterpret_cast<const char*>(tail), sizeof tail) + binary;
     }
 };
 
@@ -124,6 +129,25 @@ TEST(ProgramCache, AProgramIsLoadedFromItsBinaryKeyedByItsOptionsAndADamagedFile
     const CacheFile rebuilt(contents(one));
     EXPECT_TRUE(rebuilt.key == damaged.key);
     EXPECT_FALSE(rebuilt.binary == damaged.binary);
+
+    // A binary cut short, or with bytes changed, under its file's length
+    // and checksum (a disk error, a farm's cache copied in part): PoCL
+    // asserted or crashed on it, on every run (sweep 18).  Rebuilt.
+    const std::string good = contents(one);
+    ASSERT_TRUE(CacheFile(good).binary.size() > 1000);
+    auto whole = [&] {  // (its length and checksum those of its binary)
+        const std::string now = contents(one);
+        return CacheFile(now).bytes() == now && CacheFile(now).key == CacheFile(good).key;
+    };
+    write(one, good.substr(0, good.size() * 9 / 10));
+    EXPECT_EQ(runAffine(ctx, 1), 7.0f);
+    EXPECT_TRUE(whole());
+    std::string changed = good;
+    for (size_t k = 0; k < 20; ++k)
+        changed[good.size() - 1 - 37 * k] = char(~changed[good.size() - 1 - 37 * k]);
+    write(one, changed);
+    EXPECT_EQ(runAffine(ctx, 1), 7.0f);
+    EXPECT_TRUE(whole());
 
     // An empty CAMBIUM_CACHE_DIR keeps nothing.
     ::setenv("CAMBIUM_CACHE_DIR", "", 1);

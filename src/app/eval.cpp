@@ -1,7 +1,9 @@
 // cambium eval — the field, gradient and colour at a point (CPU reference).
 #include "app/app.h"
 
+#include "bake/bake.h"
 #include "blobtree/evaluator.h"
+#include "field/program.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "model/load_model.h"
@@ -26,6 +28,9 @@ int runEval(const std::string& scenePath, const std::vector<double>& xyz)
             fmt::format("eval: the point {} must have finite coordinates within {:g} of the origin",
                         formatVec(p), kFarthestCoordinate));
     const BlobTree tree = loadModel(scenePath);
+    // (the model within them too, as a bake checks it)
+    if (const Box bounds = FieldProgram::compile(tree).positiveBounds(); !bounds.empty())
+        checkModelReach(bounds, scenePath);
     const ReferenceEvaluator eval(tree);
     const FieldSample s = eval.sample(p);
     fmt::print("point     {}\n", formatVec(p));

@@ -57,6 +57,21 @@ std::vector<std::string> bakeInputFiles(const BakeRequest& req)
     return files;
 }
 
+double checkModelReach(const Box& bounds, const std::string& input)
+{
+    const double far =
+        std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
+                  std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
+    const glm::dvec3 size = bounds.size();
+    if (!std::isfinite(size.x + size.y + size.z) || !std::isfinite(far) ||
+        far > kFarthestCoordinate)
+        throw InputError(fmt::format(
+            "{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
+            "cannot be baked or evaluated",
+            input, far));
+    return far;
+}
+
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
 {
     VoxelPlan plan;
@@ -68,14 +83,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
                         req.input));
     const glm::dvec3 size = bounds.size();
     plan.extent = std::max({size.x, size.y, size.z});
-    const double far =
-        std::max({std::abs(bounds.lo.x), std::abs(bounds.lo.y), std::abs(bounds.lo.z),
-                  std::abs(bounds.hi.x), std::abs(bounds.hi.y), std::abs(bounds.hi.z)});
-    if (!std::isfinite(plan.extent) || !std::isfinite(far) || far > kFarthestCoordinate)
-        throw InputError(fmt::format(
-            "{}: the model reaches {:.3g} from the origin: coordinates or radii this large "
-            "cannot be baked",
-            req.input, far));
+    const double far = checkModelReach(bounds, req.input);
     if (req.voxelSize) {
         plan.voxelSize = *req.voxelSize;
         checkVoxelSize(plan.voxelSize);

@@ -116,6 +116,12 @@ constexpr double kMinVoxelSize = 1e-4;
 constexpr double kMaxVoxelSize = 1e9;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
 
+/// InputError naming `input` when a model's surface (`bounds`, its
+/// positive bounds) reaches farther from the origin than cambium's
+/// coordinates may (kFarthestCoordinate): a bake's, and eval's (a cone to
+/// z = 1e300 evaluated to a NaN gradient, exit 0).  The reach.
+double checkModelReach(const Box& bounds, const std::string& input);
+
 /// planVoxelSize's checks of a bake of `program` at `voxelSize` alone
 /// (InputError naming `what` when it would not fit this machine's memory),
 /// and of `held` such bakes' memory at once (a benchmark keeps several

@@ -32,8 +32,12 @@ std::string infoString(Query query, Handle h, Param what)
 
 /// A cached program's file: the key's length (8 bytes), the key (what
 /// identifies the build: the driver, the device, the options and the whole
-/// source), then the device's binary.  The file is named by a hash of the
-/// key and used only when the key stored in it is the same, byte for byte.
+/// source), the binary's length and checksum (8 bytes each), then the
+/// device's binary.  The file is named by a hash of the key and used only
+/// when the key stored in it is the same, byte for byte, and the binary is
+/// whole: PoCL asserts or crashes on a binary cut short or altered (sweep
+/// 18: every OpenCL command aborted on every run until the file was
+/// deleted by hand).
 std::string readCachedBinary(const std::string& path, const std::string& key)
 {
     std::ifstream in(path, std::ios::binary);
@@ -43,7 +47,26 @@ std::string readCachedBinary(const std::string& path, const std::string& key)
     std::string stored(n, '\0');
     if (!in.read(stored.data(), std::streamsize(n)) || stored != key)
         return {};
-    return std::string(std::istreambuf_iterator<char>(in), {});
+    uint64_t size = 0, sum = 0;
+    if (!in.read(reinterpret_cast<char*>(&size), sizeof size) ||
+        !in.read(reinterpret_cast<char*>(&sum), sizeof sum) || size > (uint64_t(1) << 32))
+        return {};
+    std::string binary(std::istreambuf_iterator<char>(in), {});
+    Checksum64 check;
+    check.update(binary.data(), binary.size());
+    return binary.size() == size && check.value() == sum ? binary : std::string();
+}
+
+/// The file readCachedBinary reads.
+std::string cachedBinaryFile(const std::string& key, const std::string& binary)
+{
+    Checksum64 check;
+    check.update(binary.data(), binary.size());
+    const uint64_t header[] = {key.size()}, tail[] = {binary.size(), check.value()};
+    std::string out(reinterpret_cast<const char*>(header), sizeof header);
+    out += key;
+    out.append(reinterpret_cast<const char*>(tail), sizeof tail);
+    return out + binary;
 }
 
 }  // namespace
@@ -165,7 +188,7 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
     const std::string dir = programCacheDirectory();
     if (dir.empty())
         return buildFromSource(source, options);
-    const std::string key = fmt::format("cambium OpenCL program 1\n{}\n{}\n{}\n{}\n{}\n{}\n",
+    const std::string key = fmt::format("cambium OpenCL program 2\n{}\n{}\n{}\n{}\n{}\n{}\n",
                                         info_.platform, info_.platformVersion, info_.device,
                                         info_.version, info_.driverVersion, options) +
                             source;
@@ -189,14 +212,12 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
     if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) ==
             CL_SUCCESS &&
         size > 0) {
-        std::string out(sizeof(uint64_t) + key.size() + size, '\0');
-        const uint64_t n = key.size();
-        std::memcpy(out.data(), &n, sizeof n);
-        std::memcpy(out.data() + sizeof n, key.data(), key.size());
-        unsigned char* at = reinterpret_cast<unsigned char*>(out.data() + sizeof n + key.size());
+        std::string binary(size, '\0');
+        unsigned char* at = reinterpret_cast<unsigned char*>(binary.data());
         if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof at, &at, nullptr) == CL_SUCCESS) {
             try {  // a cache that cannot be written costs the next run time, nothing else
                 std::filesystem::create_directories(dir);
+                const std::string out = cachedBinaryFile(key, binary);
                 writeFile(path, out.data(), out.size());
             } catch (const std::exception&) {
             }

@@ -57,8 +57,7 @@ struct TreeWalk {
     StoredValues stored;
     size_t leaves = 0;
 
-    TreeWalk(const std::string& p, const VdbSummary::Grid& grid, uint64_t end)
-        : path(p), g(grid)
+    TreeWalk(const std::string& p, const VdbSummary::Grid& grid, uint64_t end) : path(p), g(grid)
     {
         window.emplace(p, uint64_t(grid.tree), end);
         stored.compression = g.compression;
@@ -112,15 +111,16 @@ struct TreeWalk {
         const uint64_t n = maskCompressed && code != io::NO_MASK_AND_ALL_VALS ? active : count;
         size_t length;
         switch (valuesBlock(p + 1 + rest, available - 1 - rest, stored, n, length)) {
-        case BlockFault::None:
-            break;
-        case BlockFault::Short:
-            // (a block longer than the window, within what is left)
-            if (length == 0 || length > window->end() - at - 1 - rest)
-                damaged(fmt::format("{} at byte {} runs past {}", node, at, where));
-            break;
-        case BlockFault::Size:
-            damaged(fmt::format("{} at byte {} stores {} values in a block whose size cannot be "
+            case BlockFault::None:
+                break;
+            case BlockFault::Short:
+                // (a block longer than the window, within what is left)
+                if (length == 0 || length > window->end() - at - 1 - rest)
+                    damaged(fmt::format("{} at byte {} runs past {}", node, at, where));
+                break;
+            case BlockFault::Size:
+                damaged(
+                    fmt::format("{} at byte {} stores {} values in a block whose size cannot be "
                                 "theirs",
                                 node, at, n));
         }
@@ -168,9 +168,10 @@ struct TreeWalk {
             std::array<int32_t, 3> origin;
             std::memcpy(origin.data(), take(12, "a root child's origin", where), 12);
             if (c > 0 && !(last < origin))
-                damaged(fmt::format("the root's child at byte {} (origin {}, {}, {}) is out of "
-                                    "order or a duplicate",
-                                    window->at() - 12, origin[0], origin[1], origin[2]));
+                damaged(
+                    fmt::format("the root's child at byte {} (origin {}, {}, {}) is out of "
+                                "order or a duplicate",
+                                window->at() - 12, origin[0], origin[1], origin[2]));
             last = origin;
             node(5, where);
         }
