@@ -653,6 +653,23 @@ TEST(FarmArray, ASlurmThatDoesNotAnswerIsStoppedAndNamed)
     EXPECT_NE(r.err.find("sbatch did not answer in 1 s and was stopped"), std::string::npos)
         << r.err;
     EXPECT_LT(seconds, 25.0) << "the hung sbatch was waited for";
+    // The limit is whole seconds, as written (1e30 was read as 1, "abc" and
+    // 0 were ignored for the default, silently): refused before anything.
+    for (const char* bad : {"1e30", "abc", "0", "-1", "99999999999999999999", ""}) {
+        ::setenv("CAMBIUM_SLURM_SECONDS", bad, 1);
+        ::setenv("PATH", (bin.string() + ":" + path).c_str(), 1);
+        const auto refused =
+            cambium::test::run("bake " + kPopulus + " --frames 1-2 --voxel-size 0.05 --slurm -o " +
+                               (dir / "bad.####.vdb").string());
+        ::setenv("PATH", path.c_str(), 1);
+        ::unsetenv("CAMBIUM_SLURM_SECONDS");
+        EXPECT_EQ(refused.status, 2) << bad << ": " << refused.err;
+        EXPECT_NE(refused.err.find("CAMBIUM_SLURM_SECONDS: '" + std::string(bad) +
+                                   "' is not a whole number of seconds from 1 to 86400"),
+                  std::string::npos)
+            << refused.err;
+        EXPECT_FALSE(fs::exists(dir / "bad.frames.vdb.farm")) << bad;
+    }
 }
 
 TEST(FarmArray, SlurmsAnswersAreCheckedAndAStoppedSubmissionLeavesNothingRunning)

@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <charconv>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -53,8 +54,18 @@ struct Output {
 int slurmSeconds()
 {
     const char* env = std::getenv("CAMBIUM_SLURM_SECONDS");
-    const int given = env ? std::atoi(env) : 0;
-    return given > 0 ? given : 120;
+    if (!env)
+        return 120;
+    // (whole seconds, as written: atoi read 1e30 as 1 and ignored "abc")
+    const std::string text = env;
+    int given = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), given);
+    if (ec != std::errc() || end != text.data() + text.size() || given < 1 || given > 86400)
+        throw InputError(
+            fmt::format("CAMBIUM_SLURM_SECONDS: '{}' is not a whole number of "
+                        "seconds from 1 to 86400",
+                        printable(text)));
+    return given;
 }
 Output capture(const std::string& command, int seconds = slurmSeconds())
 {
