@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <atomic>
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
@@ -443,6 +444,35 @@ TEST(PreviewServer, IdleSlowAndManyConnectionsDoNotStallThePage)
         EXPECT_EQ(readUntilClosed(fd, 30).find("<timed out>"), std::string::npos);
         ::close(fd);
     }
+    // 300 connections that send a header a byte a second, never ending it,
+    // held all 256 threads and the page waited for as long as they dripped
+    // (sweep 19): the page is answered beside them.
+    std::vector<int> drips;
+    for (int i = 0; i < 300; ++i) {
+        drips.push_back(openConnection(port));
+        ASSERT_GE(drips.back(), 0);
+        ASSERT_TRUE(sendAll(drips.back(), "GET /model HTTP/1.1\r\n" + host + "X-Slow: "));
+    }
+    std::atomic<bool> dripping{true};
+    std::thread drip([&] {
+        while (dripping) {
+            for (int fd : drips)
+                sendAll(fd, "a");
+            std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        }
+    });
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    const auto dripStart = std::chrono::steady_clock::now();
+    auto dripped = f.client.Get(f.withToken("/model").c_str());
+    const double dripSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - dripStart).count();
+    dripping = false;
+    drip.join();
+    for (int fd : drips)
+        ::close(fd);
+    ASSERT_TRUE(dripped);
+    EXPECT_EQ(dripped->status, 200);
+    EXPECT_LT(dripSeconds, 10.0);
     // 200 requests on 200 connections at once: every one answered.
     std::vector<int> many;
     for (int i = 0; i < 200; ++i) {

@@ -22,6 +22,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 using namespace cambium;
 using namespace cambium::test;
@@ -348,6 +349,29 @@ TEST(VdbRead, ALeafThatDoesNotDecodeIsNamedWhereverItIsRead)
     // (a leaf not asked for is not decoded)
     const std::vector<openvdb::Coord> none = {openvdb::Coord(1 << 20)};
     EXPECT_NO_THROW(readColourGrid(path, *g.surface, &none));
+}
+
+TEST(VdbRead, AValueThatIsNotANumberIsNamedByTheTileMerge)
+{
+    // A tile whose checksum was computed again over a NaN among its values
+    // (sweep 19): the merge decodes and drops each leaf as it packs it, and
+    // wrote the NaN into the frame with exit 0, which every reader then
+    // refused.  The leaf is kept to be named instead.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
+    sphere->setName("surface");
+    const openvdb::Coord at = sphere->tree().cbeginValueOn().getCoord();
+    sphere->tree().setValueOn(at, std::numeric_limits<float>::quiet_NaN());
+    LevelSetGrids g;
+    g.surface = sphere;
+    const std::string path = freshDir("cambium_vdb_read_nan").string() + "/nan.vdb";
+    writeVdb(g, path, VdbFileInfo());
+    const std::string message = fmt::format(
+        "nan.vdb: grid 'surface' has a voxel at ({}, {}, {}) whose value is not a number", at.x(),
+        at.y(), at.z());
+    expectInputError([&] { readLevelSet(path); }, message, "readLevelSet");
+    expectInputError([&] { mergeTiles({path}, false); }, message, "mergeTiles");
 }
 
 TEST(VdbRead, ARootClaimingMoreNodesThanItsTreeHoldsIsNamed)

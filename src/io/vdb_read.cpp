@@ -277,10 +277,14 @@ private:
             }
             if (!is)
                 owner.damaged(index, "its values cannot be decoded");
-            if (anyNonFinite(values.data(), LeafT::SIZE))
+            const bool nonFinite = anyNonFinite(values.data(), LeafT::SIZE);
+            if (nonFinite)
                 lowerTo(owner.firstNonFinite_, index);
             leaf.swap(values);  // (the leaf's delayed-load record goes with `values`)
-            if (owner.visit_)
+            // (a leaf named for a value that is not a number keeps its
+            // values to be named by: a visitor may drop them, and the tile
+            // merge wrote a NaN of a re-signed tile with exit 0, sweep 19)
+            if (owner.visit_ && !nonFinite)
                 owner.visit_(index, leaf);
         }
         const LeafDecoder& owner;

@@ -20,9 +20,13 @@
 #include <deque>
 #include <fstream>
 #include <iterator>
+#include <functional>
+#include <memory>
 #include <mutex>
+#include <pthread.h>
 #include <random>
 #include <sys/socket.h>
+#include <system_error>
 #include <thread>
 
 namespace cambium {
@@ -31,8 +35,43 @@ namespace {
 
 using json = nlohmann::json;
 
-/// Connections served at once (each on a thread of its own).
-constexpr size_t kConnectionThreads = 256;
+/// Connections served at once (each on a thread of its own), and each
+/// thread's stack: 300 connections that each sent a byte of a header a
+/// second held all of 256 threads, and the page's requests waited for as long
+/// as they dripped (sweep 19).  A thread's stack is address space, mostly
+/// untouched: 1024 of them reserve 2 GB (std::thread's 8 MB each would
+/// reserve 8 GB), and the process's descriptors (`ulimit -n`, often 1024)
+/// bound the connections before them.
+constexpr size_t kConnectionThreads = 1024;
+constexpr size_t kConnectionStack = size_t(2) << 20;
+
+/// A thread of its own stack size (std::thread's is the process's default).
+class StackThread {
+public:
+    StackThread(size_t stackBytes, std::function<void()> fn)
+        : fn_(std::make_unique<std::function<void()>>(std::move(fn)))
+    {
+        pthread_attr_t attr;
+        ::pthread_attr_init(&attr);
+        ::pthread_attr_setstacksize(&attr, stackBytes);
+        const int err = ::pthread_create(&id_, &attr, &StackThread::run, fn_.get());
+        ::pthread_attr_destroy(&attr);
+        if (err != 0)
+            throw std::system_error(err, std::generic_category(), "pthread_create");
+    }
+    ~StackThread() { ::pthread_join(id_, nullptr); }
+    StackThread(const StackThread&) = delete;
+    StackThread& operator=(const StackThread&) = delete;
+
+private:
+    static void* run(void* fn)
+    {
+        (*static_cast<std::function<void()>*>(fn))();
+        return nullptr;
+    }
+    pthread_t id_{};
+    std::unique_ptr<std::function<void()>> fn_;
+};
 
 /// 128 random bits from the system's source, as hex.
 std::string randomToken()
@@ -128,25 +167,30 @@ public:
     {
         std::lock_guard<std::mutex> lock(mutex_);
         jobs_.push_back(std::move(fn));
-        if (jobs_.size() > idle_ && threads_.size() < most_)
-            threads_.emplace_back([this] { work(); });
-        else
-            ready_.notify_one();
+        if (jobs_.size() > idle_ && threads_.size() < most_) {
+            try {
+                threads_.push_back(
+                    std::make_unique<StackThread>(kConnectionStack, [this] { work(); }));
+                return;
+            } catch (const std::exception&) {
+                // (no thread to be had: the ones there serve it in turn)
+            }
+        }
+        ready_.notify_one();
     }
 
     /// Serves what is queued, then joins every thread (httplib calls it when
     /// its accept loop ends: nothing is queued after).
     void shutdown() override
     {
-        std::vector<std::thread> threads;
+        std::vector<std::unique_ptr<StackThread>> threads;
         {
             std::lock_guard<std::mutex> lock(mutex_);
             stopping_ = true;
             threads.swap(threads_);
         }
         ready_.notify_all();
-        for (std::thread& t : threads)
-            t.join();
+        threads.clear();  // (each joined)
     }
 
 private:
@@ -171,7 +215,7 @@ private:
     std::mutex mutex_;
     std::condition_variable ready_;
     std::deque<std::function<void()>> jobs_;
-    std::vector<std::thread> threads_;
+    std::vector<std::unique_ptr<StackThread>> threads_;
     size_t idle_ = 0;
     bool stopping_ = false;
 };
