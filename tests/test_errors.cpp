@@ -744,6 +744,9 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         // (the model within cambium's coordinates too, as bake checks it: a
         // cone to z = 1e300 evaluated to a NaN gradient, exit 0; sweep 18)
         {"eval IN/far.json 0 0 0.05", "far.json: the model reaches 1e+300 from the origin"},
+        // (bench read checks a --file as render and mesh do before its plain
+        // OpenVDB peer reads it: a damaged one crashed the peer, exit 1)
+        {"bench read --file IN/far.json --repeat 1", "far.json: not a .vdb file"},
         // L-systems
         // (NaN coordinates were printed with exit 0, and the bake told
         // "internode 0: its two ends coincide", naming no file)

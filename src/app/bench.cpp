@@ -234,26 +234,34 @@ const char* const kPopulus = CAMBIUM_SOURCE_DIR "/examples/populus/populus.json"
 
 int runReadBenchCommand(const ReadBenchRequest& req)
 {
-    fmt::print(
-        "Opening a baked frame, whole processes side by side ({} rounds, medians [min-max]; "
-        "peak memory medians)\n",
-        req.repeats);
-    runReadBench(req, [](const ReadBenchFile& f) {
-        fmt::print("\n{} ({}, {:.0f} MB)\n\n| what | seconds | peak MB |\n|---|---:|---:|\n",
-                   f.label, f.path, f.bytes / 1e6);
-        for (const ReadBenchFile::Row& r : f.rows)
-            fmt::print("| {} | {:.2f} [{:.2f}-{:.2f}] | {:.0f} |\n", r.what, r.run.seconds,
-                       r.run.minSeconds, r.run.maxSeconds, r.run.peakBytes / 1e6);
-        const ProcessSummary &all = f.rows[0].run, &surface = f.rows[1].run, &peer = f.rows[2].run,
-                             &render = f.rows[4].run, &mesh = f.rows[5].run;
-        fmt::print(
-            "\nratios (issue 30's goals): every grid / surface alone {:.2f} (<= 1.5); render / "
-            "io::File every grid {:.2f} s (<= 0.6) and {:.2f} memory (<= 0.75); mesh / (io::File "
-            "+ volumeToMesh) {:.2f} (<= 1.5); info {:.2f} s (<= 1)\n",
-            all.seconds / surface.seconds, render.seconds / all.seconds,
-            render.peakBytes / all.peakBytes, mesh.seconds / peer.seconds, f.rows[6].run.seconds);
-        std::fflush(stdout);
-    });
+    runReadBench(
+        req,
+        [&] {
+            fmt::print(
+                "Opening a baked frame, whole processes side by side ({} rounds, medians "
+                "[min-max]; peak memory medians)\n",
+                req.repeats);
+            std::fflush(stdout);
+        },
+        [](const ReadBenchFile& f) {
+            fmt::print("\n{} ({}, {:.0f} MB)\n\n| what | seconds | peak MB |\n|---|---:|---:|\n",
+                       f.label, f.path, f.bytes / 1e6);
+            for (const ReadBenchFile::Row& r : f.rows)
+                fmt::print("| {} | {:.2f} [{:.2f}-{:.2f}] | {:.0f} |\n", r.what, r.run.seconds,
+                           r.run.minSeconds, r.run.maxSeconds, r.run.peakBytes / 1e6);
+            const ProcessSummary &all = f.rows[0].run, &surface = f.rows[1].run,
+                                 &peer = f.rows[2].run, &render = f.rows[4].run,
+                                 &mesh = f.rows[5].run;
+            fmt::print(
+                "\nratios (issue 30's goals): every grid / surface alone {:.2f} (<= 1.5); render / "
+                "io::File every grid {:.2f} s (<= 0.6) and {:.2f} memory (<= 0.75); mesh / "
+                "(io::File "
+                "+ volumeToMesh) {:.2f} (<= 1.5); info {:.2f} s (<= 1)\n",
+                all.seconds / surface.seconds, render.seconds / all.seconds,
+                render.peakBytes / all.peakBytes, mesh.seconds / peer.seconds,
+                f.rows[6].run.seconds);
+            std::fflush(stdout);
+        });
     return 0;
 }
 

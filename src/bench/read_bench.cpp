@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/system.h"
+#include "io/vdb.h"
 
 #include <fmt/format.h>
 
@@ -12,7 +13,7 @@
 
 namespace cambium {
 
-void runReadBench(const ReadBenchRequest& req,
+void runReadBench(const ReadBenchRequest& req, const std::function<void()>& checked,
                   const std::function<void(const ReadBenchFile&)>& done)
 {
     namespace fs = std::filesystem;
@@ -21,8 +22,16 @@ void runReadBench(const ReadBenchRequest& req,
     const std::string exe = executableDirectory(), log = (dir / "log.txt").string();
     const std::string cambium = exe + "/cambium", peer = exe + "/cambium-vdbpeer";
     std::vector<std::pair<std::string, std::string>> files;  // label, path
-    for (const std::string& f : req.files)
+    for (const std::string& f : req.files) {
+        // Checked as render and mesh check them, every grid's tree walked,
+        // before the plain OpenVDB peer reads it whole (a byte of another
+        // tool's file crashed it; a surface labelled vec3s made it spin).
+        const VdbSummary summary = checkLevelSetFile(f);
+        for (const VdbSummary::Grid& g : summary.grids)
+            checkTreeStructure(f, g, true);
         files.emplace_back(f, f);
+    }
+    checked();
     if (files.empty())
         for (const char* colour : {"band", "shell"}) {
             const std::string out = (dir / fmt::format("{}.vdb", colour)).string();

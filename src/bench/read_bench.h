@@ -37,8 +37,9 @@ struct ReadBenchFile {
 };
 
 /// Measures each file (`repeats` rounds of every command in turn, medians),
-/// calling `done` as each is measured.
-void runReadBench(const ReadBenchRequest& request,
+/// calling `checked` once every --file is checked as render and mesh check
+/// them (InputError before), then `done` as each is measured.
+void runReadBench(const ReadBenchRequest& request, const std::function<void()>& checked,
                   const std::function<void(const ReadBenchFile&)>& done);
 
 }  // namespace cambium
