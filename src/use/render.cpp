@@ -479,8 +479,8 @@ std::vector<openvdb::Coord> leavesLookedUp(
     tbb::enumerable_thread_specific<std::vector<openvdb::Coord>> found;
     tbb::parallel_for(
         tbb::blocked_range<size_t>(0, hits.size()), [&](const tbb::blocked_range<size_t>& r) {
-            std::vector<openvdb::Coord>& out = found.local();
-            for (size_t y = r.begin(); y < r.end(); ++y) {
+            std::vector<openvdb::Coord> part;
+            for (size_t y = r.begin(); y < r.end(); ++y)
                 for (const auto& [k, hit] : hits[y]) {
                     const glm::dvec3& p = hit.position;
                     const openvdb::Coord lo =
@@ -490,13 +490,16 @@ std::vector<openvdb::Coord> leavesLookedUp(
                     for (int c = 0; c < 8; ++c) {
                         const openvdb::Coord o(c & 1 ? b.x() : a.x(), c & 2 ? b.y() : a.y(),
                                                c & 4 ? b.z() : a.z());
-                        if (out.empty() || out.back() != o)
-                            out.push_back(o);
+                        if (part.empty() || part.back() != o)
+                            part.push_back(o);
                     }
                 }
-                std::sort(out.begin(), out.end());
-                out.erase(std::unique(out.begin(), out.end()), out.end());
-            }
+            // (each range's once, not each row's: the thread's
+            // list grows over many ranges)
+            std::sort(part.begin(), part.end());
+            part.erase(std::unique(part.begin(), part.end()), part.end());
+            std::vector<openvdb::Coord>& out = found.local();
+            out.insert(out.end(), part.begin(), part.end());
         });
     std::vector<openvdb::Coord> all;
     for (const std::vector<openvdb::Coord>& part : found)
