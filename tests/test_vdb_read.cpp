@@ -93,6 +93,15 @@ void expectReadsAsOpenVdb(const std::string& path, const std::string& what)
 /// A level-set sphere of radius 1 named "surface", written by OpenVDB's
 /// io::File (no cambium checksum: another program's file) as `file` in a
 /// fresh directory `dir`; its path.
+/// The grid of `summary` named `name` (null: none).
+const VdbSummary::Grid* gridIn(const VdbSummary& summary, const std::string& name)
+{
+    for (const VdbSummary::Grid& g : summary.grids)
+        if (g.name == name)
+            return &g;
+    return nullptr;
+}
+
 std::string writeForeignSphere(const std::string& dir, const std::string& file,
                                const openvdb::Vec3f& centre, float voxelSize)
 {
@@ -300,10 +309,7 @@ TEST(VdbRead, ALeafThatDoesNotDecodeIsNamedWhereverItIsRead)
     const std::string path = dir + "/signed-again.vdb";
     writeVdb(g, path, VdbFileInfo());
     const VdbSummary s = inspectVdb(path);
-    const VdbSummary::Grid* cd = nullptr;
-    for (const VdbSummary::Grid& grid : s.grids)
-        if (grid.name == "Cd")
-            cd = &grid;
+    const VdbSummary::Grid* cd = gridIn(s, "Cd");
     ASSERT_TRUE(cd);
     ASSERT_TRUE(cd->compression & openvdb::io::COMPRESS_BLOSC);
     std::string bytes;
@@ -669,10 +675,7 @@ TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)
     const std::string good = dir + "/good.vdb";
     writeVdb(g, good, VdbFileInfo());
     const VdbSummary s = inspectVdb(good);
-    const VdbSummary::Grid* surface = nullptr;
-    for (const VdbSummary::Grid& grid : s.grids)
-        if (grid.name == "surface")
-            surface = &grid;
+    const VdbSummary::Grid* surface = gridIn(s, "surface");
     ASSERT_TRUE(surface);
     ASSERT_GT(surface->block - surface->begin, 100);
     std::ifstream in(good, std::ios::binary);

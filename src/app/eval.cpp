@@ -2,8 +2,8 @@
 #include "app/app.h"
 
 #include "bake/bake.h"
+#include "blobtree/bounds.h"
 #include "blobtree/evaluator.h"
-#include "field/program.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "model/load_model.h"
@@ -29,7 +29,7 @@ int runEval(const std::string& scenePath, const std::vector<double>& xyz)
                         formatVec(p), kFarthestCoordinate));
     const BlobTree tree = loadModel(scenePath);
     // (the model within them too, as a bake checks it)
-    if (const Box bounds = FieldProgram::compile(tree).positiveBounds(); !bounds.empty())
+    if (const Box bounds = surfaceBounds(tree); !bounds.empty())
         checkModelReach(bounds, scenePath);
     const ReferenceEvaluator eval(tree);
     const FieldSample s = eval.sample(p);

@@ -33,6 +33,7 @@
 #include <map>
 #include <memory>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace cambium {
@@ -423,13 +424,16 @@ void decodeSome(const std::string& path, const VdbSummary& summary, GridT& grid,
 {
     auto first = grid.tree().beginLeaf();
     if (!first || !first->buffer().isOutOfCore()) {
-        // (read whole: another tool's file)
-        std::vector<typename GridT::TreeType::LeafNodeType*> leaves;
-        for (auto it = grid.tree().beginLeaf(); it; ++it)
+        // (read whole: another tool's file; each leaf visited with its index
+        // in the tree's order, as the decoder visits it)
+        std::vector<std::pair<size_t, typename GridT::TreeType::LeafNodeType*>> leaves;
+        size_t index = 0;
+        for (auto it = grid.tree().beginLeaf(); it; ++it, ++index)
             if (!want || want(it->origin()))
-                leaves.push_back(it.getLeaf());
+                leaves.emplace_back(index, it.getLeaf());
         if (visit)
-            tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) { visit(i, *leaves[i]); });
+            tbb::parallel_for(size_t(0), leaves.size(),
+                              [&](size_t i) { visit(leaves[i].first, *leaves[i].second); });
         return;
     }
     try {
