@@ -13,7 +13,9 @@
 #include "io/leaf_layout.h"
 #include "io/vdb.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <openvdb/io/File.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
@@ -662,6 +664,55 @@ TEST(VdbRead, ALevelSetBeyondFloatPrecisionIsRefused)
                      "grid 'surface' reaches 1e+07 from the origin, 2e+08 voxels of 0.05: beyond "
                      "1048576 voxels",
                      "a sphere at 1e7");
+}
+
+TEST(VdbRead, AVerifiedFileIsReadAgainOnlyWhereItChanged)
+{
+    // A command reads a frame's grids in turn, each verified before OpenVDB
+    // decodes it: once verified, the file is not read again while it stays
+    // as it was; replaced, or written and dated otherwise, it is.
+    openvdb::initialize();
+    const BakedGrids g = bakeTree(redAndBlueSpheres(), 0.01, 3.0, true);
+    const std::string dir = freshDir("cambium_vdb_read_verified").string();
+    const std::string path = dir + "/frame.vdb", damaged = dir + "/damaged.vdb";
+    writeVdb(g, path, VdbFileInfo());
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    VdbSummary summary = checkLevelSetFile(path);
+    ASSERT_NE(summary.verified.inode, 0u) << "the verdict is recorded";
+    EXPECT_TRUE(stillVerified(path, summary));
+    ASSERT_TRUE(gridIn(summary, "surface"));
+    const int64_t last = gridIn(summary, "surface")->end - 1;  // (a byte of its values)
+    std::string flipped = bytes;
+    flipped[size_t(last)] ^= 0x10;
+    const std::string message = "a damaged .vdb file: its bytes do not match the checksum";
+    // 1. Replaced (renamed over it: another inode).
+    std::ofstream(damaged, std::ios::binary) << flipped;
+    std::filesystem::rename(damaged, path);
+    EXPECT_FALSE(stillVerified(path, summary));
+    expectInputError([&] { verifyVdbChecksum(path, summary); }, message, "replaced");
+    expectInputError([&] { readLevelSet(path, kSurfaceGrid, ColourRead::Whole, &summary); },
+                     message, "replaced, read with the old summary");
+    // 2. Verified again once good, then written in place and dated (its
+    //    size, inode and, where the clock is coarse, its time unchanged but
+    //    for the date set).
+    std::ofstream(path, std::ios::binary) << bytes;
+    summary = checkLevelSetFile(path);
+    ASSERT_TRUE(stillVerified(path, summary));
+    LevelSetGrids read = readLevelSet(path, kSurfaceGrid, ColourRead::Lazy, &summary);
+    ASSERT_TRUE(read.surface && read.color);
+    std::fstream(path, std::ios::binary | std::ios::in | std::ios::out)
+        .seekp(last)
+        .put(flipped[size_t(last)]);
+    const struct timespec dates[2] = {{1, 0}, {1, 0}};
+    ASSERT_EQ(::utimensat(AT_FDCWD, path.c_str(), dates, 0), 0);
+    EXPECT_FALSE(stillVerified(path, summary));
+    expectInputError([&] { verifyVdbChecksum(path, summary); }, message, "written in place");
+    expectInputError([&] { readColourGrid(path, *read.surface, nullptr, &summary); }, message,
+                     "written in place, its colour read with the old summary");
 }
 
 TEST(VdbRead, DamageInCambiumsOwnFilesIsNamedByTheChecksum)

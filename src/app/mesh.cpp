@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include <cstdlib>
+#include <map>
 #include <thread>
 
 namespace cambium {
@@ -38,12 +39,16 @@ int runMeshCommand(const MeshRequest& req)
     if (!(req.adaptivity >= 0.0 && req.adaptivity <= 1.0))
         throw InputError(
             fmt::format("--adaptivity must be between 0 and 1 (got {})", req.adaptivity));
+    // (each frame's summary kept for its read: verified once, unless it
+    // changed meanwhile)
+    std::map<std::string, VdbSummary> checked;
     forEachFile(
         req.input, req.output, req.frames,
-        [&](const std::string& in) { checkLevelSetFile(in, req.grid); }, checkMeshOutput,
+        [&](const std::string& in) { checked[in] = checkLevelSetFile(in, req.grid); },
+        checkMeshOutput,
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
-            LevelSetGrids f = readLevelSet(in, req.grid);
+            LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Whole, &checked[in]);
             // (a sequence's empty frame, a tree before its first year, is an
             // empty mesh; a lone empty file is refused)
             if (f.surface->activeVoxelCount() == 0 && req.frames.empty())

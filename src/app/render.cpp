@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <thread>
 #include <utility>
@@ -80,6 +81,9 @@ int runRenderCommand(RenderRequest req)
         if (std::filesystem::exists(last))
             sequenceBounds = storedActiveBounds(last, req.grid);
     }
+    // (each frame's summary kept for its reads: verified once, unless it
+    // changed meanwhile)
+    std::map<std::string, VdbSummary> checked;
     forEachFile(
         meshFile ? req.mesh : req.input, req.output, req.frames,
         [&](const std::string& in) {
@@ -88,7 +92,7 @@ int runRenderCommand(RenderRequest req)
             if (meshFile)
                 readMesh(in);
             else
-                checkLevelSetFile(in, req.grid);
+                checked[in] = checkLevelSetFile(in, req.grid);
         },
         checkImageOutput,
         [&](const std::string& in, const std::string& out) {
@@ -115,8 +119,9 @@ int runRenderCommand(RenderRequest req)
                                         double(sizeof(std::pair<uint32_t, TraceHit>));
                 const bool apart = hitBytes <= 0.25 * availableMemoryBytes();
                 const bool cpu = device == Device::Cpu && !req.viaMesh && apart;
-                LevelSetGrids f =
-                    readLevelSet(in, req.grid, cpu ? ColourRead::None : ColourRead::Whole);
+                VdbSummary& summary = checked[in];
+                LevelSetGrids f = readLevelSet(
+                    in, req.grid, cpu ? ColourRead::None : ColourRead::Whole, &summary);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 const Box bounds = activeWorldBounds(*f.surface);
@@ -148,7 +153,7 @@ int runRenderCommand(RenderRequest req)
                         [&](const std::vector<openvdb::Coord>& leaves) {
                             // (the picture's writer loads while the colours are found)
                             preloadImageCodec();
-                            return readColourGrid(in, *frame, &leaves);
+                            return readColourGrid(in, *frame, &leaves, &summary);
                         },
                         cam, req.width, req.height, req.spp);
                     how = "OpenVDB's level-set ray intersector";

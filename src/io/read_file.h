@@ -29,6 +29,8 @@ public:
     ReadFile(const ReadFile&) = delete;
     ReadFile& operator=(const ReadFile&) = delete;
 
+    int fd() const { return fd_; }
+
     /// Exactly n bytes at `offset` (the structure check found the file this long).
     void read(uint64_t offset, char* out, size_t n) const
     {

@@ -103,9 +103,13 @@ enum class ColourRead {
 /// topology, and done before any leaf is decoded: a damaged file is named by
 /// its checksum), each grid by readVdbGrid: its leaves decoded on all cores.  InputError for an
 /// unreadable or damaged file, a missing grid (the message lists the file's grids) or one that is
-/// not a float level set.  `density` is not read.
+/// not a float level set.  `density` is not read.  `checked`: a summary of
+/// the file that checkLevelSetFile returned for `grid` (a command checks
+/// every frame before the first is read), used where the file has not
+/// changed since (stillVerified), else checked again; it is left the file's
+/// summary as read, for readColourGrid.
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid,
-                           ColourRead colour = ColourRead::Whole);
+                           ColourRead colour = ColourRead::Whole, VdbSummary* checked = nullptr);
 
 /// What readLevelSet checks before OpenVDB reads a byte of the trees: the
 /// file's structure, that it holds one grid `grid` of a float tree (and a
@@ -120,9 +124,11 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = 
 /// render's colour, read once its level set is gone, for the leaves its
 /// hits look up.  Only those leaves may be touched.  InputError unless its
 /// transform is `surface`'s (as readLevelSet checks; `surface` may be an
-/// empty grid of the same transform and name).
+/// empty grid of the same transform and name).  `checked`: readLevelSet's
+/// summary of the file, used while the file has not changed since.
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
-                                       const std::vector<openvdb::Coord>* leaves);
+                                       const std::vector<openvdb::Coord>* leaves,
+                                       const VdbSummary* checked = nullptr);
 
 /// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
 /// checked by the caller), equal voxel for voxel to what OpenVDB's io::File

@@ -5,8 +5,11 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/hash.h"
+#include "io/read_file.h"
 
 #include <fmt/format.h>
+
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -341,18 +344,47 @@ bool VdbSummary::Grid::half() const
            type.compare(type.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+namespace {
+
+FileIdentity identityOf(const struct stat& st)
+{
+    return {uint64_t(st.st_dev), uint64_t(st.st_ino), int64_t(st.st_size),
+            int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec,
+            int64_t(st.st_ctim.tv_sec) * 1000000000 + st.st_ctim.tv_nsec};
+}
+
+FileIdentity identityOf(int fd)
+{
+    struct stat st {};
+    return ::fstat(fd, &st) == 0 ? identityOf(st) : FileIdentity();
+}
+
+}  // namespace
+
+bool stillVerified(const std::string& path, const VdbSummary& s)
+{
+    struct stat st {};
+    return s.verified.inode != 0 && ::stat(path.c_str(), &st) == 0 && identityOf(st) == s.verified;
+}
+
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
 {
     const auto expected = s.strings.find(kChecksumKey);
     if (expected == s.strings.end() || s.checksumEnd == 0)
         return false;
-    std::ifstream in(path, std::ios::binary);
-    in.seekg(std::streamoff(s.checksumEnd));
+    const ReadFile file(path);
+    const FileIdentity before = identityOf(file.fd());
+    if (s.verified.inode != 0 && before == s.verified)
+        return true;
+    s.verified = FileIdentity();
     Checksum64 sum;
     std::vector<char> chunk(size_t(1) << 20);
-    while (in) {
-        in.read(chunk.data(), std::streamsize(chunk.size()));
-        sum.update(chunk.data(), size_t(in.gcount()));
+    const uint64_t end = std::max<uint64_t>(uint64_t(before.size), s.checksumEnd);
+    for (uint64_t at = s.checksumEnd; at < end;) {
+        const size_t n = size_t(std::min<uint64_t>(chunk.size(), end - at));
+        file.read(at, chunk.data(), n);
+        sum.update(chunk.data(), n);
+        at += n;
     }
     // The digest is compared as a number, not as text: a fuzzer learns the
     // operands of byte-wise string compares and would write the computed
@@ -367,6 +399,9 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
             "{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
             "into it (changed or corrupted since)",
             path));
+    // (recorded only where the file did not change while it was read)
+    if (before.inode != 0 && identityOf(file.fd()) == before)
+        s.verified = before;
     return true;
 }
 

@@ -686,7 +686,8 @@ namespace {
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
                         ColourRead colour, bool tile, VdbSummary& summary)
 {
-    summary = checkLevelSetFile(path, grid, tile);
+    if (!stillVerified(path, summary))
+        summary = checkLevelSetFile(path, grid, tile);
     bool hasColour = false;
     for (const VdbSummary::Grid& g : summary.grids)
         hasColour = hasColour || g.name == kColorGrid;
@@ -711,16 +712,19 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
 
 }  // namespace
 
-LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour)
+LevelSetGrids readLevelSet(const std::string& path, const std::string& grid, ColourRead colour,
+                           VdbSummary* checked)
 {
-    VdbSummary summary;
-    return readGrids(path, grid, false, colour, /*tile=*/false, summary);
+    VdbSummary own;
+    return readGrids(path, grid, false, colour, /*tile=*/false, checked ? *checked : own);
 }
 
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
-                                       const std::vector<openvdb::Coord>* leaves)
+                                       const std::vector<openvdb::Coord>* leaves,
+                                       const VdbSummary* checked)
 {
-    const VdbSummary summary = inspectVdb(path);
+    const VdbSummary summary =
+        checked && stillVerified(path, *checked) ? *checked : inspectVdb(path);
     verifyVdbChecksum(path, summary);  // (as readGrids: before OpenVDB reads)
     for (const VdbSummary::Grid& g : summary.grids)
         if (g.name == kColorGrid) {
