@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 namespace {
 
@@ -135,22 +136,34 @@ TEST(Sequence, ResumeKeepsFinishedFramesAndRefusesOthers)
     EXPECT_EQ(fs::last_write_time(dir / "p.05.vdb"), stamp);
     EXPECT_TRUE(fs::exists(dir / "p.06.vdb"));
     EXPECT_EQ(readFileStamp(dir / "p.06.vdb").part, "frame 6");
-    // A frame copied over another of the sequence: that one baked again,
-    // with a note; the rest kept.
+    // Resumed again: frame `baked` baked again with one note that says
+    // `why`, the rest kept.
+    auto resumeBakes = [&](long long baked, const std::string& why) {
+        std::vector<std::string> notes;
+        SequenceCallbacks callbacks;
+        callbacks.notice = [&](const std::string& line) { notes.push_back(line); };
+        const SequenceReport resumed = bakeSequence(again, callbacks);
+        for (const FrameReport& f : resumed.frames)
+            EXPECT_EQ(f.outcome, f.frame == baked ? FrameReport::Outcome::Baked
+                                                  : FrameReport::Outcome::Skipped)
+                << f.frame;
+        ASSERT_EQ(notes.size(), 1u);
+        EXPECT_NE(notes[0].find(why), std::string::npos) << notes[0];
+    };
+    // A frame copied over another of the sequence.
     fs::copy_file(dir / "p.04.vdb", dir / "p.07.vdb", fs::copy_options::overwrite_existing);
-    std::vector<std::string> notes;
-    SequenceCallbacks callbacks;
-    callbacks.notice = [&](const std::string& line) { notes.push_back(line); };
-    const SequenceReport copied = bakeSequence(again, callbacks);
-    for (const FrameReport& f : copied.frames)
-        EXPECT_EQ(f.outcome,
-                  f.frame == 7 ? FrameReport::Outcome::Baked : FrameReport::Outcome::Skipped)
-            << f.frame;
-    ASSERT_EQ(notes.size(), 1u);
-    EXPECT_NE(notes[0].find("p.07.vdb holds frame 4 of this sequence, not frame 7"),
-              std::string::npos)
-        << notes[0];
+    resumeBakes(7, "p.07.vdb holds frame 4 of this sequence, not frame 7");
     EXPECT_EQ(readFileStamp(dir / "p.07.vdb").part, "frame 7");
+    // A frame with one byte changed near its end (its header, key and part
+    // as written: kept through every retry of a farm, sweep 20).
+    {
+        std::ifstream in(dir / "p.05.vdb", std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), {});
+        bytes[bytes.size() - 100] ^= 0x5a;
+        std::ofstream(dir / "p.05.vdb", std::ios::binary) << bytes;
+    }
+    resumeBakes(5, "p.05.vdb: a damaged .vdb file: its bytes do not match the checksum");
+    EXPECT_NO_THROW(readFileStamp(dir / "p.05.vdb", /*verify=*/true));
     // Files from another bake (here another voxel size) are not taken for finished.
     SequenceRequest other = sequence(pattern, "4-7", 1.0, 0.05);
     other.resume = true;

@@ -556,7 +556,7 @@ void addFarmCommand(CLI::App& app, Action& action)
     cmd->callback([o, &action] {
         action = [o] {
             const FarmPlan plan = readFarmPlan(o->dir);
-            FarmState state = assessFarm(plan, o->finish);
+            FarmState state = assessFarm(plan);
             // The chunks whose task is queued or running (squeue's array
             // task ids; "N/A" for the final job).
             std::set<size_t> running;

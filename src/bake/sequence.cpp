@@ -225,16 +225,16 @@ SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<lon
         if (range.count(temporaryTarget(name)) && std::filesystem::remove(tmp))
             notice(fmt::format("removed {}, a temporary file left by an interrupted run", tmp));
     }
-    // With --resume: a whole file with this sequence's key is finished; one
-    // from another bake is not overwritten silently, a damaged one is baked
-    // again.
+    // With --resume: a whole file with this sequence's key, every byte as
+    // its checksum says, is finished; one from another bake is not
+    // overwritten silently, a damaged one is baked again.
     if (!resume)
         return;
     for (size_t i = first; i < last; ++i)
         if (std::filesystem::exists(paths[i])) {
             FileStamp found;
             try {
-                found = readFileStamp(paths[i]);
+                found = readFileStamp(paths[i], /*verify=*/true);
             } catch (const InputError& e) {
                 notice(fmt::format("{} (baking it again)", e.what()));
                 continue;

@@ -508,7 +508,7 @@ void markSubmittedAgain(const std::string& farmDir, size_t chunk)
     writeFile(path.string(), text.data(), text.size());
 }
 
-FarmState assessFarm(const FarmPlan& plan, bool verify)
+FarmState assessFarm(const FarmPlan& plan)
 {
     // Attempts so far: an earlier final job's count, one more where it
     // submitted the chunk again.
@@ -539,7 +539,9 @@ FarmState assessFarm(const FarmPlan& plan, bool verify)
         try {
             const VdbSummary out = inspectVdb(plan.output);
             const auto sum = out.strings.find("cambium_checksum");
-            s.merged = sum != out.strings.end() && sum->second == mergedChecksum;
+            // (and its bytes hold it: a damaged merge is not done)
+            s.merged = sum != out.strings.end() && sum->second == mergedChecksum &&
+                       verifyVdbChecksum(plan.output, out);
             if (s.merged)
                 s.mergedChecksum = mergedChecksum;
         } catch (const InputError&) {
@@ -555,12 +557,10 @@ FarmState assessFarm(const FarmPlan& plan, bool verify)
         for (const FarmPlan::File& file : plan.chunkFiles(k)) {
             FileStamp stamp;
             try {
-                if (!s.merged) {
-                    stamp = readFileStamp(file.path);
-                    // (a frame whose bytes changed passed as written)
-                    if (verify)
-                        verifyVdbChecksum(file.path, inspectVdb(file.path));
-                }
+                // (a frame whose bytes changed passed the status as
+                // written, and --resume kept it through every retry)
+                if (!s.merged)
+                    stamp = readFileStamp(file.path, /*verify=*/true);
             } catch (const InputError&) {
                 stamp = {};
             }

@@ -147,11 +147,11 @@ struct FarmState {
 };
 
 /// Every frame of the plan checked (the file exists, its header reads, it
-/// carries the plan's key, and with `verify` its bytes hold the checksum
-/// cambium wrote: what the final job checks, a status needs not read them)
+/// carries the plan's key, and its bytes hold the checksum cambium wrote:
+/// a status that read the headers only called a damaged frame written)
 /// with each chunk's task status; attempts counted from the manifest an
 /// earlier final job wrote.
-FarmState assessFarm(const FarmPlan& plan, bool verify = false);
+FarmState assessFarm(const FarmPlan& plan);
 
 /// The chunks to submit again: not done, not failed for bad input, and
 /// submitted at most `plan.retries` times so far.

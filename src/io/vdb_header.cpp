@@ -430,9 +430,12 @@ std::string tilePart(int k, int count)
     return fmt::format("tile {}/{}", k + 1, count);
 }
 
-FileStamp readFileStamp(const std::string& path)
+FileStamp readFileStamp(const std::string& path, bool verify)
 {
     const VdbSummary s = inspectVdb(path);
+    if (verify && !verifyVdbChecksum(path, s))
+        if (const std::string missing = missingChecksum(path, s); !missing.empty())
+            throw InputError(missing);
     FileStamp stamp;
     if (const auto key = s.strings.find("cambium_sequence"); key != s.strings.end())
         stamp.key = key->second;

@@ -124,8 +124,11 @@ bool looksLikeVdbFile(const std::string& path);
 struct FileStamp {
     std::string key, part;
 };
-/// The stamp of a .vdb (inspectVdb); InputError when the file is damaged.
-FileStamp readFileStamp(const std::string& path);
+/// The stamp of a .vdb (inspectVdb); InputError when the file is damaged:
+/// its structure, and with `verify` every byte against cambium's checksum
+/// (a frame with one byte changed passed `--resume` and a farm's status as
+/// written, and was kept through every retry, sweep 20).
+FileStamp readFileStamp(const std::string& path, bool verify = false);
 
 /// What `cambium info FILE.vdb` says of a file: its structure (inspectVdb)
 /// and each grid's metadata and transform as OpenVDB reads them, without
