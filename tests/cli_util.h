@@ -23,9 +23,11 @@ struct Result {
 
 /// Runs `cambium ARGS` through the shell (ARGS may quote and redirect) with
 /// standard output and error on pipes, and collects its exit status and both
-/// texts.  `fileSizeLimit` >= 0 sets RLIMIT_FSIZE in the child with SIGXFSZ
-/// ignored: every write of a file past that many bytes fails with EFBIG
-/// (the pipes are not files, so the messages still arrive).
+/// texts.  `fileSizeLimit` >= 0 sets RLIMIT_FSIZE in the child, SIGXFSZ at
+/// its default (the process killed) as a shell's `ulimit -f` leaves it:
+/// cambium itself ignores it, so that every write of a file past that many
+/// bytes fails with EFBIG (the pipes are not files, so the messages still
+/// arrive).
 /// `addressSpaceLimit` >= 0 sets RLIMIT_AS (what `ulimit -v` sets, in bytes).
 inline Result run(const std::string& args, long long fileSizeLimit = -1,
                   long long addressSpaceLimit = -1)
@@ -43,7 +45,7 @@ inline Result run(const std::string& args, long long fileSizeLimit = -1,
         ::close(out[1]);
         ::close(err[1]);
         if (fileSizeLimit >= 0) {
-            ::signal(SIGXFSZ, SIG_IGN);
+            ::signal(SIGXFSZ, SIG_DFL);
             const rlimit limit{rlim_t(fileSizeLimit), rlim_t(fileSizeLimit)};
             ::setrlimit(RLIMIT_FSIZE, &limit);
         }

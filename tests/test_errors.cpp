@@ -91,8 +91,10 @@ std::string substitute(std::string s, const std::vector<std::pair<std::string, s
 
 TEST(NothingIsLost, AFailedWriteFailsAndKeepsTheOldFileForEveryOutputKind)
 {
-    // The injected failure: a file size limit of 0 (SIGXFSZ ignored), so
-    // every write(2) of the output fails with EFBIG.
+    // The injected failure: a file size limit of 0, SIGXFSZ at its default
+    // (`ulimit -f 0`): cambium ignores the signal, so every write(2) of the
+    // output fails with EFBIG (killed by SIGXFSZ, every command left its
+    // temporary, sweep 20).
     for (const OutputKind& k : outputKinds()) {
         const fs::path dir = freshDir("cambium_errors_efbig");
         const std::string args =
@@ -949,6 +951,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
          "about 141 TB"},
         {"render IN/tiles.vdb --via-mesh -o OUT/out.png", "not a narrow-band level set"},
         {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
+        // (its peer, OpenVDB's volumeToMesh, ran out of memory, exit 1, sweep 20)
+        {"bench read --file IN/tiles.vdb --repeat 1", "not a narrow-band level set"},
         {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},
         {"mesh IN/empty.vdb -o OUT/out.ply",
          "empty.vdb: the level set has no active voxels: nothing to mesh"},
@@ -1142,6 +1146,27 @@ TEST(Determinism, TwoBakesAndTwoSequencesGiveTheSameFilesApartFromTheUuid)
 }
 
 }  // namespace
+
+TEST(BadInput, ARowOfSamplesLargerThanMemoryIsRefusedBeforeTheRender)
+{
+    // Each thread holds a row's samples at once: 16384 pixels at 4096
+    // samples are some 17 GB a thread (it ran out of memory after seconds,
+    // exit 1, sweep 20).  Refused under 3 GB of address space, every device.
+    if (test::addressSanitized())
+        GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+    const auto dir = test::freshDir("render_row_samples");
+    const std::string out = (dir / "wide.png").string();
+    for (const char* how : {"", " --device opencl", " --via-mesh"}) {
+        const Result r = run(
+            "render " + fixtureVdb() + " --width 16384 --height 1 --spp 4096" + how + " -o " + out,
+            -1, 3000LL << 20);
+        EXPECT_EQ(r.status, 2) << how << "\n" << r.err;
+        EXPECT_NE(r.err.find("--width 16384 at --spp 4096: the rows' 67,108,864 samples that"),
+                  std::string::npos)
+            << r.err;
+        EXPECT_FALSE(std::filesystem::exists(out));
+    }
+}
 
 TEST(BadInput, ABandLargerThanItsEstimateIsRefusedOnceItsTopologyIsKnown)
 {

@@ -6,12 +6,15 @@
 #include "model/turtle.h"
 
 #include "bake_util.h"
+#include "temp_dir.h"
 #include "core/error.h"
+#include "io/vdb.h"
 #include "test_util.h"
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <openvdb/io/File.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
 #include <cmath>
@@ -364,6 +367,34 @@ TEST(Render, AMeshFileRendersAsTheMeshItWasWrittenFrom)
         hits += std::isfinite(a.depth[i]);
     }
     EXPECT_GT(hits, 500u);
+}
+
+TEST(Render, ALevelSetOfActiveTilesIsDrawn)
+{
+    // Another tool's level set whose band is two active tiles of 128^3
+    // voxels, one inside and one outside, half a voxel from the surface: its
+    // surface is the face between them.  Read, its tiles become voxels, which the marches step
+    // through (they drew an empty picture with exit 0, sweep 20).
+    openvdb::initialize();
+    const auto grid = openvdb::FloatGrid::create(0.3f);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->setName("surface");
+    grid->tree().addTile(2, openvdb::Coord(0, 0, 0), -0.05f, true);
+    grid->tree().addTile(2, openvdb::Coord(128, 0, 0), 0.05f, true);
+    const std::string dir = test::freshDir("cambium_render_tiles").string(),
+                      path = dir + "/tiles.vdb";
+    openvdb::io::File(path).write({grid});
+    const LevelSetGrids g = readLevelSet(path);
+    EXPECT_EQ(g.surface->activeVoxelCount(), openvdb::Index64(2) * 128 * 128 * 128);
+    EXPECT_EQ(g.surface->tree().activeTileCount(), 0u);
+    // (seen from +x: the rays cross the outside tile into the inside one)
+    const Camera cam = parseCamera("look:40,6.4,6.4:12.8,6.4,6.4:40", Box(), 1.0);
+    const RenderImage img = renderLevelSetCpu(*g.surface, nullptr, cam, 64, 64, 1);
+    size_t covered = 0;
+    for (float a : img.alpha)
+        covered += a > 0.0f;
+    EXPECT_GT(covered, 64u * 64u / 10u) << "the face between the tiles is drawn";
 }
 
 TEST(Render, TheDefaultCameraFramesTheBounds)

@@ -184,6 +184,18 @@ int runRenderCommand(RenderRequest req)
             size_t covered = 0;
             for (float a : img.alpha)
                 covered += a > 0.0f;
+            // (an empty picture of a surface, exit 0, said why it may be:
+            // the marches find a crossing only between values within two
+            // voxels of zero, as OpenVDB's intersector does, and a band of
+            // active tiles at +-3 voxels was drawn by --via-mesh alone,
+            // sweep 20)
+            if (covered == 0 && std::string(how).rfind("an empty frame", 0) != 0)
+                printNotice(fmt::format(
+                    "{}: no ray met the surface: it is out of view (--camera), or its values "
+                    "near the surface are not distances (a crossing between values more than "
+                    "two voxels from zero is not seen; --via-mesh draws what volumeToMesh "
+                    "finds)",
+                    in));
             fmt::print(
                 "rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the "
                 "surface, {:.2f} s "

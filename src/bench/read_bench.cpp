@@ -23,12 +23,15 @@ void runReadBench(const ReadBenchRequest& req, const std::function<void()>& chec
     const std::string cambium = exe + "/cambium", peer = exe + "/cambium-vdbpeer";
     std::vector<std::pair<std::string, std::string>> files;  // label, path
     for (const std::string& f : req.files) {
-        // Checked as render and mesh check them, every grid's tree walked,
-        // before the plain OpenVDB peer reads it whole (a byte of another
-        // tool's file crashed it; a surface labelled vec3s made it spin).
-        const VdbSummary summary = checkLevelSetFile(f);
+        // Checked as render and mesh check them, every grid's tree walked
+        // and the surface read, before the plain OpenVDB peer reads it whole
+        // (a byte of another tool's file crashed it; a surface labelled
+        // vec3s made it spin; a 382-byte file of one active root tile ran
+        // its volumeToMesh out of memory, sweep 20).
+        VdbSummary summary = checkLevelSetFile(f);
         for (const VdbSummary::Grid& g : summary.grids)
             checkTreeStructure(f, g, true);
+        readLevelSet(f, kSurfaceGrid, ColourRead::None, &summary);
         files.emplace_back(f, f);
     }
     checked();

@@ -565,6 +565,11 @@ void installCleanupOnSignals()
         sigemptyset(&sa.sa_mask);
         ::sigaction(sig, &sa, nullptr);
     }
+    // A file size limit (`ulimit -f`, set by batch systems) makes a write
+    // past it fail with EFBIG, which the checked writer reports (exit 1, the
+    // temporary removed), instead of killing the process by SIGXFSZ with no
+    // word and the temporary left behind (sweep 20).
+    ::signal(SIGXFSZ, SIG_IGN);
 }
 
 namespace {

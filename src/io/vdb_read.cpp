@@ -702,6 +702,16 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     // (a tile's part of the band may lie on one side of the surface)
     if (!tile)
         checkZeroCrossing(*out.surface, path);
+    // Active tiles above the leaves (another tool's file may hold its
+    // surface there) as voxels: the marches step through leaves only, and a
+    // level set of two active tiles drew an empty picture with exit 0 (sweep
+    // 20); checkLevelSet bounded their voxels by memory.
+    if (!lazy) {
+        auto tiles = out.surface->tree().cbeginValueOn();
+        tiles.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);
+        if (tiles)
+            out.surface->tree().voxelizeActiveTiles();
+    }
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));

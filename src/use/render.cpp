@@ -29,6 +29,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <thread>
 
 namespace cambium {
 
@@ -370,6 +371,16 @@ void checkPicture(int width, int height, int spp)
         throw InputError(fmt::format("--spp must be between 1 and 4096 (got {})", spp));
     checkMemoryFits(128.0 * double(width) * double(height),
                     fmt::format("--width {} --height {}: a picture this large", width, height));
+    // Each thread holds a row's samples at once: its rays, the rays it
+    // traces and their hits (a 16384-pixel row at 4096 samples ran out of
+    // memory after seconds, exit 1, sweep 20).
+    const double sample = 2.0 * sizeof(TraceRay) + 2.0 * sizeof(TraceHit) + sizeof(uint32_t);
+    const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+    checkMemoryFits(double(threads) * double(width) * double(spp) * sample,
+                    fmt::format("--width {} at --spp {}: the rows' {} samples that {} threads hold "
+                                "at once",
+                                width, spp, formatCount(double(width) * double(spp)), threads),
+                    "fewer samples per pixel, or a narrower picture");
 }
 
 RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)
