@@ -577,6 +577,14 @@ TEST(FarmTiles, AFifoOrALineCambiumNeverWritesInTheFarmDirectoryIsRefused)
     EXPECT_EQ(jobs.status, 2) << jobs.err;
     EXPECT_NE(jobs.err.find("jobs:2: '12; rm' is not a Slurm job id"), std::string::npos)
         << jobs.err;
+    {  // (30,000 ids held it for squeue's two minutes, sweep 20)
+        std::ofstream many(fs::path(array.farmDir) / "jobs");
+        for (int k = 0; k < 30000; ++k)
+            many << 1000 + k << "\n";
+    }
+    const test::Result many = test::run("farm " + shellQuote(array.farmDir));
+    EXPECT_EQ(many.status, 2) << many.err;
+    EXPECT_NE(many.err.find("jobs: more than 1000 job ids"), std::string::npos) << many.err;
     fs::remove(fs::path(array.farmDir) / "jobs");
     const std::string history = chunkHistoryPath(array.farmDir, 0);
     std::ofstream(history) << "137 78\nsubmitted again\n0 79\n13";

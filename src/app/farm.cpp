@@ -130,6 +130,9 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
     }
 }
 
+/// The most job ids a farm's `jobs` may hold.
+constexpr size_t kMaxFarmJobs = 1000;
+
 /// The job ids of a farm directory's submissions (its `jobs` file: the
 /// arrays and final jobs, one a line), comma-separated.
 std::string farmJobs(const fs::path& farm)
@@ -147,6 +150,14 @@ std::string farmJobs(const fs::path& farm)
                 "{}:{}: '{}' is not a Slurm job id (cambium writes one a line): the farm "
                 "directory was edited",
                 path, number, line));
+        // (each submission adds an array and its final job, at most 101
+        // submissions a run: 30,000 ids held `cambium farm` for squeue's
+        // two minutes, sweep 20)
+        if (number > kMaxFarmJobs)
+            throw InputError(fmt::format(
+                "{}: more than {} job ids (cambium writes two a submission, at most 101 "
+                "submissions a run): the farm directory was edited",
+                path, kMaxFarmJobs));
         list += (list.empty() ? "" : ",") + line;
     }
     return list;
