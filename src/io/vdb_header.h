@@ -76,8 +76,8 @@ struct VdbSummary {
     std::vector<Grid> grids;
     /// The file as it was when verifyVdbChecksum found its checksum held
     /// (inode 0: never): while it still is, verifying it again reads nothing
-    /// (a render verified its 214 MB frame three times, once for each read,
-    /// 0.4 s of a 2 s command).
+    /// (a render verified its 214 MB frame three times, once for each read:
+    /// 0.05 s of one thread each).
     mutable FileIdentity verified;
 };
 
