@@ -373,8 +373,8 @@ TEST(Render, ALevelSetOfActiveTilesIsDrawn)
 {
     // Another tool's level set whose band is two active tiles of 128^3
     // voxels, one inside and one outside, half a voxel from the surface: its
-    // surface is the face between them.  Read, its tiles become voxels, which the marches step
-    // through (they drew an empty picture with exit 0, sweep 20).
+    // surface is the face between them.  Its tiles made voxels, the marches
+    // step through them (they drew an empty picture with exit 0, sweep 20).
     openvdb::initialize();
     const auto grid = openvdb::FloatGrid::create(0.3f);
     grid->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
@@ -386,6 +386,7 @@ TEST(Render, ALevelSetOfActiveTilesIsDrawn)
                       path = dir + "/tiles.vdb";
     openvdb::io::File(path).write({grid});
     const LevelSetGrids g = readLevelSet(path);
+    voxelizeActiveTiles(*g.surface);
     EXPECT_EQ(g.surface->activeVoxelCount(), openvdb::Index64(2) * 128 * 128 * 128);
     EXPECT_EQ(g.surface->tree().activeTileCount(), 0u);
     // (seen from +x: the rays cross the outside tile into the inside one)

@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <deque>
 #include <cmath>
 #include <cstdio>
 #include <charconv>
@@ -130,18 +131,20 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
     }
 }
 
-/// The most job ids a farm's `jobs` may hold.
-constexpr size_t kMaxFarmJobs = 1000;
+/// The most job ids of a farm asked about: its latest submissions.
+constexpr size_t kAskedFarmJobs = 1000;
 
 /// The job ids of a farm directory's submissions (its `jobs` file: the
-/// arrays and final jobs, one a line), comma-separated.
+/// arrays and final jobs, one a line), comma-separated: the last 1,000 (the
+/// earlier ended before the later were submitted: 30,000 ids held `cambium
+/// farm` for squeue's two minutes, sweep 20).
 std::string farmJobs(const fs::path& farm)
 {
     // (written whole by writeFile: a line not an id is an edit, and squeue
     // would answer "Invalid job id" for the whole list, every job unseen)
     const std::string path = (farm / "jobs").string();
     std::istringstream lines(fileText(path, "farm's job list"));
-    std::string list;
+    std::deque<std::string> ids;
     size_t number = 0;
     for (std::string line; std::getline(lines, line);) {
         ++number;
@@ -150,16 +153,13 @@ std::string farmJobs(const fs::path& farm)
                 "{}:{}: '{}' is not a Slurm job id (cambium writes one a line): the farm "
                 "directory was edited",
                 path, number, line));
-        // (each submission adds an array and its final job, at most 101
-        // submissions a run: 30,000 ids held `cambium farm` for squeue's
-        // two minutes, sweep 20)
-        if (number > kMaxFarmJobs)
-            throw InputError(fmt::format(
-                "{}: more than {} job ids (cambium writes two a submission, at most 101 "
-                "submissions a run): the farm directory was edited",
-                path, kMaxFarmJobs));
-        list += (list.empty() ? "" : ",") + line;
+        ids.push_back(line);
+        if (ids.size() > kAskedFarmJobs)
+            ids.pop_front();
     }
+    std::string list;
+    for (const std::string& id : ids)
+        list += (list.empty() ? "" : ",") + id;
     return list;
 }
 

@@ -49,6 +49,7 @@ int runMeshCommand(const MeshRequest& req)
         [&](const std::string& in, const std::string& out) {
             const auto start = Clock::now();
             LevelSetGrids f = readLevelSet(in, req.grid, ColourRead::Whole, &checked[in]);
+            checked.erase(in);  // (a million frames' summaries were held to the end)
             // (a sequence's empty frame, a tree before its first year, is an
             // empty mesh; a lone empty file is refused)
             if (f.surface->activeVoxelCount() == 0 && req.frames.empty())

@@ -124,6 +124,7 @@ int runRenderCommand(RenderRequest req)
                     in, req.grid, cpu ? ColourRead::None : ColourRead::Whole, &summary);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
+                voxelizeActiveTiles(*f.surface);
                 const Box bounds = activeWorldBounds(*f.surface);
                 // (a sequence's empty frame, a tree before its first year,
                 // is its camera's empty picture; a lone empty file is refused)
@@ -189,13 +190,17 @@ int runRenderCommand(RenderRequest req)
             // voxels of zero, as OpenVDB's intersector does, and a band of
             // active tiles at +-3 voxels was drawn by --via-mesh alone,
             // sweep 20)
-            if (covered == 0 && std::string(how).rfind("an empty frame", 0) != 0)
-                printNotice(fmt::format(
-                    "{}: no ray met the surface: it is out of view (--camera), or its values "
-                    "near the surface are not distances (a crossing between values more than "
-                    "two voxels from zero is not seen; --via-mesh draws what volumeToMesh "
-                    "finds)",
-                    in));
+            if (covered == 0 && !meshFile && std::string(how).rfind("an empty frame", 0) != 0)
+                printNotice(
+                    req.viaMesh
+                        ? fmt::format("{}: no ray met the surface: it is out of view (--camera)",
+                                      in)
+                        : fmt::format("{}: no ray met the surface: it is out of view (--camera), "
+                                      "or its values near the surface are not distances (a "
+                                      "crossing between values more than two voxels from zero "
+                                      "is not seen; --via-mesh draws what volumeToMesh finds)",
+                                      in));
+            checked.erase(in);  // (a million frames' summaries were held to the end)
             fmt::print(
                 "rendered {} -> {}: {} x {}, {} sample{} per pixel, {:.1f} % of pixels on the "
                 "surface, {:.2f} s "

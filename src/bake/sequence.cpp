@@ -234,7 +234,7 @@ SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<lon
         if (std::filesystem::exists(paths[i])) {
             FileStamp found;
             try {
-                found = readFileStamp(paths[i], /*verify=*/true);
+                found = readFileStamp(paths[i]);
             } catch (const InputError& e) {
                 notice(fmt::format("{} (baking it again)", e.what()));
                 continue;
@@ -248,6 +248,14 @@ SequenceOutput::SequenceOutput(const std::string& pattern, const std::vector<lon
                 // (This sequence's file, but another frame's: copied over it.)
                 notice(fmt::format("{} holds {} of this sequence, not frame {} (baking it again)",
                                    paths[i], found.part, frames[i]));
+                continue;
+            }
+            // Its bytes, once it is this frame's (a frame with one byte
+            // changed was kept through every retry of a farm, sweep 20).
+            try {
+                readFileStamp(paths[i], /*verify=*/true);
+            } catch (const InputError& e) {
+                notice(fmt::format("{} (baking it again)", e.what()));
                 continue;
             }
             finished_[i] = true;

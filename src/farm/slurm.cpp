@@ -10,6 +10,7 @@
 #include "io/vdb_header.h"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -547,6 +548,47 @@ FarmState assessFarm(const FarmPlan& plan)
         } catch (const InputError&) {
         }
     }
+    // Every file's stamp (its header: a few hundred bytes), then the bytes
+    // of those that are this plan's against their checksum, on all cores (a
+    // frame whose bytes changed passed the status as written, and --resume
+    // kept it through every retry, sweep 20).
+    struct Entry {
+        size_t chunk;
+        const FarmPlan::File* file;
+        FileStamp stamp;
+        bool mine = false;
+    };
+    std::vector<std::vector<FarmPlan::File>> files(plan.chunks.size());
+    std::vector<Entry> entries;
+    for (size_t k = 0; k < plan.chunks.size(); ++k) {
+        files[k] = plan.chunkFiles(k);
+        // (Another frame's or tile's file copied over it is not it.)
+        for (const FarmPlan::File& file : files[k]) {
+            Entry e{k, &file, {}, s.merged};
+            const std::string part =
+                plan.tiles ? tilePart(int(k), int(plan.chunks.size())) : framePart(file.number);
+            try {
+                if (!s.merged)
+                    e.stamp = readFileStamp(file.path);
+            } catch (const InputError&) {
+            }
+            e.mine = s.merged ||
+                     (e.stamp.key == plan.key && (e.stamp.part.empty() || e.stamp.part == part));
+            entries.push_back(std::move(e));
+        }
+    }
+    tbb::parallel_for(size_t(0), entries.size(), [&](size_t i) {
+        Entry& e = entries[i];
+        if (!e.mine || s.merged)
+            return;
+        try {
+            readFileStamp(e.file->path, /*verify=*/true);
+        } catch (const InputError&) {
+            e.mine = false;
+            e.stamp = {};
+        }
+    });
+    size_t next = 0;  // (entries are in chunk order)
     for (size_t k = 0; k < plan.chunks.size(); ++k) {
         FarmChunkState c;
         c.name = plan.chunkName(k);
@@ -554,27 +596,16 @@ FarmState assessFarm(const FarmPlan& plan)
         c.attempts = attempts[k];
         const std::vector<ChunkEvent> events = readChunkEvents(plan.dir, k);
         c.status = events.empty() || events.back().again ? -1 : events.back().status;
-        for (const FarmPlan::File& file : plan.chunkFiles(k)) {
-            FileStamp stamp;
-            try {
-                // (a frame whose bytes changed passed the status as
-                // written, and --resume kept it through every retry)
-                if (!s.merged)
-                    stamp = readFileStamp(file.path, /*verify=*/true);
-            } catch (const InputError&) {
-                stamp = {};
-            }
-            // (Another frame's or tile's file copied over it is not it.)
-            const std::string part =
-                plan.tiles ? tilePart(int(k), int(plan.chunks.size())) : framePart(file.number);
+        for (; next < entries.size() && entries[next].chunk == k; ++next) {
+            const Entry& e = entries[next];
             ++s.frames;
-            if (s.merged || (stamp.key == plan.key && (stamp.part.empty() || stamp.part == part))) {
+            if (e.mine) {
                 ++s.good;
             } else {
-                c.missing.push_back(file.number);
+                c.missing.push_back(e.file->number);
                 std::error_code ec;
-                if (!stamp.key.empty() || fs::exists(file.path, ec))
-                    c.foreign.push_back(file.number);
+                if (!e.stamp.key.empty() || fs::exists(e.file->path, ec))
+                    c.foreign.push_back(e.file->number);
             }
         }
         s.chunks.push_back(std::move(c));

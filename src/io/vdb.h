@@ -104,10 +104,10 @@ enum class ColourRead {
 /// its checksum), each grid by readVdbGrid: its leaves decoded on all cores.  InputError for an
 /// unreadable or damaged file, a missing grid (the message lists the file's grids) or one that is
 /// not a float level set.  `density` is not read.  `checked`: a summary of
-/// the file that checkLevelSetFile returned for `grid` (a command checks
-/// every frame before the first is read), used where the file has not
-/// changed since (stillVerified), else checked again; it is left the file's
-/// summary as read, for readColourGrid.
+/// the file from an earlier check (a command checks every frame before the
+/// first is read): the file's structure and grids are checked again, its
+/// checksum only where the file changed since (verifyVdbChecksum); it is
+/// left the file's summary as read, for readColourGrid.
 LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kSurfaceGrid,
                            ColourRead colour = ColourRead::Whole, VdbSummary* checked = nullptr);
 
@@ -117,7 +117,7 @@ LevelSetGrids readLevelSet(const std::string& path, const std::string& grid = kS
 /// a whole frame, not one tile of a tiled bake.  InputError naming the file;
 /// its summary.  What mesh and render check of every frame before the first.
 VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = kSurfaceGrid,
-                             bool tile = false);
+                             bool tile = false, const FileIdentity& verified = {});
 
 /// The `Cd` grid of a file readLevelSet has read (null when it has none),
 /// with the values of the leaves at `leaves` (sorted origins; null: all): a
@@ -125,7 +125,8 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid = 
 /// hits look up.  Only those leaves may be touched.  InputError unless its
 /// transform is `surface`'s (as readLevelSet checks; `surface` may be an
 /// empty grid of the same transform and name).  `checked`: readLevelSet's
-/// summary of the file, used while the file has not changed since.
+/// summary of the file: its checksum not verified again while the file has
+/// not changed since.
 openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::FloatGrid& surface,
                                        const std::vector<openvdb::Coord>* leaves,
                                        const VdbSummary* checked = nullptr);

@@ -15,6 +15,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -346,26 +347,25 @@ bool VdbSummary::Grid::half() const
 
 namespace {
 
-FileIdentity identityOf(const struct stat& st)
+FileIdentity identityOf(int fd)
 {
+    struct stat st {};
+    if (::fstat(fd, &st) != 0)
+        return {};
     return {uint64_t(st.st_dev), uint64_t(st.st_ino), int64_t(st.st_size),
             int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec,
             int64_t(st.st_ctim.tv_sec) * 1000000000 + st.st_ctim.tv_nsec};
 }
 
-FileIdentity identityOf(int fd)
+/// Now, in the file times' nanoseconds.
+int64_t nowNanoseconds()
 {
-    struct stat st {};
-    return ::fstat(fd, &st) == 0 ? identityOf(st) : FileIdentity();
+    timespec t{};
+    ::clock_gettime(CLOCK_REALTIME, &t);
+    return int64_t(t.tv_sec) * 1000000000 + t.tv_nsec;
 }
 
 }  // namespace
-
-bool stillVerified(const std::string& path, const VdbSummary& s)
-{
-    struct stat st {};
-    return s.verified.inode != 0 && ::stat(path.c_str(), &st) == 0 && identityOf(st) == s.verified;
-}
 
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
 {
@@ -399,8 +399,13 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
             "{}: a damaged .vdb file: its bytes do not match the checksum cambium wrote "
             "into it (changed or corrupted since)",
             path));
-    // (recorded only where the file did not change while it was read)
-    if (before.inode != 0 && identityOf(file.fd()) == before)
+    // (recorded only where the file did not change while it was read, and
+    // was last written more than two seconds before: a clock that ticks in
+    // milliseconds or seconds dates two writes within a tick alike)
+    constexpr int64_t kTick = 2000000000;
+    const int64_t now = nowNanoseconds();
+    if (before.inode != 0 && identityOf(file.fd()) == before && now - before.modified > kTick &&
+        now - before.changed > kTick)
         s.verified = before;
     return true;
 }

@@ -37,7 +37,6 @@ std::string framePart(long long frame);
 /// `cambium_part` of tile `k` (from 0) of `count`: "tile 3/8".
 std::string tilePart(int k, int count);
 
-/// What the structure of a .vdb file says, read without reading any grid.
 /// What tells one state of a file's bytes from another while a command
 /// runs: a file replaced is another inode, a file written has another
 /// modification and change time (the change time no user can set back).
@@ -51,6 +50,7 @@ struct FileIdentity {
     }
 };
 
+/// What the structure of a .vdb file says, read without reading any grid.
 struct VdbSummary {
     uint64_t bytes = 0;  ///< file size
     uint32_t fileVersion = 0;
@@ -75,9 +75,10 @@ struct VdbSummary {
     };
     std::vector<Grid> grids;
     /// The file as it was when verifyVdbChecksum found its checksum held
-    /// (inode 0: never): while it still is, verifying it again reads nothing
-    /// (a render verified its 214 MB frame three times, once for each read:
-    /// 0.05 s of one thread each).
+    /// (inode 0: never, or written within two seconds of that, when a second
+    /// write in the same tick of a coarse clock would look the same): while
+    /// the file opened is still so, verifying it again reads nothing (a
+    /// render verified its 214 MB frame three times, once for each read).
     mutable FileIdentity verified;
 };
 
@@ -103,12 +104,8 @@ size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bo
 /// first) by reading the bytes it covers; InputError when they changed.
 /// Returns false for a file without one (written by other software).  Where
 /// it held, `summary.verified` records the file, and a file unchanged since
-/// is not read again.
+/// (the file opened: its identity from the descriptor) is not read again.
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
-
-/// Whether `summary` is of `path` as it is now: verifyVdbChecksum found its
-/// checksum held, and the file was neither replaced nor written since.
-bool stillVerified(const std::string& path, const VdbSummary& summary);
 
 /// The message for a file with cambium's metadata (its creator, a
 /// `cambium_` key) but no `cambium_checksum`, which cambium writes with the

@@ -564,7 +564,8 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                             path, grid.getName(), coordText(tile.getCoord()), *tile));
         voxels += double(tile.getVoxelCount());
     }
-    checkMemoryFits(voxels * sizeof(float),
+    // (4.5 bytes a voxel: a value and its leaf's share of masks and node)
+    checkMemoryFits(voxels * 4.5,
                     fmt::format("{}: grid '{}' has {:.3g} active voxels in tiles, which as voxels",
                                 path, grid.getName(), voxels),
                     "not a narrow-band level set");
@@ -628,11 +629,14 @@ void checkColourTransform(const openvdb::Vec3fGrid& colour, const openvdb::Float
 
 }  // namespace
 
-VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, bool tile)
+VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, bool tile,
+                             const FileIdentity& verified)
 {
     // A damaged file is named here, before OpenVDB decodes it: its structure,
-    // and for cambium's own files the checksum of every byte.
-    const VdbSummary summary = inspectVdb(path);
+    // and for cambium's own files the checksum of every byte (`verified`: not
+    // again while the file is as it was when it held).
+    VdbSummary summary = inspectVdb(path);
+    summary.verified = verified;
     // (a tile holds a run of the frame's layers and their halo: meshed,
     // rendered or captured, it made a fragment of the surface with exit 0)
     if (const auto part = summary.strings.find("cambium_part");
@@ -657,7 +661,7 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, b
     if (!found)
         throw InputError(fmt::format("{}: no grid named '{}' (it holds: {})", path, grid,
                                      names.empty() ? "no grids" : names));
-    // The checksum (one thread, 0.15 s for 200 MB) before OpenVDB reads a
+    // The checksum (one thread, 0.05 s for 200 MB in the page cache) before OpenVDB reads a
     // byte of the trees: OpenVDB's topology reader corrupts the heap on
     // damaged bytes (a byte changed in a cambium file aborted mesh and
     // render with "malloc(): corrupted top size"; beside the read, the
@@ -686,8 +690,8 @@ namespace {
 LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool lazy,
                         ColourRead colour, bool tile, VdbSummary& summary)
 {
-    if (!stillVerified(path, summary))
-        summary = checkLevelSetFile(path, grid, tile);
+    const FileIdentity known = summary.verified;
+    summary = checkLevelSetFile(path, grid, tile, known);
     bool hasColour = false;
     for (const VdbSummary::Grid& g : summary.grids)
         hasColour = hasColour || g.name == kColorGrid;
@@ -702,16 +706,6 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     // (a tile's part of the band may lie on one side of the surface)
     if (!tile)
         checkZeroCrossing(*out.surface, path);
-    // Active tiles above the leaves (another tool's file may hold its
-    // surface there) as voxels: the marches step through leaves only, and a
-    // level set of two active tiles drew an empty picture with exit 0 (sweep
-    // 20); checkLevelSet bounded their voxels by memory.
-    if (!lazy) {
-        auto tiles = out.surface->tree().cbeginValueOn();
-        tiles.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);
-        if (tiles)
-            out.surface->tree().voxelizeActiveTiles();
-    }
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
             readVdbGrid(path, summary, kColorGrid, colour == ColourRead::Lazy));
@@ -733,8 +727,9 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::F
                                        const std::vector<openvdb::Coord>* leaves,
                                        const VdbSummary* checked)
 {
-    const VdbSummary summary =
-        checked && stillVerified(path, *checked) ? *checked : inspectVdb(path);
+    VdbSummary summary = inspectVdb(path);
+    if (checked)
+        summary.verified = checked->verified;
     verifyVdbChecksum(path, summary);  // (as readGrids: before OpenVDB reads)
     for (const VdbSummary::Grid& g : summary.grids)
         if (g.name == kColorGrid) {

@@ -18,6 +18,7 @@
 #include <openvdb/math/Ray.h>
 #include <openvdb/tools/RayIntersector.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -29,7 +30,6 @@
 #include <functional>
 #include <limits>
 #include <memory>
-#include <thread>
 
 namespace cambium {
 
@@ -375,12 +375,22 @@ void checkPicture(int width, int height, int spp)
     // traces and their hits (a 16384-pixel row at 4096 samples ran out of
     // memory after seconds, exit 1, sweep 20).
     const double sample = 2.0 * sizeof(TraceRay) + 2.0 * sizeof(TraceHit) + sizeof(uint32_t);
-    const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+    // (the threads this process may run, a row each, as TBB counts them: a
+    // Slurm task's CPUs, not the node's)
+    const int threads = std::max(1, std::min(tbb::this_task_arena::max_concurrency(), height));
     checkMemoryFits(double(threads) * double(width) * double(spp) * sample,
                     fmt::format("--width {} at --spp {}: the rows' {} samples that {} threads hold "
                                 "at once",
                                 width, spp, formatCount(double(width) * double(spp)), threads),
                     "fewer samples per pixel, or a narrower picture");
+}
+
+void voxelizeActiveTiles(openvdb::FloatGrid& grid)
+{
+    auto tiles = grid.tree().cbeginValueOn();
+    tiles.setMaxDepth(openvdb::FloatTree::ValueOnCIter::LEAF_DEPTH - 1);
+    if (tiles)
+        grid.tree().voxelizeActiveTiles();
 }
 
 RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)

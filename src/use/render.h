@@ -108,6 +108,12 @@ private:
 /// encoded bytes).  What render and preview both check.
 void checkPicture(int width, int height, int spp);
 
+/// A level set's active tiles above its leaves (another tool's file may
+/// hold its surface there) made voxels: both marches step through leaves
+/// only (a band of two active tiles drew an empty picture, exit 0, sweep
+/// 20).  Their voxels are bounded by memory when the file is read.
+void voxelizeActiveTiles(openvdb::FloatGrid& grid);
+
 /// Where each pixel's rays may meet a level set: within the bounding
 /// spheres of the active leaves and tiles (two voxels wider each way) whose
 /// projections cover the pixel, from the nearest to the farthest (world
