@@ -10,6 +10,7 @@
 #include "core/files.h"
 
 #include <openvdb/io/File.h>
+#include <openvdb/tools/LevelSetSphere.h>
 
 #include <gtest/gtest.h>
 
@@ -516,6 +517,18 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
                            true);
         openvdb::io::File((in / "tiles.vdb").string()).write({tiles});
         writeText(in / "tiles_base.json", R"({"base": {"type": "vdb", "file": "tiles.vdb"}})");
+        // A sphere's band and 100 active tiles of 128^3: 2.1e8 voxels that fit
+        // in memory as floats (750 of them aborted mesh and shape for memory,
+        // and 600 took a shape past a minute, sweep 21)
+        auto many = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+            0.5f, openvdb::Vec3f(0.0f), 0.1f);
+        many->setName("surface");
+        for (int k = 0; k < 100; ++k)
+            many->tree().addTile(2, openvdb::Coord(128 * (1 + k % 10), 128 * (1 + k / 10), 0),
+                                 -0.3f, true);
+        openvdb::io::File((in / "many_tiles.vdb").string()).write({many});
+        writeText(in / "many_tiles_base.json",
+                  R"({"base": {"type": "vdb", "file": "many_tiles.vdb"}, "levels": 2})");
         // two grids of one name, and a level set with nothing in it
         auto sphere = openvdb::FloatGrid::create(0.3f);
         sphere->setName("surface");
@@ -953,6 +966,11 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"render IN/tiles.vdb -o OUT/out.png", "not a narrow-band level set"},
         // (its peer, OpenVDB's volumeToMesh, ran out of memory, exit 1, sweep 20)
         {"bench read --file IN/tiles.vdb --repeat 1", "not a narrow-band level set"},
+        {"mesh IN/many_tiles.vdb -o OUT/out.ply",
+         "many_tiles.vdb: grid 'surface' has 2.1e+08 active voxels in tiles (one value each"},
+        {"render IN/many_tiles.vdb --via-mesh -o OUT/out.png", "2.1e+08 active voxels in tiles"},
+        {"shape IN/many_tiles_base.json -o OUT/out.obj", "2.1e+08 active voxels in tiles"},
+        {"bench read --file IN/many_tiles.vdb --repeat 1", "2.1e+08 active voxels in tiles"},
         {"shape IN/tiles_base.json -o OUT/out.ply", "not a narrow-band level set"},
         {"mesh IN/empty.vdb -o OUT/out.ply",
          "empty.vdb: the level set has no active voxels: nothing to mesh"},

@@ -529,6 +529,9 @@ openvdb::Mat4d checkTransform(const openvdb::GridBase& grid, const std::string& 
 ///   as they are decoded);
 /// - active tiles (a few bytes in a file) that fit in memory as voxels, for
 ///   whatever meshes, resamples or converts the grid makes them voxels.
+/// The most active voxels in a level set's tiles beside its leaves' own.
+constexpr double kMaxTileVoxels = double(1 << 24);
+
 void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
 {
     checkTransform(grid, path);
@@ -569,6 +572,18 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
                     fmt::format("{}: grid '{}' has {:.3g} active voxels in tiles, which as voxels",
                                 path, grid.getName(), voxels),
                     "not a narrow-band level set");
+    // A tile holds one value over 8^3 voxels or more, and a distance changes
+    // by about a voxel a voxel: a band has few active tiles, if any.  Tiles
+    // beyond the leaves' own voxels (and 2^24 voxels) are refused, bounding
+    // the time and memory of whatever reads them as voxels (750 tiles of
+    // 128^3 in a 1.3 MB file fitted in memory as floats, then aborted mesh,
+    // shape and preview for memory, and took a shape past a minute; sweep 21).
+    const double leafVoxels = double(grid.tree().activeLeafVoxelCount());
+    if (voxels > std::max(leafVoxels, kMaxTileVoxels))
+        throw InputError(fmt::format(
+            "{}: grid '{}' has {:.3g} active voxels in tiles (one value each, over 8^3 voxels "
+            "or more), more than its leaves' {:.3g} and 2^24: not a narrow-band level set",
+            path, grid.getName(), voxels, leafVoxels));
     // Meshes and pictures hold positions in single precision, as the bake
     // does (a sphere 1e7 from the origin meshed with exit 0 to vertices on
     // three x values, its volume negative).
