@@ -212,12 +212,12 @@ cl_program OpenCLContext::build(const std::string& source, const std::string& op
     if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof size, &size, nullptr) ==
             CL_SUCCESS &&
         size > 0) {
-        std::string binary(size, '\0');
-        unsigned char* at = reinterpret_cast<unsigned char*>(binary.data());
+        std::string built(size, '\0');
+        unsigned char* at = reinterpret_cast<unsigned char*>(built.data());
         if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof at, &at, nullptr) == CL_SUCCESS) {
             try {  // a cache that cannot be written costs the next run time, nothing else
                 std::filesystem::create_directories(dir);
-                const std::string out = cachedBinaryFile(key, binary);
+                const std::string out = cachedBinaryFile(key, built);
                 writeFile(path, out.data(), out.size());
             } catch (const std::exception&) {
             }
