@@ -554,17 +554,15 @@ FarmState assessFarm(const FarmPlan& plan)
     // kept it through every retry, sweep 20).
     struct Entry {
         size_t chunk;
-        const FarmPlan::File* file;
+        FarmPlan::File file;
         FileStamp stamp;
         bool mine = false;
     };
-    std::vector<std::vector<FarmPlan::File>> files(plan.chunks.size());
     std::vector<Entry> entries;
     for (size_t k = 0; k < plan.chunks.size(); ++k) {
-        files[k] = plan.chunkFiles(k);
         // (Another frame's or tile's file copied over it is not it.)
-        for (const FarmPlan::File& file : files[k]) {
-            Entry e{k, &file, {}, s.merged};
+        for (const FarmPlan::File& file : plan.chunkFiles(k)) {
+            Entry e{k, file, {}, s.merged};
             const std::string part =
                 plan.tiles ? tilePart(int(k), int(plan.chunks.size())) : framePart(file.number);
             try {
@@ -582,7 +580,7 @@ FarmState assessFarm(const FarmPlan& plan)
         if (!e.mine || s.merged)
             return;
         try {
-            readFileStamp(e.file->path, /*verify=*/true);
+            readFileStamp(e.file.path, /*verify=*/true);
         } catch (const InputError&) {
             e.mine = false;
             e.stamp = {};
@@ -602,10 +600,10 @@ FarmState assessFarm(const FarmPlan& plan)
             if (e.mine) {
                 ++s.good;
             } else {
-                c.missing.push_back(e.file->number);
+                c.missing.push_back(e.file.number);
                 std::error_code ec;
-                if (!e.stamp.key.empty() || fs::exists(e.file->path, ec))
-                    c.foreign.push_back(e.file->number);
+                if (!e.stamp.key.empty() || fs::exists(e.file.path, ec))
+                    c.foreign.push_back(e.file.number);
             }
         }
         s.chunks.push_back(std::move(c));

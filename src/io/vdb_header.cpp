@@ -410,6 +410,13 @@ bool verifyVdbChecksum(const std::string& path, const VdbSummary& s)
     return true;
 }
 
+void requireVdbChecksum(const std::string& path, const VdbSummary& s)
+{
+    if (!verifyVdbChecksum(path, s))
+        if (const std::string missing = missingChecksum(path, s); !missing.empty())
+            throw InputError(missing);
+}
+
 std::string missingChecksum(const std::string& path, const VdbSummary& s)
 {
     const auto creator = s.strings.find("creator");
@@ -438,9 +445,8 @@ std::string tilePart(int k, int count)
 FileStamp readFileStamp(const std::string& path, bool verify)
 {
     const VdbSummary s = inspectVdb(path);
-    if (verify && !verifyVdbChecksum(path, s))
-        if (const std::string missing = missingChecksum(path, s); !missing.empty())
-            throw InputError(missing);
+    if (verify)
+        requireVdbChecksum(path, s);
     FileStamp stamp;
     if (const auto key = s.strings.find("cambium_sequence"); key != s.strings.end())
         stamp.key = key->second;

@@ -107,6 +107,12 @@ size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bo
 /// (the file opened: its identity from the descriptor) is not read again.
 bool verifyVdbChecksum(const std::string& path, const VdbSummary& summary);
 
+/// verifyVdbChecksum, and a file with cambium's metadata but no checksum
+/// refused too (missingChecksum: a cambium file whose checksum key was
+/// damaged was decoded as another tool's, unchecked).  Another tool's file
+/// passes.
+void requireVdbChecksum(const std::string& path, const VdbSummary& summary);
+
 /// The message for a file with cambium's metadata (its creator, a
 /// `cambium_` key) but no `cambium_checksum`, which cambium writes with the
 /// rest: edited or damaged, not another tool's.  Empty for any other file.

@@ -520,6 +520,9 @@ openvdb::Mat4d checkTransform(const openvdb::GridBase& grid, const std::string& 
     return m;
 }
 
+/// The most active voxels in a level set's tiles beside its leaves' own.
+constexpr double kMaxTileVoxels = double(1 << 24);
+
 /// What OpenVDB's tools take for granted of a level set, checked when it is
 /// read (else they fail unnamed, or work on garbage):
 /// - cubic voxels (the intersector and volumeToMesh refuse others);
@@ -528,10 +531,8 @@ openvdb::Mat4d checkTransform(const openvdb::GridBase& grid, const std::string& 
 /// - every active tile's value a number (the leaves' values are checked
 ///   as they are decoded);
 /// - active tiles (a few bytes in a file) that fit in memory as voxels, for
-///   whatever meshes, resamples or converts the grid makes them voxels.
-/// The most active voxels in a level set's tiles beside its leaves' own.
-constexpr double kMaxTileVoxels = double(1 << 24);
-
+///   whatever meshes, resamples or converts the grid makes them voxels, and
+///   hold no more voxels than its leaves and kMaxTileVoxels.
 void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
 {
     checkTransform(grid, path);
@@ -681,11 +682,7 @@ VdbSummary checkLevelSetFile(const std::string& path, const std::string& grid, b
     // damaged bytes (a byte changed in a cambium file aborted mesh and
     // render with "malloc(): corrupted top size"; beside the read, the
     // verdict came too late).
-    verifyVdbChecksum(path, summary);
-    // (a cambium file whose checksum key was damaged was decoded as another
-    // tool's, unchecked)
-    if (const std::string missing = missingChecksum(path, summary); !missing.empty())
-        throw InputError(missing);
+    requireVdbChecksum(path, summary);
     // The trees' types from the file's descriptors, before any is decoded
     // (a surface grid relabelled Tree_vec3s was decoded as vectors from a
     // float tree's bytes, and the tools after that spun forever).
