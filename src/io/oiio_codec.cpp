@@ -108,10 +108,14 @@ try {
             path, spec.width, spec.height, double(maxPixels) / 1e6);
     // A tile is decoded whole, every channel, whatever part of it the image
     // covers: a 402-byte 16 x 16 TIFF of 65536 x 65536 tiles cost 8.9 GB.
+    // A tile side past 2^31 reads as negative (a TIFF's 2^32 - 1 as -1), and
+    // the reader's loop over tile rows then never ends: refused too.
+    const bool tiled = spec.tile_width != 0 || spec.tile_height != 0;
     const double tile = double(std::max(spec.tile_width, 1)) * std::max(spec.tile_height, 1) *
                         std::max(spec.tile_depth, 1);
     const double pixels = double(spec.width) * spec.height;
-    if (spec.tile_width > 0 && (tile > double(maxPixels) || tile > 4.0 * std::max(pixels, 65536.0)))
+    if (tiled && (spec.tile_width <= 0 || spec.tile_height <= 0 || spec.tile_depth < 0 ||
+                  tile > double(maxPixels) || tile > 4.0 * std::max(pixels, 65536.0)))
         return fmt::format(
             "{}: its header says tiles of {} x {} pixels for a picture of {} x {}: damaged or "
             "hostile",
