@@ -323,8 +323,8 @@ TEST(FarmTiles, AFrameBakedAsTilesIsTheSingleBakeAndMaxMemorySplitsIt)
     r.input = kPopulus;
     r.model.time = 8.0;
     r.voxelSize = 0.02;
-    const double estimate =
-        planVoxelSize(FieldProgram::compile(loadModel(r.input, r.model)), r).bytes;
+    BlobTree tree = loadModel(r.input, r.model);
+    const double estimate = planModel(tree, r).plan.bytes;
     ASSERT_EQ(run(fmt::format("--max-memory {}", (long long)(estimate / 2) + 1), "auto.vdb"), 0)
         << fileContents(dir / "auto.vdb.txt");
     EXPECT_NE(fileContents(dir / "auto.vdb.txt").find("3 tiles merged"), std::string::npos)

@@ -57,6 +57,9 @@ struct ModelFlags {
 /// Adds --junctions, --bend, --primitives, --regrowth, --no-leaves and --time.
 void addModelFlags(CLI::App* command, ModelFlags& flags);
 
+/// Adds --min-radius (BakeRequest::minRadius) to a command that bakes a model.
+void addMinRadiusFlag(CLI::App* command, double& voxels);
+
 /// `cambium bake … --slurm`'s options (a sequence's, or a frame's tiles).
 struct SlurmFlags {
     bool slurm = false, wait = false, dryRun = false;

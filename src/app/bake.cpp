@@ -222,6 +222,7 @@ void addBakeCommand(CLI::App& app, Action& action)
                                      "surface bounds)");
     cmd->add_option("--half-width", bake.halfWidth, "Narrow-band half-width in voxels")
         ->capture_default_str();
+    addMinRadiusFlag(cmd, bake.minRadius);
     cmd->add_option("--device", o->device, "opencl or cpu")->capture_default_str();
     cmd->add_flag("--fog", bake.fog, "Also write a `density` fog volume");
     cmd->add_flag("--half", bake.half, "Store floats as 16-bit halves");

@@ -49,6 +49,15 @@ void addModelFlags(CLI::App* cmd, ModelFlags& flags)
         "Growth parameter files: the tree at this time in years (default: the last)");
 }
 
+void addMinRadiusFlag(CLI::App* cmd, double& voxels)
+{
+    cmd->add_option("--min-radius", voxels,
+                    "The smallest radius baked, in voxels: thinner parts (twigs, leaves) are "
+                    "thickened to it, as a level set holds no thinner feature; 0 bakes them as "
+                    "they are")
+        ->capture_default_str();
+}
+
 void checkOptionValues(CLI::App& app)
 {
     for (CLI::Option* opt : app.get_options()) {

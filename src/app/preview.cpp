@@ -97,6 +97,7 @@ void addPreviewCommand(CLI::App& app, Action& action)
                     "auto, turntable:ANGLE or look:EX,EY,EZ:TX,TY,TZ[:FOV], framed on the first "
                     "picture's model and kept")
         ->capture_default_str();
+    addMinRadiusFlag(cmd, o->settings.minRadius);
     cmd->add_option("--device", o->device, "The bake's device: opencl or cpu")
         ->capture_default_str();
     cmd->add_option("--render-device", o->renderDevice, "The march's device: cpu or opencl")

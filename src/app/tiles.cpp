@@ -35,19 +35,21 @@ TilePlan planTiles(const BakeRequest& req, int tiles, double maxMemory, bool her
         throw InputError(
             "--tiles: a fog volume (--fog) is made from the whole grid's values; "
             "bake it without --tiles or --max-memory");
-    const BlobTree tree = loadModel(req.input, req.model);
+    BlobTree tree = loadModel(req.input, req.model);
     const BarkPaint paint = barkPaint(req, tree);
     if (paint.histogram)
         throw InputError(fmt::format(
             "--tiles: bark coloured from a photo ({}) is drawn over the whole grid's values; bake "
             "it without --tiles or --max-memory",
             paint.photo));
-    const FieldProgram program = FieldProgram::compile(tree, req.input);
     // The frame's voxel size and estimate (the machine's memory checked for
-    // a tile's share below, once the tiles are known).
+    // a tile's share below, once the tiles are known), of the model as each
+    // tile's bake thickens it.
     BakeRequest probe = req;
     probe.tile.count = 1 << 20;
-    const VoxelPlan whole = planVoxelSize(program, probe);
+    const PlannedModel planned = planModel(tree, probe);
+    const FieldProgram& program = planned.program;
+    const VoxelPlan& whole = planned.plan;
     if (tiles == 0) {
         // --max-memory alone: enough tiles for a tile's share to fit.
         // (Counted as a double: a tiny limit must not overflow an int.)

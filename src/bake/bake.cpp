@@ -48,6 +48,7 @@ void checkHalfWidth(double halfWidth, const std::string& name)
 void checkBakeOptions(const BakeRequest& req)
 {
     checkHalfWidth(req.halfWidth);
+    checkMinRadius(req.minRadius);
 }
 
 std::vector<std::string> bakeInputFiles(const BakeRequest& req)
@@ -128,6 +129,37 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
              : req.tile.count > 0 ? fmt::format(" or more than {} --tiles", req.tile.count)
                                   : std::string(" or --tiles")));
     return plan;
+}
+
+PlannedModel planModel(BlobTree& tree, const BakeRequest& req)
+{
+    FieldProgram program = FieldProgram::compile(tree, req.input);
+    const VoxelPlan plan = planVoxelSize(program, req);
+    const Thickened thickened = thickenThinParts(tree, req.minRadius * plan.voxelSize);
+    if (thickened.parts == 0)
+        return {std::move(program), plan, thickened};
+    // The thickened tree's program and estimates, at the voxel size planned.
+    BakeRequest fixed = req;
+    fixed.voxelSize = plan.voxelSize;
+    FieldProgram grown = FieldProgram::compile(tree, req.input);
+    VoxelPlan again = planVoxelSize(grown, fixed);
+    again.automatic = plan.automatic;
+    return {std::move(grown), again, thickened};
+}
+
+std::string thickenedNotice(const Thickened& t, const BakeRequest& req, double h)
+{
+    if (t.parts == 0)
+        return {};
+    return fmt::format(
+        "{} of {} parts are thinner than {:g} voxels of {:g} (the thinnest: radius {:.3g}): "
+        "thickened to a radius of {:.3g}, as a level set holds no thinner feature (--min-radius "
+        "0 bakes them as they are{})",
+        formatCount(double(t.parts)), formatCount(double(t.positive)), req.minRadius, h, t.thinnest,
+        req.minRadius * h,
+        t.thinnest / req.minRadius >= kMinVoxelSize
+            ? fmt::format("; --voxel-size {:.3g} resolves them", t.thinnest / req.minRadius)
+            : std::string());
 }
 
 void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::string& what)
@@ -225,9 +257,9 @@ VoxelPlan planBake(const BakeRequest& req)
 {
     checkBakeOptions(req);
     checkOutputPath(req.output);
-    const BlobTree tree = loadModel(req.input, req.model);
+    BlobTree tree = loadModel(req.input, req.model);
     barkPaint(req, tree);  // (its photo checked)
-    const VoxelPlan plan = planVoxelSize(FieldProgram::compile(tree, req.input), req);
+    const VoxelPlan plan = planModel(tree, req).plan;
     checkDiskSpace(req.output, plan.fileBytes, req.output);
     return plan;
 }
@@ -262,10 +294,11 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     } catch (...) {
         deviceError = std::current_exception();
     }
-    const BlobTree tree = loading.get();
+    BlobTree tree = loading.get();
     const BarkPaint paint = barkPaint(req, tree);
-    const FieldProgram program = FieldProgram::compile(tree, req.input);
-    const VoxelPlan plan = planVoxelSize(program, req);
+    const PlannedModel planned = planModel(tree, req);
+    const FieldProgram& program = planned.program;
+    const VoxelPlan& plan = planned.plan;
     // (--tiles bakes one tile a layer at most; a tile beyond that would be
     // empty, written with exit 0)
     if (const long long layers = bandLayers(program, plan.voxelSize, req.halfWidth);
@@ -277,29 +310,26 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     checkDiskSpace(req.output, plan.fileBytes, req.output);
     report.extent = plan.extent;
     report.autoVoxelSize = plan.automatic;
-    // Primitives thinner than a voxel bake as voxel-sized blocks or vanish:
-    // say so rather than leave a user puzzling over a cube.
-    size_t thin = 0, solid = 0;
-    double thinnest = std::numeric_limits<double>::infinity();
-    for (const Node& n : tree.nodes())
-        if (kindOf(n.type) == NodeKind::Primitive && n.prim().weight > 0.0) {
-            ++solid;
-            const double r =
-                std::max(n.prim().r0, n.prim().r1) *
-                surfaceRadiusScale(n.prim().weight, n.prim().sigma, tree.threshold(), tree.xT());
-            thinnest = std::min(thinnest, r);
-            thin += 2.0 * r < plan.voxelSize;
-        }
-    // (The advice only where it is a voxel size a bake takes.)
-    if (thin && callbacks.notice)
-        callbacks.notice(fmt::format(
-            "{} of {} primitives are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
-            "they bake as voxel-sized blocks or not at all{}",
-            thin, solid, plan.voxelSize, thinnest,
-            thinnest / 2.0 >= kMinVoxelSize
-                ? fmt::format("; --voxel-size {:.3g} resolves them", thinnest / 2.0)
-                : fmt::format(" (no voxel size resolves them: the smallest baked is {:g})",
-                              kMinVoxelSize)));
+    if (planned.thickened.parts && callbacks.notice)
+        callbacks.notice(thickenedNotice(planned.thickened, req, plan.voxelSize));
+    // With a smallest radius below half a voxel, parts thinner than a voxel
+    // bake as voxel-sized blocks or vanish: say so rather than leave a user
+    // puzzling over a cube (counted as thickenThinParts counts, on a copy).
+    if (req.minRadius < 0.5 && callbacks.notice) {
+        BlobTree copy = tree;
+        const Thickened thin = thickenThinParts(copy, 0.5 * plan.voxelSize);
+        // (The advice only where it is a voxel size a bake takes.)
+        if (thin.parts)
+            callbacks.notice(fmt::format(
+                "{} of {} parts are thinner than a voxel of {:g} (the thinnest: radius {:.3g}): "
+                "they bake as voxel-sized blocks or not at all; --min-radius {:g} thickens them{}",
+                formatCount(double(thin.parts)), formatCount(double(thin.positive)), plan.voxelSize,
+                thin.thinnest, kDefaultMinRadiusVoxels,
+                thin.thinnest / 2.0 >= kMinVoxelSize
+                    ? fmt::format(", --voxel-size {:.3g} resolves them", thin.thinnest / 2.0)
+                    : fmt::format(" (no voxel size resolves them: the smallest baked is {:g})",
+                                  kMinVoxelSize)));
+    }
     // A long bake says so before it starts (one of three minutes said
     // nothing until it was done where stderr is not a terminal).
     const int cores = int(std::max(1u, std::thread::hardware_concurrency()));

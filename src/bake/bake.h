@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bake/options.h"
+#include "bake/thicken.h"
 #include "blobtree/blobtree.h"
 #include "core/system.h"
 #include "io/vdb_header.h"
@@ -24,6 +25,9 @@ struct BakeRequest {
     std::string output;               ///< .vdb path (a sequence: a pattern with a run of '#')
     std::optional<double> voxelSize;  ///< default: 512 voxels across the surface bounds
     double halfWidth = 3.0;           ///< voxels
+    /// The smallest radius baked, in voxels: thinner parts are thickened to
+    /// it (bake/thicken.h); 0: baked as they are.
+    double minRadius = kDefaultMinRadiusVoxels;
     Device device = Device::OpenCL;
     bool fog = false;
     bool half = false;
@@ -91,7 +95,7 @@ struct BakeCallbacks {
     std::function<void(const std::string&)> notice;
 };
 
-/// InputError unless the half-width is valid.
+/// InputError unless the half-width and the smallest radius are valid.
 void checkBakeOptions(const BakeRequest& request);
 
 /// The files a bake reads (the model's, modelFiles, and --bark-photo): what
@@ -115,6 +119,22 @@ struct VoxelPlan {
 constexpr double kMinVoxelSize = 1e-4;
 constexpr double kMaxVoxelSize = 1e9;
 VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& request);
+
+/// A bake's model made ready at its voxel size: the voxel size planned from
+/// `tree` (planVoxelSize), the parts thinner than `request.minRadius` voxels
+/// of it thickened in `tree` (thickenThinParts), and the program and plan of
+/// the tree so thickened.  What every bake samples (bake, a frame of a
+/// sequence, a tile, a preview, a shape's model base).
+struct PlannedModel {
+    FieldProgram program;
+    VoxelPlan plan;
+    Thickened thickened;
+};
+PlannedModel planModel(BlobTree& tree, const BakeRequest& request);
+
+/// The notice of what planModel thickened (empty when nothing was).
+std::string thickenedNotice(const Thickened& thickened, const BakeRequest& request,
+                            double voxelSize);
 
 /// InputError naming `input` when a model's surface (`bounds`, its
 /// positive bounds) reaches farther from the origin than cambium's

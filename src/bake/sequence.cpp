@@ -98,10 +98,11 @@ std::string sequenceKeyOf(const std::string& text, const std::string& options,
 std::string sequenceKey(const SequenceRequest& req, const std::string& text, double voxelSize)
 {
     const std::string options = fmt::format(
-        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={} photo={} coherent={} colour={}",
+        "h={:.17g} w={:.17g} fps={:.17g} leaves={} fog={} half={} photo={} coherent={} colour={}"
+        " min_radius={:.17g}",
         voxelSize, req.bake.halfWidth, req.fpsPerYear, req.bake.model.leaves, req.bake.fog,
         req.bake.half, req.bake.barkPhoto, req.bake.barkCoherent ? int(*req.bake.barkCoherent) : -1,
-        colourExtentName(req.bake.colour));
+        colourExtentName(req.bake.colour), req.bake.minRadius);
     // (the photos' bytes too: a repainted photo makes other frames)
     return sequenceKeyOf(text, options,
                          {req.bake.barkPhoto, loadGrowthParameters(req.bake.input).barkPhoto});
@@ -146,13 +147,20 @@ SequencePlan planSequence(const SequenceRequest& request)
             fmt::format("{}: the tree has not begun to grow by year {:g} (the last frame): nothing "
                         "to bake",
                         req.input, plan.times.back()));
-    const BlobTree lastTree = buildTree(last, build);
+    BlobTree lastTree = buildTree(last, build);
     plan.paint = barkPaint(req, lastTree);
-    const FieldProgram lastProgram = FieldProgram::compile(lastTree, req.input);
-    VoxelPlan voxels =
-        planVoxelSize(lastProgram, req);  // one frame must fit; --jobs is capped by memory
+    PlannedModel planned =
+        planModel(lastTree, req);  // one frame must fit; --jobs is capped by memory
+    const FieldProgram& lastProgram = planned.program;
+    VoxelPlan& voxels = planned.plan;
     BakeRequest fixed = req;
     fixed.voxelSize = voxels.voxelSize;
+    // Every frame's tree as a frame's bake makes it (its thin parts thickened).
+    const auto frameProgram = [&](const Skeleton& sk) {
+        BlobTree tree = buildTree(sk, build);
+        thickenThinParts(tree, req.minRadius * voxels.voxelSize);
+        return FieldProgram::compile(tree, req.input);
+    };
     if (req.model.leaves) {
         // Wood only grows, but leaves come and go within a year: the last
         // year's frames in leaf may need more than the last frame.  (At
@@ -166,10 +174,7 @@ SequencePlan planSequence(const SequenceRequest& request)
         for (size_t i : spreadIndices(lastYears.size(), kSampledFrames)) {
             const Skeleton sk = model.skeleton(plan.times[lastYears[i]], true);
             if (!sk.internodes.empty())
-                voxels.bytes = std::max(
-                    voxels.bytes,
-                    planVoxelSize(FieldProgram::compile(buildTree(sk, build), req.input), fixed)
-                        .bytes);
+                voxels.bytes = std::max(voxels.bytes, planVoxelSize(frameProgram(sk), fixed).bytes);
         }
     }
     // The files: estimated at up to kSampledFrames frames spread over the
@@ -183,7 +188,7 @@ SequencePlan planSequence(const SequenceRequest& request)
             bandAt.push_back(0.0);
             continue;
         }
-        const FieldProgram p = FieldProgram::compile(buildTree(sk, build), req.input);
+        const FieldProgram p = frameProgram(sk);
         fileAt.push_back(
             estimateFileBytes(p, voxels.voxelSize, req.halfWidth, req.colour, req.half, req.fog));
         bandAt.push_back(estimateBandVoxels(p, voxels.voxelSize, req.halfWidth));
@@ -299,7 +304,8 @@ struct FrameBaker {
             fr.outcome = FrameReport::Outcome::Empty;
             previous.reset();
         } else {
-            const BlobTree tree = buildTree(sk, plan.model->buildOptions());
+            BlobTree tree = buildTree(sk, plan.model->buildOptions());
+            thickenThinParts(tree, req.minRadius * plan.voxelSize);
             FieldProgram program = FieldProgram::compile(tree);
             if (previous && previous->identical(program)) {
                 fr.outcome = FrameReport::Outcome::Reused;

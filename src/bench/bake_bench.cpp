@@ -141,40 +141,6 @@ void benchWriters(const BakedGrids& g, int repeats, BakeBenchResult& result)
     result.fileWrite = medianOf(file);
 }
 
-/// The zero-crossing voxels of `grid` and those whose squared gradient norm
-/// (fifth-order WENO) is outside [0.5, 1.5]: checkLevelSet's test 9,
-/// counted (CheckEikonal's own functor).
-EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid)
-{
-    using Check = openvdb::tools::CheckEikonal<openvdb::FloatGrid>;
-    std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
-    grid.tree().getNodes(leaves);
-    struct Counts {
-        size_t crossing = 0, outside = 0;
-    };
-    const Counts total = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, leaves.size()), Counts{},
-        [&](const tbb::blocked_range<size_t>& range, Counts c) {
-            Check check(grid, 0.5f, 1.5f);
-            for (size_t i = range.begin(); i != range.end(); ++i)
-                for (auto it = leaves[i]->cbeginValueOn(); it; ++it) {
-                    check.stencil.moveTo(it.getCoord());
-                    if (!check.stencil.zeroCrossing())
-                        continue;
-                    ++c.crossing;
-                    if (check(check.stencil.normSqGrad()))
-                        ++c.outside;
-                }
-            return c;
-        },
-        [](Counts a, const Counts& b) {
-            a.crossing += b.crossing;
-            a.outside += b.outside;
-            return a;
-        });
-    return {total.crossing, total.outside};
-}
-
 /// The whole commands, in turn, `repeats` rounds: `cambium bake` of the
 /// case's skeleton file and the peer program (cambium-ptls, built beside
 /// cambium) on the same file, voxel size and band.
@@ -197,7 +163,11 @@ void benchProcesses(const BakeBenchCase& c, int repeats, BakeBenchResult& result
         head.insert(head.end(), {"-o", (dir / out).string()});
         return head;
     };
-    const std::vector<std::string> ours = command({exe + "/cambium", "bake"}, "cambium.vdb"),
+    // (--min-radius 0: cambium's twigs as they are, the field the in-process
+    // rows sample; thickened to the bake's smallest radius, 1k internodes at
+    // 0.01 would make more voxels than the peer's spheres)
+    const std::vector<std::string> ours = command({exe + "/cambium", "bake", "--min-radius", "0"},
+                                                  "cambium.vdb"),
                                    peer = command({exe + "/cambium-ptls"}, "peer.vdb");
     std::vector<ProcessRun> a, b;
     for (int rep = 0; rep < repeats; ++rep) {
@@ -294,6 +264,37 @@ std::vector<BakeBenchResult> runBakeBench(const std::vector<BakeBenchCase>& case
         all.push_back(std::move(result));
     }
     return all;
+}
+
+EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid)
+{
+    using Check = openvdb::tools::CheckEikonal<openvdb::FloatGrid>;
+    std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
+    grid.tree().getNodes(leaves);
+    struct Counts {
+        size_t crossing = 0, outside = 0;
+    };
+    const Counts total = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, leaves.size()), Counts{},
+        [&](const tbb::blocked_range<size_t>& range, Counts c) {
+            Check check(grid, 0.5f, 1.5f);
+            for (size_t i = range.begin(); i != range.end(); ++i)
+                for (auto it = leaves[i]->cbeginValueOn(); it; ++it) {
+                    check.stencil.moveTo(it.getCoord());
+                    if (!check.stencil.zeroCrossing())
+                        continue;
+                    ++c.crossing;
+                    if (check(check.stencil.normSqGrad()))
+                        ++c.outside;
+                }
+            return c;
+        },
+        [](Counts a, const Counts& b) {
+            a.crossing += b.crossing;
+            a.outside += b.outside;
+            return a;
+        });
+    return {total.crossing, total.outside};
 }
 
 }  // namespace cambium

@@ -6,6 +6,9 @@
 
 #include "model/skeleton.h"
 
+#include <openvdb/Grid.h>
+#include <openvdb/openvdb.h>
+
 #include <functional>
 #include <string>
 #include <vector>
@@ -32,6 +35,8 @@ struct EikonalCount {
     size_t crossing = 0, outside = 0;
     double fraction() const { return crossing ? double(outside) / double(crossing) : 0.0; }
 };
+/// Counted on `grid` (fifth-order WENO gradients, CheckEikonal's own functor).
+EikonalCount eikonalOutliers(const openvdb::FloatGrid& grid);
 
 struct BakeBenchRow {
     std::string method;

@@ -378,9 +378,12 @@ int BlobTree::gbb(int bound, std::vector<int> children, const Combiner& b1, cons
     return add(NodeType::GBB, GbbParams{b1, b2, bound}, std::move(children));
 }
 
-int BlobTree::transform(const glm::dmat4& m, int child)
+namespace {
+
+/// A transform's parameters: InputError (ParameterError) unless `m` is
+/// finite, within reach, affine and invertible.
+TransformParams transformParams(const glm::dmat4& m)
 {
-    checkChild(child, "children");
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r)
             if (!std::isfinite(m[c][r]))
@@ -405,7 +408,50 @@ int BlobTree::transform(const glm::dmat4& m, int child)
             t.forward[4 * r + c] = m[c][r];  // glm is column-major: m[col][row]
             t.inverse.m[4 * r + c] = inv[c][r];
         }
-    return add(NodeType::TRANSFORM, t, {child});
+    return t;
+}
+
+}  // namespace
+
+int BlobTree::transform(const glm::dmat4& m, int child)
+{
+    checkChild(child, "children");
+    return add(NodeType::TRANSFORM, transformParams(m), {child});
+}
+
+glm::dmat4 BlobTree::matrix(int node) const
+{
+    const auto& t = std::get<TransformParams>(nodes_.at(size_t(node)).params);
+    glm::dmat4 m(1.0);
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            m[c][r] = t.forward[4 * r + c];
+    return m;
+}
+
+void BlobTree::setMatrix(int node, const glm::dmat4& m)
+{
+    Node& n = nodes_.at(size_t(node));
+    std::get<TransformParams>(n.params);  // (a transform's, or bad_variant_access)
+    n.params = transformParams(m);
+}
+
+void BlobTree::setRadii(int node, double r0, double r1)
+{
+    Primitive& p = std::get<Primitive>(nodes_.at(size_t(node)).params);
+    requirePositive(r0, "r0");
+    requirePositive(r1, "r1");
+    r0 = std::max(r0, p.r0);
+    r1 = std::max(r1, p.r1);
+    if (nodes_[size_t(node)].type == NodeType::CONVOLUTION_SEGMENT) {
+        const double grown = std::max(r0, r1) / std::max(p.r0, p.r1);
+        p.kernelWidth /= grown;
+        p.support *= grown;
+        p.q0 = cb_convolution_density(r0, p.kernelWidth, T_);
+        p.q1 = cb_convolution_density(r1, p.kernelWidth, T_);
+    }
+    p.r0 = r0;
+    p.r1 = r1;
 }
 
 int BlobTree::bend(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& dir, double angle,

@@ -179,6 +179,17 @@ public:
     void setRoot(int node);
     int root() const { return root_; }
 
+    /// What thickening a bake's thin parts changes (bake/thicken.h).
+    /// Primitive `node`'s radii become r0 and r1, no smaller than its own:
+    /// an R-type primitive keeps its sigma (its support grows with its
+    /// radius), a convolution segment scales its kernel width and window
+    /// with its largest radius and takes the densities of its new radii.
+    void setRadii(int node, double r0, double r1);
+    /// Transform `node`'s matrix, and a new one (checked as transform()
+    /// checks it).
+    glm::dmat4 matrix(int node) const;
+    void setMatrix(int node, const glm::dmat4& m);
+
     /// Resolves inherited colours: a primitive without its own colour takes
     /// the nearest ancestor's, else the default grey.  Call after building.
     void finalize();

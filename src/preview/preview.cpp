@@ -90,6 +90,7 @@ PreviewSession::PreviewSession(PreviewSettings settings)
 {
     checkInputFile(settings_.input, "model");
     checkModelOptions(settings_.model);
+    checkMinRadius(settings_.minRadius);
     if (settings_.voxelSize)
         checkVoxelSize(*settings_.voxelSize);
     checkPicture(settings_.width, settings_.height, settings_.spp);
@@ -196,18 +197,21 @@ BakedGrids PreviewSession::bakeText(const std::string& text, std::optional<doubl
     u.model = secondsSince(t);
     stop();
     t = Clock::now();
-    const FieldProgram program = FieldProgram::compile(*tree, settings_.input);
     // The voxel size: the first good model's, kept (its memory checked for
-    // every model: a grown tree needs more).
+    // every model: a grown tree needs more).  Thin parts thickened as a
+    // bake's.
     BakeRequest planned;
     planned.input = settings_.input;
     planned.tilesOffered = false;
+    planned.minRadius = settings_.minRadius;
     planned.voxelSize = settings_.voxelSize ? settings_.voxelSize : s.voxelSize;
-    VoxelPlan plan = planVoxelSize(program, planned);
-    if (!planned.voxelSize) {
-        planned.voxelSize = plan.extent / kPreviewVoxelsAcross;
-        plan = planVoxelSize(program, planned);
-    }
+    if (!planned.voxelSize)
+        planned.voxelSize =
+            planVoxelSize(FieldProgram::compile(*tree, settings_.input), planned).extent /
+            kPreviewVoxelsAcross;
+    const PlannedModel model = planModel(*tree, planned);
+    const FieldProgram& program = model.program;
+    const VoxelPlan& plan = model.plan;
     // (its photo read, or refused, before the bake)
     const std::string photo = tree->barkLook().photo;
     const std::string stamp = photo.empty() ? std::string() : fileStamp(photo);

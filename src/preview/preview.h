@@ -8,6 +8,7 @@
 #pragma once
 
 #include "bake/options.h"
+#include "bake/thicken.h"
 #include "core/system.h"
 #include "model/load_model.h"
 
@@ -30,7 +31,8 @@ struct PreviewSettings {
     /// (so that unchanged leaves are reused and the tree does not change
     /// resolution as it grows).
     std::optional<double> voxelSize;
-    Device device = Device::OpenCL;  ///< the bake's sampler
+    Device device = Device::OpenCL;              ///< the bake's sampler
+    double minRadius = kDefaultMinRadiusVoxels;  ///< the bake's smallest radius (voxels)
     /// Hears each bake's stages (--once: its progress on stderr; a bake of
     /// many summed primitives ran past a minute in silence).
     std::function<void(const char* stage, double fraction)> progress;

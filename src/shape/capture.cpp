@@ -209,19 +209,20 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         ModelOptions options;
         if (b.year >= 0.0)
             options.time = b.year;
-        const FieldProgram program = FieldProgram::compile(loadModel(b.file, options), b.file);
+        BlobTree tree = loadModel(b.file, options);
         BakeRequest req;
         req.input = what;
         req.tilesOffered = false;
         req.voxelSizeName = "fine_voxel_size";
-        const double automatic = autoVoxelSize(program, 256.0);
+        const double automatic = autoVoxelSize(FieldProgram::compile(tree, b.file), 256.0);
         if (b.fineVoxelSize > 0.0)
             req.voxelSize = b.fineVoxelSize;
         else if (automatic > 0.0)  // (none: planVoxelSize names the empty model)
             req.voxelSize = automatic;
-        const VoxelPlan plan = planVoxelSize(program, req);
-        extent = plan.extent;
-        fine = bakeModel(program, plan.voxelSize, device, progress);
+        // (its thin parts thickened as a bake's)
+        const PlannedModel planned = planModel(tree, req);
+        extent = planned.plan.extent;
+        fine = bakeModel(planned.program, planned.plan.voxelSize, device, progress);
     }
     if (!b.control.empty()) {  // the given control mesh, analysed onto the fine surface
         // Points are projected where they lie in the fine surface's band:
