@@ -86,6 +86,51 @@ TEST(Thicken, AConesRadiusIsMeasuredAcrossItsAxisInTheWorld)
     EXPECT_NEAR(across.node(cone).prim().r0, 0.5, 1e-9);  // 0.5 x 0.1 = 0.05
 }
 
+TEST(Thicken, UnderShearTheCrossSectionIsMeasuredAcrossTheAxissImage)
+{
+    // diag(1, 0.1, 1) maps a cone along (1, 1, 0) / sqrt 2 onto one along
+    // w = (1, 0.1, 0) / sqrt 1.01.  Its local disc's direction (1, -1, 0) /
+    // sqrt 2 goes to (1, -0.1, 0) / sqrt 2, of length^2 0.505, of which
+    // 0.99^2 / 2.02 lies along w: across w, 0.1405 r (the slanted slice
+    // itself is 0.71 r wide).
+    BlobTree tree;
+    const int cone = tree.cone({0, 0, 0}, {1, 1, 0}, 0.1, 0.1);
+    tree.setRoot(tree.transform(glm::scale(glm::dmat4(1.0), {1.0, 0.1, 1.0}), cone));
+    ASSERT_EQ(thickenThinParts(tree, 0.05).parts, 1u);
+    const double across = std::sqrt(0.505 - 0.99 * 0.99 / 2.02);
+    EXPECT_NEAR(tree.node(cone).prim().r0, 0.05 / across, 1e-9);
+}
+
+TEST(Thicken, UnderATaperEachEndTakesItsOwnScale)
+{
+    // A segment tapered from 1 at its base to 0.3 at its tip: only the tip
+    // is thin, and only it is thickened (the base, thick already, kept).
+    BlobTree tree;
+    const int seg = tree.cone({0, 0, 0}, {0, 0, 1}, 0.2, 0.2);
+    tree.setRoot(tree.taper({0, 0, 0}, {0, 0, 1}, 1.0, 1.0, 0.3, seg));
+    ASSERT_EQ(thickenThinParts(tree, 0.08).parts, 1u);
+    EXPECT_NEAR(tree.node(seg).prim().r0, 0.2, 1e-12);
+    EXPECT_NEAR(tree.node(seg).prim().r1, 0.08 / 0.3, 1e-9);
+}
+
+TEST(Thicken, APrimitiveWithoutASurfaceOfItsOwnIsLeft)
+{
+    // A weight below the threshold (a bud scale scar's ring) has no surface
+    // of its own; a weight between the threshold and 1 has it inside r.
+    BlobTree tree;
+    PrimitiveOptions faint, light;
+    faint.weight = 0.3;
+    light.weight = 0.8;
+    const int ring = tree.cone({0, 0, 0}, {0, 0, 0.01}, 0.001, 0.001, faint);
+    const int bud = tree.sphere({1, 0, 0}, 0.01, light);
+    tree.setRoot(tree.op({NodeType::BLEND}, {ring, bud}));
+    const Thickened t = thickenThinParts(tree, 0.02);
+    EXPECT_EQ(t.parts, 1u);
+    EXPECT_EQ(tree.node(ring).prim().r0, 0.001);
+    const ReferenceEvaluator eval(tree);
+    EXPECT_NEAR(eval.value({1.02, 0.0, 0.0}), tree.threshold(), 1e-9);
+}
+
 TEST(Thicken, ALeafIsThickenedAcrossItsBladeOnly)
 {
     // A polygon leaf as the builder makes it: a unit sphere mapped onto an
@@ -131,7 +176,8 @@ TEST(Thicken, ScarsCuttersAndBoundingFieldsAreLeft)
     const int pit = tree.sphere({0.1, 0, 0.5}, 0.001, scar);
     const int slot = tree.segment({-1, 0, 0.7}, {1, 0, 0.7}, 0.001);
     const int bound = tree.segment({0, 0, 0}, {0, 0, 0.2}, 0.001);
-    const int cut = tree.op({NodeType::DIFFERENCE}, {tree.op({NodeType::BLEND}, {stem, pit}), slot});
+    const int cut =
+        tree.op({NodeType::DIFFERENCE}, {tree.op({NodeType::BLEND}, {stem, pit}), slot});
     tree.setRoot(tree.gbb(bound, {cut}));
     const Thickened t = thickenThinParts(tree, 0.01);
     EXPECT_EQ(t.parts, 0u);

@@ -144,6 +144,7 @@ PlannedModel planModel(BlobTree& tree, const BakeRequest& req)
     FieldProgram grown = FieldProgram::compile(tree, req.input);
     VoxelPlan again = planVoxelSize(grown, fixed);
     again.automatic = plan.automatic;
+    again.extent = plan.extent;  // (what an automatic voxel size was taken from)
     return {std::move(grown), again, thickened};
 }
 
@@ -152,7 +153,7 @@ std::string thickenedNotice(const Thickened& t, const BakeRequest& req, double h
     if (t.parts == 0)
         return {};
     return fmt::format(
-        "{} of {} parts are thinner than {:g} voxels of {:g} (the thinnest: radius {:.3g}): "
+        "{} of {} parts have a radius under {:g} voxels of {:g} (the thinnest: {:.3g}): "
         "thickened to a radius of {:.3g}, as a level set holds no thinner feature (--min-radius "
         "0 bakes them as they are{})",
         formatCount(double(t.parts)), formatCount(double(t.positive)), req.minRadius, h, t.thinnest,
@@ -296,6 +297,9 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     }
     BlobTree tree = loading.get();
     const BarkPaint paint = barkPaint(req, tree);
+    // (as it was, for the note on parts thinner than a voxel below)
+    const std::optional<BlobTree> asItWas =
+        req.minRadius < 0.5 && callbacks.notice ? std::optional<BlobTree>(tree) : std::nullopt;
     const PlannedModel planned = planModel(tree, req);
     const FieldProgram& program = planned.program;
     const VoxelPlan& plan = planned.plan;
@@ -314,9 +318,10 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
         callbacks.notice(thickenedNotice(planned.thickened, req, plan.voxelSize));
     // With a smallest radius below half a voxel, parts thinner than a voxel
     // bake as voxel-sized blocks or vanish: say so rather than leave a user
-    // puzzling over a cube (counted as thickenThinParts counts, on a copy).
-    if (req.minRadius < 0.5 && callbacks.notice) {
-        BlobTree copy = tree;
+    // puzzling over a cube (counted as thickenThinParts counts, on a copy of
+    // the model as it was read).
+    if (asItWas) {
+        BlobTree copy = *asItWas;
         const Thickened thin = thickenThinParts(copy, 0.5 * plan.voxelSize);
         // (The advice only where it is a voxel size a bake takes.)
         if (thin.parts)

@@ -75,8 +75,9 @@ std::vector<std::string> bakeArguments(const BakeRequest& b, double voxelSize)
         a.push_back("--half");
     if (b.colour != ColourExtent::Shell)
         a.insert(a.end(), {"--colour", colourExtentName(b.colour)});
-    if (b.minRadius != kDefaultMinRadiusVoxels)
-        a.insert(a.end(), {"--min-radius", fmt::format("{}", b.minRadius)});
+    // (always: a tile farm's key is made of these, and a farm planned
+    // before the bake thickened its thin parts holds other tiles)
+    a.insert(a.end(), {"--min-radius", fmt::format("{}", b.minRadius)});
     if (!b.barkPhoto.empty())
         a.insert(a.end(), {"--bark-photo", fs::absolute(b.barkPhoto).string()});
     if (b.barkCoherent)

@@ -263,10 +263,11 @@ ShapeReport runSequence(const ShapeRequest& req, const ShapeCallbacks& cb)
             cb.progress("frames checked", double(n + 1) / double(checked.size()));
     }
     noteCoarseVoxels(first, r, cb);
-    const std::string options =
-        fmt::format("h={:.17g} w={:.17g} levels={} fog={} half={} device={} colour={}", r.voxelSize,
-                    req.halfWidth, levels, req.fog, req.half, deviceName(req.device),
-                    colourExtentName(req.colour));
+    const std::string options = fmt::format(
+        "h={:.17g} w={:.17g} levels={} fog={} half={} device={} colour={} "
+        "base_min_radius={:.17g}",
+        r.voxelSize, req.halfWidth, levels, req.fog, req.half, deviceName(req.device),
+        colourExtentName(req.colour), kDefaultMinRadiusVoxels);
     // (the files the shape reads too: an edited control mesh or painted
     // PLY makes other frames)
     const std::string key = sequenceKeyOf(text, options, files);
