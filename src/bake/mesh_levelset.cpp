@@ -489,7 +489,7 @@ using Nearest = Scratch<int32_t>;
 /// The whole body is one function on purpose: GCC lowers generic vectors
 /// for the target of the function that holds them (bake/sweep.inc says
 /// more), and this one is cloned for AVX2.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void exactLeaf(
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void exactLeaf(
     const Tri* tris, const uint32_t* it, const uint32_t* end, openvdb::Coord o, double W,
     int32_t* __restrict bestTri)
 {
@@ -671,9 +671,10 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
         if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
             throw InputError(fmt::format("{}: point {} is not finite", what, v));
         const double r = double(std::max({std::fabs(p.x()), std::fabs(p.y()), std::fabs(p.z())}));
-        // (with the band and a leaf's margin)
-        checkVoxelsFromOrigin(r + (W + 16.0) * h, h,
-                              fmt::format("{}: point {}, with its band,", what, v));
+        // (with the band and a leaf's margin; the message made only for the
+        // point refused: formatted for each point it was a tenth of the check)
+        if (const double reach = r + (W + 16.0) * h; !(reach / h < kMaxVoxelsFromOrigin))
+            checkVoxelsFromOrigin(reach, h, fmt::format("{}: point {}, with its band,", what, v));
     }
     // (a mesh a tiny fraction of a voxel across has index-space triangles
     // of no area in float: it was refused as "no triangles of any area")
@@ -689,26 +690,33 @@ void checkMeshBake(const TriangleMesh& mesh, const MeshBakeOptions& opt, const s
     // along it (a sliver's box, not its area).  Refused before binning when
     // they alone would not fit (a tentacle of length 1000 ran silently past
     // a minute, its memory growing).
-    double pairs = 0.0;
     const double leaf = 8.0 * h, reach = (W + 3.5 * std::sqrt(3.0)) * h;
-    for (const auto& t : mesh.triangles) {
-        const openvdb::Vec3d p0 = mesh.points[t[0]], p1 = mesh.points[t[1]], p2 = mesh.points[t[2]];
-        const openvdb::Vec3d n = (p1 - p0).cross(p2 - p0);
-        if (!(n.length() > 0.0))
-            continue;
-        double leaves[3], normal[3];
-        for (int k = 0; k < 3; ++k) {
-            const double lo = std::min({p0[k], p1[k], p2[k]}) - W * h,
-                         hi = std::max({p0[k], p1[k], p2[k]}) + W * h;
-            leaves[k] = std::floor(hi / leaf) - std::floor(lo / leaf) + 1.0;
-            normal[k] = std::abs(n[k]) / n.length();
-        }
-        const int w = normal[0] >= normal[1] && normal[0] >= normal[2] ? 0
-                      : normal[1] >= normal[2]                         ? 1
-                                                                       : 2;
-        pairs += leaves[(w + 1) % 3] * leaves[(w + 2) % 3] *
-                 std::min(leaves[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
-    }
+    const double pairs = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<size_t>(0, nt, 8192), 0.0,
+        [&](const tbb::blocked_range<size_t>& range, double sum) {
+            for (size_t i = range.begin(); i != range.end(); ++i) {
+                const auto& t = mesh.triangles[i];
+                const openvdb::Vec3d p0 = mesh.points[t[0]], p1 = mesh.points[t[1]],
+                                     p2 = mesh.points[t[2]];
+                const openvdb::Vec3d n = (p1 - p0).cross(p2 - p0);
+                if (!(n.length() > 0.0))
+                    continue;
+                double leaves[3], normal[3];
+                for (int k = 0; k < 3; ++k) {
+                    const double lo = std::min({p0[k], p1[k], p2[k]}) - W * h,
+                                 hi = std::max({p0[k], p1[k], p2[k]}) + W * h;
+                    leaves[k] = std::floor(hi / leaf) - std::floor(lo / leaf) + 1.0;
+                    normal[k] = std::abs(n[k]) / n.length();
+                }
+                const int w = normal[0] >= normal[1] && normal[0] >= normal[2] ? 0
+                              : normal[1] >= normal[2]                         ? 1
+                                                                               : 2;
+                sum += leaves[(w + 1) % 3] * leaves[(w + 2) % 3] *
+                       std::min(leaves[w], std::max(1.0, 2.0 * reach / (leaf * normal[w])));
+            }
+            return sum;
+        },
+        std::plus<double>());
     checkMemoryFits(pairs * 4.0,
                     fmt::format("{}: the band at voxel size {:g} (about {:.3g} triangle-leaf "
                                 "pairs to bin)",

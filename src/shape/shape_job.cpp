@@ -358,8 +358,10 @@ ShapeReport runShape(const ShapeRequest& req, const ShapeCallbacks& cb)
     r.levels = levels;
     r.levelSet = levelSet;
     r.animated = spec.animated;
-    ShapeSurface shape(spec, levels, base);
-    const TriangleMesh mesh = synthesise(shape, r, cb);
+    const TriangleMesh mesh = [&] {
+        ShapeSurface shape(spec, levels, base);
+        return synthesise(shape, r, cb);
+    }();
     if (cb.progress)
         cb.progress("synthesis", 1.0);
     if (!levelSet) {
