@@ -52,15 +52,15 @@ TEST(Thicken, AThickModelIsLeftAsItIs)
 
 TEST(Thicken, AThinConeBakesAtTheSmallestRadius)
 {
-    // A twig of radius 0.2 voxel is thickened to 1.5 voxels: its level set's
+    // A twig of radius 0.5 voxel is thickened to 1.5 voxels: its level set's
     // distance on the axis is -1.5 voxels (the cylinder's closed form), where
     // as it was it baked as a broken line of voxel-sized blocks.
     const double h = 0.01;
     BlobTree tree;
-    tree.setRoot(tree.cone({0, 0, 0}, {0, 0, 1}, 0.002, 0.002));
+    tree.setRoot(tree.cone({0, 0, 0}, {0, 0, 1}, 0.005, 0.005));
     const Thickened t = thickenThinParts(tree, 1.5 * h);
     EXPECT_EQ(t.parts, 1u);
-    EXPECT_NEAR(t.thinnest, 0.002, 1e-12);
+    EXPECT_NEAR(t.thinnest, 0.005, 1e-12);
     EXPECT_NEAR(tree.node(tree.root()).prim().r0, 0.015, 1e-12);
     EXPECT_NEAR(tree.node(tree.root()).prim().r1, 0.015, 1e-12);
     const BakedGrids g = test::bakeTree(tree, h);
@@ -69,6 +69,13 @@ TEST(Thicken, AThinConeBakesAtTheSmallestRadius)
         EXPECT_NEAR(acc.getValue(openvdb::Coord(0, 0, k)), -1.5 * h, 0.1 * h) << k;
     // Thickened again, nothing changes.
     EXPECT_EQ(thickenThinParts(tree, 1.5 * h).parts, 0u);
+    // One far thinner than a voxel is thickened eightfold at most: detail
+    // the voxels cannot hold, which would otherwise swell into a mass.
+    BlobTree hair;
+    hair.setRoot(hair.cone({0, 0, 0}, {0, 0, 1}, 0.0001, 0.0002));
+    ASSERT_EQ(thickenThinParts(hair, 1.5 * h).parts, 1u);
+    EXPECT_NEAR(hair.node(hair.root()).prim().r0, 0.0008, 1e-15);
+    EXPECT_NEAR(hair.node(hair.root()).prim().r1, 0.0016, 1e-15);
 }
 
 TEST(Thicken, AConesRadiusIsMeasuredAcrossItsAxisInTheWorld)
@@ -81,9 +88,9 @@ TEST(Thicken, AConesRadiusIsMeasuredAcrossItsAxisInTheWorld)
     EXPECT_EQ(thickenThinParts(along, 0.05).parts, 0u);
     BlobTree across;
     const int cone = across.cone({0, 0, 0}, {0, 0, 1}, 0.1, 0.1);
-    across.setRoot(across.transform(glm::scale(glm::dmat4(1.0), {0.1, 1.0, 1.0}), cone));
+    across.setRoot(across.transform(glm::scale(glm::dmat4(1.0), {0.2, 1.0, 1.0}), cone));
     EXPECT_EQ(thickenThinParts(across, 0.05).parts, 1u);
-    EXPECT_NEAR(across.node(cone).prim().r0, 0.5, 1e-9);  // 0.5 x 0.1 = 0.05
+    EXPECT_NEAR(across.node(cone).prim().r0, 0.25, 1e-9);  // 0.25 x 0.2 = 0.05
 }
 
 TEST(Thicken, UnderShearTheCrossSectionIsMeasuredAcrossTheAxissImage)
@@ -149,6 +156,7 @@ TEST(Thicken, ALeafIsThickenedAcrossItsBladeOnly)
     tree.setRoot(leaf);
     const Thickened t = thickenThinParts(tree, 0.015);
     EXPECT_EQ(t.parts, 1u);
+    EXPECT_EQ(t.positive, 1u);
     EXPECT_NEAR(t.thinnest, 0.004, 1e-9);
     const glm::dmat4 grown = tree.matrix(leaf);
     EXPECT_NEAR(glm::length(glm::dvec3(grown[0])), 0.2, 1e-9);
@@ -158,6 +166,19 @@ TEST(Thicken, ALeafIsThickenedAcrossItsBladeOnly)
     const auto [lo, hi] = stretchRange(grown);
     EXPECT_NEAR(lo, 0.015, 1e-4);
     EXPECT_NEAR(hi, 0.2, 1e-4);
+    // A blade far thinner (0.001: fifteen times too thin) is thickened
+    // eightfold, to 0.008, and still keeps its length and width: its sphere
+    // is not thickened again as a primitive thinner than the smallest.
+    BlobTree thin;
+    glm::dmat4 mt = m;
+    mt[2] = 0.25 * m[2];
+    const int blade = thin.transform(mt, thin.sphere(glm::dvec3(0.0), 1.0));
+    thin.setRoot(blade);
+    EXPECT_EQ(thickenThinParts(thin, 0.015).parts, 1u);
+    const auto [tlo, thi] = stretchRange(thin.matrix(blade));
+    EXPECT_NEAR(tlo, 0.008, 1e-4);
+    EXPECT_NEAR(thi, 0.2, 1e-4);
+    EXPECT_EQ(thin.node(thin.node(blade).children.front()).prim().r0, 1.0);
     // The field: on the surface at the blade's face, 0.015 from the centre.
     const ReferenceEvaluator eval(tree);
     EXPECT_NEAR(eval.value(glm::dvec3(grown[3]) + 0.015 * glm::normalize(glm::dvec3(grown[2]))),

@@ -154,10 +154,10 @@ std::string thickenedNotice(const Thickened& t, const BakeRequest& req, double h
         return {};
     return fmt::format(
         "{} of {} parts have a radius under {:g} voxels of {:g} (the thinnest: {:.3g}): "
-        "thickened to a radius of {:.3g}, as a level set holds no thinner feature (--min-radius "
-        "0 bakes them as they are{})",
+        "thickened to a radius of {:.3g} (or to {:g} times their own where that is less), as a "
+        "level set holds no thinner feature (--min-radius 0 bakes them as they are{})",
         formatCount(double(t.parts)), formatCount(double(t.positive)), req.minRadius, h, t.thinnest,
-        req.minRadius * h,
+        req.minRadius * h, kMaxThickening,
         t.thinnest / req.minRadius >= kMinVoxelSize
             ? fmt::format("; --voxel-size {:.3g} resolves them", t.thinnest / req.minRadius)
             : std::string());

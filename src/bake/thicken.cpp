@@ -103,6 +103,12 @@ struct Thickener {
     /// Whether a radius is below the smallest (rounding aside: a leaf
     /// thickened to it is not thickened again as its sphere is met).
     bool thinner(double radius) const { return radius < minRadius * (1.0 - 1e-9); }
+    /// What a world radius below the smallest becomes: the smallest, or
+    /// kMaxThickening times itself where that is less.
+    double grown(double radius) const
+    {
+        return std::max(radius, std::min(minRadius, kMaxThickening * radius));
+    }
 
     /// A primitive's own surface radius over its radius; 0 where it has no
     /// surface of its own (a weight below the threshold: a bud scale scar's
@@ -150,8 +156,14 @@ struct Thickener {
             const glm::dmat3 above = f.folded();
             glm::dmat4 m = tree.matrix(i);
             const int child = n.children.front();
-            if (tree.node(child).type == NodeType::SPHERE && !seen[size_t(child)])
+            if (tree.node(child).type == NodeType::SPHERE && !seen[size_t(child)]) {
+                // (its sphere is the transform's to thicken: met again as a
+                // primitive, a leaf the cap left thinner than the smallest
+                // would grow along its length and width too)
                 m = squashedSphere(i, m, above, child);
+                seen[size_t(child)] = 1;
+                result.positive += surfaceScale(child) > 0.0;
+            }
             below.a = above * glm::dmat3(m);
             below.taper = nullptr;
         } else if (n.type == NodeType::TAPER) {
@@ -185,7 +197,7 @@ struct Thickener {
                 continue;
             thin = true;
             result.thinnest = std::min(result.thinnest, semi);
-            const double f = semi > 0.0 ? minRadius / semi : 1.0;
+            const double f = semi > 0.0 ? grown(semi) / semi : 1.0;
             stretch += (f - 1.0) * glm::outerProduct(e.vector[k], e.vector[k]);
         }
         if (!thin)
@@ -220,7 +232,7 @@ struct Thickener {
             return;
         result.thinnest = std::min({result.thinnest, r0, r1});
         ++result.parts;
-        tree.setRadii(i, std::max(p.r0, minRadius / s0), std::max(p.r1, minRadius / s1));
+        tree.setRadii(i, std::max(p.r0, grown(r0) / s0), std::max(p.r1, grown(r1) / s1));
     }
 };
 
