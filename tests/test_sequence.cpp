@@ -345,7 +345,6 @@ TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
          {std::tuple{"1-100", 10.0, 0.1}, std::tuple{"1-40", 4.0, 1e-12}}) {
         const SequencePlan plan = planSequence(sequence(dir / "a.####.vdb", frames, fps));
         const BakeRequest& req = plan.request.bake;
-        const TreeBuildOptions build = plan.model->buildOptions();
         double sum = 0.0;
         for (double t : plan.times) {
             const Skeleton sk = plan.model->skeleton(t, req.model.leaves);
@@ -354,8 +353,7 @@ TEST(Sequence, ThePlansDiskEstimateIsTheSumOfItsFramesEstimates)
                 continue;
             }
             // (each frame's tree as its bake makes it: thin parts thickened)
-            BlobTree tree = buildTree(sk, build);
-            thickenThinParts(tree, req.minRadius * plan.voxelSize);
+            const BlobTree tree = frameTree(*plan.model, sk, req.minRadius, plan.voxelSize);
             sum += estimateFileBytes(FieldProgram::compile(tree), plan.voxelSize, req.halfWidth,
                                      req.colour, req.half, req.fog);
         }

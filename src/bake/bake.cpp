@@ -148,6 +148,9 @@ PlannedModel planModel(BlobTree& tree, const BakeRequest& req)
     return {std::move(grown), again, thickened};
 }
 
+namespace {
+
+/// The notice of what planModel thickened (empty when nothing was).
 std::string thickenedNotice(const Thickened& t, const BakeRequest& req, double h)
 {
     if (t.parts == 0)
@@ -162,6 +165,8 @@ std::string thickenedNotice(const Thickened& t, const BakeRequest& req, double h
             ? fmt::format("; --voxel-size {:.3g} resolves them", t.thinnest / req.minRadius)
             : std::string());
 }
+
+}  // namespace
 
 void checkHalfRange(bool half, double voxelSize, double halfWidth, const std::string& what)
 {

@@ -132,10 +132,6 @@ struct PlannedModel {
 };
 PlannedModel planModel(BlobTree& tree, const BakeRequest& request);
 
-/// The notice of what planModel thickened (empty when nothing was).
-std::string thickenedNotice(const Thickened& thickened, const BakeRequest& request,
-                            double voxelSize);
-
 /// InputError naming `input` when a model's surface (`bounds`, its
 /// positive bounds) reaches farther from the origin than cambium's
 /// coordinates may (kFarthestCoordinate): a bake's, and eval's (a cone to

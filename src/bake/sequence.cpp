@@ -108,6 +108,13 @@ std::string sequenceKey(const SequenceRequest& req, const std::string& text, dou
                          {req.bake.barkPhoto, loadGrowthParameters(req.bake.input).barkPhoto});
 }
 
+BlobTree frameTree(const GrowthModel& model, const Skeleton& sk, double minRadius, double voxelSize)
+{
+    BlobTree tree = buildTree(sk, model.buildOptions());
+    thickenThinParts(tree, minRadius * voxelSize);
+    return tree;
+}
+
 SequencePlan planSequence(const SequenceRequest& request)
 {
     SequencePlan plan;
@@ -157,9 +164,8 @@ SequencePlan planSequence(const SequenceRequest& request)
     fixed.voxelSize = voxels.voxelSize;
     // Every frame's tree as a frame's bake makes it (its thin parts thickened).
     const auto frameProgram = [&](const Skeleton& sk) {
-        BlobTree tree = buildTree(sk, build);
-        thickenThinParts(tree, req.minRadius * voxels.voxelSize);
-        return FieldProgram::compile(tree, req.input);
+        return FieldProgram::compile(frameTree(model, sk, req.minRadius, voxels.voxelSize),
+                                     req.input);
     };
     if (req.model.leaves) {
         // Wood only grows, but leaves come and go within a year: the last
@@ -304,8 +310,7 @@ struct FrameBaker {
             fr.outcome = FrameReport::Outcome::Empty;
             previous.reset();
         } else {
-            BlobTree tree = buildTree(sk, plan.model->buildOptions());
-            thickenThinParts(tree, req.minRadius * plan.voxelSize);
+            const BlobTree tree = frameTree(*plan.model, sk, req.minRadius, plan.voxelSize);
             FieldProgram program = FieldProgram::compile(tree);
             if (previous && previous->identical(program)) {
                 fr.outcome = FrameReport::Outcome::Reused;

@@ -56,6 +56,12 @@ struct SequencePlan {
     BarkPaint paint;  ///< the bark photo, read once
 };
 
+/// The tree a sequence's frame of skeleton `sk` bakes: `model`'s tree of it
+/// with its parts thinner than `minRadius` voxels of `voxelSize` thickened
+/// (bake/thicken.h): what the plan estimates and the frame's bake samples.
+BlobTree frameTree(const GrowthModel& model, const Skeleton& sk, double minRadius,
+                   double voxelSize);
+
 /// Validates everything (parameters, frames and their times, output pattern,
 /// voxel size at the last frame, memory at the last year's frames) and
 /// throws InputError naming the problem before any output.
