@@ -40,6 +40,71 @@ bool scalesAndMovesOnly(const openvdb::math::Transform& xf)
            m.isType<UniformScaleTranslateMap>() || m.isType<TranslationMap>();
 }
 
+/// A grid's values in small blocks of voxels around points that come leaf
+/// by leaf (as volumeToMesh's do), read from the buffers of the leaves: the
+/// 3 x 3 x 3 leaves around the point's own, each looked up once while the
+/// points stay in its leaf.  A voxel of no leaf (a tile, the background) is
+/// read through the accessor.
+template <class GridT>
+class LeafNeighbourhood {
+public:
+    using ValueT = typename GridT::ValueType;
+    using LeafT = typename GridT::TreeType::LeafNodeType;
+
+    explicit LeafNeighbourhood(const GridT& grid) : accessor_(grid.getConstAccessor()) {}
+
+    /// The N^3 voxels from `lo` into `out`; `lo` is within two voxels of
+    /// `near` (whose leaf is the neighbourhood's centre) and N at most 3.
+    template <int N>
+    void gather(const openvdb::Coord& near, const openvdb::Coord& lo, ValueT (&out)[N][N][N])
+    {
+        static_assert(N <= 3, "a block reaches at most five voxels from its point");
+        const openvdb::Coord centre(near[0] & ~7, near[1] & ~7, near[2] & ~7);
+        if (probed_ == 0 || centre != centre_) {
+            centre_ = centre;
+            probed_ = 0;
+        }
+        int leaf[3][N], offset[3][N];
+        for (int k = 0; k < 3; ++k)
+            for (int a = 0; a < N; ++a) {
+                const int v = lo[k] + a;
+                leaf[k][a] = ((v - centre_[k]) >> 3) + 1;  // 0, 1 or 2
+                offset[k][a] = v & 7;
+            }
+        for (int a = 0; a < N; ++a)
+            for (int b = 0; b < N; ++b)
+                for (int c = 0; c < N; ++c) {
+                    const int i = leaf[0][a] * 9 + leaf[1][b] * 3 + leaf[2][c];
+                    if (!(probed_ & (1u << i))) {
+                        const LeafT* l = accessor_.probeConstLeaf(lo.offsetBy(a, b, c));
+                        values_[i] = l ? l->buffer().data() : nullptr;
+                        probed_ |= 1u << i;
+                    }
+                    out[a][b][c] =
+                        values_[i]
+                            ? values_[i][(offset[0][a] << 6) | (offset[1][b] << 3) | offset[2][c]]
+                            : accessor_.getValue(lo.offsetBy(a, b, c));
+                }
+    }
+
+    /// What BoxSampler gives at index point `index`, to the bit.
+    ValueT trilinear(const openvdb::Vec3d& index)
+    {
+        const openvdb::Vec3i i = openvdb::tools::local_util::floorVec3(index);
+        const openvdb::Vec3d uvw = index - i;
+        const openvdb::Coord lo(i);
+        ValueT data[2][2][2];
+        gather(lo, lo, data);
+        return openvdb::tools::BoxSampler::trilinearInterpolation(data, uvw);
+    }
+
+private:
+    typename GridT::ConstAccessor accessor_;
+    openvdb::Coord centre_;
+    uint32_t probed_ = 0;  ///< bit i: values_[i] looked up
+    const ValueT* values_[27] = {};
+};
+
 /// The differences of a level set's trilinear values half a voxel either
 /// side of a point along each axis (what six WorldSampler lookups give, to
 /// the bit), from the 3 x 3 x 3 voxels they all fall in, read at once.
@@ -47,7 +112,7 @@ class CentralDifferences {
 public:
     CentralDifferences(const openvdb::FloatGrid& grid, double h)
         : grid_(grid),
-          accessor_(grid.getConstAccessor()),
+          voxels_(grid),
           sampler_(grid),
           h_(h),
           axisAligned_(scalesAndMovesOnly(grid.transform()))
@@ -77,11 +142,12 @@ public:
             at[2 * k] = grid_.transform().worldToIndex(p + e);
             at[2 * k + 1] = grid_.transform().worldToIndex(p - e);
         }
-        openvdb::Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-        for (const openvdb::Vec3d& q : at) {
-            const openvdb::Coord c(openvdb::tools::local_util::floorVec3(q));
-            lo.minComponent(c);
-            hi.maxComponent(c);
+        openvdb::Vec3i cell[6];
+        openvdb::Vec3i lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+        for (int s = 0; s < 6; ++s) {
+            cell[s] = openvdb::tools::local_util::floorVec3(at[s]);
+            lo = minComponent(lo, cell[s]);
+            hi = maxComponent(hi, cell[s]);
         }
         if (hi[0] - lo[0] > 1 || hi[1] - lo[1] > 1 || hi[2] - lo[2] > 1) {
             // (not around one voxel: a transform with a rotation, say)
@@ -93,17 +159,17 @@ public:
             }
             return g;
         }
-        gather(lo);
+        float block[3][3][3];
+        voxels_.gather(openvdb::Coord(hi), openvdb::Coord(lo), block);
         float v[6];
         for (int s = 0; s < 6; ++s) {
-            const openvdb::Vec3i i = openvdb::tools::local_util::floorVec3(at[s]);
-            const openvdb::Vec3d uvw = at[s] - i;
-            const int x = i[0] - lo[0], y = i[1] - lo[1], z = i[2] - lo[2];
+            const openvdb::Vec3d uvw = at[s] - cell[s];
+            const int x = cell[s][0] - lo[0], y = cell[s][1] - lo[1], z = cell[s][2] - lo[2];
             float data[2][2][2];
             for (int a = 0; a < 2; ++a)
                 for (int b = 0; b < 2; ++b)
                     for (int c = 0; c < 2; ++c)
-                        data[a][b][c] = block_[x + a][y + b][z + c];
+                        data[a][b][c] = block[x + a][y + b][z + c];
             v[s] = openvdb::tools::BoxSampler::trilinearInterpolation(data, uvw);
         }
         return openvdb::Vec3d(double(v[0]) - double(v[1]), double(v[2]) - double(v[3]),
@@ -111,41 +177,12 @@ public:
     }
 
 private:
-    /// The 3 x 3 x 3 values from `lo`, from the buffers of the (up to eight)
-    /// leaves they lie in, found once; through the accessor where a leaf is
-    /// missing (a tile, the background).
-    void gather(const openvdb::Coord& lo)
-    {
-        using LeafT = openvdb::FloatTree::LeafNodeType;
-        const float* leaf[2][2][2];
-        const int l0 = lo[0] >> 3, l1 = lo[1] >> 3, l2 = lo[2] >> 3;
-        const int s0 = ((lo[0] + 2) >> 3) - l0, s1 = ((lo[1] + 2) >> 3) - l1,
-                  s2 = ((lo[2] + 2) >> 3) - l2;
-        for (int a = 0; a <= s0; ++a)
-            for (int b = 0; b <= s1; ++b)
-                for (int c = 0; c <= s2; ++c) {
-                    const LeafT* l = accessor_.probeConstLeaf(
-                        openvdb::Coord((l0 + a) * 8, (l1 + b) * 8, (l2 + c) * 8));
-                    leaf[a][b][c] = l ? l->buffer().data() : nullptr;
-                }
-        for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-                for (int c = 0; c < 3; ++c) {
-                    const openvdb::Coord q = lo.offsetBy(a, b, c);
-                    const float* values =
-                        leaf[(q[0] >> 3) - l0][(q[1] >> 3) - l1][(q[2] >> 3) - l2];
-                    block_[a][b][c] =
-                        values ? values[LeafT::coordToOffset(q)] : accessor_.getValue(q);
-                }
-    }
-
     const openvdb::FloatGrid& grid_;
-    openvdb::FloatGrid::ConstAccessor accessor_;
+    LeafNeighbourhood<openvdb::FloatGrid> voxels_;
     const WorldSampler<openvdb::FloatGrid> sampler_;
     const double h_;
     const bool axisAligned_;
     openvdb::Vec3d half_;
-    float block_[3][3][3];
 };
 
 }  // namespace
@@ -205,8 +242,11 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
         CentralDifferences d(surface, h);
         std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
-        if (color)
+        std::unique_ptr<LeafNeighbourhood<openvdb::Vec3fGrid>> cv;
+        if (color) {
             c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
+            cv = std::make_unique<LeafNeighbourhood<openvdb::Vec3fGrid>>(*color);
+        }
         const bool aligned = d.axisAligned();
         for (size_t i = r.begin(); i < r.end(); ++i) {
             const openvdb::Vec3d p = mesh.points[i];
@@ -215,7 +255,7 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
             const double len = g.length();
             mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
             if (c)
-                mesh.colors[i] = aligned && sameIndex ? c->atIndex(index) : (*c)(p);
+                mesh.colors[i] = aligned && sameIndex ? cv->trilinear(index) : (*c)(p);
         }
     });
     tm.attributes = secondsSince(t);
