@@ -8,6 +8,7 @@
 #include "test_util.h"
 
 #include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
 #include <unistd.h>
 #include <sys/wait.h>
 #include <sys/resource.h>
@@ -75,6 +76,28 @@ TEST(System, TheRoomLeftIsTheLeastOfTheMachineUlimitAndCgroup)
     if (status == -1)
         GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
     EXPECT_EQ(status, 0);
+}
+
+TEST(System, RunningOutOfMemoryWithATreeHeldEndsInBadAllocNotTerminate)
+{
+    // A tree grown until memory runs out, then freed by the unwinding:
+    // OpenVDB's Tree::clear lists the nodes before it frees them, which
+    // threw again inside the destructor ("terminate called", SIGABRT: mesh
+    // of a long needle, sweep 23).  The reserve released by the first
+    // failure leaves that list room.
+    const int status = cambium::test::statusUnderAddressSpaceLimit(3e8, [] {
+        installMemoryReserve();
+        try {
+            openvdb::FloatTree tree(1.0f);
+            for (int i = 0;; ++i)
+                tree.touchLeaf(openvdb::Coord(i * 128, 0, 0));
+        } catch (const std::bad_alloc&) {
+            return 0;
+        }
+    });
+    if (status == -1)
+        GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
+    EXPECT_EQ(status, 0) << "128: a signal (terminate)";
 }
 
 TEST(System, WorkThatWouldNotFitIsRefusedWithItsNumbers)

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/process.h"
+#include "core/system.h"
 #include "core/versions.h"
 
 #include <CLI/CLI.hpp>
@@ -43,6 +44,7 @@ int main(int argc, char** argv)
     // Exit status (docs/errors.md): 0 success; 2 a bad request, named before
     // any work (a farm must not retry); 1 a failure during the work.
     cambium::installCleanupOnSignals();
+    cambium::installMemoryReserve();
     cambium::endWithParent();
     std::string names;
     bool known = false;

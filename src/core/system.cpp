@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -15,8 +16,10 @@
 #include <ctime>
 #include <fstream>
 #include <iterator>
+#include <new>
 #include <sstream>
 #include <thread>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -79,6 +82,31 @@ MemoryLimits memoryLimits()
 double availableMemoryBytes()
 {
     return memoryLimits().room();
+}
+
+namespace {
+
+constexpr size_t kMemoryReserveBytes = size_t(64) << 20;
+std::atomic<void*> memoryReserve{nullptr};
+
+void releaseReserveAndFail()
+{
+    if (void* r = memoryReserve.exchange(nullptr))
+        ::munmap(r, kMemoryReserveBytes);
+    throw std::bad_alloc();
+}
+
+}  // namespace
+
+void installMemoryReserve()
+{
+    // (address space only: its pages are never touched, so they cost no memory)
+    void* r = ::mmap(nullptr, kMemoryReserveBytes, PROT_READ | PROT_WRITE,
+                     MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE, -1, 0);
+    if (r == MAP_FAILED)
+        return;
+    memoryReserve.store(r);
+    std::set_new_handler(releaseReserveAndFail);
 }
 
 double peakMemoryBytes()

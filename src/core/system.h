@@ -32,6 +32,13 @@ void checkMemoryFits(double bytes, const std::string& what, const std::string& r
 /// The same against `have` bytes, the room measured before the work began
 /// (for a total counted as it grows: the room now excludes what it holds).
 void checkMemoryFits(double bytes, double have, const std::string& what, const std::string& remedy);
+/// Keeps 64 MB of address space in reserve and makes the first allocation
+/// that fails release it as it throws std::bad_alloc: the unwinding that
+/// follows then has room for what destructors allocate (OpenVDB's
+/// Tree::clear lists a tree's nodes before it frees them; without room it
+/// throws from a destructor and the process ends with "terminate called").
+/// Called once, first thing in main.
+void installMemoryReserve();
 /// Peak resident memory of this process so far.
 double peakMemoryBytes();
 /// Seconds since this process started (the kernel's start time, to its
