@@ -180,6 +180,42 @@ TEST(Mesh, NormalsAndColoursAreTheSamplersOwnUnderAnyTransform)
     }
 }
 
+TEST(Mesh, ASparseLevelSetsMeshingIsRefusedWhereItWouldNotFit)
+{
+    // 8,000 leaves, each alone in its internal node of 128^3 voxels (32 KB),
+    // a plane through each: 16 MB of leaves, 270 MB of nodes, and
+    // volumeToMesh builds trees of the same nodes three times more.  Under
+    // an address-space limit of 600 MB above what the test holds it ran out
+    // of memory inside volumeToMesh; now it is refused before, by name.
+    auto grid = openvdb::FloatGrid::create(0.3f);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    auto acc = grid->getAccessor();
+    for (int i = 0; i < 20; ++i)
+        for (int j = 0; j < 20; ++j)
+            for (int k = 0; k < 20; ++k) {
+                const openvdb::Coord o(i * 128, j * 128, k * 128);
+                auto* leaf = acc.touchLeaf(o);
+                for (auto it = leaf->beginValueAll(); it; ++it) {
+                    it.setValue(0.1f * (float(it.getCoord().z() - o.z()) - 3.5f));
+                    it.setValueOn();
+                }
+            }
+    EXPECT_GT(meshingBytes(*grid, false), 0.9e9);
+    expectRefusedUnderAddressSpaceLimit(
+        6e8,
+        [&] {
+            checkMeshingFits(*grid, false, "planes.vdb");
+            meshLevelSet(*grid);
+        },
+        [](const std::string& what) {
+            return what.rfind(
+                       "meshing planes.vdb (8,000 leaves, 4,096,000 active voxels) needs "
+                       "about ",
+                       0) == 0;
+        });
+}
+
 TEST(Mesh, TheColourShellGivesTheBandsColoursAtEveryVertex)
 {
     // A mesh's colours looked up in Cd kept on the shell (the default) are

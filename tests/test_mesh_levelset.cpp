@@ -216,6 +216,30 @@ TEST(MeshLevelSet, InwardFacesBakeTheSameAndBadPointsAreRefused)
     EXPECT_NO_THROW(checkMeshBake(bad, opt, "near"));
 }
 
+TEST(MeshLevelSet, ANeedlesInternalNodesAreCountedBeforeItsLeavesAreMade)
+{
+    // A sliver 1000 long and 0.001 across at voxel 0.002: 250,008 leaves in
+    // a column of single leaves, each 128 voxels of it one internal node of
+    // 32 KB (and 64 KB for the colour's): 4.7 GB measured, 19 KB a leaf.
+    // Counted at 10 KB a leaf (2.5 GB) it fitted in 3 GB and ran out of
+    // memory as its grids were made; now refused before.
+    TriangleMesh m;
+    m.points = {openvdb::Vec3s(0.0f), openvdb::Vec3s(1000.0f, 0.0f, 0.0f),
+                openvdb::Vec3s(0.0f, 0.001f, 0.0f), openvdb::Vec3s(0.0f, 0.0f, 0.001f)};
+    const uint32_t f[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+    for (const auto& t : f)
+        m.addPolygon(t, 3);
+    MeshBakeOptions opt;
+    opt.voxelSize = 0.002;
+    cambium::test::expectRefusedUnderAddressSpaceLimit(
+        3e9, [&] { bakeMeshLevelSet(m, opt, "sliver.obj"); },
+        [](const std::string& what) {
+            return what.find(
+                       "sliver.obj: the band at voxel size 0.002 has at least 250008 "
+                       "leaves, which need at least 5.") != std::string::npos;
+        });
+}
+
 TEST(MeshLevelSet, ABandOfMoreLeavesThanFitIsRefusedWhileBinning)
 {
     // A thin slanted tetrahedron 10^5 voxels across: its band crosses some

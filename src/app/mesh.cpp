@@ -56,6 +56,8 @@ int runMeshCommand(const MeshRequest& req)
                 throw InputError(
                     fmt::format("{}: the level set has no active voxels: nothing to mesh", in));
             const double read = secondsSince(start);
+            checkMeshingFits(*f.surface, bool(f.color),
+                             fmt::format("{}'s grid '{}'", in, req.grid));
             MeshTimings tm;
             const TriangleMesh mesh = meshLevelSet(*f.surface, f.color.get(), req.adaptivity, &tm);
             const auto written = Clock::now();

@@ -138,6 +138,11 @@ int runRenderCommand(RenderRequest req)
                     img = renderBackground(cam, req.width, req.height, req.spp);
                     how = "an empty frame: the background";
                 } else if (req.viaMesh) {
+                    // (and Embree's triangles and hierarchy, about 96 bytes a
+                    // triangle, two a point)
+                    checkMeshingFits(*f.surface, bool(f.color),
+                                     fmt::format("{}'s grid '{}'", in, f.surface->getName()),
+                                     192.0);
                     img = renderMeshEmbree(meshLevelSet(*f.surface, f.color.get()), cam, req.width,
                                            req.height, req.spp);
                     how = "Embree on the volumeToMesh triangles, meshing included";

@@ -636,6 +636,27 @@ BandLeaves makeLeaves(const Triangles& T, const LeafBins& bins, const Nearest& n
     return band;
 }
 
+/// The bytes of the internal nodes of the surface's and colour's trees
+/// whose leaves are the bins'.
+double internalNodeBytes(const LeafBins& bins)
+{
+    using FloatLower = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
+    using FloatUpper = openvdb::FloatTree::RootNodeType::ChildNodeType;
+    using ColourLower = openvdb::Vec3STree::RootNodeType::ChildNodeType::ChildNodeType;
+    using ColourUpper = openvdb::Vec3STree::RootNodeType::ChildNodeType;
+    auto count = [&](int log2) {
+        std::vector<uint64_t> keys(bins.size());
+        for (size_t l = 0; l < bins.size(); ++l) {
+            const openvdb::Coord& o = bins.origin(l);
+            keys[l] = nodeKey(o.x(), o.y(), o.z(), log2);
+        }
+        tbb::parallel_sort(keys.begin(), keys.end());
+        return double(std::unique(keys.begin(), keys.end()) - keys.begin());
+    };
+    return count(FloatLower::TOTAL) * double(sizeof(FloatLower) + sizeof(ColourLower)) +
+           count(FloatUpper::TOTAL) * double(sizeof(FloatUpper) + sizeof(ColourUpper));
+}
+
 }  // namespace
 
 double meshExtent(const TriangleMesh& mesh)
@@ -739,11 +760,17 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     // with Cd): refused, while binning, as soon as the leaves cannot fit.
     const double perLeaf = kLeafVoxels * (4.0 + 4.0 + 12.0), have = availableMemoryBytes();
     const LeafBins bins(T.tris, W, size_t(std::min(have / perLeaf, 1e15)));
-    if (double(bins.size()) * perLeaf > have)
+    // (and the grids' internal nodes: 32 KB and more each, they cost more
+    // than the leaves of a long thin band, half again for what assembly
+    // holds beside them; measured on a needle 10^6 voxels long, 19 KB a leaf)
+    const double need = bins.size() > size_t(have / perLeaf)
+                            ? double(bins.size()) * perLeaf
+                            : double(bins.size()) * perLeaf + 1.5 * internalNodeBytes(bins);
+    if (need > have)
         throw InputError(fmt::format(
             "{}: the band at voxel size {:g} has at least {} leaves, which need at least {} of "
             "memory, and this machine has {} available: use a larger voxel size",
-            what, h, bins.size(), formatBytes(double(bins.size()) * perLeaf), formatBytes(have)));
+            what, h, bins.size(), formatBytes(need), formatBytes(have)));
     progress("binning", 1.0);
 
     Nearest nearest(bins.size() * kLeafVoxels);

@@ -3,6 +3,7 @@
 
 #include "bake/bake.h"
 #include "bake/mesh_levelset.h"
+#include "use/mesh.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "field/program.h"
@@ -130,6 +131,7 @@ BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, cons
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> triangles;
     std::vector<openvdb::Vec4I> quads;
+    checkMeshingFits(*grid, false, what);
     openvdb::tools::volumeToMesh(*grid, points, triangles, quads, 0.0, 0.0);
     BaseShape s;
     for (const auto& p : points)

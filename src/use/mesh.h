@@ -26,6 +26,19 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface,
                           const openvdb::Vec3fGrid* color = nullptr, double adaptivity = 0.0,
                           MeshTimings* timings = nullptr);
 
+/// The memory meshLevelSet needs beyond its grids (bytes): volumeToMesh's
+/// trees of the level set's topology (whose internal nodes, 32 KB each, cost
+/// more than the leaves of a long thin band) and the mesh's arrays, with
+/// `perPoint` bytes more for each point (a ray tracer's structures), from
+/// the grid's node counts and active voxels.  Set high: what was measured
+/// (on trees, a bush and needles 2 voxels thick) is 1.2-1.5x below it.
+double meshingBytes(const openvdb::FloatGrid& surface, bool colour, double perPoint = 0.0);
+
+/// InputError, before the work, where meshingBytes does not fit in the
+/// memory available; `what` names the file and grid.
+void checkMeshingFits(const openvdb::FloatGrid& surface, bool colour, const std::string& what,
+                      double perPoint = 0.0);
+
 /// Surface area and enclosed volume (divergence theorem; positive when the
 /// triangles face outwards) of a mesh.
 double meshArea(const TriangleMesh& mesh);
