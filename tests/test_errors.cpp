@@ -1188,6 +1188,43 @@ TEST(BadInput, ARowOfSamplesLargerThanMemoryIsRefusedBeforeTheRender)
     }
 }
 
+TEST(BadInput, LeavesWhoseValuesWouldNotFitAreRefusedBeforeTheyAreDecoded)
+{
+    // 64,000 leaves (125 MB of values, a 16 MB file: a plane through each)
+    // meshed under 330 MB of address space: the topology fits, the values do
+    // not.  Decoding them ran out of memory, where Blosc's own allocation
+    // failed and it carried on and crashed in LZ4 (SIGSEGV here at 300-360
+    // MB; sweep 24: a needle's 437,508 leaves, one run in three); now the
+    // read is refused once the topology is known, nothing written.
+    if (test::addressSanitized())
+        GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+    LevelSetGrids g;
+    g.surface = openvdb::FloatGrid::create(0.3f);
+    g.surface->setName(kSurfaceGrid);
+    g.surface->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+    g.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    auto acc = g.surface->getAccessor();
+    for (int i = 0; i < 40; ++i)
+        for (int j = 0; j < 40; ++j)
+            for (int k = 0; k < 40; ++k) {
+                auto* leaf = acc.touchLeaf(openvdb::Coord(i * 8, j * 8, k * 8));
+                for (auto it = leaf->beginValueAll(); it; ++it) {
+                    it.setValue(0.1f * (float(it.getCoord().z() & 7) - 3.5f));
+                    it.setValueOn();
+                }
+            }
+    const auto dir = test::freshDir("leaves_that_do_not_fit");
+    const std::string in = (dir / "planes.vdb").string(), out = (dir / "planes.ply").string();
+    writeVdb(g, in, VdbFileInfo());
+    g = LevelSetGrids();
+    const Result r = run("mesh " + in + " -o " + out, -1, 330LL << 20);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find(in + ": reading grid 'surface' (64,000 leaves) needs about "),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(BadInput, ABandLargerThanItsEstimateIsRefusedOnceItsTopologyIsKnown)
 {
     // Two coincident spheres of radius 0.01 and support 30 sum to a surface

@@ -323,6 +323,20 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
     }
 }
 
+/// InputError where the values of `leaves` leaves of `valueBytes`-byte
+/// values would not fit, with 64 MB beside them for the decompressors: Blosc
+/// carries on with a null buffer where its own allocation fails (a needle's
+/// 437,508 leaves read under an address-space limit crashed in LZ4 about
+/// one time in three, sweep 24), so reading must not reach the limit.
+void checkDecodeFits(const std::string& path, const std::string& grid, double leaves,
+                     double valueBytes)
+{
+    checkMemoryFits(
+        leaves * 512.0 * valueBytes + 64e6,
+        fmt::format("{}: reading grid '{}' ({} leaves)", path, grid, formatCount(leaves)),
+        "read it on a machine with more memory");
+}
+
 /// The first voxel, in the tree's order, of a float or colour grid read
 /// whole whose value is not finite, named (as LeafDecoder names it); then
 /// any such tile, and the background.
@@ -391,6 +405,8 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     // mesh on OpenVDB's assertion `index < mMask.size()`); cambium's own
     // files carry a checksum, verified before this.
     if (openVdbDecodes) {
+        if (grid->leaves >= 0 && tree.valueBytes > 0)
+            checkDecodeFits(path, name, double(grid->leaves), double(tree.valueBytes));
         openvdb::GridBase::Ptr whole = readWithOpenVdb(path, name, false);
         checkFiniteLeaves(*whole, path);
         return whole;
@@ -403,6 +419,8 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     try {
         const bool ours =
             g->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& typed) {
+                using ValueT = typename std::decay_t<decltype(typed)>::ValueType;
+                checkDecodeFits(path, name, double(typed.tree().leafCount()), sizeof(ValueT));
                 LeafDecoder<std::decay_t<decltype(typed)>>(path, summary, *grid, typed);
             });
         if (ours)
@@ -750,12 +768,14 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::F
             if (!colour)
                 return colour;
             checkColourTransform(*colour, surface, path);
-            if (leaves)
+            if (leaves) {
+                checkDecodeFits(path, kColorGrid, double(leaves->size()), sizeof(openvdb::Vec3f));
                 decodeLeaves(path, summary, *colour,
                              [&](const openvdb::Coord& origin) {
                                  return std::binary_search(leaves->begin(), leaves->end(), origin);
                              },
                              {});
+            }
             return colour;
         }
     return nullptr;
