@@ -171,6 +171,11 @@ TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
          "seq.0002.vdb: is a FIFO"},
         {"mesh " + vdb + " -o " + (dir / "d.ply").string(), "d.ply: is a directory"},
         {"bake " + kScene + " -o " + dir.string(), ": is a directory"},
+        // (an input: the sequence's camera, framed on its last frame, opened
+        // that frame before its check and waited for ever, sweep 24)
+        {"render " + (dir / "seq.####.vdb").string() + " --frames 2-2 --width 8 --height 8 -o " +
+             (dir / "r.####.png").string(),
+         "seq.0002.vdb: is a device, FIFO or socket"},
         // (every option's empty value refused as such, before its own check)
         {"bake " + kScene + " -o ''", "--output: an empty value"},
         {"mesh " + vdb + " -o ''", "--output: an empty value"},

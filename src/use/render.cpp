@@ -777,6 +777,8 @@ Box worldBox(const openvdb::GridBase& grid, const openvdb::CoordBBox& b)
 
 Box storedActiveBounds(const std::string& path, const std::string& grid)
 {
+    // (a FIFO named as one before OpenVDB opens it: the open waited for ever)
+    checkInputFile(path, ".vdb file");
     try {
         openvdb::io::File file(path);
         file.open(false);
