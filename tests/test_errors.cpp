@@ -1230,6 +1230,46 @@ TEST(BadInput, LeavesWhoseValuesWouldNotFitAreRefusedBeforeTheyAreDecoded)
     EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+TEST(BadInput, AShapesBaseOfSparseLeavesIsRefusedBeforeItIsResampled)
+{
+    // 4,096 leaves, each alone in its internal node of 128^3 voxels (32 KB):
+    // OpenVDB resamples a level set by meshing it, whose trees of those
+    // nodes ran out of memory and aborted (sweep 24: 40,000 such leaves,
+    // "terminate called" under 3 GB); refused, under 600 MB of address space, by its meshing
+    // estimate before the resampling.
+    if (test::addressSanitized())
+        GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit";
+    LevelSetGrids g;
+    g.surface = openvdb::FloatGrid::create(0.03f);
+    g.surface->setName(kSurfaceGrid);
+    g.surface->setTransform(openvdb::math::Transform::createLinearTransform(0.01));
+    g.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    auto acc = g.surface->getAccessor();
+    for (int i = 0; i < 16; ++i)
+        for (int j = 0; j < 16; ++j)
+            for (int k = 0; k < 16; ++k) {
+                auto* leaf = acc.touchLeaf(openvdb::Coord(i * 128, j * 128, k * 128));
+                for (auto it = leaf->beginValueAll(); it; ++it) {
+                    it.setValue(0.01f * (float(it.getCoord().z() & 7) - 3.5f));
+                    it.setValueOn();
+                }
+            }
+    const auto dir = test::freshDir("sparse_shape_base");
+    writeVdb(g, (dir / "sparse.vdb").string(), VdbFileInfo());
+    g = LevelSetGrids();
+    writeText(dir / "shape.json",
+              R"({"base": {"type": "vdb", "file": "sparse.vdb"}, "levels": 1})");
+    const std::string out = (dir / "out.vdb").string();
+    const Result r = run("shape " + (dir / "shape.json").string() + " -o " + out, -1, 600LL << 20);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("sparse.vdb (its surface, to resample it to voxels of"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("(4,096 leaves, 2,097,152 active voxels) needs about"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(BadInput, ABandLargerThanItsEstimateIsRefusedOnceItsTopologyIsKnown)
 {
     // Two coincident spheres of radius 0.01 and support 30 sum to a surface

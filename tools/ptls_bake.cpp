@@ -3,6 +3,7 @@
 // along every internode, ParticlesToLevelSet, io::File::write.
 //   cambium-ptls SKELETON -o OUT.vdb --voxel-size H [--half-width W]
 #include "bench/ptls_peer.h"
+#include "core/system.h"
 #include "model/skeleton.h"
 
 #include <CLI/CLI.hpp>
@@ -24,6 +25,8 @@ int main(int argc, char** argv)
     app.add_option("--half-width", halfWidth, "Narrow-band half-width in voxels")
         ->check(CLI::PositiveNumber);
     CLI11_PARSE(app, argc, argv);
+    // (out of memory with grids held ends in an error, not "terminate called")
+    cambium::installMemoryReserve();
     try {
         openvdb::initialize();
         const auto spheres = cambium::internodeSpheres(cambium::loadSkeleton(input));

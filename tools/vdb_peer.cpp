@@ -4,6 +4,7 @@
 //   cambium-vdbpeer read FILE [GRID]   io::File, every grid (or GRID) read whole
 //   cambium-vdbpeer mesh FILE [GRID]   io::File (delayed loading, its default) and volumeToMesh
 //   cambium-vdbpeer cambium FILE       cambium's reader (readLevelSet): surface and Cd
+#include "core/system.h"
 #include "io/vdb.h"
 
 #include <openvdb/io/File.h>
@@ -21,6 +22,8 @@ int main(int argc, char** argv)
         return 64;
     }
     const std::string mode = argv[1], path = argv[2], grid = argc > 3 ? argv[3] : "";
+    // (out of memory with grids held ends in an error, not "terminate called")
+    cambium::installMemoryReserve();
     try {
         openvdb::initialize();
         size_t voxels = 0;

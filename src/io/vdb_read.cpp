@@ -271,6 +271,8 @@ private:
             try {
                 openvdb::io::readCompressedValues(is, values.data(), LeafT::SIZE,
                                                   leaf.getValueMask(), owner.stored_.half);
+            } catch (const std::bad_alloc&) {
+                throw;  // (memory ran out: not damage, sweep 24)
             } catch (const std::exception& e) {
                 // (a compressed block whose sizes fit and whose bytes do not
                 // unpack: blosc or zlib says so)

@@ -118,8 +118,18 @@ openvdb::FloatGrid::Ptr bakeModel(const FieldProgram& program, double h, Device 
 
 }  // namespace
 
-BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, const std::string& what)
+BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarse, const std::string& what,
+                          const std::function<void(const char*, double)>& progress)
 {
+    // OpenVDB resamples a level set by meshing it at its own voxels and
+    // rebuilding the mesh at the new ones: as costly as meshing the fine
+    // surface (a file of 40,000 leaves, each alone in its internal node,
+    // ran out of memory inside it and aborted, sweep 24).
+    checkMeshingFits(
+        *fine, false,
+        fmt::format("{} (its surface, to resample it to voxels of {:g})", what, coarse));
+    if (progress)
+        progress("resampling", 0.0);
     // The coarse surface resampled with OpenVDB's usual band of 3 voxels:
     // its mesh needs the zero crossing only (resampled with the fine band's
     // width in voxels, a level set whose background was 1000 made a band
@@ -281,7 +291,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
             fmt::format("{}: the base voxel_size {:g} must be larger than the fine "
                         "surface's {:g}",
                         what, coarse, fineVoxel));
-    return captureLevelSet(fine, coarse, what);
+    return captureLevelSet(fine, coarse, what, progress);
 }
 
 }  // namespace cambium

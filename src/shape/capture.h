@@ -10,6 +10,9 @@
 #include "shape/base_shapes.h"
 #include "shape/shape.h"
 
+#include <functional>
+#include <string>
+
 namespace cambium {
 
 /// The base of a level set: `fine` meshed at `coarseVoxelSize` (resampled),
@@ -18,8 +21,10 @@ namespace cambium {
 /// zero crossing of `fine`: along the frame's normal within one edge length
 /// (Newton steps on the trilinear distance), else the closest point
 /// (p - phi grad phi, repeated); a point outside the band stays.
+/// `progress` hears of the resampling.
 BaseShape captureLevelSet(openvdb::FloatGrid::ConstPtr fine, double coarseVoxelSize,
-                          const std::string& what);
+                          const std::string& what,
+                          const std::function<void(const char*, double)>& progress = {});
 
 /// The projection onto the zero crossing of `fine` that captureLevelSet uses.
 MultiresSurface::Target projectionOnto(openvdb::FloatGrid::ConstPtr fine);
