@@ -1262,8 +1262,7 @@ TEST(BadInput, AShapesBaseOfSparseLeavesIsRefusedBeforeItIsResampled)
     const std::string out = (dir / "out.vdb").string();
     const Result r = run("shape " + (dir / "shape.json").string() + " -o " + out, -1, 600LL << 20);
     EXPECT_EQ(r.status, 2) << r.err;
-    EXPECT_NE(r.err.find("sparse.vdb (its surface, to resample it to voxels of"),
-              std::string::npos)
+    EXPECT_NE(r.err.find("sparse.vdb (its surface, to resample it to voxels of"), std::string::npos)
         << r.err;
     EXPECT_NE(r.err.find("(4,096 leaves, 2,097,152 active voxels) needs about"), std::string::npos)
         << r.err;

@@ -1,6 +1,7 @@
 // Closed meshes into level sets: exact distances (a box against its closed
 // form), signs, OpenVDB's checks and meshToLevelSet as the oracle, volumes.
 #include "bake/mesh_levelset.h"
+#include "bake/stages.h"
 #include "shape/base_shapes.h"
 #include "subdiv/multires.h"
 #include "test_util.h"
@@ -214,6 +215,24 @@ TEST(MeshLevelSet, InwardFacesBakeTheSameAndBadPointsAreRefused)
                            "a point just past the float-precision bound");
     bad.points[3].y() = float(0.05 * (double(1 << 20) - 3.0 - 16.0) - 0.01);
     EXPECT_NO_THROW(checkMeshBake(bad, opt, "near"));
+}
+
+TEST(MeshLevelSet, InternalNodesAreCountedOncePerNodeTheLeavesReach)
+{
+    // A column of 4,096 leaves along z from the origin: 256 nodes of 128^3
+    // voxels and 8 of 4096^3; a second column in the same nodes adds none.
+    using Lower = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
+    using Upper = openvdb::FloatTree::RootNodeType::ChildNodeType;
+    using ColourLower = openvdb::Vec3STree::RootNodeType::ChildNodeType::ChildNodeType;
+    using ColourUpper = openvdb::Vec3STree::RootNodeType::ChildNodeType;
+    auto column = [](size_t l) { return openvdb::Coord(0, 0, int(l) * 8); };
+    EXPECT_EQ(internalNodeBytes(4096, false, column), 256.0 * sizeof(Lower) + 8.0 * sizeof(Upper));
+    EXPECT_EQ(internalNodeBytes(4096, true, column),
+              256.0 * (sizeof(Lower) + sizeof(ColourLower)) +
+                  8.0 * (sizeof(Upper) + sizeof(ColourUpper)));
+    auto two = [](size_t l) { return openvdb::Coord(8 * int(l % 2), 0, int(l / 2) * 8); };
+    EXPECT_EQ(internalNodeBytes(8192, false, two), 256.0 * sizeof(Lower) + 8.0 * sizeof(Upper));
+    EXPECT_EQ(internalNodeBytes(0, true, column), 0.0);
 }
 
 TEST(MeshLevelSet, ANeedlesInternalNodesAreCountedBeforeItsLeavesAreMade)

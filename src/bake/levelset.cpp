@@ -290,7 +290,15 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
     // the band itself, before any is sampled (two coincident spheres of
     // radius 0.01 and support 30 sum to a surface 14 out: estimated at 3,770
     // voxels, they made 463 M).
-    checkMemoryFits(estimateBakeBytesFromLeaves(n),
+    // (and the surface's internal nodes: along a needle they cost more
+    // than its leaves; three needles 1000 long at 0.001 were estimated at
+    // 3.05 GB and ran out of memory under 3.6 GB after 41 s, sweep 23)
+    checkMemoryFits(estimateBakeBytesFromLeaves(n) +
+                        internalNodeBytes(n, false,
+                                          [&](size_t l) {
+                                              const int32_t* o = topo.leaves[l].origin;
+                                              return openvdb::Coord(o[0], o[1], o[2]);
+                                          }),
                     fmt::format("{}: sampling the band's {} leaves (its topology search found "
                                 "them)",
                                 opt.source, formatCount(double(n))),

@@ -1,7 +1,12 @@
 // cambium — how much memory a bake will need, before it starts.
 #include "bake/options.h"
+#include "bake/stages.h"
 
 #include "cb_program.h"
+
+#include <openvdb/openvdb.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -130,6 +135,28 @@ double estimateBakeBytes(const FieldProgram& program, double h, double halfWidth
                                                     : 41.0) +
                             250.0 * kSampledLeavesPerBandVoxel + 0.5 * 3.0 * 3.0;
     return estimateBandVoxels(program, h, halfWidth) * perVoxel + 150e6;
+}
+
+double internalNodeBytes(size_t leaves, bool colour,
+                         const std::function<openvdb::Coord(size_t)>& origin)
+{
+    using FloatLower = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
+    using FloatUpper = openvdb::FloatTree::RootNodeType::ChildNodeType;
+    using ColourLower = openvdb::Vec3STree::RootNodeType::ChildNodeType::ChildNodeType;
+    using ColourUpper = openvdb::Vec3STree::RootNodeType::ChildNodeType;
+    std::vector<uint64_t> keys(leaves);
+    auto count = [&](int log2) {
+        tbb::parallel_for(size_t(0), leaves, [&](size_t l) {
+            const openvdb::Coord o = origin(l);
+            keys[l] = nodeKey(o.x(), o.y(), o.z(), log2);
+        });
+        tbb::parallel_sort(keys.begin(), keys.end());
+        return double(std::unique(keys.begin(), keys.end()) - keys.begin());
+    };
+    return count(FloatLower::TOTAL) *
+               double(sizeof(FloatLower) + (colour ? sizeof(ColourLower) : 0)) +
+           count(FloatUpper::TOTAL) *
+               double(sizeof(FloatUpper) + (colour ? sizeof(ColourUpper) : 0));
 }
 
 double estimateBakeBytesFromLeaves(size_t sampledLeaves)

@@ -636,27 +636,6 @@ BandLeaves makeLeaves(const Triangles& T, const LeafBins& bins, const Nearest& n
     return band;
 }
 
-/// The bytes of the internal nodes of the surface's and colour's trees
-/// whose leaves are the bins'.
-double internalNodeBytes(const LeafBins& bins)
-{
-    using FloatLower = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
-    using FloatUpper = openvdb::FloatTree::RootNodeType::ChildNodeType;
-    using ColourLower = openvdb::Vec3STree::RootNodeType::ChildNodeType::ChildNodeType;
-    using ColourUpper = openvdb::Vec3STree::RootNodeType::ChildNodeType;
-    auto count = [&](int log2) {
-        std::vector<uint64_t> keys(bins.size());
-        for (size_t l = 0; l < bins.size(); ++l) {
-            const openvdb::Coord& o = bins.origin(l);
-            keys[l] = nodeKey(o.x(), o.y(), o.z(), log2);
-        }
-        tbb::parallel_sort(keys.begin(), keys.end());
-        return double(std::unique(keys.begin(), keys.end()) - keys.begin());
-    };
-    return count(FloatLower::TOTAL) * double(sizeof(FloatLower) + sizeof(ColourLower)) +
-           count(FloatUpper::TOTAL) * double(sizeof(FloatUpper) + sizeof(ColourUpper));
-}
-
 }  // namespace
 
 double meshExtent(const TriangleMesh& mesh)
@@ -765,7 +744,9 @@ BakedGrids bakeMeshLevelSet(const TriangleMesh& mesh, const MeshBakeOptions& opt
     // holds beside them; measured on a needle 10^6 voxels long, 19 KB a leaf)
     const double need = bins.size() > size_t(have / perLeaf)
                             ? double(bins.size()) * perLeaf
-                            : double(bins.size()) * perLeaf + 1.5 * internalNodeBytes(bins);
+                            : double(bins.size()) * perLeaf +
+                                  1.5 * internalNodeBytes(bins.size(), true,
+                                                          [&](size_t l) { return bins.origin(l); });
     if (need > have)
         throw InputError(fmt::format(
             "{}: the band at voxel size {:g} has at least {} leaves, which need at least {} of "

@@ -64,6 +64,13 @@ std::vector<size_t> cubeRuns(const std::vector<LeafJob>& leaves, int shift, size
 /// starts, then leaves.size().
 std::vector<size_t> slabRuns(const std::vector<LeafJob>& leaves, int axis);
 
+/// Bytes of the internal nodes of a bake's surface tree (and colour tree,
+/// with `colour`) over `leaves` leaves whose origins `origin` gives: 32 KB
+/// (colour 64 KB) a node of 128^3 voxels holding any, 256 KB (512 KB) one of
+/// 4096^3.  Along a needle they cost more than its leaves: one a 16 leaves.
+double internalNodeBytes(size_t leaves, bool colour,
+                         const std::function<openvdb::Coord(size_t)>& origin);
+
 using Progress = std::function<void(const char* stage, double fraction)>;
 
 /// A leaf's inside bits (F > T): one 64-bit plane (bit x + 8 y) per z.
