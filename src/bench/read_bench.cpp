@@ -5,6 +5,7 @@
 #include "core/files.h"
 #include "core/system.h"
 #include "io/vdb.h"
+#include "use/mesh.h"
 
 #include <fmt/format.h>
 
@@ -31,7 +32,21 @@ void runReadBench(const ReadBenchRequest& req, const std::function<void()>& chec
         VdbSummary summary = checkLevelSetFile(f);
         for (const VdbSummary::Grid& g : summary.grids)
             checkTreeStructure(f, g, true);
-        readLevelSet(f, kSurfaceGrid, ColourRead::None, &summary);
+        // The peers read it whole and mesh it, as `cambium mesh` does: the
+        // surface's memory and its meshing's, and the other grids' values,
+        // checked once the surface read here is freed (the plain OpenVDB
+        // peer ran out of memory where cambium's own read fitted, and Blosc
+        // crashed it, sweep 25).
+        double need = 0.0;
+        {
+            const LevelSetGrids g = readLevelSet(f, kSurfaceGrid, ColourRead::None, &summary);
+            need = double(g.surface->memUsage()) + meshingBytes(*g.surface, true);
+        }
+        for (const VdbSummary::Grid& g : summary.grids)
+            if (g.name != kSurfaceGrid && g.leaves > 0)
+                need += double(g.leaves) * 512.0 * double(g.valueBytes);
+        checkMemoryFits(need, fmt::format("{}: reading it whole and meshing it", f),
+                        "benchmark it on a machine with more memory");
         files.emplace_back(f, f);
     }
     checked();
