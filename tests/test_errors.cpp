@@ -155,6 +155,27 @@ TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
     std::system(("umount " + dir.string()).c_str());
 }
 
+TEST(NothingIsLost, AFrameLinkedToAnotherFrameOfItsSequenceIsRefused)
+{
+    // A frame's output that is a link to another frame of the pattern (in
+    // the range or not) is written through, and would replace that frame: a
+    // farm's retry of frame 2, linked by hand to frame 3, overwrote frame 3
+    // with exit 0 (sweep 25).
+    const fs::path dir = freshDir("cambium_errors_linked_frame");
+    const std::string pattern = (dir / "p.####.vdb").string();
+    ASSERT_EQ(run("bake " + kPopulus + " --frames 3-3 --voxel-size 0.1 -o " + pattern).status, 0);
+    fs::create_symlink("p.0003.vdb", dir / "p.0002.vdb");
+    const std::string before = fileContents(dir / "p.0003.vdb");
+    const Result r = run("bake " + kPopulus + " --frames 2-2 --voxel-size 0.1 -o " + pattern);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("p.0002.vdb: a link to "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("p.0003.vdb, frame 3 of the same sequence: frame 2 written through it "
+                         "would replace that frame"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(fileContents(dir / "p.0003.vdb"), before);
+}
+
 TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
 {
     const fs::path dir = freshDir("cambium_errors_kinds");
