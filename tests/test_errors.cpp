@@ -891,8 +891,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/grow.json --frames 1-2 --voxel-size 0.3 -o IN/grown.####.vdb",
          "grown.0002.vdb: is the input IN/grow.json"},
         {"bake " + P + " --frames 1-2 --voxel-size 0.3 -o OUT/twin.####.vdb",
-         "twin.0002.vdb: is the same file as OUT/twin.0001.vdb (two outputs would write one "
-         "file)"},
+         "twin.0002.vdb: a link to OUT/twin.0001.vdb, frame 1 of the same sequence: frame 2 "
+         "written through it would replace that frame"},
         {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
         {"bake IN/near1.json -o OUT/out.vdb", "threshold: must be at most 0.99 (got 0.999999)"},
         // (the float kernels saw no surface: "thinner than a voxel")
