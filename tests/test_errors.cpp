@@ -155,25 +155,37 @@ TEST(NothingIsLost, AFullFilesystemFailsTheBakeTheSequenceAndTheRender)
     std::system(("umount " + dir.string()).c_str());
 }
 
-TEST(NothingIsLost, AFrameLinkedToAnotherFrameOfItsSequenceIsRefused)
+TEST(NothingIsLost, AFrameOrTileThatIsALinkIsRefused)
 {
-    // A frame's output that is a link to another frame of the pattern (in
-    // the range or not) is written through, and would replace that frame: a
-    // farm's retry of frame 2, linked by hand to frame 3, overwrote frame 3
-    // with exit 0 (sweep 25).
+    // A part of many outputs is not written through a link: a farm's retry
+    // of frame 2, linked by hand to frame 3, overwrote frame 3 with exit 0
+    // (sweep 25); two frames linked to one file outside the pattern, a tile
+    // linked to another and mesh/render frames did the same (sweep 26).
     const fs::path dir = freshDir("cambium_errors_linked_frame");
     const std::string pattern = (dir / "p.####.vdb").string();
     ASSERT_EQ(run("bake " + kPopulus + " --frames 3-3 --voxel-size 0.1 -o " + pattern).status, 0);
+    fs::copy_file(dir / "p.0003.vdb", dir / "x.vdb");
     fs::create_symlink("p.0003.vdb", dir / "p.0002.vdb");
-    const std::string before = fileContents(dir / "p.0003.vdb");
-    const Result r = run("bake " + kPopulus + " --frames 2-2 --voxel-size 0.1 -o " + pattern);
-    EXPECT_EQ(r.status, 2) << r.err;
-    EXPECT_NE(r.err.find("p.0002.vdb: a link to "), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("p.0003.vdb, frame 3 of the same sequence: frame 2 written through it "
-                         "would replace that frame"),
-              std::string::npos)
-        << r.err;
+    fs::create_symlink("x.vdb", dir / "p.0004.vdb");
+    fs::create_symlink("x.vdb", dir / "m.0003.obj");
+    fs::create_symlink("x.vdb", dir / "tile-2.vdb");
+    const std::string before = fileContents(dir / "p.0003.vdb"), x = fileContents(dir / "x.vdb");
+    const std::pair<std::string, std::string> cases[] = {
+        {"bake " + kPopulus + " --frames 2-2 --voxel-size 0.1 -o " + pattern, "p.0002.vdb"},
+        {"bake " + kPopulus + " --frames 4-4 --voxel-size 0.1 --resume -o " + pattern,
+         "p.0004.vdb"},
+        {"mesh " + pattern + " --frames 3-3 -o " + (dir / "m.####.obj").string(), "m.0003.obj"},
+        {"bake " + kPopulus + " --voxel-size 0.1 --tile 2/3 -o " + (dir / "tile-2.vdb").string(),
+         "tile-2.vdb: a symbolic link, where a tile of a farm is written"},
+    };
+    for (const auto& [args, expected] : cases) {
+        const Result r = run(args);
+        EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+        EXPECT_NE(r.err.find(expected), std::string::npos) << args << "\n" << r.err;
+        EXPECT_NE(r.err.find("a symbolic link, where a "), std::string::npos) << r.err;
+    }
     EXPECT_EQ(fileContents(dir / "p.0003.vdb"), before);
+    EXPECT_EQ(fileContents(dir / "x.vdb"), x);
 }
 
 TEST(NothingIsLost, OutputsThatAreNotRegularFilesAreRefusedBeforeWork)
@@ -891,8 +903,8 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/grow.json --frames 1-2 --voxel-size 0.3 -o IN/grown.####.vdb",
          "grown.0002.vdb: is the input IN/grow.json"},
         {"bake " + P + " --frames 1-2 --voxel-size 0.3 -o OUT/twin.####.vdb",
-         "twin.0002.vdb: a link to OUT/twin.0001.vdb, frame 1 of the same sequence: frame 2 "
-         "written through it would replace that frame"},
+         "twin.0002.vdb: is the same file as OUT/twin.0001.vdb (two outputs would write one "
+         "file)"},
         {"shape IN/stroked.json -o IN/strokes.obj", "strokes.obj: is the input IN/strokes.json"},
         {"bake IN/near1.json -o OUT/out.vdb", "threshold: must be at most 0.99 (got 0.999999)"},
         // (the float kernels saw no surface: "thinner than a voxel")

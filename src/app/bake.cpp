@@ -178,6 +178,8 @@ int runBakeOptions(const std::shared_ptr<BakeCommandOptions>& o, bool voxelGiven
     req.device = parseDevice(o->device);
     if (!sequence)
         checkOutputPath(req.output);
+    if (req.tile.count > 0)  // (a farm's tile: sweep 26)
+        checkPartIsNoLink(req.output, "tile of a farm");
     fileFormat(req.output, {"vdb"}, "output");
     checkOutputIsNoInput(req.output, bakeInputFiles(req));
     req.model = o->model.options();

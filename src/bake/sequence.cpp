@@ -70,47 +70,6 @@ double sumOverFrames(const std::vector<size_t>& at, const std::vector<double>& v
     return sum;
 }
 
-/// InputError where frame `frame`'s output `path` is a symbolic link to
-/// another frame of the same pattern, in range or not: a frame is written
-/// through its link, and would replace that frame (a farm's retry of one
-/// frame, linked to the next by hand, wrote over it with exit 0, and the
-/// retries then took turns destroying each other's frame, sweep 25).
-void checkNotLinkedToAnotherFrame(const std::string& pattern, long long frame,
-                                  const std::string& path)
-{
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (!fs::is_symlink(path, ec))
-        return;
-    const fs::path target = fs::weakly_canonical(path, ec);
-    if (ec)
-        return;
-    const fs::path dir = fs::weakly_canonical(fs::absolute(pattern).parent_path(), ec);
-    if (ec || target.parent_path() != dir)
-        return;
-    const std::string name = fs::path(pattern).filename().string(),
-                      file = target.filename().string();
-    if (!isFramePattern(name))  // (the frame's number in a directory's name)
-        return;
-    const auto [first, last] = frameRun(name);
-    const std::string prefix = name.substr(0, first), suffix = name.substr(last);
-    if (file.size() < prefix.size() + suffix.size() + (last - first) ||
-        file.compare(0, prefix.size(), prefix) != 0 ||
-        file.compare(file.size() - suffix.size(), suffix.size(), suffix) != 0)
-        return;
-    const std::string digits =
-        file.substr(prefix.size(), file.size() - prefix.size() - suffix.size());
-    if (digits.empty() || digits.size() > 18 ||
-        !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
-        return;
-    const long long other = std::stoll(digits);
-    if (other != frame)
-        throw InputError(fmt::format(
-            "{}: a link to {}, frame {} of the same sequence: frame {} written through it would "
-            "replace that frame (remove the link)",
-            path, target.string(), other, frame));
-}
-
 }  // namespace
 
 std::vector<std::string> sequencePaths(const std::string& pattern,
@@ -125,9 +84,12 @@ std::vector<std::string> sequencePaths(const std::string& pattern,
     for (long long f : frames) {
         paths.push_back(framePath(pattern, f));
         checkOutputPath(paths.back(), paths.size() == 1);
-        checkNotLinkedToAnotherFrame(pattern, f, paths.back());
     }
     checkNoOutputIsAnInput(paths, inputs);
+    // (a frame's retry by a farm wrote through a link over another frame
+    // with exit 0, sweep 25)
+    for (const std::string& path : paths)
+        checkPartIsNoLink(path, "frame of a sequence");
     return paths;
 }
 

@@ -379,6 +379,16 @@ void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
     }
 }
 
+void checkPartIsNoLink(const std::string& path, const char* part)
+{
+    struct stat st;
+    if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode))
+        throw InputError(fmt::format(
+            "{}: a symbolic link, where a {} is written: it would be written through the link "
+            "and could replace another {} or the file the link names (remove the link)",
+            path, part, part));
+}
+
 std::string checkOutputPath(const std::string& path, bool probe)
 {
     if (path.empty())

@@ -30,6 +30,13 @@ public:
 /// written (tried, when `probe`, by creating and removing a file beside it).
 std::string checkOutputPath(const std::string& path, bool probe = true);
 
+/// InputError where `path`, one `part` of many outputs (a frame of a
+/// sequence, a tile of a farm), is a symbolic link: a single output is
+/// written through its link, but one part written through a link can
+/// replace another part, or the file two parts' links share (a farm's
+/// retries then took turns destroying each other's frame or tile).
+void checkPartIsNoLink(const std::string& path, const char* part);
+
 /// Bytes free to this user on the file system `output` is to be written on
 /// (its directory's); infinity when that cannot be told.
 double freeDiskBytes(const std::string& output);
