@@ -344,13 +344,15 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
     const bool sameIndex = color && color->transform() == xf;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
         CentralDifferences d(surface, h);
-        std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
-        std::unique_ptr<LeafNeighbourhood<openvdb::Vec3fGrid>> cv;
-        if (color) {
-            c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
-            cv = std::make_unique<LeafNeighbourhood<openvdb::Vec3fGrid>>(*color);
-        }
         const bool aligned = d.axisAligned();
+        // (colours in index space from the leaves where the grids share an
+        // axis-aligned transform, else by world position)
+        std::unique_ptr<LeafNeighbourhood<openvdb::Vec3fGrid>> cv;
+        std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> c;
+        if (color && aligned && sameIndex)
+            cv = std::make_unique<LeafNeighbourhood<openvdb::Vec3fGrid>>(*color);
+        else if (color)
+            c = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
         // The points come a leaf at a time: on reaching a leaf's first, the
         // next leaf's values are fetched into the cache while this leaf's
         // points are worked on (their first reads missed the cache: half
@@ -385,8 +387,10 @@ TriangleMesh meshLevelSet(const openvdb::FloatGrid& surface, const openvdb::Vec3
             const openvdb::Vec3d g = d(p, index);
             const double len = g.length();
             mesh.normals[i] = len > 0.0 ? openvdb::Vec3s(g / len) : openvdb::Vec3s(0.0f);
-            if (c)
-                mesh.colors[i] = aligned && sameIndex ? cv->trilinear(index) : (*c)(p);
+            if (cv)
+                mesh.colors[i] = cv->trilinear(index);
+            else if (c)
+                mesh.colors[i] = (*c)(p);
         }
     });
     tm.attributes = secondsSince(t);
