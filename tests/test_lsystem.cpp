@@ -136,6 +136,12 @@ TEST(LSystem, UnknownSymbolsStayAndCutsRemoveTheRestOfTheBranch)
     EXPECT_EQ(run("Axiom: {A'L}\nA --> A\n", 3), "{A'L}");
     EXPECT_EQ(run("Axiom: F[FA[F]F]F\nA --> %\n", 1), "F[F%]F");
     EXPECT_EQ(run("Axiom: FAF[F]F\nA --> %\n", 1), "F%");
+    // A cut inside a successor's own branch ends at that branch's ']'; a
+    // cut at its level takes the branch's rest whatever it holds: kept
+    // modules, branches, other rewrites and other cuts.
+    EXPECT_EQ(run("Axiom: A[B]A\nA --> F[X%[Y]Z]W\nB --> %V\n", 1), "F[X%]W[%]F[X%]W");
+    EXPECT_EQ(run("Axiom: F[BA[A]Y%X]A\nA --> F[%]G\nB --> %V\n", 1), "F[%]F[%]G");
+    EXPECT_EQ(run("Axiom: A\nA --> F[&F%F]/A\n", 3), "F[&F%]/F[&F%]/F[&F%]/A");
 }
 
 TEST(LSystem, ExplodingDerivationsStopAtTheModuleLimit)
@@ -199,6 +205,33 @@ TEST(LSystem, AStringThatCannotShrinkIsRefusedBeforeItsFirstStep)
     EXPECT_EQ(steps, 0);
     const LSystem cut = parseLSystem("Axiom: " + std::string(1000, 'A') + "\nA --> %\n", "cut.l");
     EXPECT_NO_THROW(derive(cut, 100000, 1, kDefaultMaxModules, {}, 1e7));
+}
+
+TEST(LSystem, ACutWithinItsSuccessorsBranchLetsNoStringShrink)
+{
+    // F[&F%F]/A's cut takes only the F after it, which the successor made:
+    // the string grows by seven modules a step, and the steps left are
+    // counted at its length each.  (100,000 steps ran 61 s before the
+    // whole bound stopped them at step 23,904; pruned.l with --steps 100000
+    // the same.)  Over 2,000 steps: 7 * 2,000^2 / 2 = 1.4e7 rewrites; the
+    // bound is known when the string is long enough, before step 300 of
+    // 2,000 (7 * 300 * 1,700 = 3.6e6 > 1e6 left then).
+    const LSystem sys = parseLSystem("Axiom: A\nA --> F[&F%F]/A\n", "pruned.l");
+    int steps = 0;
+    const auto counted = [&](const char*, double) { ++steps; };
+    test::expectInputError([&] { derive(sys, 2000, 1, kDefaultMaxModules, counted, 1e6); },
+                           "pruned.l: 2000 steps would rewrite more than 1e+06",
+                           "a cut within its successor's branch");
+    EXPECT_GT(steps, 20);
+    EXPECT_LT(steps, 300);
+    // Within the bound, the string is what the cuts leave.
+    EXPECT_EQ(derive(sys, 400, 1, kDefaultMaxModules, {}, 1e6).size(), 7u * 400u + 1u);
+    // The same cut at the successor's level may take other modules: no
+    // refusal on a guess, only when the work is done.
+    const LSystem wide = parseLSystem("Axiom: A\nA --> F[&FF]/A%F\n", "wide.l");
+    steps = 0;
+    EXPECT_THROW(derive(wide, 2000, 1, kDefaultMaxModules, counted, 1e6), InputError);
+    EXPECT_GT(steps, 300);
 }
 
 TEST(LSystem, FunctionCallsCountAsTheirWorstCase)
