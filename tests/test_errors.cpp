@@ -767,6 +767,10 @@ TEST(BadInput, EveryCaseIsRefusedByNameWithStatus2AndNoOutputChanged)
         {"bake IN/nested.json -o OUT/out.vdb",
          "nested.json: a primitive or warp, in its own frame before the transforms above it (in "
          "world units), reaches 2e+06 from the origin"},
+        // (a voxel of 1e9 over the bush baked 7 leaves of nothing, exit 0)
+        {"bake IN/scaled.json -o OUT/out.vdb --voxel-size 100",
+         "scaled.json: --voxel-size 100 is larger than the whole model, whose field reaches 40 "
+         "across: no voxel would resolve its surface (automatic: 0.0781)"},
         {"bake IN/scaled.json -o OUT/out.vdb --voxel-size 0.0001",
          "scaled.json: a voxel size of 0.0001 for a surface 40 across (4e+05 voxels) needs about "
          "9.68 TB of memory"},

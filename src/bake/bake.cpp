@@ -88,6 +88,13 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
     if (req.voxelSize) {
         plan.voxelSize = *req.voxelSize;
         checkVoxelSize(plan.voxelSize);
+        // (A voxel of 1e9 over the bush baked 7 leaves of nothing, and its
+        // mesh had an area of 1e-59, exit 0.)
+        if (plan.voxelSize > plan.extent)
+            throw InputError(fmt::format(
+                "{}: {} {:g} is larger than the whole model, whose field reaches {:.3g} "
+                "across: no voxel would resolve its surface (automatic: {:.3g})",
+                req.input, req.voxelSizeName, plan.voxelSize, plan.extent, autoVoxelSize(program)));
     } else {
         plan.voxelSize = autoVoxelSize(program);
         plan.automatic = true;
