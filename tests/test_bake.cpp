@@ -19,6 +19,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/tools/Diagnostics.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <filesystem>
 #include <fstream>
@@ -700,6 +701,54 @@ TEST(BakeColour, OneColourIsTheBackgroundOfAnEmptyCdGrid)
 }
 
 // --- round trip ------------------------------------------------------------------
+
+TEST(BakeRoundTrip, AFileEncodedShortOfMemoryEndsInBadAllocNotInCutBytes)
+{
+    // A stream swallows its buffer's exceptions: short of memory, the
+    // serial writer returned a file cut short, and the parallel packing cut
+    // leaves short ("a packed leaf shorter than its header": a tile merge,
+    // sweep 26).  Both must end in bad_alloc.  4,000 leaves of values that
+    // do not compress (8 MB) are encoded with 3 MB of room (in a child, on
+    // one thread: TBB's workers do not survive a fork).
+    openvdb::initialize();
+    for (bool parallel : {false, true}) {
+        const int status = test::statusUnderAddressSpaceLimit(5e8, [parallel] {
+            LevelSetGrids g;
+            g.surface = openvdb::FloatGrid::create(0.3f);
+            g.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+            g.surface->setName("surface");
+            std::mt19937 rng(7);
+            std::uniform_real_distribution<float> value(-0.3f, 0.3f);
+            auto acc = g.surface->getAccessor();
+            for (int leaf = 0; leaf < 4000; ++leaf)
+                for (int v = 0; v < 512; ++v)
+                    acc.setValue(openvdb::Coord(leaf * 8 + (v & 7), (v >> 3) & 7, v >> 6),
+                                 value(rng));
+            const MemoryLimits now = memoryLimits();
+            const rlimit limit{rlim_t(now.addressSpaceUsed + 3e6),
+                               rlim_t(now.addressSpaceUsed + 3e6)};
+            if (::setrlimit(RLIMIT_AS, &limit) != 0)
+                return 6;
+            tbb::task_arena one(1);
+            return one.execute([&] {
+                try {
+                    VdbFileInfo info;
+                    const std::vector<char> bytes = encodeVdb(g, info, parallel);
+                    return bytes.size() < 4000u * 2048u ? 3 : 1;
+                } catch (const std::bad_alloc&) {
+                    return 0;
+                } catch (const std::logic_error&) {
+                    return 2;
+                }
+            });
+        });
+        if (status == -1)
+            GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
+        EXPECT_EQ(status, 0) << "parallel " << parallel
+                             << ": 1 it fitted, 2 leaves cut short, 3 a file cut short, "
+                                "6 no limit, 128 a signal";
+    }
+}
 
 TEST(BakeRoundTrip, TheParallelWriterWritesOpenVDBsOwnBytes)
 {

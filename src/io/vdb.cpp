@@ -407,6 +407,7 @@ std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
     MemoryBuf memory;
     {
         std::ostream os(&memory);
+        os.exceptions(std::ios::badbit);  // (see Block::Impl)
         writeArchive(os, v);
     }
     std::vector<char> bytes = std::move(memory.data());
@@ -451,6 +452,10 @@ struct PackedLeaves::Block::Impl {
         // the background inactive values are compared with.
         openvdb::io::setDataCompression(os, owner.compression_);
         openvdb::io::setGridBackgroundValuePtr(os, owner.background_.get());
+        // A stream swallows its buffer's exceptions and sets badbit: short
+        // of memory, leaves were packed cut short, and a tile merge ended in
+        // "a packed leaf shorter than its header" instead of out of memory.
+        os.exceptions(std::ios::badbit);
     }
     template <class LeafT>
     void add(uint32_t slot, const LeafT& leaf)
