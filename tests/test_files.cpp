@@ -148,6 +148,39 @@ TEST(Files, ASymlinkIsWrittenThroughAndKept)
     EXPECT_EQ(listing(dir / "real"), std::vector<std::string>{"a.vdb"});
 }
 
+TEST(Files, APartsLinkMadeDuringTheWorkIsReplacedNotWrittenThrough)
+{
+    // A frame checked before the work (no link then), then linked to
+    // another file while the sequence ran: the frame replaces the link,
+    // and the file the link names keeps its bytes (sweep 27: a frame and a
+    // mesh written through such links replaced a file outside the pattern
+    // and an earlier frame).
+    const fs::path dir = freshDir("cambium_files_part_link");
+    const std::string victim = (dir / "victim.vdb").string(), frame = (dir / "f.0002.vdb").string(),
+                      other = (dir / "f.0001.vdb").string();
+    writeFile(victim, "precious", 8);
+    writeFile(other, "frame 1", 7);
+    checkPartIsNoLink(frame, "frame of a sequence");
+    checkPartIsNoLink(other, "frame of a sequence");
+    fs::create_symlink(victim, frame);
+    writeFile(frame, "frame 2", 7);
+    EXPECT_FALSE(fs::is_symlink(frame));
+    EXPECT_EQ(contents(frame), "frame 2");
+    EXPECT_EQ(contents(victim), "precious");
+    // a link to another frame, and a dangling one
+    fs::remove(frame);
+    fs::create_symlink(other, frame);
+    writeFile(frame, "frame 2", 7);
+    EXPECT_EQ(contents(other), "frame 1");
+    EXPECT_EQ(contents(frame), "frame 2");
+    fs::remove(frame);
+    fs::create_symlink(dir / "nowhere", frame);
+    writeFile(frame, "frame 2", 7);
+    EXPECT_EQ(contents(frame), "frame 2");
+    EXPECT_FALSE(fs::exists(dir / "nowhere"));
+    EXPECT_EQ(listing(dir), (std::vector<std::string>{"f.0001.vdb", "f.0002.vdb", "victim.vdb"}));
+}
+
 TEST(Files, StaleTemporariesAreThoseOfThePatternOnly)
 {
     const fs::path dir = freshDir("cambium_files_stale");

@@ -26,7 +26,9 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <ostream>
+#include <set>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
@@ -379,8 +381,35 @@ void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
     }
 }
 
+namespace {
+
+/// The outputs checkPartIsNoLink has seen: parts of many outputs, which
+/// the writer never writes through a link.
+struct PartOutputs {
+    std::mutex mutex;
+    std::set<std::string> paths;
+};
+PartOutputs& partOutputs()
+{
+    static PartOutputs parts;
+    return parts;
+}
+bool isPartOutput(const std::string& path)
+{
+    PartOutputs& p = partOutputs();
+    const std::lock_guard<std::mutex> lock(p.mutex);
+    return p.paths.count(path) > 0;
+}
+
+}  // namespace
+
 void checkPartIsNoLink(const std::string& path, const char* part)
 {
+    {
+        PartOutputs& p = partOutputs();
+        const std::lock_guard<std::mutex> lock(p.mutex);
+        p.paths.insert(path);
+    }
     struct stat st;
     if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode))
         throw InputError(fmt::format(
@@ -389,7 +418,7 @@ void checkPartIsNoLink(const std::string& path, const char* part)
             path, part, part));
 }
 
-std::string checkOutputPath(const std::string& path, bool probe)
+std::string checkOutputPath(const std::string& path, bool probe, bool follow)
 {
     if (path.empty())
         throw InputError("-o: the output path is empty");
@@ -397,7 +426,7 @@ std::string checkOutputPath(const std::string& path, bool probe)
         throw InputError(fmt::format("{}: names a directory, not an output file", path));
     std::string target = path;
     struct stat st;
-    if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) {
+    if (follow && ::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) {
         // Written through: the link stays, its target gets the new file.
         char* real = ::realpath(path.c_str(), nullptr);
         if (!real)
@@ -408,7 +437,8 @@ std::string checkOutputPath(const std::string& path, bool probe)
         target = real;
         std::free(real);
     }
-    if (::stat(target.c_str(), &st) == 0) {
+    if ((follow ? ::stat(target.c_str(), &st) : ::lstat(target.c_str(), &st)) == 0 &&
+        !S_ISLNK(st.st_mode)) {
         if (S_ISDIR(st.st_mode))
             throw InputError(fmt::format("{}: is a directory, not an output file", path));
         if (!S_ISREG(st.st_mode))
@@ -483,9 +513,14 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
 void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write,
                const std::function<void(WrittenFile&)>& finish)
 {
-    const std::string target = checkOutputPath(path);
+    // A part of many outputs (a frame, a tile) checked before the work is
+    // no link (checkPartIsNoLink), and a link made since is replaced by the
+    // part, not written through: a link made while a sequence ran replaced
+    // the file it named, or another frame (sweep 27).
+    const bool part = isPartOutput(path);
+    const std::string target = checkOutputPath(path, true, !part);
     struct stat old;
-    const bool replacing = ::stat(target.c_str(), &old) == 0;
+    const bool replacing = ::lstat(target.c_str(), &old) == 0 && S_ISREG(old.st_mode);
     const std::string tmp = temporaryPathFor(target);
     // Registered before the file exists: a signal between its creation and
     // the registration would leave it behind.

@@ -28,13 +28,16 @@ public:
 /// the path when it is empty, names a directory, a device, a FIFO, a socket
 /// or a dangling link, or when its directory does not exist or cannot be
 /// written (tried, when `probe`, by creating and removing a file beside it).
-std::string checkOutputPath(const std::string& path, bool probe = true);
+/// Where not `follow`, a link is not followed: the file replaces the link.
+std::string checkOutputPath(const std::string& path, bool probe = true, bool follow = true);
 
 /// InputError where `path`, one `part` of many outputs (a frame of a
 /// sequence, a tile of a farm), is a symbolic link: a single output is
 /// written through its link, but one part written through a link can
 /// replace another part, or the file two parts' links share (a farm's
-/// retries then took turns destroying each other's frame or tile).
+/// retries then took turns destroying each other's frame or tile).  The
+/// path is remembered as a part: writeFile replaces a link made there since
+/// with the part instead of writing through it.
 void checkPartIsNoLink(const std::string& path, const char* part);
 
 /// Bytes free to this user on the file system `output` is to be written on
