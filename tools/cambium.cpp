@@ -28,6 +28,15 @@ const cambium::AddCommand kCommands[] = {
     cambium::addVersionCommand,
 };
 
+/// Runs before the libraries' initializers (ELF preinit_array: the
+/// executable's only).
+void beforeTheLibraries(int, char**, char**)
+{
+    cambium::checkRoomToStart();
+}
+[[gnu::section(".preinit_array"),
+  gnu::used]] void (*const kBeforeTheLibraries)(int, char**, char**) = beforeTheLibraries;
+
 }  // namespace
 
 int main(int argc, char** argv)
