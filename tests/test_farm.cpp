@@ -597,6 +597,36 @@ TEST(FarmTiles, AFifoOrALineCambiumNeverWritesInTheFarmDirectoryIsRefused)
     EXPECT_NE(args.find("-j 30000,30001,"), std::string::npos) << args.substr(0, 200);
     EXPECT_NE(args.find(",30999"), std::string::npos);
     EXPECT_EQ(args.find("29999"), std::string::npos);
+    {
+        // A Slurm without a controller fails at once, and was asked again
+        // for two minutes without a word (sweep 27): it is said at the first
+        // failure; a squeue that is not there is not asked again.
+        std::ofstream(bin / "squeue")
+            << "#!/bin/sh\necho 'squeue: error: Could not establish a configuration source' "
+               ">&2\nexit 1\n";
+        ::setenv("PATH", (bin.string() + ":" + path).c_str(), 1);
+        ::setenv("CAMBIUM_SLURM_SECONDS", "3", 1);
+        const test::Result down = test::run("farm " + shellQuote(array.farmDir));
+        fs::remove(bin / "squeue");
+        std::ofstream(bin / "squeue") << "#!/bin/sh\nexit 127\n";
+        fs::permissions(bin / "squeue", fs::perms::owner_all);
+        const test::Result missing = test::run("farm " + shellQuote(array.farmDir));
+        ::unsetenv("CAMBIUM_SLURM_SECONDS");
+        ::setenv("PATH", path.c_str(), 1);
+        EXPECT_NE(down.out.find("note: squeue failed (squeue: error: Could not establish a "
+                                "configuration source): asking again every 2 s for up to 3 s"),
+                  std::string::npos)
+            << down.out;
+        EXPECT_NE(down.out.find("not knowing which chunks are queued or running: squeue does "
+                                "not answer"),
+                  std::string::npos)
+            << down.out;
+        EXPECT_NE(missing.out.find("not knowing which chunks are queued or running: squeue "
+                                   "cannot be run"),
+                  std::string::npos)
+            << missing.out;
+        EXPECT_EQ(missing.out.find("asking again"), std::string::npos) << missing.out;
+    }
     fs::remove(fs::path(array.farmDir) / "jobs");
     const std::string history = chunkHistoryPath(array.farmDir, 0);
     std::ofstream(history) << "137 78\nsubmitted again\n0 79\n13";

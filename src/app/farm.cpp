@@ -114,8 +114,9 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
     // A busy slurmctld may not answer at once: asked again, each time for
     // at most 20 s, until the Slurm limit has passed (a hung squeue was
     // asked six times for two minutes each).
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(slurmSeconds());
-    for (;;) {
+    const int limit = slurmSeconds();
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(limit);
+    for (bool said = false;; said = true) {
         const double left =
             std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
         const Output q =
@@ -125,8 +126,24 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
             return q.text;
         if (q.err.find("Invalid job id") != std::string::npos)
             return {};
+        // (not there at all: no use asking again)
+        if (q.status == 127 || q.status == 126)
+            throw std::runtime_error("squeue cannot be run: " + q.err);
         if (std::chrono::steady_clock::now() + std::chrono::seconds(2) >= deadline)
             throw std::runtime_error("squeue does not answer: " + q.err);
+        // Said once, not waited in silence (a Slurm without a controller
+        // held `cambium farm` for two minutes without a word, sweep 27).
+        if (!said) {
+            std::string why = q.err;
+            while (!why.empty() && std::isspace(static_cast<unsigned char>(why.back())))
+                why.pop_back();
+            why = why.substr(why.rfind('\n') == std::string::npos ? 0 : why.rfind('\n') + 1);
+            printNotice(fmt::format(
+                "squeue failed ({}): asking again every 2 s for up to {} s "
+                "(CAMBIUM_SLURM_SECONDS)",
+                shortened(printable(why.empty() ? fmt::format("exit {}", q.status) : why), 200),
+                limit));
+        }
         std::this_thread::sleep_for(std::chrono::seconds(2));
     }
 }
