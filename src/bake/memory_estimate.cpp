@@ -182,10 +182,11 @@ double estimateFileBytes(const FieldProgram& program, double h, double halfWidth
 
 double estimateBakeSeconds(double bandVoxels, int cores)
 {
-    // Measured here (2 cores), in estimated band voxels a second a core: the
-    // year-27 Populus at 0.005 2.5 M (47.6 M estimated, 9.5 s alone, 16.5 s
-    // beside another process), the 20,000-internode tree at 0.005 5.6 M
-    // (48.2 M in 4.3 s), models of large blended primitives 9-12 M (the
+    // Measured here (2 cores), in estimated band voxels a second a core,
+    // whole processes: the year-27 Populus at 0.005 2.1-2.5 M (47.6 M
+    // estimated, 9.7-11.3 s; 16.5 s beside another process), the
+    // 20,000-internode tree at 0.005 5.5 M (48.2 M in 4.4 s), models of
+    // large blended primitives 9-12 M (the
     // estimate counts their overlaps).  A small bake's start-up makes its
     // rate lower (the Populus at 0.02: 2.27 M in 1.12 s), but it says
     // nothing below ten seconds.  At 2 M, rather long than short (1 M said
