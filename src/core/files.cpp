@@ -385,18 +385,18 @@ namespace {
 
 /// The outputs checkPartIsNoLink has seen: parts of many outputs, which
 /// the writer never writes through a link.
-struct PartOutputs {
+struct PartPaths {
     std::mutex mutex;
     std::set<std::string> paths;
 };
-PartOutputs& partOutputs()
+PartPaths& partPaths()
 {
-    static PartOutputs parts;
+    static PartPaths parts;
     return parts;
 }
 bool isPartOutput(const std::string& path)
 {
-    PartOutputs& p = partOutputs();
+    PartPaths& p = partPaths();
     const std::lock_guard<std::mutex> lock(p.mutex);
     return p.paths.count(path) > 0;
 }
@@ -406,7 +406,7 @@ bool isPartOutput(const std::string& path)
 void checkPartIsNoLink(const std::string& path, const char* part)
 {
     {
-        PartOutputs& p = partOutputs();
+        PartPaths& p = partPaths();
         const std::lock_guard<std::mutex> lock(p.mutex);
         p.paths.insert(path);
     }
