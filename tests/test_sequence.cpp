@@ -266,6 +266,29 @@ TEST(Sequence, RangesOfOnePlanWriteTheFramesOfOneRun)
     expectInputError([&] { runSequence(plan, 3, 7); }, "not a range", "past the end");
 }
 
+TEST(Sequence, FramesSmallerThanTheSequencesVoxelStillBake)
+{
+    // A voxel size given for the whole sequence (or a farm chunk's, the
+    // plan's) may be larger than an early frame's seedling: the frames
+    // bake as before, while a single bake of such a model with that voxel
+    // size is refused (review of the refusal: a chunk of a sequence's first
+    // frames, and a sequence ending in its first year, whose frames are
+    // sampled for their memory, were refused).
+    TempDir a;
+    const SequenceReport r = bakeSequence(sequence(a / "s.#.vdb", "1-3", 100.0, 0.2));
+    EXPECT_EQ(r.frames.size(), 3u);
+    BakeRequest single;
+    single.input = kPopulus;
+    single.model.time = 0.02;
+    single.output = a / "single.vdb";
+    single.voxelSize = 0.2;
+    single.device = Device::Cpu;
+    expectInputError([&] { runBake(single); },
+                     "--voxel-size 0.2 is larger than the whole model, whose field reaches",
+                     "a single bake of the seedling");
+    EXPECT_FALSE(fs::exists(a / "single.vdb"));
+}
+
 TEST(Sequence, SameSeedSameGridsOtherSeedOtherGrids)
 {
     TempDir a, b;

@@ -90,7 +90,7 @@ VoxelPlan planVoxelSize(const FieldProgram& program, const BakeRequest& req)
         checkVoxelSize(plan.voxelSize);
         // (A voxel of 1e9 over the bush baked 7 leaves of nothing, and its
         // mesh had an area of 1e-59, exit 0.)
-        if (plan.voxelSize > plan.extent)
+        if (req.voxelSizeOfThisModel && plan.voxelSize > plan.extent)
             throw InputError(fmt::format(
                 "{}: {} {:g} is larger than the whole model, whose field reaches {:.3g} "
                 "across: no voxel would resolve its surface (automatic: {:.3g})",
@@ -266,13 +266,26 @@ VdbFileInfo bakeFileInfo(const BakeRequest& req, double threshold, double time)
     return info;
 }
 
+namespace {
+
+/// A single bake's request: its voxel size is its model's own (a tile's is
+/// the whole frame's).
+BakeRequest singleBake(const BakeRequest& req)
+{
+    BakeRequest single = req;
+    single.voxelSizeOfThisModel = req.tile.count == 0;
+    return single;
+}
+
+}  // namespace
+
 VoxelPlan planBake(const BakeRequest& req)
 {
     checkBakeOptions(req);
     checkOutputPath(req.output);
     BlobTree tree = loadModel(req.input, req.model);
     barkPaint(req, tree);  // (its photo checked)
-    const VoxelPlan plan = planModel(tree, req).plan;
+    const VoxelPlan plan = planModel(tree, singleBake(req)).plan;
     checkDiskSpace(req.output, plan.fileBytes, req.output);
     return plan;
 }
@@ -312,7 +325,7 @@ BakeReport runBake(const BakeRequest& req, const BakeCallbacks& callbacks)
     // (as it was, for the note on parts thinner than a voxel below)
     const std::optional<BlobTree> asItWas =
         req.minRadius < 0.5 && callbacks.notice ? std::optional<BlobTree>(tree) : std::nullopt;
-    const PlannedModel planned = planModel(tree, req);
+    const PlannedModel planned = planModel(tree, singleBake(req));
     const FieldProgram& program = planned.program;
     const VoxelPlan& plan = planned.plan;
     // (--tiles bakes one tile a layer at most; a tile beyond that would be

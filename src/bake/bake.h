@@ -47,6 +47,11 @@ struct BakeRequest {
     bool tilesOffered = true;
     /// What the command calls the voxel size (the memory check's advice).
     std::string voxelSizeName = "--voxel-size";
+    /// Whether a given voxel size was chosen for this very model (a single
+    /// bake's --voxel-size, a shape's fine_voxel_size): one larger than the
+    /// whole model is refused.  Not where it is inherited: a sequence's
+    /// chunk or sampled frames, preview's later models, a tile.
+    bool voxelSizeOfThisModel = false;
     /// A farm's key for the file's metadata (`cambium_sequence`): what its
     /// final job checks a tile's file against (farm/slurm.h tileFarmKey).
     std::string key;

@@ -28,7 +28,7 @@
 #include <map>
 #include <mutex>
 #include <ostream>
-#include <set>
+#include <unordered_set>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
@@ -383,22 +383,29 @@ void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
 
 namespace {
 
-/// The outputs checkPartIsNoLink has seen: parts of many outputs, which
-/// the writer never writes through a link.
+/// The outputs checkPartIsNoLink has seen, parts of many outputs, which the
+/// writer never writes through a link: their paths' 64-bit hashes (a
+/// million frames' paths would hold some 120 MB as strings; a collision
+/// would only replace a link at a single output instead of writing
+/// through it).
 struct PartPaths {
     std::mutex mutex;
-    std::set<std::string> paths;
+    std::unordered_set<uint64_t> hashes;
 };
 PartPaths& partPaths()
 {
     static PartPaths parts;
     return parts;
 }
+uint64_t pathHash(const std::string& path)
+{
+    return mix64(fnv1a64(path));
+}
 bool isPartOutput(const std::string& path)
 {
     PartPaths& p = partPaths();
     const std::lock_guard<std::mutex> lock(p.mutex);
-    return p.paths.count(path) > 0;
+    return p.hashes.count(pathHash(path)) > 0;
 }
 
 }  // namespace
@@ -408,7 +415,7 @@ void checkPartIsNoLink(const std::string& path, const char* part)
     {
         PartPaths& p = partPaths();
         const std::lock_guard<std::mutex> lock(p.mutex);
-        p.paths.insert(path);
+        p.hashes.insert(pathHash(path));
     }
     struct stat st;
     if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode))
@@ -437,17 +444,17 @@ std::string checkOutputPath(const std::string& path, bool probe, bool follow)
         target = real;
         std::free(real);
     }
-    if ((follow ? ::stat(target.c_str(), &st) : ::lstat(target.c_str(), &st)) == 0 &&
-        !S_ISLNK(st.st_mode)) {
+    if ((follow ? ::stat(target.c_str(), &st) : ::lstat(target.c_str(), &st)) != 0) {
+        if (errno != ENOENT)
+            throw InputError(
+                fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
+    } else if (!S_ISLNK(st.st_mode)) {  // (a link not followed: the file replaces it)
         if (S_ISDIR(st.st_mode))
             throw InputError(fmt::format("{}: is a directory, not an output file", path));
         if (!S_ISREG(st.st_mode))
             throw InputError(
                 fmt::format("{}: is a {}, not a regular file: cambium writes only regular files",
                             path, fileKind(st.st_mode)));
-    } else if (errno != ENOENT) {
-        throw InputError(
-            fmt::format("{}: cannot write the output: {}", path, std::strerror(errno)));
     }
     if (!probe)
         return target;

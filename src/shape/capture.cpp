@@ -227,6 +227,7 @@ BaseShape captureBase(const BaseSpec& b, const std::string& source, Device devic
         req.tilesOffered = false;
         req.voxelSizeName = "fine_voxel_size";
         const double automatic = autoVoxelSize(FieldProgram::compile(tree, b.file), 256.0);
+        req.voxelSizeOfThisModel = b.fineVoxelSize > 0.0;
         if (b.fineVoxelSize > 0.0)
             req.voxelSize = b.fineVoxelSize;
         else if (automatic > 0.0)  // (none: planVoxelSize names the empty model)
