@@ -35,7 +35,7 @@ void beforeTheLibraries(int, char**, char**)
     cambium::checkRoomToStart();
 }
 [[gnu::section(".preinit_array"),
-  gnu::used]] void (*const kBeforeTheLibraries)(int, char**, char**) = beforeTheLibraries;
+  gnu::used]] void (*kBeforeTheLibraries)(int, char**, char**) = beforeTheLibraries;
 
 }  // namespace
 
