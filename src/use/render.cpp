@@ -209,19 +209,37 @@ RenderImage blankImage(int width, int height)
     return img;
 }
 
-/// The width * spp rays of row y, pixel by pixel: sample 0 through the
-/// pixel's centre, the others spread by the plastic-number (R2) sequence.
-void generateRow(const Camera& camera, int width, int height, int spp, int y, TraceRay* rays)
-{
-    const CameraFrame frame(camera, width, height);
-    for (int x = 0; x < width; ++x)
-        for (int s = 0; s < spp; ++s) {
-            const double jx = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.7548776662466927, 1.0);
-            const double jy = s == 0 ? 0.5 : std::fmod(0.5 + s * 0.5698402909980532, 1.0);
-            TraceRay& r = rays[size_t(x) * size_t(spp) + size_t(s)];
-            frame.ray(x + jx, y + jy, r.origin, r.direction);
+/// A picture's rays, spp a pixel: sample 0 through the pixel's centre, the
+/// others spread by the plastic-number (R2) sequence.
+class PixelRays {
+public:
+    PixelRays(const Camera& camera, int width, int height, int spp)
+        : frame_(camera, width, height), width_(width), spp_(size_t(spp)), jx_(spp_), jy_(spp_)
+    {
+        for (size_t s = 0; s < spp_; ++s) {
+            jx_[s] = s == 0 ? 0.5 : std::fmod(0.5 + double(s) * 0.7548776662466927, 1.0);
+            jy_[s] = s == 0 ? 0.5 : std::fmod(0.5 + double(s) * 0.5698402909980532, 1.0);
         }
-}
+    }
+    /// Pixel (x, y)'s spp rays into `rays`.
+    void pixel(int x, int y, TraceRay* rays) const
+    {
+        for (size_t s = 0; s < spp_; ++s)
+            frame_.ray(x + jx_[s], y + jy_[s], rays[s].origin, rays[s].direction);
+    }
+    /// Row y's width * spp rays, pixel by pixel.
+    void row(int y, TraceRay* rays) const
+    {
+        for (int x = 0; x < width_; ++x)
+            pixel(x, y, rays + size_t(x) * spp_);
+    }
+
+private:
+    CameraFrame frame_;
+    int width_;
+    size_t spp_;
+    std::vector<double> jx_, jy_;
+};
 
 /// Shades row y from its rays' hits: the mean of the samples' colours, the
 /// fraction that hit, depth and normal of the central sample.
@@ -265,10 +283,11 @@ RenderImage renderRows(const Camera& camera, int width, int height, int spp,
     spp = std::max(1, spp);
     tbb::parallel_for(tbb::blocked_range<int>(0, height), [&](const tbb::blocked_range<int>& rows) {
         const BatchTracer trace = makeTracer();
+        const PixelRays generate(camera, width, height, spp);
         std::vector<TraceRay> rays(size_t(width) * size_t(spp)), traced;
         std::vector<TraceHit> hits(rays.size()), found;
         for (int y = rows.begin(); y < rows.end(); ++y) {
-            generateRow(camera, width, height, spp, y, rays.data());
+            generate.row(y, rays.data());
             if (!ranges) {
                 trace(rays, hits);
             } else {
@@ -548,11 +567,11 @@ RenderImage renderLevelSetCpu(
         tbb::parallel_for(tbb::blocked_range<int>(0, height),
                           [&](const tbb::blocked_range<int>& r) {
                               const BatchTracer trace = marcher.tracer();
+                              const PixelRays generate(camera, width, height, spp);
                               std::vector<TraceRay> rays(rowRays), traced;
                               std::vector<uint32_t> index;
                               std::vector<TraceHit> found;
                               for (int y = r.begin(); y < r.end(); ++y) {
-                                  generateRow(camera, width, height, spp, y, rays.data());
                                   traced.clear();
                                   index.clear();
                                   const size_t row = size_t(y) * size_t(width);
@@ -560,7 +579,8 @@ RenderImage renderLevelSetCpu(
                                       const float near = ranges.near[row + size_t(x)],
                                                   far = ranges.far[row + size_t(x)];
                                       if (!(near <= far))
-                                          continue;
+                                          continue;  // (its rays miss: not even made)
+                                      generate.pixel(x, y, rays.data() + size_t(x) * size_t(spp));
                                       for (int s = 0; s < spp; ++s) {
                                           const size_t k = size_t(x) * size_t(spp) + size_t(s);
                                           TraceRay ray = rays[k];
@@ -592,10 +612,11 @@ RenderImage renderLevelSetCpu(
         std::unique_ptr<WorldSampler<openvdb::Vec3fGrid>> sample;
         if (color)
             sample = std::make_unique<WorldSampler<openvdb::Vec3fGrid>>(*color);
+        const PixelRays generate(camera, width, height, spp);
         std::vector<TraceRay> rays(rowRays);
         std::vector<TraceHit> row(rowRays);
         for (int y = r.begin(); y < r.end(); ++y) {
-            generateRow(camera, width, height, spp, y, rays.data());
+            generate.row(y, rays.data());
             std::fill(row.begin(), row.end(), TraceHit());
             for (const auto& [k, hit] : hits[size_t(y)]) {
                 TraceHit& h = row[k];
@@ -623,9 +644,9 @@ RenderImage renderBatches(const Camera& camera, int width, int height, int spp,
     std::vector<TraceHit> hits(rays.size());
     for (int y0 = 0; y0 < height; y0 += rowsPerBatch) {
         const int rows = std::min(rowsPerBatch, height - y0);
-        tbb::parallel_for(0, rows, [&](int r) {
-            generateRow(camera, width, height, spp, y0 + r, rays.data() + size_t(r) * rowRays);
-        });
+        const PixelRays generate(camera, width, height, spp);
+        tbb::parallel_for(0, rows,
+                          [&](int r) { generate.row(y0 + r, rays.data() + size_t(r) * rowRays); });
         rays.resize(size_t(rows) * rowRays);
         hits.resize(rays.size());
         trace(rays, hits);
