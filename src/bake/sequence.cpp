@@ -85,11 +85,7 @@ std::vector<std::string> sequencePaths(const std::string& pattern,
         paths.push_back(framePath(pattern, f));
         checkOutputPath(paths.back(), paths.size() == 1);
     }
-    checkNoOutputIsAnInput(paths, inputs);
-    // (a frame's retry by a farm wrote through a link over another frame
-    // with exit 0, sweep 25)
-    for (const std::string& path : paths)
-        checkPartIsNoLink(path, "frame of a sequence");
+    checkSequenceTargets(paths, inputs);
     return paths;
 }
 

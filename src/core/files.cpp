@@ -355,11 +355,9 @@ bool sameFile(const std::string& a, const std::string& b)
     return fileId(a, x) && fileId(b, y) && x == y;
 }
 
-void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
-{
-    checkNoOutputIsAnInput({output}, inputs);
-}
+namespace {
 
+/// InputError where an output is an input, or two outputs one file.
 void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
                             const std::vector<std::string>& inputs)
 {
@@ -379,6 +377,21 @@ void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
                 fmt::format("{}: is the same file as {} (two outputs would write one file)", output,
                             *out.first->second));
     }
+}
+
+}  // namespace
+
+void checkOutputIsNoInput(const std::string& output, const std::vector<std::string>& inputs)
+{
+    checkNoOutputIsAnInput({output}, inputs);
+}
+
+void checkSequenceTargets(const std::vector<std::string>& outputs,
+                          const std::vector<std::string>& inputs)
+{
+    checkNoOutputIsAnInput(outputs, inputs);
+    for (const std::string& output : outputs)
+        checkPartIsNoLink(output, "frame of a sequence");
 }
 
 namespace {

@@ -60,9 +60,11 @@ void checkOutputIsNoInput(const std::string& output, const std::vector<std::stri
 
 /// The same for every output of a sequence, and InputError "OUTPUT: is the
 /// same file as OTHER (two outputs would write one file)" where two outputs
-/// name one existing file (a frame linked to another frame).
-void checkNoOutputIsAnInput(const std::vector<std::string>& outputs,
-                            const std::vector<std::string>& inputs);
+/// name one existing file (a frame linked to another frame); then each
+/// output is a part, no link (checkPartIsNoLink: a frame's retry by a farm
+/// wrote through a link over another frame with exit 0, sweep 25).
+void checkSequenceTargets(const std::vector<std::string>& outputs,
+                          const std::vector<std::string>& inputs);
 
 /// A key of the bytes of the files `paths` (each name with a 64-bit
 /// checksum of its contents; an empty name or a file that cannot be read

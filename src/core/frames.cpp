@@ -100,9 +100,7 @@ void forEachFile(const std::string& input, const std::string& output, const std:
     checkOutput(outs.front());
     for (size_t i = 1; i < outs.size(); ++i)
         checkOutputPath(outs[i], /*probe=*/false);
-    checkNoOutputIsAnInput(outs, ins);
-    for (const std::string& out : outs)
-        checkPartIsNoLink(out, "frame of a sequence");
+    checkSequenceTargets(outs, ins);
     for (size_t i = 0; i < ins.size(); ++i)
         one(ins[i], outs[i]);
 }

@@ -37,7 +37,7 @@ std::vector<long long> parseFrames(const std::string& range,
 /// frame number in both names; first checks every input exists and passes
 /// checkInput (each frame's, a sequence's middle frame damaged was found
 /// after the frames before it were written), calls checkOutput on the first
-/// output and refuses an output that is an input (checkNoOutputIsAnInput),
+/// output and refuses an output that is an input or a link (checkSequenceTargets),
 /// so that bad input fails before any work.
 void forEachFile(const std::string& input, const std::string& output, const std::string& frames,
                  const std::function<void(const std::string&)>& checkInput,
