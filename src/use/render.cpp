@@ -642,9 +642,9 @@ RenderImage renderBatches(const Camera& camera, int width, int height, int spp,
     const int rowsPerBatch = int(std::clamp<size_t>(raysPerBatch / rowRays, 1, size_t(height)));
     std::vector<TraceRay> rays(rowRays * size_t(rowsPerBatch));
     std::vector<TraceHit> hits(rays.size());
+    const PixelRays generate(camera, width, height, spp);
     for (int y0 = 0; y0 < height; y0 += rowsPerBatch) {
         const int rows = std::min(rowsPerBatch, height - y0);
-        const PixelRays generate(camera, width, height, spp);
         tbb::parallel_for(0, rows,
                           [&](int r) { generate.row(y0 + r, rays.data() + size_t(r) * rowRays); });
         rays.resize(size_t(rows) * rowRays);
