@@ -40,11 +40,11 @@ void checkMemoryFits(double bytes, double have, const std::string& what, const s
 /// Called once, first thing in main.
 void installMemoryReserve();
 /// Where the address space left under `ulimit -v` beside the libraries
-/// already mapped could not hold two threads' stacks, the reserve and the
-/// start's allocations: "out of memory" and exit 1.  Called before any
+/// already mapped could not hold a thread's stack and the start's
+/// allocations (40 MB): "out of memory" and exit 1.  Called before any
 /// library's initializer (an ELF preinit function of the executable):
 /// log4cplus, which OpenVDB loads, starts a thread in its own, and under
-/// 115-165 MB every command, --version too, ended in "terminate called",
+/// 124-155 MB every command, --version too, ended in "terminate called",
 /// SIGABRT (sweep 27).  System calls only: nothing else is initialised yet.
 void checkRoomToStart() noexcept;
 /// Peak resident memory of this process so far.
