@@ -137,7 +137,7 @@ std::string queuedJobs(const std::string& ids, const char* format = "%i")
             std::string why = q.err;
             while (!why.empty() && std::isspace(static_cast<unsigned char>(why.back())))
                 why.pop_back();
-            why = why.substr(why.rfind('\n') == std::string::npos ? 0 : why.rfind('\n') + 1);
+            why.erase(0, why.rfind('\n') + 1);  // its last line (npos + 1: all of it)
             printNotice(fmt::format(
                 "squeue failed ({}): asking again every 2 s for up to {} s "
                 "(CAMBIUM_SLURM_SECONDS)",
