@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/hash.h"
 #include "io/leaf_layout.h"
+#include "io/leaf_values.h"
 #include "io/vdb.h"
 
 #include <fcntl.h>
@@ -25,6 +26,9 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <random>
+#include <set>
+#include <sstream>
 #include <chrono>
 #include <thread>
 
@@ -242,6 +246,180 @@ TEST(VdbRead, AForeignFileIsReadWholeAsOpenVdbReadsIt)
         EXPECT_TRUE(g.surface);
     } catch (const InputError&) {
     }
+}
+
+namespace {
+
+/// A leaf's bytes as OpenVDB writes them under `compression` (its mask,
+/// inactive-value code and what follows, its values).
+template <class LeafT>
+std::string leafBytesWritten(const LeafT& leaf, uint32_t compression,
+                             const typename LeafT::ValueType& background)
+{
+    std::ostringstream os(std::ios::binary);
+    openvdb::io::setDataCompression(os, compression);
+    openvdb::io::setGridBackgroundValuePtr(os, &background);
+    leaf.writeBuffers(os, /*toHalf=*/false);
+    return os.str();
+}
+
+/// The leaf's values as OpenVDB's own reader decodes those bytes.
+template <class LeafT>
+LeafT leafReadByOpenVdb(const std::string& bytes, const LeafT& like, uint32_t compression,
+                        const typename LeafT::ValueType& background)
+{
+    std::istringstream is(bytes, std::ios::binary);
+    openvdb::io::setVersion(is,
+                            openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
+                                               OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
+                            openvdb::OPENVDB_FILE_VERSION);
+    openvdb::io::setDataCompression(is, compression);
+    openvdb::io::setGridBackgroundValuePtr(is, &background);
+    LeafT leaf(like.origin(), background);
+    leaf.readBuffers(is, /*fromHalf=*/false);
+    return leaf;
+}
+
+template <class ValueT>
+ValueT valueOf(float v)
+{
+    return ValueT(v);
+}
+
+/// Leaves of every inactive-value layout OpenVDB's writer chooses (the
+/// seven codes), written under every compression the direct decoder takes,
+/// decoded by it and by OpenVDB's reader: the same bits.
+template <class ValueT>
+void expectDirectDecodeAsOpenVdb()
+{
+    namespace io = openvdb::io;
+    using LeafT = typename openvdb::tree::Tree4<ValueT, 5, 4, 3>::Type::LeafNodeType;
+    const ValueT bg = valueOf<ValueT>(0.015f);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(-0.015f, 0.015f);
+    // (inactive voxels: +bg, -bg, or the values x and y; `density`: of the active ones)
+    const ValueT x = valueOf<ValueT>(0.25f), y = valueOf<ValueT>(-4.0f);
+    const std::vector<std::vector<ValueT>> inactiveSets = {
+        {bg},      {openvdb::math::negative(bg)},
+        {x},       {bg, openvdb::math::negative(bg)},
+        {bg, x},   {x, y},
+        {bg, x, y}};
+    std::set<int> codes;
+    size_t compared = 0;
+    for (const uint32_t compression : {uint32_t(io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK),
+                                       uint32_t(io::COMPRESS_ACTIVE_MASK),
+                                       uint32_t(io::COMPRESS_BLOSC), uint32_t(io::COMPRESS_NONE)}) {
+        StoredValues stored;
+        stored.compression = compression;
+        stored.storedBytes = sizeof(ValueT);
+        ASSERT_TRUE(decodesLeafValues(stored, openvdb::OPENVDB_FILE_VERSION));
+        for (const double density : {0.0, 1.0 / 512, 0.3, 0.97, 1.0})
+            for (const std::vector<ValueT>& inactive : inactiveSets) {
+                LeafT leaf(openvdb::Coord(8, -16, 24), bg);
+                std::uniform_real_distribution<double> coin(0.0, 1.0);
+                for (openvdb::Index i = 0; i < LeafT::SIZE; ++i) {
+                    const bool on =
+                        density >= 1.0 || (density > 0.0 && (i == 77 || coin(rng) < density));
+                    if (on)
+                        leaf.setValueOn(i, valueOf<ValueT>(u(rng)));
+                    else
+                        leaf.setValueOff(i, inactive[size_t(rng()) % inactive.size()]);
+                }
+                const std::string bytes = leafBytesWritten(leaf, compression, bg);
+                codes.insert(int(int8_t(bytes[64])));
+                const LeafT theirs = leafReadByOpenVdb(bytes, leaf, compression, bg);
+                std::vector<ValueT> ours(LeafT::SIZE, valueOf<ValueT>(1234.0f)), scratch;
+                const std::string why =
+                    decodeLeafValues(bytes.data(), bytes.size(), leaf.getValueMask(), stored, bg,
+                                     ours.data(), scratch);
+                ASSERT_EQ(why, "") << compression << " " << density;
+                ASSERT_EQ(
+                    std::memcmp(ours.data(), theirs.buffer().data(), LeafT::SIZE * sizeof(ValueT)),
+                    0)
+                    << "compression " << compression << ", density " << density << ", code "
+                    << int(bytes[64]);
+                ++compared;
+            }
+    }
+    EXPECT_EQ(compared, 4u * 5u * inactiveSets.size());
+    // Every code OpenVDB writes came up (mask compression's six, and all values).
+    EXPECT_EQ(codes.size(), 7u);
+}
+
+}  // namespace
+
+TEST(VdbRead, LeavesDecodedDirectlyHoldWhatOpenVdbsDecoderGives)
+{
+    expectDirectDecodeAsOpenVdb<float>();
+    expectDirectDecodeAsOpenVdb<openvdb::Vec3f>();
+}
+
+TEST(VdbRead, ALeafsValuesThatDoNotUnpackAreRefusedByTheDirectDecoder)
+{
+    // What OpenVDB's reader throws on, the direct decoder says: a blosc
+    // block that unpacks to fewer bytes than the values take, a raw block
+    // of another size, values cut short; and halves, zip and old files are
+    // left to OpenVDB.
+    namespace io = openvdb::io;
+    using LeafT = openvdb::FloatTree::LeafNodeType;
+    const float bg = 0.1f;
+    LeafT leaf(openvdb::Coord(0), bg);
+    for (openvdb::Index i = 0; i < LeafT::SIZE; i += 3)
+        leaf.setValueOn(i, float(i) * 1e-4f);
+    const uint32_t compression = io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK;
+    StoredValues stored;
+    stored.compression = compression;
+    stored.storedBytes = 4;
+    const std::string good = leafBytesWritten(leaf, compression, bg);
+    std::vector<float> out(LeafT::SIZE), scratch;
+    ASSERT_EQ(decodeLeafValues(good.data(), good.size(), leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    const size_t block = 64 + 1 + valuesHeaderBytes(int8_t(good[64]), 4, 64);
+    // Blosc's header (after the block's 8-byte size): its unpacked size at byte 4.
+    std::string fewer = good;
+    const uint32_t less = uint32_t(leaf.getValueMask().countOn() * 4 - 8);
+    std::memcpy(fewer.data() + block + 8 + 4, &less, 4);
+    EXPECT_NE(decodeLeafValues(fewer.data(), fewer.size(), leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    EXPECT_ANY_THROW(leafReadByOpenVdb(fewer, leaf, compression, bg));
+    // A raw block (negative size) of other than the active values' bytes.
+    std::string raw = good.substr(0, block);
+    const int64_t wrong = -int64_t(leaf.getValueMask().countOn() * 4 + 4);
+    raw.append(reinterpret_cast<const char*>(&wrong), 8);
+    raw.append(size_t(-wrong), '\0');
+    EXPECT_NE(decodeLeafValues(raw.data(), raw.size(), leaf.getValueMask(), stored, bg, out.data(),
+                               scratch),
+              "");
+    EXPECT_ANY_THROW(leafReadByOpenVdb(raw, leaf, compression, bg));
+    // A raw block of the right size decodes as OpenVDB decodes it.
+    std::string right = good.substr(0, block);
+    std::vector<float> active;
+    for (auto it = leaf.cbeginValueOn(); it; ++it)
+        active.push_back(*it);
+    const int64_t size = -int64_t(active.size() * 4);
+    right.append(reinterpret_cast<const char*>(&size), 8);
+    right.append(reinterpret_cast<const char*>(active.data()), active.size() * 4);
+    ASSERT_EQ(decodeLeafValues(right.data(), right.size(), leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    EXPECT_EQ(
+        std::memcmp(out.data(), leafReadByOpenVdb(right, leaf, compression, bg).buffer().data(),
+                    LeafT::SIZE * 4),
+        0);
+    // Cut short.
+    EXPECT_NE(decodeLeafValues(good.data(), good.size() - 5, leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    // Layouts left to OpenVDB's decoder.
+    StoredValues halves = stored, zip = stored;
+    halves.half = true;
+    zip.compression = io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK;
+    EXPECT_FALSE(decodesLeafValues(halves, openvdb::OPENVDB_FILE_VERSION));
+    EXPECT_FALSE(decodesLeafValues(zip, openvdb::OPENVDB_FILE_VERSION));
+    EXPECT_FALSE(
+        decodesLeafValues(stored, openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION - 1));
 }
 
 TEST(VdbRead, ABlockOfAnotherSizeThanItsValuesIsNamedBeforeOpenVdbReadsIt)
