@@ -33,6 +33,7 @@
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <sys/syscall.h>
+#include <sys/uio.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -525,6 +526,43 @@ void WrittenFile::write(uint64_t offset, const void* data, size_t n)
     });
 }
 
+void WrittenFile::write(uint64_t offset, const std::vector<std::string_view>& pieces)
+{
+    std::vector<iovec> batch;
+    for (size_t first = 0; first < pieces.size();) {
+        const size_t last = std::min(pieces.size(), first + size_t(IOV_MAX));
+        batch.clear();
+        size_t bytes = 0;
+        for (size_t k = first; k < last; ++k) {
+            batch.push_back({const_cast<char*>(pieces[k].data()), pieces[k].size()});
+            bytes += pieces[k].size();
+        }
+        // (a short write continues from where it stopped)
+        size_t done = 0, at = 0;
+        while (done < bytes) {
+            const ssize_t r =
+                ::pwritev(fd_, batch.data() + at, int(batch.size() - at), off_t(offset + done));
+            if (r < 0 && errno == EINTR)
+                continue;
+            if (r <= 0)
+                throw std::system_error(r < 0 ? errno : ENOSPC, std::generic_category(), "pwritev");
+            done += size_t(r);
+            for (size_t left = size_t(r); left > 0;) {
+                const size_t take = std::min(left, batch[at].iov_len);
+                batch[at].iov_base = static_cast<char*>(batch[at].iov_base) + take;
+                batch[at].iov_len -= take;
+                left -= take;
+                if (batch[at].iov_len == 0)
+                    ++at;
+            }
+            while (at < batch.size() && batch[at].iov_len == 0)
+                ++at;
+        }
+        offset += bytes;
+        first = last;
+    }
+}
+
 void writeFile(const std::string& path, const std::function<void(std::ostream&)>& write)
 {
     writeFile(path, write, {});
@@ -580,7 +618,14 @@ void writeFile(const std::string& path, const std::function<void(std::ostream&)>
         throw;
     } catch (const std::exception& e) {
         abandon();
-        failWrite(path, buf.error() ? std::strerror(buf.error()) : e.what());
+        // (a write at an offset, WrittenFile's, fails with the system's
+        // word, as the stream's does: "File too large", not "pwritev: ...")
+        const auto* sys = dynamic_cast<const std::system_error*>(&e);
+        const int code = buf.error() ? buf.error()
+                         : sys && sys->code().category() == std::generic_category()
+                             ? sys->code().value()
+                             : 0;
+        failWrite(path, code ? std::strerror(code) : e.what());
     }
     if (replacing)
         ::fchmod(fd, old.st_mode & 07777);  // the new file keeps the old one's permissions

@@ -17,7 +17,7 @@ namespace cambium {
 namespace {
 
 using LeafMask = openvdb::util::NodeMask<3>;
-constexpr size_t kVoxels = LeafMask::SIZE;                                  // 512
+constexpr size_t kVoxels = LeafMask::SIZE;                                    // 512
 constexpr size_t kMaskBytes = sizeof(LeafMask::Word) * LeafMask::WORD_COUNT;  // 64
 
 /// The leaf's voxels from its active values in order and its two inactive
@@ -44,9 +44,9 @@ void expandPortable(const ValueT* active, const LeafMask& mask, const LeafMask& 
 /// The same for floats, sixteen voxels an instruction (AVX-512's expanding
 /// load puts the next active values in the active lanes).
 __attribute__((target("avx512f,popcnt"))) void expandAvx512(const float* active,
-                                                              const LeafMask& mask,
-                                                              const LeafMask& selection,
-                                                              const float inactive[2], float* out)
+                                                            const LeafMask& mask,
+                                                            const LeafMask& selection,
+                                                            const float inactive[2], float* out)
 {
     const __m512 v0 = _mm512_set1_ps(inactive[0]), v1 = _mm512_set1_ps(inactive[1]);
     size_t k = 0;
@@ -55,7 +55,8 @@ __attribute__((target("avx512f,popcnt"))) void expandAvx512(const float* active,
         for (int q = 0; q < 4; ++q) {
             const __mmask16 a = __mmask16(on >> (16 * q)), s = __mmask16(pick >> (16 * q));
             const __m512 idle = _mm512_mask_blend_ps(s, v0, v1);
-            _mm512_storeu_ps(out + 64 * w + 16 * q, _mm512_mask_expandloadu_ps(idle, a, active + k));
+            _mm512_storeu_ps(out + 64 * w + 16 * q,
+                             _mm512_mask_expandloadu_ps(idle, a, active + k));
             k += size_t(__builtin_popcount(unsigned(a)));
         }
     }
@@ -99,10 +100,9 @@ std::string decodeLeafValues(const char* p, size_t n, const LeafMask& mask, cons
     // The inactive values and the selection mask, as readCompressedValues
     // reads them.
     const char* q = p + kMaskBytes + 1;
-    ValueT inactive[2] = {h.code == io::NO_MASK_OR_INACTIVE_VALS
-                              ? background
-                              : openvdb::math::negative(background),
-                          background};
+    ValueT inactive[2] = {
+        h.code == io::NO_MASK_OR_INACTIVE_VALS ? background : openvdb::math::negative(background),
+        background};
     if (h.code == io::NO_MASK_AND_ONE_INACTIVE_VAL || h.code == io::MASK_AND_ONE_INACTIVE_VAL ||
         h.code == io::MASK_AND_TWO_INACTIVE_VALS) {
         std::memcpy(&inactive[0], q, sizeof(ValueT));

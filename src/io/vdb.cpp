@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <charconv>
 #include <functional>
+#include <future>
 #include <stdexcept>
 #include <cerrno>
 #include <cstring>
@@ -27,6 +28,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -79,6 +81,118 @@ protected:
 
 private:
     std::vector<char> data_;
+    size_t pos_ = 0;
+};
+
+/// A seekable output stream's buffer that keeps what is written to it in
+/// memory but long runs of bytes that outlive it (packed leaves) by
+/// reference: an archive laid out once and then written to a file while
+/// another thread sums it (writeVdb), without a copy of its leaves.  A seek
+/// back lands in the bytes it holds (a grid's stream positions), and writes
+/// there overwrite them.
+class PiecesBuf : public std::streambuf {
+public:
+    /// `n` bytes at `p`, which outlive this buffer, appended by reference.
+    void reference(const char* p, size_t n)
+    {
+        if (pos_ != owned_.size())
+            throw std::logic_error("PiecesBuf: a reference written over");
+        refs_.push_back({owned_.size(), p, n});
+        refBytes_ += n;
+    }
+    uint64_t size() const { return owned_.size() + refBytes_; }
+    /// The bytes it holds before the first reference.
+    std::string_view head() const
+    {
+        return {owned_.data(), refs_.empty() ? owned_.size() : refs_.front().at};
+    }
+    /// Every piece in order.
+    template <class F>
+    void forEach(F&& f) const
+    {
+        size_t from = 0;
+        for (const Ref& r : refs_) {
+            if (r.at > from)
+                f(owned_.data() + from, r.at - from);
+            f(r.p, r.n);
+            from = r.at;
+        }
+        if (owned_.size() > from)
+            f(owned_.data() + from, owned_.size() - from);
+    }
+
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (!traits_type::eq_int_type(c, traits_type::eof())) {
+            const char ch = traits_type::to_char_type(c);
+            xsputn(&ch, 1);
+        }
+        return traits_type::not_eof(c);
+    }
+    std::streamsize xsputn(const char* s, std::streamsize n) override
+    {
+        if (pos_ == owned_.size()) {
+            owned_.insert(owned_.end(), s, s + n);
+        } else {
+            // (a patch: within the held bytes, before the next reference)
+            size_t limit = owned_.size();
+            for (const Ref& r : refs_)
+                if (r.at > pos_) {
+                    limit = r.at;
+                    break;
+                }
+            if (pos_ + size_t(n) > limit)
+                throw std::logic_error("PiecesBuf: a patch across a reference");
+            std::memcpy(owned_.data() + pos_, s, size_t(n));
+        }
+        pos_ += size_t(n);
+        return n;
+    }
+    pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override
+    {
+        const off_type base = dir == std::ios_base::beg   ? 0
+                              : dir == std::ios_base::cur ? off_type(logical(pos_))
+                                                          : off_type(size());
+        const off_type to = base + off;
+        if (to < 0 || uint64_t(to) > size())
+            return pos_type(off_type(-1));
+        // The held byte at logical offset `to` (not inside a reference).
+        uint64_t before = 0;  // referenced bytes before it
+        for (const Ref& r : refs_) {
+            const uint64_t start = r.at + before;
+            if (uint64_t(to) < start)
+                break;
+            if (uint64_t(to) < start + r.n)
+                return pos_type(off_type(-1));
+            before += r.n;
+        }
+        pos_ = size_t(uint64_t(to) - before);
+        return pos_type(to);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+
+private:
+    /// The logical offset of held byte `at`: the references before it counted.
+    uint64_t logical(size_t at) const
+    {
+        uint64_t n = at;
+        for (const Ref& r : refs_)
+            if (r.at <= at)
+                n += r.n;
+        return n;
+    }
+    struct Ref {
+        size_t at;  ///< the held bytes' offset it comes before
+        const char* p;
+        size_t n;
+    };
+    std::vector<char> owned_;
+    std::vector<Ref> refs_;
+    uint64_t refBytes_ = 0;
     size_t pos_ = 0;
 };
 
@@ -206,13 +320,15 @@ private:
                 };
                 io::DelayedLoadMetadata delayed;
                 const bool sizes = compression() & (io::COMPRESS_BLOSC | io::COMPRESS_ZIP);
+                std::vector<std::string_view> leafBytes;  // (in the tree's order)
+                leafBytes.reserve(leaves);
                 if (leaves) {
                     delayed.resizeMask(leaves);
                     if (sizes)
                         delayed.resizeCompressedSize(leaves);
                     uint32_t i = 0;
                     for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
-                        const std::string_view b = bytesOf(*it, i);
+                        const std::string_view b = leafBytes.emplace_back(bytesOf(*it, i));
                         const auto [mask, values] =
                             packedLeafLayout<typename G::ValueType>(b, it->getValueMask());
                         delayed.setMask(i, io::DelayedLoadMetadata::MaskType(mask));
@@ -232,10 +348,14 @@ private:
                 grid.writeTransform(os);
                 grid.writeTopology(os);
                 gd.setBlockPos(os.tellp());
-                uint32_t i = 0;
-                for (auto it = tree.cbeginLeaf(); it; ++it, ++i) {
-                    const std::string_view b = bytesOf(*it, i);
-                    os.write(b.data(), std::streamsize(b.size()));
+                // (by reference where the archive is laid out to be written
+                // later: the packed leaves outlive it)
+                auto* pieces = dynamic_cast<PiecesBuf*>(os.rdbuf());
+                for (const std::string_view b : leafBytes) {
+                    if (pieces)
+                        pieces->reference(b.data(), b.size());
+                    else
+                        os.write(b.data(), std::streamsize(b.size()));
                 }
             });
         if (!known)
@@ -356,32 +476,44 @@ void writeArchive(std::ostream& os, const PreparedVdb& v)
         archive.writePacked(os, v.packed, v.meta);
 }
 
-/// Fills in the checksum of a file OpenVDB wrote from prepareVdb's grids:
-/// its entry found in the file metadata (within the first 64 kB, before any
-/// grid), the bytes after it summed in blocks read through `read(offset,
-/// data, n)`, the digest written through `write(offset, data, n)`.
-void patchChecksum(uint64_t size, const std::function<void(uint64_t, char*, size_t)>& read,
-                   const std::function<void(uint64_t, const char*, size_t)>& write)
+/// Where the checksum's value goes in a file written from prepareVdb's
+/// grids, from its first bytes (`head`, 64 kB or less: the entry is in the
+/// file metadata, before any grid); the checksum covers the bytes after it.
+uint64_t checksumPlace(std::string_view head)
 {
     const std::string placeholder = kPlaceholder;
     const std::string entry =
         std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14) + placeholder;
+    head = head.substr(0, size_t(1) << 16);
+    const size_t at = head.find(entry);
+    if (at == std::string_view::npos)
+        throw std::runtime_error("the checksum's place was not found in the file OpenVDB wrote");
+    return uint64_t(at) + entry.size() - placeholder.size();
+}
+
+std::string checksumDigest(const Checksum64& sum)
+{
+    return fmt::format("{:016x}", sum.value());
+}
+
+/// Fills in the checksum of a file OpenVDB wrote from prepareVdb's grids:
+/// the bytes after its place summed in blocks read through `read(offset,
+/// data, n)`, the digest written through `write(offset, data, n)`.
+void patchChecksum(uint64_t size, const std::function<void(uint64_t, char*, size_t)>& read,
+                   const std::function<void(uint64_t, const char*, size_t)>& write)
+{
     std::vector<char> block(size_t(1) << 22);
     const size_t head = size_t(std::min<uint64_t>(size, 1 << 16));
     read(0, block.data(), head);
-    const auto at =
-        std::search(block.begin(), block.begin() + long(head), entry.begin(), entry.end());
-    if (at == block.begin() + long(head))
-        throw std::runtime_error("the checksum's place was not found in the file OpenVDB wrote");
-    const uint64_t value = uint64_t(at - block.begin()) + entry.size() - placeholder.size();
+    const uint64_t value = checksumPlace(std::string_view(block.data(), head));
     Checksum64 sum;
-    for (uint64_t from = value + placeholder.size(); from < size;) {
+    for (uint64_t from = value + sizeof kPlaceholder - 1; from < size;) {
         const size_t n = size_t(std::min<uint64_t>(block.size(), size - from));
         read(from, block.data(), n);
         sum.update(block.data(), n);
         from += n;
     }
-    const std::string digest = fmt::format("{:016x}", sum.value());
+    const std::string digest = checksumDigest(sum);
     write(value, digest.data(), digest.size());
 }
 
@@ -389,15 +521,37 @@ void patchChecksum(uint64_t size, const std::function<void(uint64_t, char*, size
 
 void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFileInfo& info)
 {
-    // Written straight into the checked writer's temporary (no copy of the
-    // file in memory), then the checksum read back from it and patched in.
+    // The archive laid out in memory, its leaves by reference (no copy of
+    // them), then written to the checked writer's temporary while another
+    // thread sums it, and the checksum patched in (the sum, a chain of
+    // dependent multiplications, took as long as the writing after it).
     const PreparedVdb v = prepareVdb(grids, info, true);
+    PiecesBuf pieces;
+    {
+        std::ostream os(&pieces);
+        os.exceptions(std::ios::badbit);
+        writeArchive(os, v);
+    }
+    const uint64_t value = checksumPlace(pieces.head());
+    // (joined before `pieces` goes, whatever the write does)
+    std::future<std::string> digest = std::async(std::launch::async, [&] {
+        Checksum64 sum;
+        uint64_t at = 0, from = value + sizeof kPlaceholder - 1;
+        pieces.forEach([&](const char* p, size_t n) {
+            const uint64_t skip = std::min<uint64_t>(n, from > at ? from - at : 0);
+            sum.update(p + skip, n - size_t(skip));
+            at += n;
+        });
+        return checksumDigest(sum);
+    });
+    std::vector<std::string_view> all;
+    pieces.forEach([&](const char* p, size_t n) { all.emplace_back(p, n); });
     writeFile(
-        path, [&](std::ostream& os) { writeArchive(os, v); },
+        path, [](std::ostream&) {},
         [&](WrittenFile& f) {
-            patchChecksum(
-                f.size(), [&](uint64_t at, char* data, size_t n) { f.read(at, data, n); },
-                [&](uint64_t at, const char* data, size_t n) { f.write(at, data, n); });
+            f.write(0, all);
+            const std::string d = digest.get();
+            f.write(value, d.data(), d.size());
         });
 }
 
