@@ -16,6 +16,7 @@
 #include "temp_dir.h"
 
 #include <gtest/gtest.h>
+#include <new>
 #include <openvdb/io/File.h>
 #include <openvdb/tools/Diagnostics.h>
 #include <tbb/parallel_for.h>
@@ -729,6 +730,19 @@ TEST(BakeRoundTrip, AFileEncodedShortOfMemoryEndsInBadAllocNotInCutBytes)
                                rlim_t(now.addressSpaceUsed + 3e6)};
             if (::setrlimit(RLIMIT_AS, &limit) != 0)
                 return 6;
+            // Room the limit cannot take away is taken first: the heaps of
+            // other threads' malloc arenas, mapped already (run after the
+            // reader's tests in one process, the 8 MB fitted in a worker's),
+            // and a reserve an earlier test may have installed
+            // (installMemoryReserve); then 3 MB is given back.
+            std::set_new_handler(nullptr);
+            std::vector<void*> taken;
+            while (void* p = ::malloc(size_t(1) << 20))
+                taken.push_back(p);
+            for (int k = 0; k < 3 && !taken.empty(); ++k) {
+                ::free(taken.back());
+                taken.pop_back();
+            }
             tbb::task_arena one(1);
             return one.execute([&] {
                 try {

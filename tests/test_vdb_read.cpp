@@ -408,8 +408,22 @@ TEST(VdbRead, ALeafsValuesThatDoNotUnpackAreRefusedByTheDirectDecoder)
         std::memcmp(out.data(), leafReadByOpenVdb(right, leaf, compression, bg).buffer().data(),
                     LeafT::SIZE * 4),
         0);
-    // Cut short.
+    // Cut short; a Blosc header claiming more bytes than its block holds
+    // (Blosc would read them); a raw size that does not negate.
     EXPECT_NE(decodeLeafValues(good.data(), good.size() - 5, leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    std::string claims = good;
+    const uint32_t more = uint32_t(good.size() - block);
+    std::memcpy(claims.data() + block + 8 + 12, &more, 4);
+    EXPECT_NE(decodeLeafValues(claims.data(), claims.size(), leaf.getValueMask(), stored, bg,
+                               out.data(), scratch),
+              "");
+    std::string lowest = good.substr(0, block);
+    const int64_t least = std::numeric_limits<int64_t>::min();
+    lowest.append(reinterpret_cast<const char*>(&least), 8);
+    lowest.append(64, '\0');
+    EXPECT_NE(decodeLeafValues(lowest.data(), lowest.size(), leaf.getValueMask(), stored, bg,
                                out.data(), scratch),
               "");
     // Layouts left to OpenVDB's decoder.

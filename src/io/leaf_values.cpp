@@ -135,12 +135,20 @@ std::string decodeLeafValues(const char* p, size_t n, const LeafMask& mask, cons
             return "its values run past its bytes";
         std::memcpy(&packed, block, sizeof packed);
         if (packed <= 0) {  // stored raw
-            if (uint64_t(-packed) != bytes || left - sizeof packed < bytes)
-                return fmt::format("{} raw bytes where its values take {}", -packed, bytes);
+            const uint64_t raw = uint64_t(0) - uint64_t(packed);
+            if (raw != bytes || left - sizeof packed < bytes)
+                return fmt::format("{} raw bytes where its values take {}", raw, bytes);
             std::memcpy(values, block + sizeof packed, bytes);
         } else {
-            if (uint64_t(packed) > left - sizeof packed)
+            // (Blosc reads as many bytes as its header claims: its 16-byte
+            // header, the block's size in it at byte 12, within the block)
+            constexpr size_t kBloscHeader = 16;
+            if (uint64_t(packed) > left - sizeof packed || uint64_t(packed) < kBloscHeader)
                 return "its values run past its bytes";
+            uint32_t claimed;
+            std::memcpy(&claimed, block + sizeof packed + 12, 4);
+            if (claimed > uint64_t(packed))
+                return "its Blosc header claims more bytes than its block holds";
             const int got = blosc_decompress_ctx(block + sizeof packed, values, bytes, 1);
             if (got < 0 || size_t(got) != bytes)
                 return fmt::format("Blosc unpacked {} bytes where its values take {}", got, bytes);

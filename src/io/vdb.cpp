@@ -143,7 +143,7 @@ protected:
                     break;
                 }
             if (pos_ + size_t(n) > limit)
-                throw std::logic_error("PiecesBuf: a patch across a reference");
+                throw std::logic_error("PiecesBuf: a patch past the bytes it holds there");
             std::memcpy(owned_.data() + pos_, s, size_t(n));
         }
         pos_ += size_t(n);
@@ -527,27 +527,32 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
     // dependent multiplications, took as long as the writing after it).
     const PreparedVdb v = prepareVdb(grids, info, true);
     PiecesBuf pieces;
-    {
-        std::ostream os(&pieces);
-        os.exceptions(std::ios::badbit);
-        writeArchive(os, v);
-    }
-    const uint64_t value = checksumPlace(pieces.head());
-    // (joined before `pieces` goes, whatever the write does)
-    std::future<std::string> digest = std::async(std::launch::async, [&] {
-        Checksum64 sum;
-        uint64_t at = 0, from = value + sizeof kPlaceholder - 1;
-        pieces.forEach([&](const char* p, size_t n) {
-            const uint64_t skip = std::min<uint64_t>(n, from > at ? from - at : 0);
-            sum.update(p + skip, n - size_t(skip));
-            at += n;
-        });
-        return checksumDigest(sum);
-    });
+    uint64_t value = 0;
     std::vector<std::string_view> all;
-    pieces.forEach([&](const char* p, size_t n) { all.emplace_back(p, n); });
+    // (declared last: joined before the pieces it sums go, whatever happens)
+    std::future<std::string> digest;
     writeFile(
-        path, [](std::ostream&) {},
+        path,
+        [&](std::ostream&) {
+            {
+                std::ostream os(&pieces);
+                os.exceptions(std::ios::badbit | std::ios::failbit);  // (a failed seek too)
+                writeArchive(os, v);
+            }
+            value = checksumPlace(pieces.head());
+            digest = std::async(std::launch::async, [&] {
+                Checksum64 sum;
+                uint64_t at = 0;
+                const uint64_t from = value + sizeof kPlaceholder - 1;
+                pieces.forEach([&](const char* p, size_t n) {
+                    const uint64_t skip = std::min<uint64_t>(n, from > at ? from - at : 0);
+                    sum.update(p + skip, n - size_t(skip));
+                    at += n;
+                });
+                return checksumDigest(sum);
+            });
+            pieces.forEach([&](const char* p, size_t n) { all.emplace_back(p, n); });
+        },
         [&](WrittenFile& f) {
             f.write(0, all);
             const std::string d = digest.get();

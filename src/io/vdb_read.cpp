@@ -112,10 +112,13 @@ bool anyNonFinite(const ValueT* values, size_t count)
 {
     constexpr size_t n = sizeof(ValueT) / sizeof(float);
     static_assert(n * sizeof(float) == sizeof(ValueT));
-    const auto* bits = reinterpret_cast<const uint32_t*>(values);
+    const auto* bytes = reinterpret_cast<const char*>(values);
     uint32_t most = 0;
-    for (size_t k = 0; k < n * count; ++k)
-        most = std::max(most, bits[k] & 0x7FFFFFFFu);
+    for (size_t k = 0; k < n * count; ++k) {
+        uint32_t bits;
+        std::memcpy(&bits, bytes + 4 * k, 4);
+        most = std::max(most, bits & 0x7FFFFFFFu);
+    }
     float m;
     std::memcpy(&m, &most, sizeof m);
     if constexpr (n == 1)
