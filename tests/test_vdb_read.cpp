@@ -287,8 +287,9 @@ ValueT valueOf(float v)
 }
 
 /// Leaves of every inactive-value layout OpenVDB's writer chooses (the
-/// seven codes), written under every compression the direct decoder takes,
-/// decoded by it and by OpenVDB's reader: the same bits.
+/// seven codes), written under every compression the direct decoder takes:
+/// encoded directly, the bytes OpenVDB's writer writes; decoded by it and by
+/// OpenVDB's reader, the same bits.
 template <class ValueT>
 void expectDirectDecodeAsOpenVdb()
 {
@@ -327,6 +328,15 @@ void expectDirectDecodeAsOpenVdb()
                 }
                 const std::string bytes = leafBytesWritten(leaf, compression, bg);
                 codes.insert(int(int8_t(bytes[64])));
+                // Encoded directly: OpenVDB's bytes.
+                std::vector<char> encoded;
+                std::vector<ValueT> active;
+                ASSERT_TRUE(encodesLeafValues(compression, false));
+                encodeLeafValues(leaf.getValueMask(), leaf.buffer().data(), bg, compression,
+                                 encoded, active);
+                ASSERT_EQ(std::string(encoded.begin(), encoded.end()), bytes)
+                    << "encoded: compression " << compression << ", density " << density
+                    << ", code " << int(bytes[64]);
                 const LeafT theirs = leafReadByOpenVdb(bytes, leaf, compression, bg);
                 std::vector<ValueT> ours(LeafT::SIZE, valueOf<ValueT>(1234.0f)), scratch;
                 const std::string why =
@@ -348,7 +358,7 @@ void expectDirectDecodeAsOpenVdb()
 
 }  // namespace
 
-TEST(VdbRead, LeavesDecodedDirectlyHoldWhatOpenVdbsDecoderGives)
+TEST(VdbRead, LeavesCodedDirectlyAreWhatOpenVdbsCodersMakeAndRead)
 {
     expectDirectDecodeAsOpenVdb<float>();
     expectDirectDecodeAsOpenVdb<openvdb::Vec3f>();
@@ -432,6 +442,8 @@ TEST(VdbRead, ALeafsValuesThatDoNotUnpackAreRefusedByTheDirectDecoder)
     zip.compression = io::COMPRESS_ZIP | io::COMPRESS_ACTIVE_MASK;
     EXPECT_FALSE(decodesLeafValues(halves, openvdb::OPENVDB_FILE_VERSION));
     EXPECT_FALSE(decodesLeafValues(zip, openvdb::OPENVDB_FILE_VERSION));
+    EXPECT_FALSE(encodesLeafValues(zip.compression, false));
+    EXPECT_FALSE(encodesLeafValues(stored.compression, true));
     EXPECT_FALSE(
         decodesLeafValues(stored, openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION - 1));
 }

@@ -1,4 +1,5 @@
-// cambium — a leaf's values decoded straight from its bytes (see leaf_values.h).
+// cambium — a leaf's values decoded straight from its bytes, and encoded
+// as OpenVDB encodes them (see leaf_values.h).
 #include "io/leaf_values.h"
 
 #include <blosc.h>
@@ -162,6 +163,149 @@ std::string decodeLeafValues(const char* p, size_t n, const LeafMask& mask, cons
         expand(values, mask, selection, inactive, out);
     return {};
 }
+
+bool encodesLeafValues(uint32_t compression, bool half)
+{
+    namespace io = openvdb::io;
+    return !half && !(compression & ~uint32_t(io::COMPRESS_BLOSC | io::COMPRESS_ACTIVE_MASK));
+}
+
+namespace {
+
+/// Each index of the bits set in `words` (eight of a leaf's mask), in order;
+/// `f` returns false to stop.
+template <class F>
+void forEachBit(const uint64_t* words, F&& f)
+{
+    for (int w = 0; w < 8; ++w)
+        for (uint64_t b = words[w]; b; b &= b - 1)
+            if (!f(64 * w + __builtin_ctzll(b)))
+                return;
+}
+
+template <class T>
+void append(std::vector<char>& out, const T& v)
+{
+    const size_t at = out.size();
+    out.resize(at + sizeof v);
+    std::memcpy(out.data() + at, &v, sizeof v);
+}
+
+}  // namespace
+
+template <class ValueT>
+void encodeLeafValues(const LeafMask& mask, const ValueT* values, const ValueT& background,
+                      uint32_t compression, std::vector<char>& out, std::vector<ValueT>& scratch)
+{
+    namespace io = openvdb::io;
+    auto eq = [](const ValueT& a, const ValueT& b) { return openvdb::math::isExactlyEqual(a, b); };
+    uint64_t on[8], off[8];
+    for (openvdb::Index w = 0; w < 8; ++w) {
+        on[w] = mask.getWord<uint64_t>(w);
+        off[w] = ~on[w];
+    }
+    out.clear();
+    for (uint64_t w : on)
+        append(out, w);
+    const ValueT* data = values;
+    size_t count = kVoxels;
+    int8_t code = io::NO_MASK_AND_ALL_VALS;
+    if (!(compression & io::COMPRESS_ACTIVE_MASK)) {
+        append(out, code);
+    } else {
+        // MaskCompress: the first two distinct inactive values in the
+        // voxels' order (a third: every value is kept).
+        ValueT inactive[2] = {background, background};
+        int unique = 0;
+        forEachBit(off, [&](int i) {
+            const ValueT& v = values[i];
+            if (!((unique > 0 && eq(v, inactive[0])) || (unique > 1 && eq(v, inactive[1])))) {
+                if (unique < 2)
+                    inactive[unique] = v;
+                ++unique;
+            }
+            return unique < 3;
+        });
+        const ValueT minus = openvdb::math::negative(background);
+        code = io::NO_MASK_OR_INACTIVE_VALS;
+        if (unique == 1) {
+            if (!eq(inactive[0], background))
+                code = eq(inactive[0], minus) ? io::NO_MASK_AND_MINUS_BG
+                                              : io::NO_MASK_AND_ONE_INACTIVE_VAL;
+        } else if (unique == 2) {
+            if (!eq(inactive[0], background) && !eq(inactive[1], background)) {
+                code = io::MASK_AND_TWO_INACTIVE_VALS;
+            } else if (eq(inactive[1], background)) {
+                code = eq(inactive[0], minus) ? io::MASK_AND_NO_INACTIVE_VALS
+                                              : io::MASK_AND_ONE_INACTIVE_VAL;
+            } else if (eq(inactive[0], background)) {
+                code = eq(inactive[1], minus) ? io::MASK_AND_NO_INACTIVE_VALS
+                                              : io::MASK_AND_ONE_INACTIVE_VAL;
+                std::swap(inactive[0], inactive[1]);
+            }
+        } else if (unique > 2) {
+            code = io::NO_MASK_AND_ALL_VALS;
+        }
+        append(out, code);
+        if (code == io::NO_MASK_AND_ONE_INACTIVE_VAL || code == io::MASK_AND_ONE_INACTIVE_VAL ||
+            code == io::MASK_AND_TWO_INACTIVE_VALS) {
+            append(out, inactive[0]);
+            if (code == io::MASK_AND_TWO_INACTIVE_VALS)
+                append(out, inactive[1]);
+        }
+        if (code != io::NO_MASK_AND_ALL_VALS) {
+            // The active values, in order; and where two inactive values
+            // are kept, the mask that picks the second.
+            scratch.resize(kVoxels);
+            count = 0;
+            forEachBit(on, [&](int i) {
+                scratch[count++] = values[i];
+                return true;
+            });
+            data = scratch.data();
+            if (code == io::MASK_AND_NO_INACTIVE_VALS || code == io::MASK_AND_ONE_INACTIVE_VAL ||
+                code == io::MASK_AND_TWO_INACTIVE_VALS) {
+                uint64_t pick[8] = {};
+                forEachBit(off, [&](int i) {
+                    if (eq(values[i], inactive[1]))
+                        pick[i >> 6] |= uint64_t(1) << (i & 63);
+                    return true;
+                });
+                for (uint64_t w : pick)
+                    append(out, w);
+            }
+        }
+    }
+    // The values, as openvdb::io::writeData and bloscToStream write them.
+    const size_t bytes = count * sizeof(ValueT);
+    if (!(compression & io::COMPRESS_BLOSC)) {
+        out.insert(out.end(), reinterpret_cast<const char*>(data),
+                   reinterpret_cast<const char*>(data) + bytes);
+        return;
+    }
+    const size_t at = out.size();
+    const int room = int(bytes) + BLOSC_MAX_OVERHEAD;
+    out.resize(at + sizeof(int64_t) + size_t(room));
+    const int packed =
+        blosc_compress_ctx(9, 1, sizeof(float), bytes, data, out.data() + at + sizeof(int64_t),
+                           size_t(room), BLOSC_LZ4_COMPNAME, bytes, 1);
+    if (packed <= 0) {  // (stored raw, its size negated)
+        out.resize(at);
+        append(out, -int64_t(bytes));
+        out.insert(out.end(), reinterpret_cast<const char*>(data),
+                   reinterpret_cast<const char*>(data) + bytes);
+        return;
+    }
+    const int64_t size = packed;
+    std::memcpy(out.data() + at, &size, sizeof size);
+    out.resize(at + sizeof size + size_t(packed));
+}
+
+template void encodeLeafValues<float>(const LeafMask&, const float*, const float&, uint32_t,
+                                      std::vector<char>&, std::vector<float>&);
+template void encodeLeafValues<openvdb::Vec3f>(const LeafMask&, const openvdb::Vec3f*,
+                                               const openvdb::Vec3f&, uint32_t, std::vector<char>&,
+                                               std::vector<openvdb::Vec3f>&);
 
 template std::string decodeLeafValues<float>(const char*, size_t, const LeafMask&,
                                              const StoredValues&, const float&, float*,

@@ -6,6 +6,7 @@
 #include "core/hash.h"
 #include "core/versions.h"
 #include "io/leaf_layout.h"
+#include "io/leaf_values.h"
 
 #include <fmt/format.h>
 #include <openvdb/io/Archive.h>
@@ -29,6 +30,7 @@
 #include <set>
 #include <sstream>
 #include <string_view>
+#include <tuple>
 #include <type_traits>
 #include <vector>
 
@@ -619,13 +621,25 @@ struct PackedLeaves::Block::Impl {
     template <class LeafT>
     void add(uint32_t slot, const LeafT& leaf)
     {
+        using ValueT = typename LeafT::ValueType;
         starts.emplace_back(slot, buf.data().size());
-        leaf.writeBuffers(os, owner.half_);
+        if (!encodesLeafValues(owner.compression_, owner.half_)) {
+            leaf.writeBuffers(os, owner.half_);
+            return;
+        }
+        // (OpenVDB's bytes, without its stream and allocations: leaf_values.h)
+        auto& values = std::get<std::vector<ValueT>>(scratch);
+        encodeLeafValues(leaf.getValueMask(), leaf.buffer().data(),
+                         *static_cast<const ValueT*>(owner.background_.get()), owner.compression_,
+                         bytes, values);
+        os.write(bytes.data(), std::streamsize(bytes.size()));
     }
     PackedLeaves& owner;
     MemoryBuf buf;
     std::ostream os;
     std::vector<std::pair<uint32_t, size_t>> starts;
+    std::vector<char> bytes;  // (a leaf's, encoded)
+    std::tuple<std::vector<float>, std::vector<openvdb::Vec3f>> scratch;
 };
 
 PackedLeaves::Block::Block(PackedLeaves& owner) : impl_(std::make_unique<Impl>(owner)) {}
