@@ -483,14 +483,15 @@ void writeArchive(std::ostream& os, const PreparedVdb& v)
 /// file metadata, before any grid); the checksum covers the bytes after it.
 uint64_t checksumPlace(std::string_view head)
 {
-    const std::string placeholder = kPlaceholder;
+    // (its key, its type and its length: the 16 digits follow, the
+    // placeholder's or a digest)
     const std::string entry =
-        std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14) + placeholder;
+        std::string(kChecksumKey) + std::string("\x06\0\0\0string\x10\0\0\0", 14);
     head = head.substr(0, size_t(1) << 16);
     const size_t at = head.find(entry);
-    if (at == std::string_view::npos)
+    if (at == std::string_view::npos || head.size() < at + entry.size() + sizeof kPlaceholder - 1)
         throw std::runtime_error("the checksum's place was not found in the file OpenVDB wrote");
-    return uint64_t(at) + entry.size() - placeholder.size();
+    return uint64_t(at) + entry.size();
 }
 
 std::string checksumDigest(const Checksum64& sum)
@@ -577,6 +578,24 @@ std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
         [&](uint64_t at, char* data, size_t n) { std::memcpy(data, bytes.data() + at, n); },
         [&](uint64_t at, const char* data, size_t n) { std::memcpy(bytes.data() + at, data, n); });
     return bytes;
+}
+
+bool signVdbAgain(std::string& bytes)
+{
+    uint64_t value;
+    try {
+        value = checksumPlace(bytes);
+    } catch (const std::runtime_error&) {
+        return false;
+    }
+    const size_t from = size_t(value) + sizeof kPlaceholder - 1;
+    if (from > bytes.size())
+        return false;
+    Checksum64 sum;
+    sum.update(bytes.data() + from, bytes.size() - from);
+    const std::string digest = checksumDigest(sum);
+    bytes.replace(size_t(value), digest.size(), digest);
+    return true;
 }
 
 PackedLeaves::PackedLeaves(const openvdb::GridBase& grid, bool half, size_t slots)

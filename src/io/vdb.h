@@ -33,6 +33,12 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
 std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
                             bool parallel = true);
 
+/// A .vdb's bytes signed again: its `cambium_checksum` recomputed over the
+/// bytes after it, as the writer computes it (false where it has none).
+/// For the tests and the fuzzer, which damage a file past its checksum so
+/// that the readers behind it see the damage.
+bool signVdbAgain(std::string& bytes);
+
 /// A grid's leaf buffers serialised as writeVdb writes them (each leaf's value
 /// mask, then its compressed values), made while a bake runs so that the grid
 /// never holds all its values at once: the grid keeps each leaf's value mask
