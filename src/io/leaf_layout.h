@@ -29,6 +29,23 @@ struct LeafHeader {
     size_t length = 0;  ///< where the values begin (may lie past the bytes given)
 };
 
+/// How many inactive values a node's inactive-value code stores after it
+/// (0, 1 or 2), and whether a selection mask follows them: what
+/// openvdb::io::writeCompressedValues writes for each code.
+inline int storedInactiveValues(int8_t code)
+{
+    namespace io = openvdb::io;
+    return code == io::MASK_AND_TWO_INACTIVE_VALS                                              ? 2
+           : code == io::NO_MASK_AND_ONE_INACTIVE_VAL || code == io::MASK_AND_ONE_INACTIVE_VAL ? 1
+                                                                                               : 0;
+}
+inline bool storesSelectionMask(int8_t code)
+{
+    namespace io = openvdb::io;
+    return code == io::MASK_AND_NO_INACTIVE_VALS || code == io::MASK_AND_ONE_INACTIVE_VAL ||
+           code == io::MASK_AND_TWO_INACTIVE_VALS;
+}
+
 /// The bytes after a node's inactive-value code: its inactive values (each
 /// `valueBytes`, as the tree holds them even where it stores halves) and
 /// selection mask (`maskBytes`); SIZE_MAX for a code OpenVDB does not write.
@@ -37,15 +54,8 @@ inline size_t valuesHeaderBytes(int8_t code, size_t valueBytes, size_t maskBytes
     namespace io = openvdb::io;
     if (code < io::NO_MASK_OR_INACTIVE_VALS || code > io::NO_MASK_AND_ALL_VALS)
         return std::numeric_limits<size_t>::max();
-    size_t n = 0;
-    if (code == io::NO_MASK_AND_ONE_INACTIVE_VAL || code == io::MASK_AND_ONE_INACTIVE_VAL)
-        n += valueBytes;
-    if (code == io::MASK_AND_TWO_INACTIVE_VALS)
-        n += 2 * valueBytes;
-    if (code == io::MASK_AND_NO_INACTIVE_VALS || code == io::MASK_AND_ONE_INACTIVE_VAL ||
-        code == io::MASK_AND_TWO_INACTIVE_VALS)
-        n += maskBytes;  // the selection mask
-    return n;
+    return size_t(storedInactiveValues(code)) * valueBytes +
+           (storesSelectionMask(code) ? maskBytes : 0);
 }
 
 /// The header of the leaf whose value mask is `mask`, from its `left` bytes at `p`.

@@ -104,18 +104,10 @@ std::string decodeLeafValues(const char* p, size_t n, const LeafMask& mask, cons
     ValueT inactive[2] = {
         h.code == io::NO_MASK_OR_INACTIVE_VALS ? background : openvdb::math::negative(background),
         background};
-    if (h.code == io::NO_MASK_AND_ONE_INACTIVE_VAL || h.code == io::MASK_AND_ONE_INACTIVE_VAL ||
-        h.code == io::MASK_AND_TWO_INACTIVE_VALS) {
-        std::memcpy(&inactive[0], q, sizeof(ValueT));
-        q += sizeof(ValueT);
-        if (h.code == io::MASK_AND_TWO_INACTIVE_VALS) {
-            std::memcpy(&inactive[1], q, sizeof(ValueT));
-            q += sizeof(ValueT);
-        }
-    }
+    for (int k = 0; k < storedInactiveValues(h.code); ++k, q += sizeof(ValueT))
+        std::memcpy(&inactive[k], q, sizeof(ValueT));
     LeafMask selection;  // (all off: every inactive voxel takes inactive[0])
-    if (h.code == io::MASK_AND_NO_INACTIVE_VALS || h.code == io::MASK_AND_ONE_INACTIVE_VAL ||
-        h.code == io::MASK_AND_TWO_INACTIVE_VALS)
+    if (storesSelectionMask(h.code))
         for (openvdb::Index w = 0; w < LeafMask::WORD_COUNT; ++w)
             std::memcpy(&selection.getWord<uint64_t>(w), q + 8 * w, 8);
     const bool onlyActive =
@@ -247,12 +239,8 @@ void encodeLeafValues(const LeafMask& mask, const ValueT* values, const ValueT& 
             code = io::NO_MASK_AND_ALL_VALS;
         }
         append(out, code);
-        if (code == io::NO_MASK_AND_ONE_INACTIVE_VAL || code == io::MASK_AND_ONE_INACTIVE_VAL ||
-            code == io::MASK_AND_TWO_INACTIVE_VALS) {
-            append(out, inactive[0]);
-            if (code == io::MASK_AND_TWO_INACTIVE_VALS)
-                append(out, inactive[1]);
-        }
+        for (int k = 0; k < storedInactiveValues(code); ++k)
+            append(out, inactive[k]);
         if (code != io::NO_MASK_AND_ALL_VALS) {
             // The active values, in order; and where two inactive values
             // are kept, the mask that picks the second.
@@ -263,8 +251,7 @@ void encodeLeafValues(const LeafMask& mask, const ValueT* values, const ValueT& 
                 return true;
             });
             data = scratch.data();
-            if (code == io::MASK_AND_NO_INACTIVE_VALS || code == io::MASK_AND_ONE_INACTIVE_VAL ||
-                code == io::MASK_AND_TWO_INACTIVE_VALS) {
+            if (storesSelectionMask(code)) {
                 uint64_t pick[8] = {};
                 forEachBit(off, [&](int i) {
                     if (eq(values[i], inactive[1]))
