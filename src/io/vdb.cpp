@@ -19,7 +19,6 @@
 
 #include <algorithm>
 #include <charconv>
-#include <functional>
 #include <future>
 #include <stdexcept>
 #include <cerrno>
@@ -38,8 +37,26 @@ namespace cambium {
 
 namespace {
 
+/// An output stream's buffer whose every write goes through xsputn and
+/// every seek through seekoff (MemoryBuf, PiecesBuf).
+class OutputBuf : public std::streambuf {
+protected:
+    int_type overflow(int_type c) override
+    {
+        if (!traits_type::eq_int_type(c, traits_type::eof())) {
+            const char ch = traits_type::to_char_type(c);
+            xsputn(&ch, 1);
+        }
+        return traits_type::not_eof(c);
+    }
+    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
+    {
+        return seekoff(off_type(pos), std::ios_base::beg, which);
+    }
+};
+
 /// A seekable output stream's buffer in memory.
-class MemoryBuf : public std::streambuf {
+class MemoryBuf : public OutputBuf {
 public:
     std::vector<char>& data() { return data_; }
     /// Empty again, its memory kept for the next use.
@@ -50,14 +67,6 @@ public:
     }
 
 protected:
-    int_type overflow(int_type c) override
-    {
-        if (!traits_type::eq_int_type(c, traits_type::eof())) {
-            const char ch = traits_type::to_char_type(c);
-            xsputn(&ch, 1);
-        }
-        return traits_type::not_eof(c);
-    }
     std::streamsize xsputn(const char* s, std::streamsize n) override
     {
         if (pos_ + size_t(n) > data_.size())
@@ -76,10 +85,6 @@ protected:
         pos_ = size_t(base + off);
         return pos_type(off_type(pos_));
     }
-    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
-    {
-        return seekoff(off_type(pos), std::ios_base::beg, which);
-    }
 
 private:
     std::vector<char> data_;
@@ -92,7 +97,7 @@ private:
 /// another thread sums it (writeVdb), without a copy of its leaves.  A seek
 /// back lands in the bytes it holds (a grid's stream positions), and writes
 /// there overwrite them.
-class PiecesBuf : public std::streambuf {
+class PiecesBuf : public OutputBuf {
 public:
     /// `n` bytes at `p`, which outlive this buffer, appended by reference.
     void reference(const char* p, size_t n)
@@ -124,14 +129,6 @@ public:
     }
 
 protected:
-    int_type overflow(int_type c) override
-    {
-        if (!traits_type::eq_int_type(c, traits_type::eof())) {
-            const char ch = traits_type::to_char_type(c);
-            xsputn(&ch, 1);
-        }
-        return traits_type::not_eof(c);
-    }
     std::streamsize xsputn(const char* s, std::streamsize n) override
     {
         if (pos_ == owned_.size()) {
@@ -171,10 +168,6 @@ protected:
         }
         pos_ = size_t(uint64_t(to) - before);
         return pos_type(to);
-    }
-    pos_type seekpos(pos_type pos, std::ios_base::openmode which) override
-    {
-        return seekoff(off_type(pos), std::ios_base::beg, which);
     }
 
 private:
@@ -494,30 +487,29 @@ uint64_t checksumPlace(std::string_view head)
     return uint64_t(at) + entry.size();
 }
 
-std::string checksumDigest(const Checksum64& sum)
+/// The checksum's digest of the bytes after its place `value`, the file
+/// given as its pieces in order (`forEach(f)` calls f(data, n) on each).
+template <class ForEach>
+std::string checksumAfter(uint64_t value, const ForEach& forEach)
 {
+    Checksum64 sum;
+    const uint64_t from = value + sizeof kPlaceholder - 1;
+    uint64_t at = 0;
+    forEach([&](const char* p, size_t n) {
+        const uint64_t skip = std::min<uint64_t>(n, from > at ? from - at : 0);
+        sum.update(p + skip, n - size_t(skip));
+        at += n;
+    });
     return fmt::format("{:016x}", sum.value());
 }
 
-/// Fills in the checksum of a file OpenVDB wrote from prepareVdb's grids:
-/// the bytes after its place summed in blocks read through `read(offset,
-/// data, n)`, the digest written through `write(offset, data, n)`.
-void patchChecksum(uint64_t size, const std::function<void(uint64_t, char*, size_t)>& read,
-                   const std::function<void(uint64_t, const char*, size_t)>& write)
+/// A file in memory signed: its checksum computed and written in its place
+/// (std::runtime_error where it has none).
+void signBytes(char* data, size_t size)
 {
-    std::vector<char> block(size_t(1) << 22);
-    const size_t head = size_t(std::min<uint64_t>(size, 1 << 16));
-    read(0, block.data(), head);
-    const uint64_t value = checksumPlace(std::string_view(block.data(), head));
-    Checksum64 sum;
-    for (uint64_t from = value + sizeof kPlaceholder - 1; from < size;) {
-        const size_t n = size_t(std::min<uint64_t>(block.size(), size - from));
-        read(from, block.data(), n);
-        sum.update(block.data(), n);
-        from += n;
-    }
-    const std::string digest = checksumDigest(sum);
-    write(value, digest.data(), digest.size());
+    const uint64_t value = checksumPlace({data, size});
+    const std::string digest = checksumAfter(value, [&](const auto& f) { f(data, size); });
+    std::memcpy(data + value, digest.data(), digest.size());
 }
 
 }  // namespace
@@ -544,15 +536,7 @@ void writeVdb(const LevelSetGrids& grids, const std::string& path, const VdbFile
             }
             value = checksumPlace(pieces.head());
             digest = std::async(std::launch::async, [&] {
-                Checksum64 sum;
-                uint64_t at = 0;
-                const uint64_t from = value + sizeof kPlaceholder - 1;
-                pieces.forEach([&](const char* p, size_t n) {
-                    const uint64_t skip = std::min<uint64_t>(n, from > at ? from - at : 0);
-                    sum.update(p + skip, n - size_t(skip));
-                    at += n;
-                });
-                return checksumDigest(sum);
+                return checksumAfter(value, [&](const auto& f) { pieces.forEach(f); });
             });
             pieces.forEach([&](const char* p, size_t n) { all.emplace_back(p, n); });
         },
@@ -573,28 +557,17 @@ std::vector<char> encodeVdb(const LevelSetGrids& grids, const VdbFileInfo& info,
         writeArchive(os, v);
     }
     std::vector<char> bytes = std::move(memory.data());
-    patchChecksum(
-        bytes.size(),
-        [&](uint64_t at, char* data, size_t n) { std::memcpy(data, bytes.data() + at, n); },
-        [&](uint64_t at, const char* data, size_t n) { std::memcpy(bytes.data() + at, data, n); });
+    signBytes(bytes.data(), bytes.size());
     return bytes;
 }
 
 bool signVdbAgain(std::string& bytes)
 {
-    uint64_t value;
     try {
-        value = checksumPlace(bytes);
+        signBytes(bytes.data(), bytes.size());
     } catch (const std::runtime_error&) {
         return false;
     }
-    const size_t from = size_t(value) + sizeof kPlaceholder - 1;
-    if (from > bytes.size())
-        return false;
-    Checksum64 sum;
-    sum.update(bytes.data() + from, bytes.size() - from);
-    const std::string digest = checksumDigest(sum);
-    bytes.replace(size_t(value), digest.size(), digest);
     return true;
 }
 
