@@ -556,6 +556,71 @@ TEST(Render, RaysOnlyWhereLeavesCouldBeGiveTheSamePicture)
     }
 }
 
+TEST(Render, AStripOfRowsAtATimeGivesTheSamePicture)
+{
+    // cambium render reads the level set's topology, then decodes its
+    // leaves a strip of the picture's rows at a time (those whose
+    // footprints reach the strip's rows) and drops each after the last
+    // strip that needs it.  A leaf not decoded reads as zero, a false
+    // surface where a ray would meet it: the picture is the whole grid's to
+    // the bit, from outside (many strips, a few leaves held at once), from
+    // close by (leaves off the picture never decoded) and from inside the
+    // tree's box (every leaf, one strip).
+    openvdb::initialize();
+    const BakedGrids g = test::bakeTree(threeConeTree(true), 0.005);
+    ASSERT_TRUE(g.color);
+    const std::string path = test::freshDir("cambium_render_strips").string() + "/tree.vdb";
+    writeVdb(g, path, VdbFileInfo());
+    const size_t leafCount = g.surface->tree().leafCount();
+    ASSERT_GT(leafCount, 400u);
+    const Box b = activeWorldBounds(*g.surface);
+    const Camera outside = framingCamera(b, 4.0 / 3.0, 35.0, 20.0);
+    Camera close = outside;
+    close.eye = outside.target + 0.35 * (outside.eye - outside.target);
+    Camera inside = outside;
+    inside.eye = b.center() + 0.3 * (b.hi - b.center());
+    inside.target = b.lo;
+    const int W = 120, H = 90, spp = 2;
+    const Camera views[] = {outside, close, inside};
+    for (int view = 0; view < 3; ++view) {
+        const Camera& cam = views[view];
+        const RenderImage whole = renderLevelSetCpu(*g.surface, g.color.get(), cam, W, H, spp);
+        VdbSummary summary;
+        LevelSetGrids r = readLevelSetDelayed(path, summary, kSurfaceGrid, ColourRead::None, false);
+        ASSERT_FALSE(r.color);
+        LazySurface lazy;
+        lazy.leaves = std::make_unique<LazyLeaves>(path, summary, *r.surface);
+        lazy.leavesAtOnce = 60;
+        LazySurface::Stats stats;
+        lazy.stats = &stats;
+        const RenderImage strips = renderLevelSetCpu(
+            std::move(r.surface),
+            [&](const std::vector<openvdb::Coord>&) { return g.color->deepCopy(); }, cam, W, H, spp,
+            std::move(lazy));
+        EXPECT_EQ(whole.rgb, strips.rgb) << view;
+        EXPECT_EQ(whole.alpha, strips.alpha) << view;
+        EXPECT_EQ(whole.depth, strips.depth) << view;
+        EXPECT_EQ(whole.normal, strips.normal) << view;
+        size_t hit = 0;
+        for (float a : whole.alpha)
+            hit += a > 0.0f;
+        EXPECT_GT(hit, 100u) << view;
+        report(fmt::format("view {}: {} strips, at most {} of {} leaves held, {} decoded", view,
+                           stats.strips, stats.mostHeld, leafCount, stats.decoded));
+        if (view == 0) {
+            EXPECT_GT(stats.strips, 5u);
+            EXPECT_LT(stats.mostHeld, leafCount / 4);
+            EXPECT_LE(stats.decoded, leafCount);
+        } else if (view == 1) {
+            EXPECT_GT(stats.strips, 1u);
+            EXPECT_LT(stats.decoded, leafCount);  // (some leaves off the picture)
+        } else {
+            EXPECT_EQ(stats.strips, 1u);
+            EXPECT_EQ(stats.decoded, leafCount);
+        }
+    }
+}
+
 TEST(Render, OneGridAtATimeGivesTheSamePicture)
 {
     // cambium render traces against the level set alone, drops it, then

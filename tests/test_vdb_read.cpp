@@ -26,6 +26,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <set>
 #include <sstream>
@@ -818,6 +819,73 @@ TEST(VdbRead, AFrustumLevelSetAndAMapWhoseInverseDoesNotUndoItAreNamed)
                      "a damaged inverse");
 }
 
+TEST(VdbRead, LazyLeavesDecodeWhatIsPickedAsOpenVdbReadsIt)
+{
+    // A level set read with its topology only, its leaves decoded a
+    // selection at a time and dropped (what render does, a strip of the
+    // picture at a time): the first decode reads the grid through, later
+    // ones only the picked leaves' bytes, near ones in one read and far ones
+    // in reads of their own.  A leaf decoded equals io::File's, bit for bit;
+    // one not decoded, or dropped, reads as zero.  Floats (cambium's decoder)
+    // and halves (OpenVDB's).
+    openvdb::initialize();
+    const BakedGrids g = bakeTree(redAndBlueSpheres(), 0.0045, 3.0, true);
+    const std::string dir = freshDir("cambium_vdb_read_lazy").string();
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    for (bool halves : {false, true}) {
+        VdbFileInfo info;
+        info.half = halves;
+        const std::string path = dir + (halves ? "/half.vdb" : "/float.vdb");
+        writeVdb(g, path, info);
+        const openvdb::FloatGrid::Ptr ref =
+            openvdb::gridPtrCast<openvdb::FloatGrid>(openVdbRead(path, "surface"));
+        VdbSummary summary;
+        const LevelSetGrids r =
+            readLevelSetDelayed(path, summary, kSurfaceGrid, ColourRead::None, false);
+        ASSERT_FALSE(r.color);
+        LazyLeaves lazy(path, summary, *r.surface);
+        const std::vector<Leaf*>& leaves = lazy.leaves();
+        ASSERT_EQ(leaves.size(), ref->tree().leafCount());
+        ASSERT_GT(leaves.size(), 1500u);
+        // Leaves that are io::File's, and leaves that read as zero.
+        auto count = [&](bool decoded) {
+            size_t n = 0;
+            for (const Leaf* leaf : leaves) {
+                const Leaf* want = ref->tree().probeConstLeaf(leaf->origin());
+                bool same = want && want->getValueMask() == leaf->getValueMask(), zero = true;
+                for (openvdb::Index k = 0; k < Leaf::SIZE; ++k) {
+                    const float a = leaf->getValue(k);
+                    same = same && want && std::memcmp(&a, &want->getValue(k), sizeof a) == 0;
+                    zero = zero && a == 0.0f;
+                }
+                n += decoded ? same : zero;
+            }
+            return n;
+        };
+        EXPECT_EQ(count(false), leaves.size()) << "every leaf reads as zero before a decode";
+        std::vector<size_t> thirds, others, far;
+        for (size_t i = 0; i < leaves.size(); ++i) {
+            (i % 3 == 0 ? thirds : others).push_back(i);
+            if (i % 211 == 5)  // (more than the 64 kB a read goes through between picks)
+                far.push_back(i);
+        }
+        lazy.decode(thirds);  // (the grid read through)
+        EXPECT_EQ(count(true), thirds.size());
+        EXPECT_EQ(count(false), others.size());
+        lazy.drop(thirds);
+        lazy.decode(far);  // (leaves read on their own)
+        EXPECT_EQ(count(true), far.size());
+        EXPECT_EQ(count(false), leaves.size() - far.size());
+        lazy.decode(others);  // (near leaves read together, gaps read through)
+        EXPECT_EQ(count(true),
+                  others.size() + size_t(std::count_if(far.begin(), far.end(),
+                                                       [](size_t i) { return i % 3 == 0; })));
+        lazy.decode(thirds);
+        EXPECT_EQ(count(true), leaves.size());
+        EXPECT_NO_THROW(lazy.checkZeroCrossing());
+    }
+}
+
 TEST(VdbRead, ABandWithoutAZeroCrossingIsNamed)
 {
     // A foreign band of values all on one side meshed to nothing and drew an
@@ -837,6 +905,24 @@ TEST(VdbRead, ABandWithoutAZeroCrossingIsNamed)
         expectInputError(
             [&] { readLevelSet(path); },
             fmt::format("active voxels, every one {}", sign > 0.0f ? "outside" : "inside"), path);
+        // The same band in a file of cambium's, read with its topology only
+        // (render): named once its leaves are decoded.
+        LevelSetGrids grids;
+        grids.surface = sphere;
+        const std::string ours = dir + (sign > 0.0f ? "/our-out.vdb" : "/our-in.vdb");
+        writeVdb(grids, ours, VdbFileInfo());
+        VdbSummary summary;
+        const LevelSetGrids r =
+            readLevelSetDelayed(ours, summary, kSurfaceGrid, ColourRead::None, false);
+        LazyLeaves lazy(ours, summary, *r.surface);
+        EXPECT_NO_THROW(lazy.checkZeroCrossing()) << "nothing decoded, nothing seen";
+        std::vector<size_t> all(lazy.leaves().size());
+        std::iota(all.begin(), all.end(), size_t(0));
+        lazy.decode(all);
+        expectInputError([&] { lazy.checkZeroCrossing(); },
+                         fmt::format("and those of the {} leaves read, every one {}", all.size(),
+                                     sign > 0.0f ? "outside" : "inside"),
+                         ours);
     }
 }
 

@@ -120,8 +120,14 @@ int runRenderCommand(RenderRequest req)
                 const bool apart = hitBytes <= 0.25 * availableMemoryBytes();
                 const bool cpu = device == Device::Cpu && !req.viaMesh && apart;
                 VdbSummary& summary = checked[in];
-                LevelSetGrids f = readLevelSet(
-                    in, req.grid, cpu ? ColourRead::None : ColourRead::Whole, &summary);
+                // (the CPU march decodes its level set's leaves a strip of
+                // the picture at a time, and reads the colour after)
+                LevelSetGrids f =
+                    cpu ? readLevelSetDelayed(in, summary, req.grid, ColourRead::None, false)
+                        : readLevelSet(in, req.grid, ColourRead::Whole, &summary);
+                LazySurface lazy;
+                if (cpu)
+                    lazy.leaves = std::make_unique<LazyLeaves>(in, summary, *f.surface);
                 read = secondsSince(start);
                 readPeak = peakMemoryBytes();
                 voxelizeActiveTiles(*f.surface);
@@ -161,7 +167,7 @@ int runRenderCommand(RenderRequest req)
                             preloadImageCodec();
                             return readColourGrid(in, *frame, &leaves, &summary);
                         },
-                        cam, req.width, req.height, req.spp);
+                        cam, req.width, req.height, req.spp, std::move(lazy));
                     how = "OpenVDB's level-set ray intersector";
                 } else {
                     how = marcher ? "OpenCL NanoVDB march, conversion included"

@@ -15,18 +15,6 @@
 
 namespace cambium {
 
-namespace {
-
-/// A leaf's values freed (a buffer that holds none in their place).
-template <class LeafT>
-void dropValues(LeafT& leaf)
-{
-    typename LeafT::Buffer none(openvdb::PartialCreate(), leaf.getValue(0));
-    leaf.buffer().swap(none);
-}
-
-}  // namespace
-
 BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
 {
     const auto start = Clock::now();
@@ -102,7 +90,7 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
                 leaves.active[slot] = leaf.onVoxelCount();
                 leaves.ends[slot] = leafEnds(
                     leaf.getValue(0), leaf.getValue(openvdb::FloatTree::LeafNodeType::SIZE - 1));
-                dropValues(leaf);
+                dropLeafValues(leaf);
             });
         if (g.color)
             decodeLeaves(
@@ -115,7 +103,7 @@ BakedGrids mergeTiles(const std::vector<std::string>& files, bool half)
                     const uint32_t slot = slotOf(c.origin())->second;
                     block->add(slot, c);
                     leaves.color[slot] = maskLeaf(c, c.origin(), out.color->background(), slot);
-                    dropValues(c);
+                    dropLeafValues(c);
                 });
         for (auto* blocks : {&surfaceBlocks, &colourBlocks})
             for (std::optional<PackedLeaves::Block>& block : *blocks)

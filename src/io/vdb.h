@@ -164,11 +164,62 @@ void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::V
                   const std::function<bool(const openvdb::Coord&)>& want,
                   const std::function<void(size_t, openvdb::Vec3fTree::LeafNodeType&)>& visit);
 
-/// readLevelSet's grids of a tile (its topology only: `Cd` and `surface` as
-/// ColourRead::Lazy leaves them) and the file's summary, for decodeLeaves:
-/// a reader going a leaf at a time and dropping each leaf's values after
-/// holds about a piece of the file's values (the file must stay as it is
-/// while the grids live).
-LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary);
+/// readLevelSet's grids with their topology only (`surface`, and `Cd` as
+/// `colour` says, as ColourRead::Lazy leaves it) and the file's summary, for
+/// decodeLeaves or LazyLeaves: a reader going a few leaves at a time and
+/// dropping their values after holds about those leaves' values (the file
+/// must stay as it is while the grids live).  `tile`: the file may be one
+/// tile of a tiled bake.  The level set's zero crossing is not checked (its
+/// values are not read): LazyLeaves checks the leaves it decodes.
+LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary,
+                                  const std::string& grid = kSurfaceGrid,
+                                  ColourRead colour = ColourRead::Lazy, bool tile = true);
+
+/// A leaf's values given back (or OpenVDB's record for reading them later,
+/// unread): it keeps its value mask, and reads as zero until values are put
+/// in again.
+template <class LeafT>
+void dropLeafValues(LeafT& leaf)
+{
+    typename LeafT::Buffer none(openvdb::PartialCreate(),
+                                openvdb::zeroVal<typename LeafT::ValueType>());
+    leaf.buffer().swap(none);
+}
+
+/// The leaves of a level set read with its topology only
+/// (readLevelSetDelayed), decoded a selection at a time on all cores and
+/// dropped again, so that a reader holds only the leaves it works on.  The
+/// first decode reads the grid's block through and finds where each leaf
+/// lies; later ones read only the picked leaves' bytes.  Every leaf is
+/// emptied at construction (OpenVDB's record for reading it later goes): a
+/// leaf not decoded reads as zero, never silently from the file.  A grid
+/// read whole (another tool's file) keeps its values: decode and drop leave
+/// it as it is.  The file must stay as it is while this lives.
+class LazyLeaves {
+public:
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    LazyLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid);
+    ~LazyLeaves();
+    LazyLeaves(const LazyLeaves&) = delete;
+    LazyLeaves& operator=(const LazyLeaves&) = delete;
+    /// The grid's leaves at construction, in the tree's order.
+    const std::vector<Leaf*>& leaves() const;
+    /// Leaves `picked` (ascending indices into leaves()) decoded.  InputError
+    /// naming the file and the leaf for one that cannot be decoded or holds
+    /// a value that is not a number.
+    void decode(const std::vector<size_t>& picked);
+    /// Leaves `picked`'s values given back (they read as zero until decoded
+    /// again).
+    void drop(const std::vector<size_t>& picked);
+    /// InputError unless the leaves decoded so far hold an active value
+    /// inside the surface and one outside, as readLevelSet checks of a
+    /// level set it reads (no picture or mesh without them), where any leaf
+    /// was decoded.
+    void checkZeroCrossing() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace cambium

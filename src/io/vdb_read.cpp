@@ -33,6 +33,8 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -163,13 +165,12 @@ public:
     using Visit = std::function<void(size_t, LeafT&)>;
 
     LeafDecoder(const std::string& path, const VdbSummary& file, const VdbSummary::Grid& grid,
-                GridT& target, const Want& want = {}, const Visit& visit = {})
+                GridT& target)
         : path_(path),
           grid_(grid),
           fileVersion_(file.fileVersion),
           background_(target.background()),
-          want_(want),
-          visit_(visit)
+          file_(path)
     {
         for (auto it = target.tree().beginLeaf(); it; ++it)
             leaves_.push_back(it.getLeaf());
@@ -181,9 +182,36 @@ public:
         stored_.half = grid.half();
         stored_.storedBytes = stored_.half ? sizeof(HalfT) : sizeof(ValueT);
         direct_ = decodesLeafValues(stored_, fileVersion_);
-        decode(ReadFile(path));
+    }
+
+    /// The grid's leaves, in the tree's order (as at construction).
+    const std::vector<LeafT*>& leaves() const { return leaves_; }
+
+    /// The leaves `want` selects (all when empty), each handed to `visit`.
+    void decode(const Want& want, const Visit& visit)
+    {
+        std::vector<size_t> picked;
+        picked.reserve(want ? 0 : leaves_.size());
+        for (size_t i = 0; i < leaves_.size(); ++i)
+            if (!want || want(leaves_[i]->origin()))
+                picked.push_back(i);
+        decode(picked, visit);
+    }
+
+    /// Leaves `picked` (ascending indices into leaves()) decoded on all
+    /// cores, each handed to `visit` (when set) once its values are in.  The
+    /// first call reads the grid's block through, finding where each leaf
+    /// lies; later calls read only the picked leaves' bytes.
+    void decode(const std::vector<size_t>& picked, const Visit& visit)
+    {
+        visit_ = visit;
+        firstNonFinite_ = std::numeric_limits<size_t>::max();
+        if (at_.empty())
+            scan(picked);
+        else
+            readPicked(picked);
         if (const size_t bad = firstNonFinite_.load(); bad < leaves_.size())
-            nameNonFinite(*leaves_[bad], path, grid.name);
+            nameNonFinite(*leaves_[bad], path_, grid_.name);
     }
 
 private:
@@ -221,22 +249,25 @@ private:
         return 0;
     }
 
-    /// The block read a few megabytes at a time: each piece's whole leaves
-    /// found, then decoded on all cores.
-    void decode(const ReadFile& f)
+    /// The block read a megabyte at a time: each piece's whole leaves found
+    /// (where each lies kept, for later calls), the picked ones decoded on
+    /// all cores.
+    void scan(const std::vector<size_t>& pickedLeaves)
     {
-        constexpr size_t kPiece = size_t(1) << 20;
         const uint64_t end = uint64_t(grid_.end);
-        std::vector<char> piece(kPiece);
+        std::vector<char>& piece = piece_;
+        piece.resize(kPiece);
         std::vector<size_t> starts, picked;
         uint64_t at = uint64_t(grid_.block);
         size_t next = 0;
-        tbb::enumerable_thread_specific<std::unique_ptr<Stream>> streams;
+        auto wanted = pickedLeaves.begin();
+        std::vector<uint64_t> offsets;
+        offsets.reserve(leaves_.size() + 1);
         while (next < leaves_.size()) {
             const size_t n = size_t(std::min<uint64_t>(kPiece, end - at));
             if (n == 0)
                 damaged(next, "the grid ends before its leaves");
-            f.read(at, piece.data(), n);
+            file_.read(at, piece.data(), n);
             starts.clear();
             picked.clear();
             size_t used = 0;
@@ -245,8 +276,11 @@ private:
                 const size_t len = leafBytes(next, piece.data() + used, n - used);
                 if (len == 0)
                     break;
-                if (!want_ || want_(leaves_[next]->origin()))
+                if (wanted != pickedLeaves.end() && *wanted == next) {
                     picked.push_back(next - first);
+                    ++wanted;
+                }
+                offsets.push_back(at + used);
                 starts.push_back(used);
                 used += len;
                 ++next;
@@ -256,14 +290,40 @@ private:
             starts.push_back(used);
             tbb::parallel_for(size_t(0), picked.size(), [&](size_t j) {
                 const size_t k = picked[j];
-                std::unique_ptr<Stream>& s = streams.local();
-                if (!s)
-                    s = std::make_unique<Stream>(*this);
-                s->leaf(first + k, piece.data() + starts[k], starts[k + 1] - starts[k]);
+                stream().leaf(first + k, piece.data() + starts[k], starts[k + 1] - starts[k]);
             });
             at += used;
         }
+        offsets.push_back(at);
+        at_ = std::move(offsets);
     }
+
+    /// The picked leaves' bytes read in pieces of up to a megabyte (a gap
+    /// of unpicked leaves up to kGap read through rather than skipped by
+    /// another read), each piece's leaves decoded on all cores.
+    void readPicked(const std::vector<size_t>& picked)
+    {
+        constexpr uint64_t kGap = 64 << 10;
+        size_t j = 0;
+        while (j < picked.size()) {
+            const uint64_t begin = at_[picked[j]];
+            size_t k = j + 1;
+            while (k < picked.size() && at_[picked[k] + 1] - begin <= kPiece &&
+                   at_[picked[k]] - at_[picked[k - 1] + 1] <= kGap)
+                ++k;
+            const uint64_t bytes = at_[picked[k - 1] + 1] - begin;
+            if (piece_.size() < bytes)
+                piece_.resize(size_t(bytes));
+            file_.read(begin, piece_.data(), size_t(bytes));
+            tbb::parallel_for(j, k, [&](size_t m) {
+                const size_t i = picked[m];
+                stream().leaf(i, piece_.data() + (at_[i] - begin), size_t(at_[i + 1] - at_[i]));
+            });
+            j = k;
+        }
+    }
+
+    static constexpr size_t kPiece = size_t(1) << 20;
 
     /// A thread's stream, tagged as OpenVDB's reader tags its own.
     struct Stream {
@@ -327,15 +387,28 @@ private:
         std::vector<ValueT> scratch;  // (the active values, decoded directly)
     };
 
-    const std::string& path_;
-    const VdbSummary::Grid& grid_;
+    /// This thread's stream.
+    Stream& stream()
+    {
+        std::unique_ptr<Stream>& s = streams_.local();
+        if (!s)
+            s = std::make_unique<Stream>(*this);
+        return *s;
+    }
+
+    std::string path_;
+    VdbSummary::Grid grid_;
     uint32_t fileVersion_;
     StoredValues stored_;
     bool direct_ = false;  ///< decodeLeafValues reads its leaves, not OpenVDB's decoder
     ValueT background_;
-    Want want_;
+    ReadFile file_;
     Visit visit_;
     std::vector<LeafT*> leaves_;
+    std::vector<uint64_t>
+        at_;  ///< where each leaf lies in the file, and the last's end, once found
+    std::vector<char> piece_;
+    tbb::enumerable_thread_specific<std::unique_ptr<Stream>> streams_;
     mutable std::atomic<size_t> firstNonFinite_{std::numeric_limits<size_t>::max()};
 };
 
@@ -456,7 +529,8 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
             g->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& typed) {
                 using ValueT = typename std::decay_t<decltype(typed)>::ValueType;
                 checkDecodeFits(path, name, double(typed.tree().leafCount()), sizeof(ValueT));
-                LeafDecoder<std::decay_t<decltype(typed)>>(path, summary, *grid, typed);
+                using Decoder = LeafDecoder<std::decay_t<decltype(typed)>>;
+                Decoder(path, summary, *grid, typed).decode(typename Decoder::Want(), {});
             });
         if (ours)
             return g;
@@ -469,6 +543,23 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
 }
 
 namespace {
+
+/// `emplace(stored)` (a decoder's construction) for a grid read lazily from
+/// `path`, whose compression cambium must decode.
+template <class Emplace>
+void makeDecoder(const std::string& path, const VdbSummary& summary, const std::string& grid,
+                 const Emplace& emplace)
+{
+    const VdbSummary::Grid& stored = gridNamed(path, summary, grid);
+    try {
+        emplace(stored);
+    } catch (const NotParallel&) {
+        throw InputError(
+            fmt::format("{}: grid '{}' has a compression cambium does not read "
+                        "(flags {})",
+                        path, grid, stored.compression));
+    }
+}
 
 /// decodeLeaves for either grid type.
 template <class GridT, class Visit>
@@ -489,15 +580,9 @@ void decodeSome(const std::string& path, const VdbSummary& summary, GridT& grid,
                               [&](size_t i) { visit(leaves[i].first, *leaves[i].second); });
         return;
     }
-    try {
-        LeafDecoder<GridT>(path, summary, gridNamed(path, summary, grid.getName()), grid, want,
-                           visit);
-    } catch (const NotParallel&) {
-        throw InputError(fmt::format(
-            "{}: grid '{}' has a compression cambium does not read "
-            "(flags {})",
-            path, grid.getName(), gridNamed(path, summary, grid.getName()).compression));
-    }
+    makeDecoder(path, summary, grid.getName(), [&](const VdbSummary::Grid& stored) {
+        LeafDecoder<GridT>(path, summary, stored, grid).decode(want, visit);
+    });
 }
 
 }  // namespace
@@ -655,25 +740,49 @@ void checkLevelSet(const openvdb::FloatGrid& grid, const std::string& path)
     }
 }
 
-/// A level set's surface: an active value inside (below zero) and one
-/// outside (zero or above), as volumeToMesh and the ray intersector find
-/// it (a foreign band of only positive values meshed to nothing and drew an
-/// empty picture, exit 0).  A real level set's first leaf has both.
-void checkZeroCrossing(const openvdb::FloatGrid& grid, const std::string& path)
-{
+/// What a level set's active values show of its surface: whether one lies
+/// inside (below zero) and one outside (zero or above), as volumeToMesh and
+/// the ray intersector find it, and the range of those seen.
+struct SidesSeen {
     bool inside = false, outside = false;
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (auto v = grid.tree().cbeginValueOn(); v && !(inside && outside); ++v) {
-        lo = std::min(lo, *v);
-        hi = std::max(hi, *v);
-        inside = inside || *v < 0.0f;
-        outside = outside || *v >= 0.0f;
+    bool both() const { return inside && outside; }
+    void see(float v)
+    {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+        inside = inside || v < 0.0f;
+        outside = outside || v >= 0.0f;
     }
-    if ((inside || outside) && !(inside && outside))
-        throw InputError(fmt::format(
-            "{}: grid '{}' has {} active voxels, every one {} (values from {:g} to {:g}): no "
-            "zero crossing, no surface to see",
-            path, grid.getName(), grid.activeVoxelCount(), inside ? "inside" : "outside", lo, hi));
+    void see(const SidesSeen& o)
+    {
+        inside = inside || o.inside;
+        outside = outside || o.outside;
+        lo = std::min(lo, o.lo);
+        hi = std::max(hi, o.hi);
+    }
+    /// InputError where values were seen on one side only (`which`: the
+    /// voxels seen, "has N active voxels").
+    void refuseOneSided(const openvdb::FloatGrid& grid, const std::string& path,
+                        const std::string& which) const
+    {
+        if ((inside || outside) && !both())
+            throw InputError(fmt::format(
+                "{}: grid '{}' {}, every one {} (values from {:g} to {:g}): no zero crossing, no "
+                "surface to see",
+                path, grid.getName(), which, inside ? "inside" : "outside", lo, hi));
+    }
+};
+
+/// A level set's surface: an active value inside and one outside (a
+/// foreign band of only positive values meshed to nothing and drew an empty
+/// picture, exit 0).  A real level set's first leaf has both.
+void checkZeroCrossing(const openvdb::FloatGrid& grid, const std::string& path)
+{
+    SidesSeen seen;
+    for (auto v = grid.tree().cbeginValueOn(); v && !seen.both(); ++v)
+        seen.see(*v);
+    seen.refuseOneSided(grid, path, fmt::format("has {} active voxels", grid.activeVoxelCount()));
 }
 
 /// A colour grid's transform: usable, and the surface's, entry for entry
@@ -768,8 +877,9 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
                                      g->valueType(),
                                      openvdb::GridBase::gridClassToString(g->getGridClass())));
     checkLevelSet(*out.surface, path);
-    // (a tile's part of the band may lie on one side of the surface)
-    if (!tile)
+    // (a tile's part of the band may lie on one side of the surface; a
+    // lazy read's values are checked as they are decoded, LazyLeaves)
+    if (!tile && !lazy)
         checkZeroCrossing(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
@@ -883,9 +993,84 @@ VdbDescription describeVdb(const std::string& path)
     return d;
 }
 
-LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary)
+LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary,
+                                  const std::string& grid, ColourRead colour, bool tile)
 {
-    return readGrids(path, kSurfaceGrid, true, ColourRead::Lazy, /*tile=*/true, summary);
+    return readGrids(path, grid, true, colour, tile, summary);
+}
+
+struct LazyLeaves::Impl {
+    Impl(const std::string& p, openvdb::FloatGrid& g) : path(p), grid(g) {}
+    std::string path;
+    openvdb::FloatGrid& grid;
+    std::optional<LeafDecoder<openvdb::FloatGrid>> decoder;  ///< none: the grid was read whole
+    std::vector<Leaf*> whole;                                ///< the leaves of a grid read whole
+    std::atomic<bool> both{false};                           ///< both sides of the surface seen
+    std::mutex mutex;
+    SidesSeen seen;
+    size_t decoded = 0;  ///< leaves decoded (under `mutex`)
+};
+
+LazyLeaves::LazyLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid)
+    : impl_(std::make_unique<Impl>(path, grid))
+{
+    auto first = grid.tree().beginLeaf();
+    if (!first || !first->buffer().isOutOfCore()) {
+        for (auto it = grid.tree().beginLeaf(); it; ++it)
+            impl_->whole.push_back(it.getLeaf());
+        return;
+    }
+    makeDecoder(path, summary, grid.getName(), [&](const VdbSummary::Grid& stored) {
+        impl_->decoder.emplace(path, summary, stored, grid);
+    });
+    const std::vector<Leaf*>& leaves = impl_->decoder->leaves();
+    tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) { dropLeafValues(*leaves[i]); });
+}
+
+LazyLeaves::~LazyLeaves() = default;
+
+const std::vector<LazyLeaves::Leaf*>& LazyLeaves::leaves() const
+{
+    return impl_->decoder ? impl_->decoder->leaves() : impl_->whole;
+}
+
+void LazyLeaves::decode(const std::vector<size_t>& picked)
+{
+    Impl& m = *impl_;
+    if (!m.decoder)
+        return;
+    checkDecodeFits(m.path, m.grid.getName(), double(picked.size()), sizeof(float));
+    m.decoder->decode(picked, [&m](size_t, Leaf& leaf) {
+        if (m.both.load(std::memory_order_relaxed))
+            return;
+        SidesSeen seen;
+        for (auto v = leaf.cbeginValueOn(); v && !seen.both(); ++v)
+            seen.see(*v);
+        const std::lock_guard<std::mutex> lock(m.mutex);
+        m.seen.see(seen);
+        m.both = m.seen.both();
+    });
+    const std::lock_guard<std::mutex> lock(m.mutex);
+    m.decoded += picked.size();
+}
+
+void LazyLeaves::drop(const std::vector<size_t>& picked)
+{
+    if (!impl_->decoder)
+        return;
+    const std::vector<Leaf*>& leaves = impl_->decoder->leaves();
+    tbb::parallel_for(size_t(0), picked.size(),
+                      [&](size_t i) { dropLeafValues(*leaves[picked[i]]); });
+}
+
+void LazyLeaves::checkZeroCrossing() const
+{
+    const Impl& m = *impl_;
+    if (!m.decoder)
+        return;  // (read whole: readLevelSet checked it)
+    m.seen.refuseOneSided(m.grid, m.path,
+                          fmt::format("has {} active voxels, and those of the {} leaves read",
+                                      m.grid.activeVoxelCount(), m.decoded));
 }
 
 }  // namespace cambium

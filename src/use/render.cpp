@@ -30,6 +30,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <numeric>
 
 namespace cambium {
 
@@ -412,75 +413,134 @@ void voxelizeActiveTiles(openvdb::FloatGrid& grid)
         grid.tree().voxelizeActiveTiles();
 }
 
-RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)
+namespace {
+
+/// Where a box of a level set may be seen: the pixels its projection spans
+/// (a pixel wider each way; x0 > x1 or y0 > y1: none of the picture's) and
+/// the distances of its bounding sphere from the eye; `all` where a corner
+/// lies at or behind the eye (any pixel, at any distance).
+struct Footprint {
+    bool all = false;
+    int x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+    float near = 0.0f, far = 0.0f;
+    bool seen() const { return all || (x0 <= x1 && y0 <= y1); }
+};
+
+/// Box b's footprint (index space, two voxels wider each way: a crossing of
+/// the interpolated values lies within a cell of the voxels that hold it,
+/// and the lookups around it read a voxel past it), from its corners.
+Footprint footprint(const openvdb::math::Transform& xform, const openvdb::CoordBBox& b,
+                    const CameraFrame& f)
 {
+    Footprint p;
+    const int width = f.width, height = f.height;
+    const double aspect = double(width) / double(height);
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    glm::dvec3 corner[8];
+    for (int c = 0; c < 8; ++c) {
+        const openvdb::Vec3d w =
+            xform.indexToWorld(openvdb::Vec3d(c & 1 ? b.max()[0] + 2.0 : b.min()[0] - 2.0,
+                                              c & 2 ? b.max()[1] + 2.0 : b.min()[1] - 2.0,
+                                              c & 4 ? b.max()[2] + 2.0 : b.min()[2] - 2.0));
+        corner[c] = glm::dvec3(w.x(), w.y(), w.z());
+        const glm::dvec3 d = corner[c] - f.eye;
+        const double z = glm::dot(d, f.w);
+        if (!(z > 1e-9 * glm::length(d))) {  // at or behind the eye: any pixel
+            p.all = true;
+            return p;
+        }
+        const double sx = glm::dot(d, f.u) / z, sy = glm::dot(d, f.v) / z;
+        const double px = (sx / (f.tanY * aspect) + 1.0) * 0.5 * width,
+                     py = (1.0 - sy / f.tanY) * 0.5 * height;
+        x0 = std::min(x0, px);
+        x1 = std::max(x1, px);
+        y0 = std::min(y0, py);
+        y1 = std::max(y1, py);
+    }
+    const glm::dvec3 centre = 0.5 * (corner[0] + corner[7]);
+    double radius = 0.0;
+    for (const glm::dvec3& c : corner)
+        radius = std::max(radius, glm::length(c - centre));
+    const double d = glm::length(centre - f.eye);
+    p.near = float(std::max(0.0, d - radius) * (1.0 - 1e-6));
+    p.far = float((d + radius) * (1.0 + 1e-6));
+    // (clamped in double: a box far off the picture's side projects beyond
+    // an int's range)
+    auto clampTo = [](double v, int hi) { return int(std::clamp(v, -2.0, double(hi) + 1.0)); };
+    p.x0 = std::max(0, clampTo(std::floor(x0), width) - 1);
+    p.x1 = std::min(width - 1, clampTo(std::floor(x1), width) + 1);
+    p.y0 = std::max(0, clampTo(std::floor(y0), height) - 1);
+    p.y1 = std::min(height - 1, clampTo(std::floor(y1), height) + 1);
+    return p;
+}
+
+/// The footprints of `leaves` (on all cores).
+template <class LeafT>
+std::vector<Footprint> leafFootprints(const openvdb::math::Transform& xform,
+                                      const std::vector<LeafT*>& leaves, const CameraFrame& f)
+{
+    std::vector<Footprint> out(leaves.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size()),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i < r.end(); ++i)
+                              out[i] = footprint(xform, leaves[i]->getNodeBoundingBox(), f);
+                      });
+    return out;
+}
+
+/// rayRanges of a grid whose leaves' footprints are `leaves` (in the
+/// tree's order).
+RayRanges rangesOf(const openvdb::FloatGrid& grid, const std::vector<Footprint>& leaves,
+                   const CameraFrame& f)
+{
+    const int width = f.width, height = f.height;
     const size_t n = size_t(width) * size_t(height);
     RayRanges r;
     r.near.assign(n, std::numeric_limits<float>::infinity());
     r.far.assign(n, 0.0f);
-    const CameraFrame f(camera, width, height);
-    const double aspect = double(width) / double(height);
     bool all = false;
-    // Box b (index space, two voxels wider each way: a crossing of the
-    // interpolated values lies within a cell of the voxels that hold it)
-    // from its corners: the pixels their projections span, and the
-    // distances of its bounding sphere from the eye.
-    auto mark = [&](const openvdb::CoordBBox& b) {
-        double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
-        glm::dvec3 corner[8];
-        for (int c = 0; c < 8; ++c) {
-            const openvdb::Vec3d w =
-                grid.indexToWorld(openvdb::Vec3d(c & 1 ? b.max()[0] + 2.0 : b.min()[0] - 2.0,
-                                                 c & 2 ? b.max()[1] + 2.0 : b.min()[1] - 2.0,
-                                                 c & 4 ? b.max()[2] + 2.0 : b.min()[2] - 2.0));
-            corner[c] = glm::dvec3(w.x(), w.y(), w.z());
-            const glm::dvec3 d = corner[c] - f.eye;
-            const double z = glm::dot(d, f.w);
-            if (!(z > 1e-9 * glm::length(d))) {  // at or behind the eye: any pixel
-                all = true;
-                return;
-            }
-            const double sx = glm::dot(d, f.u) / z, sy = glm::dot(d, f.v) / z;
-            const double px = (sx / (f.tanY * aspect) + 1.0) * 0.5 * width,
-                         py = (1.0 - sy / f.tanY) * 0.5 * height;
-            x0 = std::min(x0, px);
-            x1 = std::max(x1, px);
-            y0 = std::min(y0, py);
-            y1 = std::max(y1, py);
-        }
-        const glm::dvec3 centre = 0.5 * (corner[0] + corner[7]);
-        double radius = 0.0;
-        for (const glm::dvec3& c : corner)
-            radius = std::max(radius, glm::length(c - centre));
-        const double d = glm::length(centre - f.eye);
-        const float near = float(std::max(0.0, d - radius) * (1.0 - 1e-6)),
-                    far = float((d + radius) * (1.0 + 1e-6));
-        const int ix0 = std::max(0, int(std::floor(x0)) - 1),
-                  ix1 = std::min(width - 1, int(std::floor(x1)) + 1),
-                  iy0 = std::max(0, int(std::floor(y0)) - 1),
-                  iy1 = std::min(height - 1, int(std::floor(y1)) + 1);
-        for (int y = iy0; y <= iy1; ++y)
-            for (int x = ix0; x <= ix1; ++x) {
+    auto mark = [&](const Footprint& p) {
+        all = all || p.all;
+        for (int y = p.y0; y <= p.y1 && !all; ++y)
+            for (int x = p.x0; x <= p.x1; ++x) {
                 const size_t i = size_t(y) * size_t(width) + size_t(x);
-                r.near[i] = std::min(r.near[i], near);
-                r.far[i] = std::max(r.far[i], far);
+                r.near[i] = std::min(r.near[i], p.near);
+                r.far[i] = std::max(r.far[i], p.far);
             }
     };
-    for (auto it = grid.tree().cbeginLeaf(); it && !all; ++it)
-        mark(it->getNodeBoundingBox());
+    for (size_t i = 0; i < leaves.size() && !all; ++i)
+        mark(leaves[i]);
     // Active tiles (files of other tools), above the leaves only.
     auto tile = grid.tree().cbeginValueOn();
     tile.setMaxDepth(grid.tree().treeDepth() - 2);
     for (; tile && !all; ++tile) {
         openvdb::CoordBBox b;
         tile.getBoundingBox(b);
-        mark(b);
+        mark(footprint(grid.transform(), b, f));
     }
     if (all) {
         std::fill(r.near.begin(), r.near.end(), 0.0f);
         std::fill(r.far.begin(), r.far.end(), std::numeric_limits<float>::infinity());
     }
     return r;
+}
+
+/// The grid's leaves, in the tree's order.
+std::vector<const openvdb::FloatTree::LeafNodeType*> leavesOf(const openvdb::FloatGrid& grid)
+{
+    std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
+    leaves.reserve(grid.tree().leafCount());
+    for (auto it = grid.tree().cbeginLeaf(); it; ++it)
+        leaves.push_back(it.getLeaf());
+    return leaves;
+}
+
+}  // namespace
+
+RayRanges rayRanges(const openvdb::FloatGrid& grid, const Camera& camera, int width, int height)
+{
+    const CameraFrame f(camera, width, height);
+    return rangesOf(grid, leafFootprints(grid.transform(), leavesOf(grid), f), f);
 }
 
 RenderImage CpuMarcher::render(const Camera& camera, int width, int height, int spp) const
@@ -549,12 +609,75 @@ std::vector<openvdb::Coord> leavesLookedUp(
     return all;
 }
 
+/// Rows traced a strip at a time (`trace(first, last)`: rows first to
+/// last - 1), each strip's leaves decoded before it and dropped once no
+/// later strip needs them: a strip's rows as many as keep the leaves held
+/// at most `atOnce` (at least a row a strip).  `prints`: the grid's leaves'
+/// footprints, in the tree's order; leaves off the picture are never
+/// decoded.  Where the grid has other leaves than `lazy`'s (active tiles
+/// made voxels) or a box lies behind the eye, every leaf is decoded for one
+/// strip.
+void traceStrips(LazyLeaves& lazy, const std::vector<Footprint>& prints, int height, size_t atOnce,
+                 const std::function<void(int, int)>& trace, LazySurface::Stats* stats)
+{
+    const size_t n = lazy.leaves().size();
+    LazySurface::Stats seen;
+    std::vector<std::vector<size_t>> startsAt(size_t(height) + 1);
+    bool whole = prints.size() != n;
+    for (size_t i = 0; i < n && !whole; ++i) {
+        whole = prints[i].all;
+        if (prints[i].seen())
+            startsAt[size_t(prints[i].y0)].push_back(i);
+    }
+    if (whole) {
+        std::vector<size_t> every(n);
+        std::iota(every.begin(), every.end(), size_t(0));
+        lazy.decode(every);
+        trace(0, height);
+        lazy.checkZeroCrossing();
+        if (stats)
+            *stats = LazySurface::Stats{1, n, n};
+        return;
+    }
+    std::vector<size_t> held, fresh, kept, dropped;
+    for (int first = 0; first < height;) {
+        // As many rows as keep the leaves held within atOnce.
+        int last = first;
+        size_t count = held.size();
+        do {
+            count += startsAt[size_t(last)].size();
+            ++last;
+        } while (last < height && count + startsAt[size_t(last)].size() <= atOnce);
+        fresh.clear();
+        for (int y = first; y < last; ++y)
+            fresh.insert(fresh.end(), startsAt[size_t(y)].begin(), startsAt[size_t(y)].end());
+        std::sort(fresh.begin(), fresh.end());
+        lazy.decode(fresh);
+        held.insert(held.end(), fresh.begin(), fresh.end());
+        ++seen.strips;
+        seen.mostHeld = std::max(seen.mostHeld, held.size());
+        seen.decoded += fresh.size();
+        trace(first, last);
+        kept.clear();
+        dropped.clear();
+        for (size_t i : held)
+            (prints[i].y1 >= last ? kept : dropped).push_back(i);
+        std::sort(dropped.begin(), dropped.end());
+        lazy.drop(dropped);
+        held.swap(kept);
+        first = last;
+    }
+    lazy.checkZeroCrossing();
+    if (stats)
+        *stats = seen;
+}
+
 }  // namespace
 
 RenderImage renderLevelSetCpu(
     openvdb::FloatGrid::Ptr surface,
     const std::function<openvdb::Vec3fGrid::Ptr(const std::vector<openvdb::Coord>&)>& colour,
-    const Camera& camera, int width, int height, int spp)
+    const Camera& camera, int width, int height, int spp, LazySurface lazy)
 {
     spp = std::max(1, spp);
     const size_t rowRays = size_t(width) * size_t(spp);
@@ -562,48 +685,59 @@ RenderImage renderLevelSetCpu(
     //    index within the row, the hit).
     std::vector<std::vector<std::pair<uint32_t, TraceHit>>> hits(static_cast<size_t>(height));
     {
+        const CameraFrame frame(camera, width, height);
+        const std::vector<Footprint> prints =
+            leafFootprints(surface->transform(), leavesOf(*surface), frame);
+        const RayRanges ranges = rangesOf(*surface, prints, frame);
         const CpuMarcher marcher(*surface, nullptr);
-        const RayRanges ranges = rayRanges(*surface, camera, width, height);
-        tbb::parallel_for(tbb::blocked_range<int>(0, height),
-                          [&](const tbb::blocked_range<int>& r) {
-                              const BatchTracer trace = marcher.tracer();
-                              const PixelRays generate(camera, width, height, spp);
-                              std::vector<TraceRay> rays(rowRays), traced;
-                              std::vector<uint32_t> index;
-                              std::vector<TraceHit> found;
-                              for (int y = r.begin(); y < r.end(); ++y) {
-                                  traced.clear();
-                                  index.clear();
-                                  const size_t row = size_t(y) * size_t(width);
-                                  for (int x = 0; x < width; ++x) {
-                                      const float near = ranges.near[row + size_t(x)],
-                                                  far = ranges.far[row + size_t(x)];
-                                      if (!(near <= far))
-                                          continue;  // (its rays miss: not even made)
-                                      generate.pixel(x, y, rays.data() + size_t(x) * size_t(spp));
-                                      for (int s = 0; s < spp; ++s) {
-                                          const size_t k = size_t(x) * size_t(spp) + size_t(s);
-                                          TraceRay ray = rays[k];
-                                          ray.tmin = near;
-                                          ray.tmax = far;
-                                          traced.push_back(ray);
-                                          index.push_back(uint32_t(k));
-                                      }
-                                  }
-                                  if (traced.empty())
-                                      continue;
-                                  trace(traced, found);
-                                  for (size_t i = 0; i < found.size(); ++i)
-                                      if (found[i].hit)
-                                          hits[size_t(y)].emplace_back(index[i], found[i]);
-                              }
-                          });
+        auto traceRows = [&](int first, int last) {
+            tbb::parallel_for(
+                tbb::blocked_range<int>(first, last), [&](const tbb::blocked_range<int>& r) {
+                    const BatchTracer trace = marcher.tracer();
+                    const PixelRays generate(camera, width, height, spp);
+                    std::vector<TraceRay> rays(rowRays), traced;
+                    std::vector<uint32_t> index;
+                    std::vector<TraceHit> found;
+                    for (int y = r.begin(); y < r.end(); ++y) {
+                        traced.clear();
+                        index.clear();
+                        const size_t row = size_t(y) * size_t(width);
+                        for (int x = 0; x < width; ++x) {
+                            const float near = ranges.near[row + size_t(x)],
+                                        far = ranges.far[row + size_t(x)];
+                            if (!(near <= far))
+                                continue;  // (its rays miss: not even made)
+                            generate.pixel(x, y, rays.data() + size_t(x) * size_t(spp));
+                            for (int s = 0; s < spp; ++s) {
+                                const size_t k = size_t(x) * size_t(spp) + size_t(s);
+                                TraceRay ray = rays[k];
+                                ray.tmin = near;
+                                ray.tmax = far;
+                                traced.push_back(ray);
+                                index.push_back(uint32_t(k));
+                            }
+                        }
+                        if (traced.empty())
+                            continue;
+                        trace(traced, found);
+                        for (size_t i = 0; i < found.size(); ++i)
+                            if (found[i].hit)
+                                hits[size_t(y)].emplace_back(index[i], found[i]);
+                    }
+                });
+        };
+        if (lazy.leaves)
+            traceStrips(*lazy.leaves, prints, height, std::max<size_t>(1, lazy.leavesAtOnce),
+                        traceRows, lazy.stats);
+        else
+            traceRows(0, height);
     }
     // 2. The level set goes (with the memory the allocator keeps), then the
     //    colour comes, the leaves the hits look up, and each hit's albedo is
     //    looked up.
     const std::vector<openvdb::Coord> leaves =
         colour ? leavesLookedUp(surface->transform(), hits) : std::vector<openvdb::Coord>();
+    lazy.leaves.reset();
     surface.reset();
     ::malloc_trim(0);
     const openvdb::Vec3fGrid::Ptr color = colour ? colour(leaves) : nullptr;

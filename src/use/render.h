@@ -5,6 +5,7 @@
 
 #include "core/box.h"
 #include "io/grids.h"
+#include "io/vdb.h"
 #include "io/image_file.h"
 #include "use/mesh.h"
 
@@ -134,18 +135,35 @@ RenderImage renderLevelSetCpu(const openvdb::FloatGrid& surface, const openvdb::
 /// draw it where they miss (an empty frame of a sequence).
 RenderImage renderBackground(const Camera& camera, int width, int height, int spp);
 
+/// A level set read with its topology only, for renderLevelSetCpu: its
+/// leaves decoded by `leaves` a strip of the picture's rows at a time.
+struct LazySurface {
+    std::unique_ptr<LazyLeaves> leaves;  ///< (none: the grid holds its values)
+    /// The most leaves whose values are held at once (unless one row's
+    /// leaves are more): 32768 leaves hold 64 MiB of values.
+    size_t leavesAtOnce = kLeavesAtOnce;
+    static constexpr size_t kLeavesAtOnce = 32768;
+    struct Stats {
+        size_t strips = 0, mostHeld = 0, decoded = 0;
+    };
+    Stats* stats = nullptr;  ///< (when set: the strips, the most leaves held, the leaves decoded)
+};
+
 /// The same picture holding one grid at a time: every ray traced against
 /// `surface` (its hits kept, a few bytes each), the level set then dropped
 /// and its memory given back, then `colour(leaves)` asked for the grid the
 /// hits' colours are looked up in, with the values of the leaves at
 /// `leaves` (the origins the lookups read, sorted; null: none; a file's Cd,
-/// those leaves decoded: readColourGrid).  What
-/// `cambium render` runs: its peak is the level set's, not the level set's
-/// and the colour's.
+/// those leaves decoded: readColourGrid).  With `lazy.leaves`, the level
+/// set's leaves are decoded a strip of rows at a time (those whose
+/// footprints reach the strip's rows, as rayRanges finds them) and dropped
+/// after the last strip that needs them: the picture is the same.  What
+/// `cambium render` runs: its peak is a strip's leaves and the level set's
+/// topology, not the level set's and the colour's.
 RenderImage renderLevelSetCpu(
     openvdb::FloatGrid::Ptr surface,
     const std::function<openvdb::Vec3fGrid::Ptr(const std::vector<openvdb::Coord>&)>& colour,
-    const Camera& camera, int width, int height, int spp);
+    const Camera& camera, int width, int height, int spp, LazySurface lazy = {});
 
 /// Ray marches a level set with OpenCL (kernels/march.cl): a NanoVDB copy of
 /// the grid (and of `color`, when given) made once, read through PNanoVDB.h,
