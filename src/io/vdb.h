@@ -99,8 +99,9 @@ enum class ColourRead {
     None,   ///< none
     Whole,  ///< every leaf, now
     /// Its topology, each leaf's values left in the file for decodeLeaves
-    /// (no leaf of it may be touched before: OpenVDB's delayed loading
-    /// would read it, unchecked).
+    /// (no leaf of it may be touched before: it reads as zero, or, in a
+    /// tree with tiles at its root, which OpenVDB reads whole, through
+    /// OpenVDB's delayed loading, unchecked).
     Lazy,
 };
 
@@ -140,7 +141,9 @@ openvdb::Vec3fGrid::Ptr readColourGrid(const std::string& path, const openvdb::F
 /// One grid of a .vdb file (inspectVdb's `summary` of it; its checksum
 /// checked by the caller), equal voxel for voxel to what OpenVDB's io::File
 /// reads: its tree's structure checked first (checkTreeStructure), then
-/// metadata, transform and topology by OpenVDB, then the leaves' values read
+/// metadata and transform by OpenVDB, its topology by OpenVDB's node reader
+/// (each of the root's children from its bytes on a core of its own; a tree
+/// with root tiles by io::File), then the leaves' values read
 /// from the file a few megabytes at a time and decoded on all cores
 /// (OpenVDB's own decoder, io::readCompressedValues, on blocks checked to be
 /// the size of their values).  Float and Vec3f grids of cambium's files;
@@ -191,8 +194,8 @@ void dropLeafValues(LeafT& leaf)
 /// dropped again, so that a reader holds only the leaves it works on.  The
 /// first decode reads the grid's block through and finds where each leaf
 /// lies; later ones read only the picked leaves' bytes.  Every leaf is
-/// emptied at construction (OpenVDB's record for reading it later goes): a
-/// leaf not decoded reads as zero, never silently from the file.  A grid
+/// empty after construction (any record of OpenVDB's for reading it later
+/// goes): a leaf not decoded reads as zero, never silently from the file.  A grid
 /// read whole (another tool's file) keeps its values: decode and drop leave
 /// it as it is.  The file must stay as it is while this lives.
 class LazyLeaves {

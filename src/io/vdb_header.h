@@ -98,7 +98,18 @@ VdbSummary inspectVdb(const std::string& path);
 /// another tool's file overflowed the heap.  InputError naming the file,
 /// the grid and the first fault, and where it lies.  Returns the leaves it
 /// found.  Trees of other value types (bool, masks, points) are not walked.
-size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bool buffers);
+/// `layout` (when set): where the root's parts lie, for a reader of the
+/// topology a child at a time.
+struct TreeLayout {
+    uint32_t rootTiles = 0;
+    struct Child {
+        int32_t origin[3];
+        int64_t begin, end;  ///< its masks, values and descendants' topology
+    };
+    std::vector<Child> children;  ///< in the file's order
+};
+size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bool buffers,
+                          TreeLayout* layout = nullptr);
 
 /// Checks the `cambium_checksum` a file written by cambium carries (inspectVdb
 /// first) by reading the bytes it covers; InputError when they changed.

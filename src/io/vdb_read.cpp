@@ -1,8 +1,9 @@
 // cambium — reading .vdb files on all cores: OpenVDB reads a grid's
-// metadata, transform and topology (its delayed loading leaves every leaf's
-// values in the file), then the leaves' values are read from the file in
-// blocks and decoded in parallel by OpenVDB's own leaf decoder.  OpenVDB's
-// io::File decodes them one after another on one thread.
+// metadata and transform, and its node reader the topology, each of the
+// root's children on a core of its own (every leaf's values left in the
+// file), then the leaves' values are read from the file in blocks and
+// decoded in parallel (io/leaf_values.cpp, or OpenVDB's own leaf decoder).
+// OpenVDB's io::File reads a tree on one thread.
 #include "io/vdb.h"
 
 #include "core/error.h"
@@ -431,6 +432,81 @@ openvdb::GridBase::Ptr readWithOpenVdb(const std::string& path, const std::strin
     }
 }
 
+/// Grid `g` with its metadata and transform read by OpenVDB
+/// (io::File::readGridMetadata) and its tree's topology by OpenVDB's own
+/// node reader, each of the root's children (`layout`, from the structure
+/// walk) from its bytes on a core of its own: OpenVDB reads a tree on one
+/// thread, its internal nodes' tables and leaves allocated one after
+/// another.  Every leaf's values are left in the file (its buffer empty),
+/// for LeafDecoder.  Null for a tree with root tiles, or of another type
+/// than float or Vec3f (io::File reads those).
+openvdb::GridBase::Ptr readTopology(const std::string& path, const VdbSummary& summary,
+                                    const VdbSummary::Grid& g, const TreeLayout& layout)
+{
+    if (layout.rootTiles != 0)
+        return nullptr;
+    openvdb::GridBase::Ptr grid;
+    try {
+        openvdb::io::File file(path);
+        file.setCopyMaxBytes(0);
+        file.open(false);
+        grid = file.readGridMetadata(g.name);
+        file.close();
+    } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: cannot read it as a .vdb file: {}", path, e.what()));
+    }
+    const ReadFile f(path);
+    const bool ours =
+        grid->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3fGrid>>([&](auto& typed) {
+            using TreeT = typename std::decay_t<decltype(typed)>::TreeType;
+            using UpperT = typename TreeT::RootNodeType::ChildNodeType;
+            using ValueT = typename TreeT::ValueType;
+            ValueT background;
+            f.read(uint64_t(g.tree) + 4, reinterpret_cast<char*>(&background), sizeof background);
+            std::vector<std::unique_ptr<UpperT>> nodes(layout.children.size());
+            tbb::parallel_for(size_t(0), nodes.size(), [&](size_t i) {
+                const TreeLayout::Child& c = layout.children[i];
+                std::vector<char> bytes(size_t(c.end - c.begin));
+                f.read(uint64_t(c.begin), bytes.data(), bytes.size());
+                ViewBuf buf;
+                buf.view(bytes.data(), bytes.size());
+                std::istream is(&buf);
+                namespace io = openvdb::io;
+                io::setVersion(is,
+                               openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
+                                                  OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
+                               summary.fileVersion);
+                io::setDataCompression(is, g.compression);
+                io::setGridBackgroundValuePtr(is, &background);
+                auto node = std::make_unique<UpperT>(
+                    openvdb::PartialCreate(), openvdb::Coord(c.origin[0], c.origin[1], c.origin[2]),
+                    background);
+                try {
+                    node->readTopology(is, g.half());
+                } catch (const std::bad_alloc&) {
+                    throw;
+                } catch (const std::exception& e) {
+                    throw InputError(fmt::format("{}: a damaged .vdb file: grid '{}': {}", path,
+                                                 g.name, e.what()));
+                }
+                if (!is || size_t(is.tellg()) != bytes.size())
+                    throw InputError(fmt::format(
+                        "{}: a damaged .vdb file: grid '{}': the node at byte {} is not the "
+                        "size the walk of its tree found",
+                        path, g.name, c.begin));
+                nodes[i] = std::move(node);
+            });
+            auto tree = std::make_shared<TreeT>(background);
+            for (std::unique_ptr<UpperT>& node : nodes)
+                tree->root().addChild(node.release());
+            typed.setTree(tree);
+        });
+    if (!ours)
+        return nullptr;
+    grid->setName(g.name);  // (as readWithOpenVdb names it)
+    return grid;
+}
+
 /// InputError where the values of `leaves` leaves of `valueBytes`-byte
 /// values would not fit, with 64 MB beside them for the decompressors: Blosc
 /// carries on with a null buffer where its own allocation fails (a needle's
@@ -505,7 +581,8 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     const bool instance = !grid->instanceOf.empty();
     const VdbSummary::Grid& tree = instance ? gridNamed(path, summary, grid->instanceOf) : *grid;
     const bool openVdbDecodes = summary.checksumEnd == 0 || instance;
-    checkTreeStructure(path, tree, openVdbDecodes);
+    TreeLayout layout;
+    checkTreeStructure(path, tree, openVdbDecodes, &layout);
     // Another program's file is read by OpenVDB whole, in one pass: a
     // delayed read trusts the grid's delayed-load metadata (a mask byte for
     // each leaf), which nothing vouches for there (a byte changed in a
@@ -521,7 +598,9 @@ openvdb::GridBase::Ptr readVdbGrid(const std::string& path, const VdbSummary& su
     }
     // The topology, each leaf's values left in the file (`lazy`: for
     // decodeLeaves).
-    openvdb::GridBase::Ptr g = readWithOpenVdb(path, name, true);
+    openvdb::GridBase::Ptr g = readTopology(path, summary, *grid, layout);
+    if (!g)
+        g = readWithOpenVdb(path, name, true);
     if (lazy)
         return g;
     try {
@@ -567,7 +646,7 @@ void decodeSome(const std::string& path, const VdbSummary& summary, GridT& grid,
                 const std::function<bool(const openvdb::Coord&)>& want, const Visit& visit)
 {
     auto first = grid.tree().beginLeaf();
-    if (!first || !first->buffer().isOutOfCore()) {
+    if (!first || !first->buffer().empty()) {
         // (read whole: another tool's file; each leaf visited with its index
         // in the tree's order, as the decoder visits it)
         std::vector<std::pair<size_t, typename GridT::TreeType::LeafNodeType*>> leaves;
@@ -1015,7 +1094,7 @@ LazyLeaves::LazyLeaves(const std::string& path, const VdbSummary& summary, openv
     : impl_(std::make_unique<Impl>(path, grid))
 {
     auto first = grid.tree().beginLeaf();
-    if (!first || !first->buffer().isOutOfCore()) {
+    if (!first || !first->buffer().empty()) {
         for (auto it = grid.tree().beginLeaf(); it; ++it)
             impl_->whole.push_back(it.getLeaf());
         return;

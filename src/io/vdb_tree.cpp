@@ -56,6 +56,7 @@ struct TreeWalk {
     std::optional<Window> window;
     StoredValues stored;
     size_t leaves = 0;
+    TreeLayout* layout = nullptr;
 
     TreeWalk(const std::string& p, const VdbSummary::Grid& grid, uint64_t end) : path(p), g(grid)
     {
@@ -163,6 +164,8 @@ struct TreeWalk {
             take(12 + g.valueBytes + 1, "a root tile", where);
         // OpenVDB keeps the root's children in a map by origin and reads
         // their values in its order: in a file it wrote they come in it.
+        if (layout)
+            layout->rootTiles = counts[0];
         std::array<int32_t, 3> last{};
         for (uint32_t c = 0; c < counts[1]; ++c) {
             std::array<int32_t, 3> origin;
@@ -173,7 +176,11 @@ struct TreeWalk {
                                 "order or a duplicate",
                                 window->at() - 12, origin[0], origin[1], origin[2]));
             last = origin;
+            const int64_t begin = int64_t(window->at());
             node(5, where);
+            if (layout)
+                layout->children.push_back(
+                    {{origin[0], origin[1], origin[2]}, begin, int64_t(window->at())});
         }
         if (g.leaves >= 0 && uint64_t(g.leaves) != leaves)
             damaged(fmt::format("its topology has {} leaves and its delayed-load metadata {}",
@@ -197,11 +204,13 @@ struct TreeWalk {
 
 }  // namespace
 
-size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bool buffers)
+size_t checkTreeStructure(const std::string& path, const VdbSummary::Grid& g, bool buffers,
+                          TreeLayout* layout)
 {
     if (g.tree == 0)
         return 0;
     TreeWalk walk(path, g, uint64_t(g.block));
+    walk.layout = layout;
     walk.topology();
     if (buffers)
         walk.buffers();
