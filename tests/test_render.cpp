@@ -561,9 +561,10 @@ TEST(Render, AStripOfRowsAtATimeGivesTheSamePicture)
     // cambium render reads the level set's topology, then decodes its
     // leaves a strip of the picture's rows at a time (those whose
     // footprints reach the strip's rows) and drops each after the last
-    // strip that needs it.  A leaf not decoded reads as zero, a false
-    // surface where a ray would meet it: the picture is the whole grid's to
-    // the bit, from outside (many strips, a few leaves held at once), from
+    // strip that needs it.  A leaf not decoded holds no values: a lookup in
+    // it gives it unset ones (counted: none) or reads nothing, and the
+    // picture is the whole grid's to the bit, from outside (many strips, a
+    // few leaves held at once), from
     // close by (leaves off the picture never decoded) and from inside the
     // tree's box (every leaf, one strip).
     openvdb::initialize();
@@ -601,6 +602,7 @@ TEST(Render, AStripOfRowsAtATimeGivesTheSamePicture)
         EXPECT_EQ(whole.alpha, strips.alpha) << view;
         EXPECT_EQ(whole.depth, strips.depth) << view;
         EXPECT_EQ(whole.normal, strips.normal) << view;
+        EXPECT_EQ(stats.strayLeaves, 0u) << view;
         size_t hit = 0;
         for (float a : whole.alpha)
             hit += a > 0.0f;

@@ -929,15 +929,48 @@ TEST(VdbRead, ABandWithoutAZeroCrossingIsNamed)
         const LevelSetGrids r =
             readLevelSetDelayed(ours, summary, kSurfaceGrid, ColourRead::None, false);
         LazyLeaves lazy(ours, summary, *r.surface);
-        EXPECT_NO_THROW(lazy.checkZeroCrossing()) << "nothing decoded, nothing seen";
-        std::vector<size_t> all(lazy.leaves().size());
-        std::iota(all.begin(), all.end(), size_t(0));
-        lazy.decode(all);
-        expectInputError([&] { lazy.checkZeroCrossing(); },
-                         fmt::format("and those of the {} leaves read, every one {}", all.size(),
-                                     sign > 0.0f ? "outside" : "inside"),
-                         ours);
+        // (nothing decoded yet: the check reads the leaves itself)
+        expectInputError(
+            [&] { lazy.checkZeroCrossing(); },
+            fmt::format("active voxels, every one {}", sign > 0.0f ? "outside" : "inside"), ours);
+        // Another tool's file read so is read whole, and checked as it is read.
+        VdbSummary foreign;
+        expectInputError(
+            [&] { readLevelSetDelayed(path, foreign, kSurfaceGrid, ColourRead::None, false); },
+            fmt::format("active voxels, every one {}", sign > 0.0f ? "outside" : "inside"), path);
     }
+    // A real level set whose leaves decoded so far all lie outside (a close
+    // view of the band's outer part) passes, reading other leaves to see
+    // both sides, and keeps those held.
+    LevelSetGrids grids;
+    grids.surface =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f), 0.05f);
+    grids.surface->setName("surface");
+    const std::string real = dir + "/real.vdb";
+    writeVdb(grids, real, VdbFileInfo());
+    VdbSummary summary;
+    const LevelSetGrids r =
+        readLevelSetDelayed(real, summary, kSurfaceGrid, ColourRead::None, false);
+    LazyLeaves lazy(real, summary, *r.surface);
+    std::vector<size_t> outside;
+    for (size_t i = 0; i < lazy.leaves().size(); ++i) {
+        const auto* leaf = grids.surface->tree().probeConstLeaf(lazy.leaves()[i]->origin());
+        ASSERT_TRUE(leaf);
+        bool in = false;
+        for (auto v = leaf->cbeginValueOn(); v; ++v)
+            in = in || *v < 0.0f;
+        if (!in)
+            outside.push_back(i);
+    }
+    ASSERT_GT(outside.size(), 10u);
+    ASSERT_LT(outside.size(), lazy.leaves().size());
+    lazy.decode(outside);
+    EXPECT_NO_THROW(lazy.checkZeroCrossing());
+    size_t held = 0;
+    for (size_t i = 0; i < lazy.leaves().size(); ++i)
+        held += !lazy.leaves()[i]->buffer().empty();
+    EXPECT_EQ(held, outside.size())
+        << "the leaves the check read are dropped again, the others kept";
 }
 
 TEST(VdbRead, ATransformWhoseScaleIsNotItsVoxelSizeIsNamed)

@@ -99,9 +99,9 @@ enum class ColourRead {
     None,   ///< none
     Whole,  ///< every leaf, now
     /// Its topology, each leaf's values left in the file for decodeLeaves
-    /// (no leaf of it may be touched before: it reads as zero, or, in a
-    /// tree with tiles at its root, which OpenVDB reads whole, through
-    /// OpenVDB's delayed loading, unchecked).
+    /// (no leaf of it may be touched before: it holds no values, or, in a
+    /// tree with tiles at its root, which OpenVDB reads, OpenVDB's delayed
+    /// loading would read them unchecked).
     Lazy,
 };
 
@@ -172,15 +172,17 @@ void decodeLeaves(const std::string& path, const VdbSummary& summary, openvdb::V
 /// decodeLeaves or LazyLeaves: a reader going a few leaves at a time and
 /// dropping their values after holds about those leaves' values (the file
 /// must stay as it is while the grids live).  `tile`: the file may be one
-/// tile of a tiled bake.  The level set's zero crossing is not checked (its
-/// values are not read): LazyLeaves checks the leaves it decodes.
+/// tile of a tiled bake.  The zero crossing of a level set whose leaves are
+/// left in the file is not checked here: LazyLeaves::checkZeroCrossing.
 LevelSetGrids readLevelSetDelayed(const std::string& path, VdbSummary& summary,
                                   const std::string& grid = kSurfaceGrid,
                                   ColourRead colour = ColourRead::Lazy, bool tile = true);
 
 /// A leaf's values given back (or OpenVDB's record for reading them later,
-/// unread): it keeps its value mask, and reads as zero until values are put
-/// in again.
+/// unread): it keeps its value mask, and holds no values until they are put
+/// in again (LeafNode::getValue reads zero; an accessor caches the leaf's
+/// buffer, and reads nothing or, through a tree it may change, values
+/// allocated unset: such a leaf must not be looked up).
 template <class LeafT>
 void dropLeafValues(LeafT& leaf)
 {
@@ -195,7 +197,8 @@ void dropLeafValues(LeafT& leaf)
 /// first decode reads the grid's block through and finds where each leaf
 /// lies; later ones read only the picked leaves' bytes.  Every leaf is
 /// empty after construction (any record of OpenVDB's for reading it later
-/// goes): a leaf not decoded reads as zero, never silently from the file.  A grid
+/// goes): a leaf not decoded holds no values (dropLeafValues), never read
+/// silently from the file, and must not be looked up.  A grid
 /// read whole (another tool's file) keeps its values: decode and drop leave
 /// it as it is.  The file must stay as it is while this lives.
 class LazyLeaves {
@@ -211,14 +214,14 @@ public:
     /// naming the file and the leaf for one that cannot be decoded or holds
     /// a value that is not a number.
     void decode(const std::vector<size_t>& picked);
-    /// Leaves `picked`'s values given back (they read as zero until decoded
-    /// again).
+    /// Leaves `picked`'s values given back (none until decoded again).
     void drop(const std::vector<size_t>& picked);
-    /// InputError unless the leaves decoded so far hold an active value
-    /// inside the surface and one outside, as readLevelSet checks of a
-    /// level set it reads (no picture or mesh without them), where any leaf
-    /// was decoded.
-    void checkZeroCrossing() const;
+    /// InputError unless the level set holds an active value inside the
+    /// surface and one outside, as readLevelSet checks of a level set it
+    /// reads (no picture or mesh without them): seen in the leaves decoded
+    /// so far, else in the others, decoded a few thousand at a time and
+    /// dropped again until both show (a leaf held stays held).
+    void checkZeroCrossing();
 
 private:
     struct Impl;

@@ -497,8 +497,10 @@ openvdb::GridBase::Ptr readTopology(const std::string& path, const VdbSummary& s
                 nodes[i] = std::move(node);
             });
             auto tree = std::make_shared<TreeT>(background);
-            for (std::unique_ptr<UpperT>& node : nodes)
-                tree->root().addChild(node.release());
+            for (std::unique_ptr<UpperT>& node : nodes) {
+                tree->root().addChild(node.get());
+                node.release();  // (the root's now)
+            }
             typed.setTree(tree);
         });
     if (!ours)
@@ -956,9 +958,12 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
                                      g->valueType(),
                                      openvdb::GridBase::gridClassToString(g->getGridClass())));
     checkLevelSet(*out.surface, path);
-    // (a tile's part of the band may lie on one side of the surface; a
-    // lazy read's values are checked as they are decoded, LazyLeaves)
-    if (!tile && !lazy)
+    // (a tile's part of the band may lie on one side of the surface; the
+    // values of leaves left in the file are checked as LazyLeaves decodes
+    // them; another tool's file is read whole, lazy or not)
+    const auto first = out.surface->tree().cbeginLeaf();
+    const bool topologyOnly = lazy && first && first->buffer().empty();
+    if (!tile && !topologyOnly)
         checkZeroCrossing(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
@@ -1087,7 +1092,7 @@ struct LazyLeaves::Impl {
     std::atomic<bool> both{false};                           ///< both sides of the surface seen
     std::mutex mutex;
     SidesSeen seen;
-    size_t decoded = 0;  ///< leaves decoded (under `mutex`)
+    std::vector<uint8_t> examined;  ///< each leaf: decoded at least once, its values seen
 };
 
 LazyLeaves::LazyLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid)
@@ -1103,6 +1108,7 @@ LazyLeaves::LazyLeaves(const std::string& path, const VdbSummary& summary, openv
         impl_->decoder.emplace(path, summary, stored, grid);
     });
     const std::vector<Leaf*>& leaves = impl_->decoder->leaves();
+    impl_->examined.assign(leaves.size(), 0);
     tbb::parallel_for(size_t(0), leaves.size(), [&](size_t i) { dropLeafValues(*leaves[i]); });
 }
 
@@ -1119,6 +1125,8 @@ void LazyLeaves::decode(const std::vector<size_t>& picked)
     if (!m.decoder)
         return;
     checkDecodeFits(m.path, m.grid.getName(), double(picked.size()), sizeof(float));
+    for (size_t i : picked)
+        m.examined[i] = 1;
     m.decoder->decode(picked, [&m](size_t, Leaf& leaf) {
         if (m.both.load(std::memory_order_relaxed))
             return;
@@ -1129,8 +1137,6 @@ void LazyLeaves::decode(const std::vector<size_t>& picked)
         m.seen.see(seen);
         m.both = m.seen.both();
     });
-    const std::lock_guard<std::mutex> lock(m.mutex);
-    m.decoded += picked.size();
 }
 
 void LazyLeaves::drop(const std::vector<size_t>& picked)
@@ -1142,14 +1148,28 @@ void LazyLeaves::drop(const std::vector<size_t>& picked)
                       [&](size_t i) { dropLeafValues(*leaves[picked[i]]); });
 }
 
-void LazyLeaves::checkZeroCrossing() const
+void LazyLeaves::checkZeroCrossing()
 {
-    const Impl& m = *impl_;
+    Impl& m = *impl_;
     if (!m.decoder)
-        return;  // (read whole: readLevelSet checked it)
+        return;  // (read whole: readLevelSetDelayed checked it)
+    // The leaves decoded so far may all lie on one side (a close view of
+    // the band's outer part, or none on the picture): the others are
+    // decoded a few thousand at a time in the file's order, and dropped
+    // again, until both sides show (a level set's first leaves show them).
+    constexpr size_t kBatch = 4096;
+    const size_t n = m.examined.size();
+    std::vector<size_t> batch;
+    for (size_t at = 0; at < n && !m.both; at += kBatch) {
+        batch.clear();
+        for (size_t i = at; i < std::min(n, at + kBatch); ++i)
+            if (!m.examined[i])
+                batch.push_back(i);
+        decode(batch);
+        drop(batch);
+    }
     m.seen.refuseOneSided(m.grid, m.path,
-                          fmt::format("has {} active voxels, and those of the {} leaves read",
-                                      m.grid.activeVoxelCount(), m.decoded));
+                          fmt::format("has {} active voxels", m.grid.activeVoxelCount()));
 }
 
 }  // namespace cambium

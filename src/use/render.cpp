@@ -636,7 +636,7 @@ void traceStrips(LazyLeaves& lazy, const std::vector<Footprint>& prints, int hei
         trace(0, height);
         lazy.checkZeroCrossing();
         if (stats)
-            *stats = LazySurface::Stats{1, n, n};
+            *stats = LazySurface::Stats{1, n, n, 0};
         return;
     }
     std::vector<size_t> held, fresh, kept, dropped;
@@ -658,6 +658,13 @@ void traceStrips(LazyLeaves& lazy, const std::vector<Footprint>& prints, int hei
         seen.mostHeld = std::max(seen.mostHeld, held.size());
         seen.decoded += fresh.size();
         trace(first, last);
+        if (stats) {
+            std::vector<uint8_t> isHeld(n, 0);
+            for (size_t i : held)
+                isHeld[i] = 1;
+            for (size_t i = 0; i < n; ++i)
+                seen.strayLeaves += !isHeld[i] && !lazy.leaves()[i]->buffer().empty();
+        }
         kept.clear();
         dropped.clear();
         for (size_t i : held)

@@ -145,8 +145,14 @@ struct LazySurface {
     static constexpr size_t kLeavesAtOnce = 32768;
     struct Stats {
         size_t strips = 0, mostHeld = 0, decoded = 0;
+        /// Leaves not held that a strip's rays gave values to (a lookup in
+        /// a leaf without values allocates them, unset): none, or the
+        /// strips missed a leaf their rays meet.  Counted only with stats.
+        size_t strayLeaves = 0;
     };
-    Stats* stats = nullptr;  ///< (when set: the strips, the most leaves held, the leaves decoded)
+    /// (when set: the strips, the most leaves held, the leaves decoded, the
+    /// stray ones)
+    Stats* stats = nullptr;
 };
 
 /// The same picture holding one grid at a time: every ray traced against
