@@ -149,6 +149,30 @@ void nameNonFinite(const LeafT& leaf, const std::string& path, const std::string
                                          coordText(v.getCoord()), notFinite(*v)));
 }
 
+/// A stream over a grid's bytes tagged as OpenVDB's reader tags its own:
+/// the file's version, the grid's compression and its background (the
+/// inactive values of mask-compressed nodes).
+void tagStream(std::istream& is, uint32_t fileVersion, uint32_t compression, const void* background)
+{
+    namespace io = openvdb::io;
+    io::setVersion(is,
+                   openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
+                                      OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
+                   fileVersion);
+    io::setDataCompression(is, compression);
+    io::setGridBackgroundValuePtr(is, background);
+}
+
+/// Whether a grid's leaves were left in the file by its read (a lazy read
+/// of cambium's file: decodeLeaves or LazyLeaves put them in), not read
+/// whole (values in its leaves, or no leaves).
+template <class GridT>
+bool valuesInFile(const GridT& grid)
+{
+    const auto first = grid.tree().cbeginLeaf();
+    return first && first->buffer().empty();
+}
+
 /// Decodes a grid's leaf values in parallel: the leaves are stored one after
 /// another in the tree's order from the grid's block offset, each as its
 /// value mask, a byte saying which inactive values and selection mask
@@ -330,13 +354,7 @@ private:
     struct Stream {
         explicit Stream(const LeafDecoder& d) : owner(d), is(&buf)
         {
-            namespace io = openvdb::io;
-            io::setVersion(is,
-                           openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
-                                              OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
-                           d.fileVersion_);
-            io::setDataCompression(is, d.stored_.compression);
-            io::setGridBackgroundValuePtr(is, &d.background_);
+            tagStream(is, d.fileVersion_, d.stored_.compression, &d.background_);
         }
         void leaf(size_t index, const char* bytes, size_t n)
         {
@@ -471,13 +489,7 @@ openvdb::GridBase::Ptr readTopology(const std::string& path, const VdbSummary& s
                 ViewBuf buf;
                 buf.view(bytes.data(), bytes.size());
                 std::istream is(&buf);
-                namespace io = openvdb::io;
-                io::setVersion(is,
-                               openvdb::VersionId(OPENVDB_LIBRARY_MAJOR_VERSION_NUMBER,
-                                                  OPENVDB_LIBRARY_MINOR_VERSION_NUMBER),
-                               summary.fileVersion);
-                io::setDataCompression(is, g.compression);
-                io::setGridBackgroundValuePtr(is, &background);
+                tagStream(is, summary.fileVersion, g.compression, &background);
                 auto node = std::make_unique<UpperT>(
                     openvdb::PartialCreate(), openvdb::Coord(c.origin[0], c.origin[1], c.origin[2]),
                     background);
@@ -647,8 +659,7 @@ template <class GridT, class Visit>
 void decodeSome(const std::string& path, const VdbSummary& summary, GridT& grid,
                 const std::function<bool(const openvdb::Coord&)>& want, const Visit& visit)
 {
-    auto first = grid.tree().beginLeaf();
-    if (!first || !first->buffer().empty()) {
+    if (!valuesInFile(grid)) {
         // (read whole: another tool's file; each leaf visited with its index
         // in the tree's order, as the decoder visits it)
         std::vector<std::pair<size_t, typename GridT::TreeType::LeafNodeType*>> leaves;
@@ -835,6 +846,13 @@ struct SidesSeen {
         inside = inside || v < 0.0f;
         outside = outside || v >= 0.0f;
     }
+    /// The active values of a tree or a leaf, until both sides show.
+    template <class NodeT>
+    void seeActive(const NodeT& node)
+    {
+        for (auto v = node.cbeginValueOn(); v && !both(); ++v)
+            see(*v);
+    }
     void see(const SidesSeen& o)
     {
         inside = inside || o.inside;
@@ -842,16 +860,15 @@ struct SidesSeen {
         lo = std::min(lo, o.lo);
         hi = std::max(hi, o.hi);
     }
-    /// InputError where values were seen on one side only (`which`: the
-    /// voxels seen, "has N active voxels").
-    void refuseOneSided(const openvdb::FloatGrid& grid, const std::string& path,
-                        const std::string& which) const
+    /// InputError where the values of `grid` were seen on one side only.
+    void refuseOneSided(const openvdb::FloatGrid& grid, const std::string& path) const
     {
         if ((inside || outside) && !both())
             throw InputError(fmt::format(
-                "{}: grid '{}' {}, every one {} (values from {:g} to {:g}): no zero crossing, no "
-                "surface to see",
-                path, grid.getName(), which, inside ? "inside" : "outside", lo, hi));
+                "{}: grid '{}' has {} active voxels, every one {} (values from {:g} to {:g}): no "
+                "zero crossing, no surface to see",
+                path, grid.getName(), grid.activeVoxelCount(), inside ? "inside" : "outside", lo,
+                hi));
     }
 };
 
@@ -861,9 +878,8 @@ struct SidesSeen {
 void checkZeroCrossing(const openvdb::FloatGrid& grid, const std::string& path)
 {
     SidesSeen seen;
-    for (auto v = grid.tree().cbeginValueOn(); v && !seen.both(); ++v)
-        seen.see(*v);
-    seen.refuseOneSided(grid, path, fmt::format("has {} active voxels", grid.activeVoxelCount()));
+    seen.seeActive(grid.tree());
+    seen.refuseOneSided(grid, path);
 }
 
 /// A colour grid's transform: usable, and the surface's, entry for entry
@@ -961,9 +977,7 @@ LevelSetGrids readGrids(const std::string& path, const std::string& grid, bool l
     // (a tile's part of the band may lie on one side of the surface; the
     // values of leaves left in the file are checked as LazyLeaves decodes
     // them; another tool's file is read whole, lazy or not)
-    const auto first = out.surface->tree().cbeginLeaf();
-    const bool topologyOnly = lazy && first && first->buffer().empty();
-    if (!tile && !topologyOnly)
+    if (!tile && !valuesInFile(*out.surface))
         checkZeroCrossing(*out.surface, path);
     if (hasColour && colour != ColourRead::None && grid != kColorGrid)
         out.color = openvdb::gridPtrCast<openvdb::Vec3fGrid>(
@@ -1098,8 +1112,7 @@ struct LazyLeaves::Impl {
 LazyLeaves::LazyLeaves(const std::string& path, const VdbSummary& summary, openvdb::FloatGrid& grid)
     : impl_(std::make_unique<Impl>(path, grid))
 {
-    auto first = grid.tree().beginLeaf();
-    if (!first || !first->buffer().empty()) {
+    if (!valuesInFile(grid)) {
         for (auto it = grid.tree().beginLeaf(); it; ++it)
             impl_->whole.push_back(it.getLeaf());
         return;
@@ -1131,8 +1144,7 @@ void LazyLeaves::decode(const std::vector<size_t>& picked)
         if (m.both.load(std::memory_order_relaxed))
             return;
         SidesSeen seen;
-        for (auto v = leaf.cbeginValueOn(); v && !seen.both(); ++v)
-            seen.see(*v);
+        seen.seeActive(leaf);
         const std::lock_guard<std::mutex> lock(m.mutex);
         m.seen.see(seen);
         m.both = m.seen.both();
@@ -1168,8 +1180,7 @@ void LazyLeaves::checkZeroCrossing()
         decode(batch);
         drop(batch);
     }
-    m.seen.refuseOneSided(m.grid, m.path,
-                          fmt::format("has {} active voxels", m.grid.activeVoxelCount()));
+    m.seen.refuseOneSided(m.grid, m.path);
 }
 
 }  // namespace cambium
