@@ -305,6 +305,29 @@ TEST(BakeStreaming, ALongBranchIsBakedSlabBySlabAndStaysExact)
     EXPECT_EQ(openvdb::tools::checkLevelSet(*g.surface), "");
 }
 
+TEST(BakeStreaming, ValuesAreHeldOnlyForTheLayersBeingSurfaced)
+{
+    // A layer's values serve the surface voxels of its own and the
+    // neighbouring layers; the propagation of its slab (eight layers) reads
+    // the inside bits. So the values of four or five layers at a time are
+    // held (the layer being surfaced, the one before, the one after and the
+    // next one sampled), not of a slab and its neighbours (ten).
+    const Capsule c{{0.003, 0.002, -0.001}, {12.0, 0.05, 0.02}, 0.1};
+    const double h = 0.01;
+    BakeOptions opt;
+    opt.voxelSize = h;
+    opt.layerGroupLeaves = 1;  // every layer alone
+    auto sampler = makeCpuSampler();
+    const BakedGrids g = bakeLevelSet(FieldProgram::compile(c.tree()), *sampler, opt);
+    const BakeStats& s = g.stats;
+    const double perLayer = double(s.candidateLeaves) / (12.0 / (8 * h));  // about 16
+    report("values of {} of {} leaves held at most: {:.1f} layers", s.heldLeaves, s.candidateLeaves,
+           double(s.heldLeaves) / perLayer);
+    EXPECT_GT(s.heldLeaves, 0u);
+    EXPECT_LT(double(s.heldLeaves), 6.0 * perLayer);
+    expectAccurate(c.errors(*g.surface, h), "long branch, a layer at a time");
+}
+
 /// Exact signed distance to cambium's cone: in the (axial s, radial rho) half
 /// plane the surface is the segment from (0, r0) to (L, r1) and the cap arcs of
 /// radius r0 around (0, 0) for s <= 0 and r1 around (L, 0) for s >= L.

@@ -124,8 +124,9 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis, 
 }
 #endif
 
-/// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z)
-/// from their nearest surface points p (index space, 1e15 where none) with
+/// Signed distances (world units) of one leaf's voxels (order x + 8 y + 64 z;
+/// the sign from its inside bits, so that its values need not be held until
+/// its slab is propagated) from their nearest surface points p (index space, 1e15 where none) with
 /// unit normals (nx, ny, nz)[src], and whether each lies in the band.  The tangent plane's
 /// distance corrects for the spacing of the surface points (about a voxel)
 /// where the surface is smooth: there the nearest point lies near the foot of
@@ -139,16 +140,20 @@ void sweepAxis(const Chains& rows, const std::vector<LeafJob>& local, int axis, 
 /// runs as vectors (clones chosen at run time, as for the sweeps; the file is
 /// compiled without errno and trapping math, which would keep it scalar).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int leafDistances(
-    const int32_t* origin, const uint16_t* __restrict value, const float* __restrict px,
+    const int32_t* origin, const uint64_t* __restrict inside, const float* __restrict px,
     const float* __restrict py, const float* __restrict pz, const int32_t* __restrict src,
     const float* __restrict nx, const float* __restrict ny, const float* __restrict nz,
     const float* __restrict bend, float h, float background, float* __restrict sd,
     uint8_t* __restrict on)
 {
     const float ox = float(origin[0]), oy = float(origin[1]), oz = float(origin[2]);
+    float signs[kLeafVoxels];  // F - T > 0: inside, negative
+    for (int w = 0; w < 8; ++w)
+        for (int b = 0; b < 64; ++b)
+            signs[64 * w + b] = (inside[w] >> b) & 1u ? -1.0f : 1.0f;
     int active = 0;
     for (int i = 0; i < kLeafVoxels; ++i) {
-        const float sign = halfPositive(value[i]) ? -1.0f : 1.0f;  // F - T > 0: inside, negative
+        const float sign = signs[i];
         const float dx = ox + float(i & 7) - px[i], dy = oy + float((i >> 3) & 7) - py[i],
                     dz = oz + float(i >> 6) - pz[i];
         const float e2 = dx * dx + dy * dy + dz * dz;
@@ -375,7 +380,7 @@ private:
             const int32_t* src = S.src.data() + k * kLeafVoxels;
             const size_t at = k * kLeafVoxels;
             const int active = leafDistances(
-                o, state_.value[l], S.pos[0].data() + at, S.pos[1].data() + at,
+                o, state_.inside[l].data(), S.pos[0].data() + at, S.pos[1].data() + at,
                 S.pos[2].data() + at, src, S.nrm[0].data(), S.nrm[1].data(), S.nrm[2].data(),
                 S.bend.data(), float(in_.voxelSize), background, sd, on);
             out_.active[l] = size_t(active);
