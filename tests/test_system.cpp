@@ -1,8 +1,10 @@
-// Tests of core/system (sizes read in the units they are printed in) and
-// core/process (a command run, its status, output and own peak memory).
+// Tests of core/system (sizes read in the units they are printed in),
+// core/process (a command run, its status, output and own peak memory) and
+// core/memory (scratch blocks recycled).
 #include "bench/process_run.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/memory.h"
 #include "core/process.h"
 #include "core/system.h"
 #include "test_util.h"
@@ -12,8 +14,12 @@
 #include <unistd.h>
 #include <sys/wait.h>
 #include <sys/resource.h>
+#include <sys/mman.h>
+#include <tbb/parallel_for.h>
 
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -25,6 +31,103 @@
 
 namespace cambium {
 namespace {
+
+/// How many of the pages of [p, p + bytes) are resident (mincore).
+size_t residentPages(const void* p, size_t bytes)
+{
+    const size_t page = 4096, n = (bytes + page - 1) / page;
+    std::vector<unsigned char> in(n);
+    EXPECT_EQ(mincore(const_cast<void*>(p), n * page, in.data()), 0);
+    size_t count = 0;
+    for (unsigned char c : in)
+        count += c & 1u;
+    return count;
+}
+
+TEST(Scratch, ABlockGivenBackIsHandedOutAgainWithItsPages)
+{
+    if (!scratchUse().inRegion)
+        GTEST_SKIP() << "blocks come from the allocator here (AddressSanitizer)";
+    constexpr size_t mb = size_t(1) << 20;
+    trimScratch();
+    auto a = parallelArray<char>(8 * mb);
+    char* at = a.get();
+    EXPECT_EQ(residentPages(at, 8 * mb), 8 * mb / 4096);  // faulted in when made
+    const size_t fresh = scratchUse().fresh;
+    a.reset();
+    EXPECT_EQ(residentPages(at, 8 * mb), 8 * mb / 4096);  // kept
+    // A block of the same size, and two that together fill it: the same
+    // pages, no new ones.
+    auto b = parallelArray<char>(8 * mb);
+    EXPECT_EQ(b.get(), at);
+    b.reset();
+    auto c = parallelArray<char>(3 * mb), d = parallelArray<char>(5 * mb);
+    EXPECT_EQ(c.get(), at);
+    EXPECT_EQ(d.get(), at + 3 * mb);
+    EXPECT_EQ(scratchUse().fresh, fresh);
+    // Given back, the two merge again into one run that holds 8 MB.
+    c.reset();
+    d.reset();
+    auto e = parallelArray<char>(8 * mb);
+    EXPECT_EQ(e.get(), at);
+    EXPECT_EQ(scratchUse().fresh, fresh);
+    e.reset();
+    trimScratch();
+    EXPECT_EQ(scratchUse().keptFree, 0u);
+    EXPECT_EQ(residentPages(at, 8 * mb), 0u);
+}
+
+TEST(Scratch, AtMost32MBOfFreePagesAreKept)
+{
+    if (!scratchUse().inRegion)
+        GTEST_SKIP() << "blocks come from the allocator here (AddressSanitizer)";
+    constexpr size_t mb = size_t(1) << 20;
+    trimScratch();
+    std::vector<ParallelArray<char>> blocks;
+    for (int k = 0; k < 6; ++k)
+        blocks.push_back(parallelArray<char>(16 * mb));
+    std::vector<char*> at;
+    for (const auto& b : blocks)
+        at.push_back(b.get());
+    blocks.clear();
+    size_t resident = 0;
+    for (char* p : at)
+        resident += residentPages(p, 16 * mb);
+    EXPECT_EQ(scratchUse().keptFree, 32 * mb);
+    EXPECT_EQ(resident * 4096, 32 * mb);
+    // The lowest are kept: a block as large comes from them without faults.
+    const size_t fresh = scratchUse().fresh;
+    auto again = parallelArray<char>(32 * mb);
+    EXPECT_EQ(again.get(), *std::min_element(at.begin(), at.end()));
+    EXPECT_EQ(scratchUse().fresh, fresh);
+    // One larger than what is kept comes from dropped pages, faulted in.
+    auto more = parallelArray<char>(48 * mb);
+    EXPECT_EQ(scratchUse().fresh, fresh + 48 * mb);
+    EXPECT_EQ(residentPages(more.get(), 48 * mb), 48 * mb / 4096);
+    again.reset();
+    more.reset();
+    trimScratch();
+    EXPECT_EQ(scratchUse().keptFree, 0u);
+    EXPECT_EQ(scratchUse().inUse, 0u);
+}
+
+TEST(Scratch, BlocksTakenAndGivenBackOnAllThreadsNeverOverlap)
+{
+    // Each block holds its owner's stamp from when it is made until it is
+    // given back; another block sharing its pages would overwrite it.
+    std::atomic<int> damaged{0};
+    tbb::parallel_for(0, 400, [&](int i) {
+        const size_t n = size_t(1 + (i * 7919) % 97) * 37 * 1024;  // 37 kB to 3.6 MB
+        auto b = parallelArray<uint32_t>(n / 4);
+        for (size_t k = 0; k < n / 4; k += 512)
+            b[k] = uint32_t(i);
+        for (int round = 0; round < 3; ++round)
+            for (size_t k = 0; k < n / 4; k += 512)
+                damaged += b[k] != uint32_t(i);
+    });
+    EXPECT_EQ(damaged.load(), 0);
+    EXPECT_EQ(scratchUse().inUse, 0u);
+}
 
 TEST(System, ByteSizesReadInTheUnitsTheyArePrintedIn)
 {

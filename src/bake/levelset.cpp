@@ -354,10 +354,15 @@ BakedGrids bakeLevelSet(const FieldProgram& given, FieldSampler& sampler, const 
                                        program.threshold(),
                                        program.params()[CB_P_XT],
                                        opt.colour};
-    LayerStream stream{program,  sampler,     opt,   topo,   nb,
-                       layers,   propagation, state, leaves, next ? &*next : nullptr,
-                       progress, st};
-    stream.run();
+    {
+        LayerStream stream{program,  sampler,     opt,   topo,   nb,
+                           layers,   propagation, state, leaves, next ? &*next : nullptr,
+                           progress, st};
+        stream.run();
+    }
+    // The layers' scratch pages were recycled from layer to layer; what
+    // follows has other uses for them.
+    trimScratch();
     if (next)
         finishReuse(topo, *next, *opt.reuse);
     st.samplingSeconds = tm.values + tm.surfaceSamples;

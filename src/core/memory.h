@@ -1,15 +1,9 @@
-// cambium — large scratch arrays whose pages all threads fault in and release.
+// cambium — large scratch arrays whose pages all threads fault in, recycled
+// from one use to the next.
 #pragma once
 
-#include <tbb/parallel_for.h>
-
-#include <sys/mman.h>
-
 #include <cstddef>
-#include <cstdint>
-#include <algorithm>
 #include <memory>
-#include <new>
 #include <type_traits>
 
 namespace cambium {
@@ -18,44 +12,51 @@ namespace cambium {
 /// (CL_MEM_USE_HOST_PTR; PoCL asks for 128 bytes).
 constexpr size_t kParallelArrayAlignment = 128;
 
-/// Deleter of parallelArray: the pages go back to the kernel from all threads
-/// (freeing a few hundred MB costs the kernel tens of milliseconds on one
-/// thread), then the block is freed.
+/// A block of at least `bytes` bytes, aligned to kParallelArrayAlignment,
+/// its pages resident. Blocks come from one region kept apart from other
+/// allocations, first fit: a block given back is handed out again, its pages
+/// still there (a streamed bake allocates and frees each layer's scratch: on
+/// the 20k benchmark tree 820 MB of it, where the most held at once is
+/// 110 MB). A fresh page costs the kernel a fault and a clear (about 0.3 s
+/// per GB on one thread, several times that in some virtual machines),
+/// which new pages have paid by all threads, not by whichever first writes.
+void* acquireScratch(size_t bytes);
+
+/// Gives a block back; its pages stay for the blocks to come, up to a
+/// budget (32 MB of free pages; beyond it the highest go back to the kernel).
+void releaseScratch(void* block, size_t bytes);
+
+/// Gives the pages of every block given back to the kernel (from all
+/// threads: freeing a few hundred MB costs the kernel tens of milliseconds on
+/// one), e.g. at the end of a bake, whose memory what follows can use.
+void trimScratch();
+
+/// What the scratch region holds now, for tests and timings.
+struct ScratchUse {
+    size_t inUse = 0;       ///< bytes of blocks handed out (whole pages)
+    size_t keptFree = 0;    ///< bytes of free pages kept resident
+    size_t fresh = 0;       ///< bytes of blocks whose pages were faulted in, in all
+    bool inRegion = false;  ///< whether blocks come from the region (not under ASan)
+};
+ScratchUse scratchUse();
+
 template <class T>
 struct ParallelRelease {
     size_t bytes = 0;
-    void operator()(T* p) const
-    {
-        constexpr uintptr_t page = 4096, chunk = uintptr_t(4) << 20;
-        const uintptr_t lo = (reinterpret_cast<uintptr_t>(p) + page - 1) & ~(page - 1);
-        const uintptr_t hi = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(page - 1);
-        if (hi > lo + chunk)  // whole pages inside the block: the allocator keeps its headers
-            tbb::parallel_for(lo, hi, chunk, [&](uintptr_t a) {
-                madvise(reinterpret_cast<void*>(a), std::min(chunk, hi - a), MADV_DONTNEED);
-            });
-        ::operator delete[](p, std::align_val_t(kParallelArrayAlignment));
-    }
+    void operator()(T* p) const { releaseScratch(p, bytes); }
 };
 
 template <class T>
 using ParallelArray = std::unique_ptr<T[], ParallelRelease<T>>;
 
-/// An array of n T, left uninitialised (T trivial), its pages touched by all
-/// threads: a fresh page costs the kernel a fault and a clear, about 0.3 s per
-/// GB on one thread, and would otherwise be paid by whichever single thread
-/// writes first (a zero-initialising std::vector, a copy from OpenCL).
+/// An array of n T, left uninitialised (T trivial), its pages resident
+/// (acquireScratch).
 template <class T>
 ParallelArray<T> parallelArray(size_t n)
 {
     static_assert(std::is_trivial_v<T>, "parallelArray holds trivial types only");
     const size_t size = n * sizeof(T);
-    ParallelArray<T> a(static_cast<T*>(::operator new[](std::max<size_t>(size, 1),
-                                                        std::align_val_t(kParallelArrayAlignment))),
-                       ParallelRelease<T>{size});
-    constexpr size_t page = 4096;
-    char* bytes = reinterpret_cast<char*>(a.get());
-    tbb::parallel_for(size_t(0), (size + page - 1) / page, [&](size_t p) { bytes[p * page] = 0; });
-    return a;
+    return ParallelArray<T>(static_cast<T*>(acquireScratch(size)), ParallelRelease<T>{size});
 }
 
 }  // namespace cambium
