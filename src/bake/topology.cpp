@@ -268,7 +268,17 @@ BandTopology findBandLeaves(const FieldProgram& program, double h, double halfWi
         if (progress)
             progress(double(d) / double(tiles));
     });
+    // (Reserved: growing by doubling copied and faulted in the programs'
+    // pool, 23 MB on the 20k benchmark tree, twice over.)
     std::vector<LeafJob> found;
+    size_t leafCount = 0, poolSize = out.pool.size();
+    for (size_t t = 0; t < tiles; ++t) {
+        leafCount += tileLeaves[t].size();
+        poolSize += tilePools[t].size();
+    }
+    found.reserve(leafCount);
+    if (tile.count == 0)
+        out.pool.reserve(poolSize);
     for (size_t t = 0; t < tiles; ++t) {
         const int32_t base = int32_t(out.pool.size());
         for (LeafJob job : tileLeaves[t]) {

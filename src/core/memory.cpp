@@ -57,7 +57,8 @@ void freeOutside(void* block, size_t bytes)
 {
     const uintptr_t lo = (reinterpret_cast<uintptr_t>(block) + kPage - 1) & ~(kPage - 1);
     const uintptr_t hi = (reinterpret_cast<uintptr_t>(block) + bytes) & ~(kPage - 1);
-    if (hi > lo + (size_t(4) << 20))  // whole pages inside the block: the allocator keeps its headers
+    if (hi >
+        lo + (size_t(4) << 20))  // whole pages inside the block: the allocator keeps its headers
         dropPages(reinterpret_cast<char*>(lo), hi - lo);
     ::operator delete[](block, std::align_val_t(kParallelArrayAlignment));
 }

@@ -653,7 +653,8 @@ void PackedLeaves::Block::keep()
     const size_t n = b.buf.data().size();
     if (n) {
         // An exact copy: the buffer grew by doubling and is reused.
-        auto chunk = std::make_unique<char[]>(n);
+        // (Not cleared first, as make_unique would: the copy overwrites it.)
+        std::unique_ptr<char[]> chunk(new char[n]);
         std::memcpy(chunk.get(), b.buf.data().data(), n);
         PackedLeaves& o = b.owner;
         const std::lock_guard<std::mutex> lock(o.mutex_);
