@@ -18,11 +18,10 @@ namespace {
 
 constexpr size_t kPage = 4096;
 
-/// The kernel drops (or, touched, faults in) pages from all threads, 4 MB at a time.
+/// f over [lo, lo + bytes) from all threads, `chunk` bytes at a time.
 template <class F>
-void onPages(char* lo, size_t bytes, const F& f)
+void onPages(char* lo, size_t bytes, size_t chunk, const F& f)
 {
-    constexpr size_t chunk = size_t(4) << 20;
     tbb::parallel_for(size_t(0), (bytes + chunk - 1) / chunk, [&](size_t c) {
         char* a = lo + c * chunk;
         f(a, std::min(chunk, size_t(lo + bytes - a)));
@@ -31,12 +30,14 @@ void onPages(char* lo, size_t bytes, const F& f)
 
 void dropPages(char* lo, size_t bytes)
 {
-    onPages(lo, bytes, [](char* a, size_t n) { madvise(a, n, MADV_DONTNEED); });
+    onPages(lo, bytes, size_t(4) << 20, [](char* a, size_t n) { madvise(a, n, MADV_DONTNEED); });
 }
 
 void touchPages(char* lo, size_t bytes)
 {
-    onPages(lo, bytes, [](char* a, size_t n) {
+    // (64 kB at a time: a block of a few hundred kB is faulted in by all
+    // threads too; 4 MB at a time kept the 1k benchmark tree's on one.)
+    onPages(lo, bytes, size_t(64) << 10, [](char* a, size_t n) {
         for (size_t i = 0; i < n; i += kPage)
             a[i] = 0;
     });
@@ -69,6 +70,10 @@ constexpr bool kUseRegion = false;
 constexpr bool kUseRegion = true;
 #endif
 
+/// Smaller blocks come from the allocator, which keeps their pages in its
+/// heap for the next (it gives back only the pages of large ones).
+constexpr size_t kRegionMin = size_t(1) << 20;
+
 /// How many bytes of free pages the region keeps for the blocks to come. A
 /// streamed bake's scratch rises and falls by some 60 MB from slab to slab
 /// (the 20k benchmark tree), and pages kept beyond what is in use add to
@@ -92,6 +97,7 @@ struct Region {
     size_t top = 0;
     std::map<size_t, FreeRun> free;  ///< offset -> run; neighbours differ in residence
     size_t residentFree = 0;
+    size_t highWater = 0;  ///< the most bytes in use at once
     ScratchUse use;
 
     Region()
@@ -152,14 +158,17 @@ struct Region {
             addFree(at + n, run.length - n, run.resident);
     }
 
-    /// Drops resident free pages, the highest first, until at most kKeptFree stay.
+    /// Drops resident free pages, the highest first, until at most
+    /// kKeptFree stay, and no more than a third of the most ever in use (a
+    /// small bake's peak is not raised by pages it would never use again).
     void keepWithinBudget()
     {
-        while (residentFree > kKeptFree) {
+        const size_t budget = std::min(kKeptFree, highWater / 3 & ~(kPage - 1));
+        while (residentFree > budget) {
             auto it = std::find_if(free.rbegin(), free.rend(),
                                    [](const auto& f) { return f.second.resident; });
             const size_t at = it->first, n = it->second.length;
-            const size_t drop = std::min(n, residentFree - kKeptFree);
+            const size_t drop = std::min(n, residentFree - budget);
             const size_t from = (at + n - drop) & ~(kPage - 1);
             free.erase(std::next(it).base());
             residentFree -= n;
@@ -187,6 +196,8 @@ size_t pagesOf(size_t bytes)
 void* acquireScratch(size_t bytes)
 {
     Region& R = region();
+    if (bytes < kRegionMin)
+        return allocateOutside(bytes);
     const size_t n = pagesOf(bytes);
     size_t at = 0;
     bool fresh = false;
@@ -219,6 +230,7 @@ void* acquireScratch(size_t bytes)
             fresh = true;
         }
         R.use.inUse += n;
+        R.highWater = std::max(R.highWater, R.use.inUse);
         if (fresh)
             R.use.fresh += n;
     }
@@ -271,6 +283,7 @@ ScratchUse scratchUse()
     std::lock_guard<std::mutex> lock(R.mutex);
     ScratchUse u = R.use;
     u.keptFree = R.residentFree;
+    u.highWater = R.highWater;
     u.inRegion = R.base != nullptr;
     return u;
 }

@@ -23,7 +23,9 @@ constexpr size_t kParallelArrayAlignment = 128;
 void* acquireScratch(size_t bytes);
 
 /// Gives a block back; its pages stay for the blocks to come, up to a
-/// budget (32 MB of free pages; beyond it the highest go back to the kernel).
+/// budget (32 MB of free pages, and no more than a third of the most ever in
+/// use; beyond it the highest go back to the kernel). Blocks under 1 MB come
+/// from the allocator, which keeps their pages in its heap.
 void releaseScratch(void* block, size_t bytes);
 
 /// Gives the pages of every block given back to the kernel (from all
@@ -36,6 +38,7 @@ struct ScratchUse {
     size_t inUse = 0;       ///< bytes of blocks handed out (whole pages)
     size_t keptFree = 0;    ///< bytes of free pages kept resident
     size_t fresh = 0;       ///< bytes of blocks whose pages were faulted in, in all
+    size_t highWater = 0;   ///< the most bytes ever in use at once
     bool inRegion = false;  ///< whether blocks come from the region (not under ASan)
 };
 ScratchUse scratchUse();
