@@ -23,14 +23,14 @@ constexpr size_t kParallelArrayAlignment = 128;
 void* acquireScratch(size_t bytes);
 
 /// Gives a block back; its pages stay for the blocks to come, up to a
-/// budget (32 MB of free pages, and no more than a third of the most ever in
-/// use; beyond it the highest go back to the kernel). Blocks under 1 MB come
+/// budget (32 MB of free pages, and no more than the most ever in use;
+/// beyond it the highest go back to the kernel). Blocks under 1 MB come
 /// from the allocator, which keeps their pages in its heap.
 void releaseScratch(void* block, size_t bytes);
 
-/// Gives the pages of every block given back to the kernel (from all
-/// threads: freeing a few hundred MB costs the kernel tens of milliseconds on
-/// one), e.g. at the end of a bake, whose memory what follows can use.
+/// Gives the pages of every block given back to the kernel (at most the
+/// budget's 32 MB), e.g. at the end of a bake, whose memory what follows can
+/// use.
 void trimScratch();
 
 /// What the scratch region holds now, for tests and timings.
