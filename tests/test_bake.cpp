@@ -309,9 +309,11 @@ TEST(BakeStreaming, ValuesAreHeldOnlyForTheLayersBeingSurfaced)
 {
     // A layer's values serve the surface voxels of its own and the
     // neighbouring layers; the propagation of its slab (eight layers) reads
-    // the inside bits. So the values of four or five layers at a time are
-    // held (the layer being surfaced, the one before, the one after and the
-    // next one sampled), not of a slab and its neighbours (ten).
+    // the inside bits. So the values of three layers at a time are held
+    // (the layer being surfaced, the one before and the one after), not of
+    // a slab and its neighbours (ten). (Reads of freed values would go
+    // unseen here: the sanitized build, whose blocks come from the
+    // allocator, is what catches them.)
     const Capsule c{{0.003, 0.002, -0.001}, {12.0, 0.05, 0.02}, 0.1};
     const double h = 0.01;
     BakeOptions opt;

@@ -145,6 +145,32 @@ TEST(Scratch, BlocksTakenAndGivenBackOnAllThreadsNeverOverlap)
     EXPECT_EQ(scratchUse().inUse, 0u);
 }
 
+TEST(Scratch, ALimitOnAddressSpaceIsNotSpentOnTheRegion)
+{
+    // The region reserves address space as large as the machine's memory. A
+    // process under a limit on address space (ulimit -v) makes none, and one
+    // whose limit came after it does not count the reservation as used.
+    const int before = cambium::test::statusUnderAddressSpaceLimit(64e6 + 1e9, [] {
+        auto a = parallelArray<char>(16 << 20);  // (the region's first block, where there is one)
+        a.reset();
+        const double room = availableMemoryBytes();
+        return room > 0.7e9 && room < 1.3e9 ? 0 : 1;
+    });
+    if (before == -1)
+        GTEST_SKIP() << "no address-space limit to try (ASan, or a limit set already)";
+    EXPECT_EQ(before, 0);
+    {
+        auto made = parallelArray<char>(16 << 20);
+        if (!scratchUse().inRegion)
+            return;  // (made by a test before, under a limit)
+    }
+    const int after = cambium::test::statusUnderAddressSpaceLimit(64e6 + 1e9, [] {
+        const double room = availableMemoryBytes();
+        return room > 0.7e9 && room < 1.3e9 ? 0 : 1;
+    });
+    EXPECT_EQ(after, 0);
+}
+
 TEST(System, ByteSizesReadInTheUnitsTheyArePrintedIn)
 {
     EXPECT_DOUBLE_EQ(parseByteSize("2000000000", "--max-memory"), 2e9);

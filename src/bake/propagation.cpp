@@ -79,8 +79,6 @@ SurfacePoint surfacePoint(const SurfaceEdge& ed, const SurfaceSample& sample, fl
     return sp;
 }
 
-/// Chains of consecutive leaves along one axis, leaf by leaf (indices into
-/// the tile's local leaves): directional sweeps run along them.
 /// A tile's scratch vector holds at least n (what it held beyond a smaller
 /// tile's is overwritten before it is read): resize would clear the elements
 /// past a smaller tile's size again for every tile (3 % of the bake's time).
@@ -91,6 +89,8 @@ void growTo(V& v, size_t n)
         v.resize(n);
 }
 
+/// Chains of consecutive leaves along one axis, leaf by leaf (indices into
+/// the tile's local leaves): directional sweeps run along them.
 struct Chains {
     std::vector<int> leaf;   ///< chain after chain
     std::vector<int> start;  ///< chain k: leaf[start[k], start[k + 1])

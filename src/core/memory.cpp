@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -108,7 +109,10 @@ struct Region {
 
     Region()
     {
-        if (!kUseRegion)
+        // A limit on address space (ulimit -v) would count the whole
+        // reservation: then blocks come from the allocator.
+        rlimit as{};
+        if (!kUseRegion || getrlimit(RLIMIT_AS, &as) != 0 || as.rlim_cur != RLIM_INFINITY)
             return;
         const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
         if (pages <= 0 || page != long(kPage))
@@ -277,6 +281,13 @@ void trimScratch()
             madvise(R.base + at, run.length, MADV_DONTNEED);
         R.addFree(at, run.length, false);  // merged again, the top brought down over them
     }
+}
+
+size_t scratchAddressSpaceReserved()
+{
+    Region& R = region();
+    std::lock_guard<std::mutex> lock(R.mutex);
+    return R.size - R.top;
 }
 
 ScratchUse scratchUse()

@@ -33,6 +33,11 @@ void releaseScratch(void* block, size_t bytes);
 /// use.
 void trimScratch();
 
+/// Address space the region has reserved above its blocks and kept pages:
+/// no memory, and not to be counted against a limit on address space that
+/// is set after it was made (memoryLimits).
+size_t scratchAddressSpaceReserved();
+
 /// What the scratch region holds now, for tests and timings.
 struct ScratchUse {
     size_t inUse = 0;       ///< bytes of blocks handed out (whole pages)

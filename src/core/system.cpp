@@ -2,6 +2,7 @@
 #include "core/system.h"
 
 #include "core/error.h"
+#include "core/memory.h"
 
 #include <tbb/global_control.h>
 
@@ -64,7 +65,8 @@ MemoryLimits memoryLimits()
         std::ifstream statm("/proc/self/statm");
         double pages = 0.0;
         if (statm >> pages)
-            m.addressSpaceUsed = pages * double(::sysconf(_SC_PAGESIZE));
+            m.addressSpaceUsed = std::max(0.0, pages * double(::sysconf(_SC_PAGESIZE)) -
+                                                   double(scratchAddressSpaceReserved()));
     }
     // cgroup v2: "0::/PATH" names this process's group under /sys/fs/cgroup.
     std::ifstream groups("/proc/self/cgroup");
